@@ -1,0 +1,197 @@
+/* Configuration, memory sizing and initialisation of an instance inside one caller block. */
+#include <string.h>
+
+#include "internal.h"
+
+static int pgem_block_of(int dimension)
+{
+    return PGEM_TANGENT_SIZE(dimension);
+}
+
+int pgem_config_resolve(const pgem_config_t *config, pgem_config_t *resolved)
+{
+    if (config == NULL || resolved == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    pgem_config_t out = *config;
+    if (out.dimension == 0) {
+        out.dimension = PGEM_DEFAULT_DIMENSION;
+    }
+    if (out.max_poses == 0) {
+        out.max_poses = PGEM_DEFAULT_MAX_POSES;
+    }
+    if (out.dimension != 2 && out.dimension != 3) {
+        return PGEM_ERR_CONFIG;
+    }
+    if (out.max_poses > PGEM_MAX_POSES_LIMIT) {
+        return PGEM_ERR_CONFIG;
+    }
+    if (out.max_edges == 0) {
+        uint64_t edges = (uint64_t)out.max_poses * PGEM_DEFAULT_EDGES_PER_POSE;
+        out.max_edges = edges > PGEM_MAX_EDGES_LIMIT ? PGEM_MAX_EDGES_LIMIT : (uint32_t)edges;
+    }
+    if (out.max_edges > PGEM_MAX_EDGES_LIMIT) {
+        return PGEM_ERR_CONFIG;
+    }
+    uint64_t block = (uint64_t)pgem_block_of(out.dimension);
+    if (out.fill_budget == 0) {
+        uint64_t fill = (uint64_t)PGEM_DEFAULT_FILL_PER_POSE * block * block * out.max_poses;
+        out.fill_budget = fill > (uint64_t)INT32_MAX ? (uint32_t)INT32_MAX : (uint32_t)fill;
+    }
+    if (out.fill_budget > (uint32_t)INT32_MAX) {
+        return PGEM_ERR_CONFIG;
+    }
+    *resolved = out;
+    return PGEM_OK;
+}
+
+static uint32_t pgem_map_slots(uint32_t max_poses)
+{
+    uint32_t slots = 16u;
+    while (slots < 2u * max_poses) {
+        slots *= 2u;
+    }
+    return slots;
+}
+
+static void pgem_carve_graph(pgem_t *graph, pgem_arena_t *arena)
+{
+    const size_t poses = graph->config.max_poses;
+    const size_t edges = graph->config.max_edges;
+    const size_t tangent = (size_t)graph->tangent;
+    graph->pose_id = pgem_arena_take(arena, poses, sizeof(pgem_id_t));
+    graph->pose = pgem_arena_take(arena, poses * (size_t)graph->pose_size, sizeof(double));
+    graph->pose_saved = pgem_arena_take(arena, poses * (size_t)graph->pose_size, sizeof(double));
+    graph->pose_accepted = pgem_arena_take(arena, poses * (size_t)graph->pose_size, sizeof(double));
+    graph->pose_fixed = pgem_arena_take(arena, poses, 1);
+    graph->map_mask = pgem_map_slots(graph->config.max_poses) - 1u;
+    graph->map_slot = pgem_arena_take(arena, (size_t)graph->map_mask + 1u, sizeof(uint32_t));
+    graph->edge_from = pgem_arena_take(arena, edges, sizeof(uint32_t));
+    graph->edge_to = pgem_arena_take(arena, edges, sizeof(uint32_t));
+    graph->edge_measurement = pgem_arena_take(arena, edges * (size_t)graph->pose_size, sizeof(double));
+    graph->edge_information = pgem_arena_take(arena, edges * tangent * tangent, sizeof(double));
+    graph->edge_kind = pgem_arena_take(arena, edges, 1);
+    graph->edge_active = pgem_arena_take(arena, edges, 1);
+    graph->edge_weight = pgem_arena_take(arena, edges, sizeof(double));
+}
+
+static void pgem_carve_linear(pgem_t *graph, pgem_arena_t *arena)
+{
+    pgem_linear_t *linear = &graph->linear;
+    const size_t poses = graph->config.max_poses;
+    const size_t edges = graph->config.max_edges;
+    const size_t block = (size_t)graph->tangent;
+    const size_t scalars = poses * block;
+    const size_t upper = edges * block * block + poses * block * (block + 1u) / 2u;
+    linear->block = (int)block;
+    linear->upper_capacity = upper > (size_t)INT32_MAX ? INT32_MAX : (int)upper;
+    linear->pose_block = pgem_arena_take(arena, poses, sizeof(int));
+    linear->edge_offset = pgem_arena_take(arena, edges, sizeof(int));
+    linear->edge_transposed = pgem_arena_take(arena, edges, 1);
+    linear->block_colptr = pgem_arena_take(arena, poses + 1u, sizeof(int));
+    linear->block_rows = pgem_arena_take(arena, edges, sizeof(int));
+    linear->block_parent = pgem_arena_take(arena, poses, sizeof(int));
+    linear->scratch = pgem_arena_take(arena, 3u * edges + 4u * poses + 4u, sizeof(int));
+    linear->upper_colptr = pgem_arena_take(arena, scalars + 1u, sizeof(int));
+    linear->upper_rows = pgem_arena_take(arena, upper, sizeof(int));
+    linear->upper_values = pgem_arena_take(arena, upper, sizeof(double));
+    linear->factor_colptr = pgem_arena_take(arena, scalars + 1u, sizeof(int));
+    linear->factor_rows = pgem_arena_take(arena, graph->config.fill_budget, sizeof(int));
+    linear->factor_values = pgem_arena_take(arena, graph->config.fill_budget, sizeof(double));
+    linear->parent = pgem_arena_take(arena, scalars, sizeof(int));
+    linear->reach_stack = pgem_arena_take(arena, scalars, sizeof(int));
+    linear->reach_mark = pgem_arena_take(arena, scalars, sizeof(int));
+    linear->fill_next = pgem_arena_take(arena, scalars, sizeof(int));
+    linear->dense = pgem_arena_take(arena, scalars, sizeof(double));
+    linear->rhs = pgem_arena_take(arena, scalars, sizeof(double));
+    linear->diagonal = pgem_arena_take(arena, scalars, sizeof(double));
+    linear->gradient = pgem_arena_take(arena, scalars, sizeof(double));
+}
+
+void pgem_carve(pgem_t *graph, pgem_arena_t *arena)
+{
+    pgem_carve_graph(graph, arena);
+    pgem_carve_linear(graph, arena);
+}
+
+/* Sizes of the instance struct and its arrays for a resolved config (measuring pass). */
+static size_t pgem_measure(const pgem_config_t *resolved)
+{
+    pgem_t probe;
+    memset(&probe, 0, sizeof probe);
+    probe.config = *resolved;
+    probe.pose_size = PGEM_POSE_SIZE(resolved->dimension);
+    probe.tangent = PGEM_TANGENT_SIZE(resolved->dimension);
+    pgem_arena_t arena = {NULL, 0, 0};
+    (void)pgem_arena_take(&arena, 1, sizeof(pgem_t));
+    pgem_carve(&probe, &arena);
+    return arena.used;
+}
+
+size_t pgem_memory_size(const pgem_config_t *config)
+{
+    pgem_config_t resolved;
+    if (pgem_config_resolve(config, &resolved) != PGEM_OK) {
+        return 0;
+    }
+    size_t bytes = pgem_measure(&resolved);
+    if (bytes == (size_t)-1) {
+        return 0;
+    }
+    return bytes + 16u; /* room to align an arbitrary buffer start */
+}
+
+int pgem_init(pgem_t **instance, const pgem_config_t *config, void *buffer, size_t size)
+{
+    pgem_config_t resolved;
+    if (instance == NULL || config == NULL || buffer == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    if (pgem_config_resolve(config, &resolved) != PGEM_OK) {
+        return PGEM_ERR_CONFIG;
+    }
+    size_t needed = pgem_memory_size(&resolved);
+    if (needed == 0) {
+        return PGEM_ERR_CONFIG;
+    }
+    if (size < needed) {
+        return PGEM_ERR_BUFFER_TOO_SMALL;
+    }
+    uintptr_t address = (uintptr_t)buffer;
+    size_t skip = (size_t)((16u - (address & 15u)) & 15u);
+    pgem_arena_t arena = {(unsigned char *)buffer + skip, size - skip, 0};
+    pgem_t *graph = pgem_arena_take(&arena, 1, sizeof(pgem_t));
+    memset(graph, 0, sizeof *graph);
+    graph->config = resolved;
+    graph->pose_size = PGEM_POSE_SIZE(resolved.dimension);
+    graph->tangent = PGEM_TANGENT_SIZE(resolved.dimension);
+    pgem_carve(graph, &arena);
+    graph->block_bytes = size;
+    graph->used_bytes = arena.used + skip;
+    memset(graph->map_slot, 0, ((size_t)graph->map_mask + 1u) * sizeof(uint32_t));
+    memset(graph->linear.reach_mark, 0, (size_t)resolved.max_poses * (size_t)graph->tangent * sizeof(int));
+    *instance = graph;
+    return PGEM_OK;
+}
+
+const pgem_config_t *pgem_config(const pgem_t *instance)
+{
+    return instance != NULL ? &instance->config : NULL;
+}
+
+const char *pgem_last_error(const pgem_t *instance)
+{
+    return instance != NULL ? instance->message : "no instance";
+}
+
+void pgem_memory_stats(const pgem_t *instance, pgem_memory_stats_t *stats)
+{
+    if (instance == NULL || stats == NULL) {
+        return;
+    }
+    stats->block_bytes = instance->block_bytes;
+    stats->used_bytes = instance->used_bytes;
+    stats->factor_nonzeros = (uint32_t)instance->linear.factor_nonzeros;
+    stats->factor_budget = instance->config.fill_budget;
+    stats->analyses = instance->linear.analyses;
+}

@@ -1,0 +1,52 @@
+/* Error messages built into the instance without stdio, so the core stays firmware-safe. */
+#include "internal.h"
+
+void pgem_message_clear(pgem_t *graph)
+{
+    graph->message[0] = '\0';
+}
+
+void pgem_message_text(pgem_t *graph, const char *text)
+{
+    size_t length = 0;
+    while (graph->message[length] != '\0') {
+        length++;
+    }
+    while (*text != '\0' && length + 1 < PGEM_MESSAGE_SIZE) {
+        graph->message[length++] = *text++;
+    }
+    graph->message[length] = '\0';
+}
+
+void pgem_message_u64(pgem_t *graph, uint64_t value)
+{
+    char digits[24];
+    int count = 0;
+    do {
+        digits[count++] = (char)('0' + (int)(value % 10u));
+        value /= 10u;
+    } while (value != 0u);
+    char text[24];
+    for (int k = 0; k < count; k++) {
+        text[k] = digits[count - 1 - k];
+    }
+    text[count] = '\0';
+    pgem_message_text(graph, text);
+}
+
+void pgem_message_i64(pgem_t *graph, int64_t value)
+{
+    if (value < 0) {
+        pgem_message_text(graph, "-");
+        pgem_message_u64(graph, (uint64_t)(-(value + 1)) + 1u);
+    } else {
+        pgem_message_u64(graph, (uint64_t)value);
+    }
+}
+
+int pgem_fail(pgem_t *graph, int code, const char *text)
+{
+    pgem_message_clear(graph);
+    pgem_message_text(graph, text);
+    return code;
+}

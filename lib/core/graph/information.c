@@ -1,0 +1,93 @@
+/* Validation of an information matrix: finite, symmetric and positive definite. */
+#include <float.h>
+#include <math.h>
+
+#include "internal.h"
+
+/* Which entry (row, column) breaks the check, for the message. */
+typedef struct pgem_entry_ref {
+    int row;     /* 0-based row */
+    int column;  /* 0-based column */
+} pgem_entry_ref_t;
+
+static void pgem_message_entry(pgem_t *graph, pgem_entry_ref_t entry)
+{
+    pgem_message_text(graph, "information(");
+    pgem_message_i64(graph, entry.row);
+    pgem_message_text(graph, ",");
+    pgem_message_i64(graph, entry.column);
+    pgem_message_text(graph, ")");
+}
+
+static double pgem_largest_magnitude(const double *matrix, int n)
+{
+    double largest = 0.0;
+    for (int k = 0; k < n * n; k++) {
+        largest = fmax(largest, fabs(matrix[k]));
+    }
+    return largest;
+}
+
+/* Dense Cholesky on a copy; returns the first failing pivot or -1. */
+static int pgem_first_bad_pivot(const double *matrix, int n, double floor)
+{
+    double work[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    for (int k = 0; k < n * n; k++) {
+        work[k] = matrix[k];
+    }
+    for (int j = 0; j < n; j++) {
+        double pivot = work[j * n + j];
+        for (int k = 0; k < j; k++) {
+            pivot -= work[j * n + k] * work[j * n + k];
+        }
+        if (!(pivot > floor)) {
+            return j;
+        }
+        double root = sqrt(pivot);
+        work[j * n + j] = root;
+        for (int i = j + 1; i < n; i++) {
+            double value = work[i * n + j];
+            for (int k = 0; k < j; k++) {
+                value -= work[i * n + k] * work[j * n + k];
+            }
+            work[i * n + j] = value / root;
+        }
+    }
+    return -1;
+}
+
+int pgem_check_information(pgem_t *graph, const double *information)
+{
+    const int n = graph->tangent;
+    for (int k = 0; k < n * n; k++) {
+        if (!isfinite(information[k])) {
+            pgem_message_clear(graph);
+            pgem_message_entry(graph, (pgem_entry_ref_t){k / n, k % n});
+            pgem_message_text(graph, " is not finite");
+            return PGEM_ERR_NOT_FINITE;
+        }
+    }
+    const double largest = pgem_largest_magnitude(information, n);
+    for (int i = 0; i < n; i++) {
+        for (int j = i + 1; j < n; j++) {
+            double gap = fabs(information[i * n + j] - information[j * n + i]);
+            if (gap > 1e-9 * largest) {
+                pgem_message_clear(graph);
+                pgem_message_entry(graph, (pgem_entry_ref_t){i, j});
+                pgem_message_text(graph, " differs from ");
+                pgem_message_entry(graph, (pgem_entry_ref_t){j, i});
+                pgem_message_text(graph, ": information must be symmetric");
+                return PGEM_ERR_INFORMATION;
+            }
+        }
+    }
+    int bad = pgem_first_bad_pivot(information, n, (double)n * DBL_EPSILON * largest);
+    if (bad >= 0) {
+        pgem_message_clear(graph);
+        pgem_message_text(graph, "information is not positive definite (pivot ");
+        pgem_message_i64(graph, bad);
+        pgem_message_text(graph, " is not positive)");
+        return PGEM_ERR_INFORMATION;
+    }
+    return PGEM_OK;
+}

@@ -1,0 +1,166 @@
+/* Adding, fixing, reading and overwriting poses, each input checked before anything changes. */
+#include <math.h>
+#include <string.h>
+
+#include "internal.h"
+
+static const char *const pgem_pose_fields_2d[] = {"x", "y", "theta"};
+static const char *const pgem_pose_fields_3d[] = {"x", "y", "z", "qx", "qy", "qz", "qw"};
+
+int pgem_check_pose(pgem_t *graph, const double *pose, double *normalised, const char *what)
+{
+    const char *const *fields = graph->config.dimension == 3 ? pgem_pose_fields_3d : pgem_pose_fields_2d;
+    for (int k = 0; k < graph->pose_size; k++) {
+        if (!isfinite(pose[k])) {
+            pgem_message_clear(graph);
+            pgem_message_text(graph, what);
+            pgem_message_text(graph, ": field ");
+            pgem_message_text(graph, fields[k]);
+            pgem_message_text(graph, " is not finite");
+            return PGEM_ERR_NOT_FINITE;
+        }
+        normalised[k] = pose[k];
+    }
+    if (graph->config.dimension == 2) {
+        normalised[2] = pgem_wrap_angle(pose[2]);
+        return PGEM_OK;
+    }
+    double norm = pgem_quat_normalize(normalised + 3);
+    if (!(fabs(norm - 1.0) <= 0.01)) {
+        pgem_message_clear(graph);
+        pgem_message_text(graph, what);
+        pgem_message_text(graph, ": quaternion (qx qy qz qw) norm is not within 1% of 1");
+        return PGEM_ERR_ROTATION;
+    }
+    return PGEM_OK;
+}
+
+static int pgem_unknown_pose(pgem_t *graph, pgem_id_t id)
+{
+    pgem_message_clear(graph);
+    pgem_message_text(graph, "no pose with id ");
+    pgem_message_u64(graph, id);
+    return PGEM_ERR_UNKNOWN_ID;
+}
+
+int pgem_add_pose(pgem_t *graph, pgem_id_t id, const double *pose)
+{
+    double checked[PGEM_POSE_SIZE_MAX];
+    if (graph == NULL || pose == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    if (graph->pose_count >= graph->config.max_poses) {
+        pgem_message_clear(graph);
+        pgem_message_text(graph, "pose ");
+        pgem_message_u64(graph, id);
+        pgem_message_text(graph, " exceeds the pose capacity (max_poses = ");
+        pgem_message_u64(graph, graph->config.max_poses);
+        pgem_message_text(graph, ")");
+        return PGEM_ERR_CAPACITY;
+    }
+    if (pgem_map_find(graph, id) >= 0) {
+        pgem_message_clear(graph);
+        pgem_message_text(graph, "pose id ");
+        pgem_message_u64(graph, id);
+        pgem_message_text(graph, " already exists");
+        return PGEM_ERR_DUPLICATE_ID;
+    }
+    int status = pgem_check_pose(graph, pose, checked, "pose");
+    if (status != PGEM_OK) {
+        pgem_message_text(graph, " (pose id ");
+        pgem_message_u64(graph, id);
+        pgem_message_text(graph, ")");
+        return status;
+    }
+    uint32_t index = graph->pose_count;
+    graph->pose_id[index] = id;
+    memcpy(graph->pose + (size_t)index * (size_t)graph->pose_size, checked,
+           (size_t)graph->pose_size * sizeof(double));
+    graph->pose_fixed[index] = 0;
+    pgem_map_insert(graph, id, index);
+    graph->pose_count++;
+    pgem_linear_invalidate(graph);
+    pgem_message_clear(graph);
+    return PGEM_OK;
+}
+
+int pgem_fix_pose(pgem_t *graph, pgem_id_t id, int fixed)
+{
+    if (graph == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    int64_t index = pgem_map_find(graph, id);
+    if (index < 0) {
+        return pgem_unknown_pose(graph, id);
+    }
+    uint8_t flag = fixed ? 1u : 0u;
+    if (graph->pose_fixed[index] != flag) {
+        graph->pose_fixed[index] = flag;
+        graph->fixed_count = flag ? graph->fixed_count + 1u : graph->fixed_count - 1u;
+        pgem_linear_invalidate(graph);
+    }
+    pgem_message_clear(graph);
+    return PGEM_OK;
+}
+
+int pgem_get_pose(const pgem_t *graph, pgem_id_t id, double *pose)
+{
+    if (graph == NULL || pose == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    int64_t index = pgem_map_find(graph, id);
+    if (index < 0) {
+        return PGEM_ERR_UNKNOWN_ID;
+    }
+    memcpy(pose, graph->pose + (size_t)index * (size_t)graph->pose_size,
+           (size_t)graph->pose_size * sizeof(double));
+    return PGEM_OK;
+}
+
+int pgem_set_pose(pgem_t *graph, pgem_id_t id, const double *pose)
+{
+    double checked[PGEM_POSE_SIZE_MAX];
+    if (graph == NULL || pose == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    int64_t index = pgem_map_find(graph, id);
+    if (index < 0) {
+        return pgem_unknown_pose(graph, id);
+    }
+    int status = pgem_check_pose(graph, pose, checked, "pose");
+    if (status != PGEM_OK) {
+        return status;
+    }
+    memcpy(graph->pose + (size_t)index * (size_t)graph->pose_size, checked,
+           (size_t)graph->pose_size * sizeof(double));
+    pgem_message_clear(graph);
+    return PGEM_OK;
+}
+
+int pgem_dimension(const pgem_t *graph)
+{
+    return graph != NULL ? graph->config.dimension : 0;
+}
+
+uint32_t pgem_pose_count(const pgem_t *graph)
+{
+    return graph != NULL ? graph->pose_count : 0u;
+}
+
+int pgem_pose_at(const pgem_t *graph, uint32_t index, pgem_id_t *id, double *pose, int *fixed)
+{
+    if (graph == NULL || index >= graph->pose_count) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    if (id != NULL) {
+        *id = graph->pose_id[index];
+    }
+    if (pose != NULL) {
+        memcpy(pose, graph->pose + (size_t)index * (size_t)graph->pose_size,
+               (size_t)graph->pose_size * sizeof(double));
+    }
+    if (fixed != NULL) {
+        *fixed = graph->pose_fixed[index];
+    }
+    return PGEM_OK;
+}

@@ -1,0 +1,65 @@
+/* Edge errors, Jacobians and chi2 under the current estimate. */
+#include "internal.h"
+
+void pgem_edge_error(const pgem_t *graph, uint32_t k, double *error, double *jacobian_from,
+                     double *jacobian_to)
+{
+    const size_t size = (size_t)graph->pose_size;
+    const double *from = graph->pose + (size_t)graph->edge_from[k] * size;
+    const double *to = graph->pose + (size_t)graph->edge_to[k] * size;
+    const double *measurement = graph->edge_measurement + (size_t)k * size;
+    if (graph->config.dimension == 3) {
+        pgem_se3_error(from, to, measurement, error, jacobian_from, jacobian_to);
+    } else {
+        pgem_se2_error(from, to, measurement, error, jacobian_from, jacobian_to);
+    }
+}
+
+double pgem_edge_mahalanobis(const pgem_t *graph, uint32_t k)
+{
+    double error[PGEM_TANGENT_SIZE_MAX];
+    const int n = graph->tangent;
+    const double *information = graph->edge_information + (size_t)k * (size_t)(n * n);
+    pgem_edge_error(graph, k, error, NULL, NULL);
+    double chi2 = 0.0;
+    for (int i = 0; i < n; i++) {
+        double row = 0.0;
+        for (int j = 0; j < n; j++) {
+            row += information[i * n + j] * error[j];
+        }
+        chi2 += error[i] * row;
+    }
+    return chi2;
+}
+
+int pgem_edge_chi2(const pgem_t *graph, uint32_t index, double *chi2)
+{
+    if (graph == NULL || chi2 == NULL || index >= graph->edge_count) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    *chi2 = pgem_edge_mahalanobis(graph, index);
+    return PGEM_OK;
+}
+
+double pgem_total_chi2(const pgem_t *graph)
+{
+    double chi2 = 0.0;
+    if (graph == NULL) {
+        return 0.0;
+    }
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        chi2 += pgem_edge_mahalanobis(graph, k);
+    }
+    return chi2;
+}
+
+double pgem_weighted_chi2(const pgem_t *graph)
+{
+    double chi2 = 0.0;
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        if (graph->edge_active[k]) {
+            chi2 += graph->edge_weight[k] * pgem_edge_mahalanobis(graph, k);
+        }
+    }
+    return chi2;
+}

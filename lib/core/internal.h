@@ -1,0 +1,151 @@
+/* Private layout of a pgem instance and the helpers shared by the core's files. */
+#ifndef PGEM_INTERNAL_H
+#define PGEM_INTERNAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "pgem/pgem.h"
+#include "pgem_cs.h"
+
+#define PGEM_MESSAGE_SIZE 256
+
+/* A bump allocator over the caller's block; with base == NULL it only measures. */
+typedef struct pgem_arena {
+    unsigned char *base;  /* start of the block (NULL: measuring pass) */
+    size_t size;          /* bytes available */
+    size_t used;          /* bytes carved so far, including alignment padding */
+} pgem_arena_t;
+
+/* Returns an aligned slice of count * item bytes, or NULL when measuring or out of room
+ * (then used still grows, so a measuring pass yields the total). */
+void *pgem_arena_take(pgem_arena_t *arena, size_t count, size_t item);
+
+/* Sparse structure and numeric workspace of the normal equations H dx = -b. */
+typedef struct pgem_linear {
+    int valid;                 /* 1 while the structure matches the graph's topology */
+    int block;             /* scalar size of a pose block: 3 (2D) or 6 (3D) */
+    int block_count;       /* free poses in the structure */
+    int scalar_count;      /* block_count * block */
+    int *pose_block;       /* [max_poses] pose index -> permuted block, -1 if held fixed */
+    int *edge_offset;      /* [max_edges] offset of the edge's off-diagonal block inside
+                                  its scalar column, -1 if the edge touches a fixed pose */
+    uint8_t *edge_transposed;  /* [max_edges] 1 if the stored block is H_ji, not H_ij */
+    int *block_colptr;     /* [max_poses + 1] block pattern of H (upper, permuted) */
+    int *block_rows;       /* [max_edges] block row indices of that pattern */
+    int *block_parent;     /* [max_poses] elimination tree of the block pattern */
+    int *scratch;          /* [3 * max_edges + 4 * max_poses + 4] symbolic workspace */
+    cs_di upper;               /* permuted upper triangle of H, scalar CSC, values refilled
+                                  every iteration (arrays below) */
+    int *upper_colptr;     /* [max_poses * block + 1] */
+    int *upper_rows;       /* [upper_capacity] */
+    double *upper_values;      /* [upper_capacity] */
+    int upper_capacity;    /* max nonzeros of the upper triangle */
+    cs_di factor;              /* L, scalar CSC with the fill budget as capacity */
+    int *factor_colptr;    /* [max_poses * block + 1] */
+    int *factor_rows;      /* [fill_budget] */
+    double *factor_values;     /* [fill_budget] */
+    int factor_nonzeros;   /* nonzeros of L for the current structure */
+    int *parent;           /* [max_poses * block] scalar elimination tree */
+    int *reach_stack;      /* [max_poses * block] cs_ereach output */
+    int *reach_mark;       /* [max_poses * block] cs_ereach marks (kept negative-free) */
+    int *fill_next;        /* [max_poses * block] next free slot per column of L */
+    double *dense;             /* [max_poses * block] scattered row of the factorisation */
+    double *rhs;               /* [max_poses * block] -b in permuted order, then the step */
+    double *diagonal;          /* [max_poses * block] diagonal of H (LM damping) */
+    double *gradient;          /* [max_poses * block] copy of -b kept across LM retries */
+    uint32_t analyses;         /* symbolic analyses run so far */
+} pgem_linear_t;
+
+struct pgem {
+    pgem_config_t config;      /* resolved configuration */
+    int pose_size;             /* doubles per pose: 3 or 7 */
+    int tangent;               /* error rows per edge: 3 or 6 */
+    size_t block_bytes;        /* size of the caller's block */
+    size_t used_bytes;         /* bytes carved at init */
+    void *hosted_block;        /* block malloc'ed by pgem_create (NULL for pgem_init) */
+
+    uint32_t pose_count;       /* poses added */
+    pgem_id_t *pose_id;        /* [max_poses] id of each pose, insertion order */
+    double *pose;              /* [max_poses * pose_size] current estimate */
+    double *pose_saved;        /* [max_poses * pose_size] estimate before a solve */
+    double *pose_accepted;     /* [max_poses * pose_size] last accepted LM estimate */
+    uint8_t *pose_fixed;       /* [max_poses] 1 if held constant by pgem_fix_pose */
+    uint32_t fixed_count;      /* poses with pose_fixed set */
+    uint32_t map_mask;         /* id map slots - 1 (power of two) */
+    uint32_t *map_slot;        /* [map_mask + 1] pose index + 1, 0 = empty */
+
+    uint32_t edge_count;       /* edges added */
+    uint32_t *edge_from;       /* [max_edges] pose index of the first pose */
+    uint32_t *edge_to;         /* [max_edges] pose index of the second pose */
+    double *edge_measurement;  /* [max_edges * pose_size] */
+    double *edge_information;  /* [max_edges * tangent * tangent] full, row-major */
+    uint8_t *edge_kind;        /* [max_edges] pgem_edge_kind_t */
+    uint8_t *edge_active;      /* [max_edges] 0 once pruned by the robust layer */
+    double *edge_weight;       /* [max_edges] robust weight, 1 for odometry */
+
+    pgem_linear_t linear;      /* normal equations */
+    char message[PGEM_MESSAGE_SIZE]; /* last error message */
+};
+
+/* Carves every array of an instance from the arena (measuring when arena->base is NULL). */
+void pgem_carve(pgem_t *graph, pgem_arena_t *arena);
+
+/* Message building without stdio (firmware-safe): clear, then append pieces. */
+void pgem_message_clear(pgem_t *graph);
+void pgem_message_text(pgem_t *graph, const char *text);
+void pgem_message_u64(pgem_t *graph, uint64_t value);
+void pgem_message_i64(pgem_t *graph, int64_t value);
+/* Sets the message to text and returns code (for one-line error returns). */
+int pgem_fail(pgem_t *graph, int code, const char *text);
+
+/* Id map: pose index of id, or -1. */
+int64_t pgem_map_find(const pgem_t *graph, pgem_id_t id);
+void pgem_map_insert(pgem_t *graph, pgem_id_t id, uint32_t index);
+
+/* Checks and normalises a pose; names the field in the message on failure. */
+int pgem_check_pose(pgem_t *graph, const double *pose, double *normalised, const char *what);
+
+/* Checks an n x n information matrix (finite, symmetric, positive definite). */
+int pgem_check_information(pgem_t *graph, const double *information);
+
+/* Error and Jacobians of edge k under the current estimate (Jacobians may be NULL). */
+void pgem_edge_error(const pgem_t *graph, uint32_t k, double *error, double *jacobian_from,
+                     double *jacobian_to);
+/* e^T Omega e for edge k. */
+double pgem_edge_mahalanobis(const pgem_t *graph, uint32_t k);
+
+/* Block pattern of H (linalg/pattern.c). */
+int pgem_pattern_number_free(pgem_t *graph);
+int pgem_pattern_order(pgem_t *graph, int block_count);
+void pgem_pattern_build(pgem_t *graph, int block_count, int *colptr, int *rows, int *work);
+
+/* Linear layer. */
+int pgem_linear_analyze(pgem_t *graph);
+double pgem_linear_assemble(pgem_t *graph);
+void pgem_linear_damp(pgem_t *graph, double lambda);
+int pgem_linear_factor(pgem_t *graph);
+void pgem_linear_solve(pgem_t *graph, double *step);
+void pgem_linear_invalidate(pgem_t *graph);
+
+/* Weighted chi2 (active edges, robust weights) under the current estimate. */
+double pgem_weighted_chi2(const pgem_t *graph);
+
+/* Solver pieces shared by Gauss-Newton and Levenberg-Marquardt. */
+/* Applies the step held in linear->rhs (permuted order) to every free pose. */
+void pgem_apply_step(pgem_t *graph, const double *step);
+/* Euclidean norm of a vector; NaN/Inf propagate. */
+double pgem_norm(const double *values, int count);
+/* Reports an iteration to the callback; returns non-zero if it asks to stop. */
+int pgem_report(const pgem_solve_options_t *options, uint32_t iteration, double chi2,
+                double step_norm, double lambda, int accepted);
+/* Relative chi2 decrease below tolerance (negative tolerance: never; zero chi2: always). */
+int pgem_chi2_converged(double before, double after, double tolerance);
+/* Sets the message for a non-finite chi2 or step and returns PGEM_ERR_NUMERIC. */
+int pgem_fail_numeric(pgem_t *graph, const char *what, uint32_t iteration);
+
+int pgem_gauss_newton(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary);
+int pgem_levenberg_marquardt(pgem_t *graph, const pgem_solve_options_t *options,
+                             pgem_summary_t *summary);
+
+#endif /* PGEM_INTERNAL_H */

@@ -1,0 +1,137 @@
+/* Symbolic analysis, once per topology change: ordering, block elimination tree and column
+ * counts (CSparse), then the scalar patterns of H and L and each edge's place in H. */
+#include "internal.h"
+
+void pgem_linear_invalidate(pgem_t *graph)
+{
+    graph->linear.valid = 0;
+}
+
+/* Position of block row `row` inside block column `column` (rows are sorted). */
+static int pgem_block_position(const pgem_linear_t *linear, int row, int column)
+{
+    int low = linear->block_colptr[column];
+    int high = linear->block_colptr[column + 1] - 1;
+    while (low <= high) {
+        int middle = low + (high - low) / 2;
+        if (linear->block_rows[middle] < row) {
+            low = middle + 1;
+        } else if (linear->block_rows[middle] > row) {
+            high = middle - 1;
+        } else {
+            return middle - linear->block_colptr[column];
+        }
+    }
+    return -1; /* unreachable: every edge block is in the pattern */
+}
+
+static void pgem_analyze_edges(pgem_t *graph)
+{
+    pgem_linear_t *linear = &graph->linear;
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        int a = linear->pose_block[graph->edge_from[k]];
+        int b = linear->pose_block[graph->edge_to[k]];
+        if (a < 0 || b < 0) {
+            linear->edge_offset[k] = -1;
+            continue;
+        }
+        int row = a < b ? a : b;
+        int column = a < b ? b : a;
+        linear->edge_offset[k] = pgem_block_position(linear, row, column) * linear->block;
+        linear->edge_transposed[k] = (uint8_t)(a > b);
+    }
+}
+
+/* Scalar upper triangle of H: column J*b+c holds every off-diagonal block row of block
+ * column J (b rows each), then rows J*b .. J*b+c of the diagonal block. */
+static void pgem_analyze_upper(pgem_linear_t *linear)
+{
+    const int b = linear->block;
+    int count = 0;
+    for (int column = 0; column < linear->block_count; column++) {
+        for (int c = 0; c < b; c++) {
+            linear->upper_colptr[column * b + c] = count;
+            for (int q = linear->block_colptr[column]; q < linear->block_colptr[column + 1]; q++) {
+                for (int r = 0; r < b; r++) {
+                    linear->upper_rows[count++] = linear->block_rows[q] * b + r;
+                }
+            }
+            for (int r = 0; r <= c; r++) {
+                linear->upper_rows[count++] = column * b + r;
+            }
+        }
+    }
+    linear->upper_colptr[linear->scalar_count] = count;
+    linear->upper = (cs_di){count, linear->scalar_count, linear->scalar_count,
+                            linear->upper_colptr, linear->upper_rows, linear->upper_values, -1};
+}
+
+/* Block elimination tree and block column counts of L with CSparse; expands them to the
+ * scalar tree and column pointers. Returns nonzeros of L or a negative error. */
+static int64_t pgem_analyze_factor(pgem_linear_t *linear)
+{
+    const int b = linear->block;
+    const int blocks = linear->block_count;
+    cs_di pattern = {linear->block_colptr[blocks], blocks, blocks, linear->block_colptr,
+                     linear->block_rows, NULL, -1};
+    int *parent = cs_di_etree(&pattern, 0);
+    int *post = parent != NULL ? cs_di_post(parent, blocks) : NULL;
+    int *counts = post != NULL ? cs_di_counts(&pattern, parent, post, 0) : NULL;
+    int64_t nonzeros = counts != NULL ? 0 : PGEM_ERR_OUT_OF_MEMORY;
+    for (int column = 0; counts != NULL && column < blocks; column++) {
+        linear->block_parent[column] = parent[column];
+        for (int c = 0; c < b; c++) {
+            int scalar = column * b + c;
+            linear->parent[scalar] = c + 1 < b ? scalar + 1 : (parent[column] < 0 ? -1 : parent[column] * b);
+            linear->factor_colptr[scalar] = nonzeros > INT32_MAX ? INT32_MAX : (int)nonzeros;
+            nonzeros += (int64_t)(counts[column] - 1) * b + (b - c);
+        }
+    }
+    cs_di_free(parent);
+    cs_di_free(post);
+    cs_di_free(counts);
+    return nonzeros;
+}
+
+static int pgem_fill_exceeded(pgem_t *graph, int64_t nonzeros)
+{
+    pgem_message_clear(graph);
+    pgem_message_text(graph, "the Cholesky factor needs ");
+    pgem_message_i64(graph, nonzeros);
+    pgem_message_text(graph, " nonzeros but config.fill_budget is ");
+    pgem_message_u64(graph, graph->config.fill_budget);
+    return PGEM_ERR_FILL_BUDGET;
+}
+
+int pgem_linear_analyze(pgem_t *graph)
+{
+    pgem_linear_t *linear = &graph->linear;
+    linear->valid = 0;
+    linear->factor_nonzeros = 0;
+    int blocks = pgem_pattern_number_free(graph);
+    if (blocks == 0) {
+        return pgem_fail(graph, PGEM_ERR_EMPTY, "every pose is fixed: nothing to optimize");
+    }
+    if (pgem_pattern_order(graph, blocks) != PGEM_OK) {
+        return pgem_fail(graph, PGEM_ERR_OUT_OF_MEMORY, "CSparse AMD ordering ran out of memory");
+    }
+    linear->block_count = blocks;
+    linear->scalar_count = blocks * linear->block;
+    pgem_pattern_build(graph, blocks, linear->block_colptr, linear->block_rows, linear->scratch);
+    pgem_analyze_edges(graph);
+    pgem_analyze_upper(linear);
+    int64_t nonzeros = pgem_analyze_factor(linear);
+    if (nonzeros < 0) {
+        return pgem_fail(graph, PGEM_ERR_OUT_OF_MEMORY, "CSparse symbolic analysis ran out of memory");
+    }
+    linear->factor_nonzeros = nonzeros > INT32_MAX ? INT32_MAX : (int)nonzeros;
+    if (nonzeros > (int64_t)graph->config.fill_budget) {
+        return pgem_fill_exceeded(graph, nonzeros);
+    }
+    linear->factor_colptr[linear->scalar_count] = (int)nonzeros;
+    linear->factor = (cs_di){(int)nonzeros, linear->scalar_count, linear->scalar_count,
+                             linear->factor_colptr, linear->factor_rows, linear->factor_values, -1};
+    linear->analyses++;
+    linear->valid = 1;
+    return PGEM_OK;
+}

@@ -1,0 +1,113 @@
+/* Block pattern of H: free-pose numbering, AMD ordering and the sorted upper block pattern. */
+#include "internal.h"
+
+/* Numbers the free poses 0, 1, ... (-1 for held poses); returns how many are free. */
+int pgem_pattern_number_free(pgem_t *graph)
+{
+    int free_count = 0;
+    for (uint32_t p = 0; p < graph->pose_count; p++) {
+        int held = graph->pose_fixed[p] || (graph->fixed_count == 0u && p == 0u);
+        graph->linear.pose_block[p] = held ? -1 : free_count++;
+    }
+    return free_count;
+}
+
+/* Column-compressed (row, column) pairs of every edge joining two free poses, rows sorted
+ * and duplicates merged: the classic double transpose, into colptr / rows.
+ * work must hold 2 * edge_count + 2 * (block_count + 1) ints. */
+static void pgem_pattern_bucket(const pgem_t *graph, int block_count, int *colptr, int *rows,
+                                int *work)
+{
+    const pgem_linear_t *linear = &graph->linear;
+    int *rowptr = work;
+    int *cols = work + block_count + 1;
+    int *cursor = cols + graph->edge_count;
+    for (int j = 0; j <= block_count; j++) {
+        rowptr[j] = 0;
+    }
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        int a = linear->pose_block[graph->edge_from[k]];
+        int b = linear->pose_block[graph->edge_to[k]];
+        if (a >= 0 && b >= 0 && a != b) {
+            rowptr[(a < b ? a : b) + 1]++;
+        }
+    }
+    for (int j = 0; j < block_count; j++) {
+        rowptr[j + 1] += rowptr[j];
+        cursor[j] = rowptr[j];
+    }
+    /* rows bucketed by row index, holding their column */
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        int a = linear->pose_block[graph->edge_from[k]];
+        int b = linear->pose_block[graph->edge_to[k]];
+        if (a >= 0 && b >= 0 && a != b) {
+            cols[cursor[a < b ? a : b]++] = a < b ? b : a;
+        }
+    }
+    /* transpose back: visiting rows in order sorts every column's rows */
+    for (int j = 0; j <= block_count; j++) {
+        colptr[j] = 0;
+    }
+    for (int q = 0; q < rowptr[block_count]; q++) {
+        colptr[cols[q] + 1]++;
+    }
+    for (int j = 0; j < block_count; j++) {
+        colptr[j + 1] += colptr[j];
+        cursor[j] = colptr[j];
+    }
+    for (int i = 0; i < block_count; i++) {
+        for (int q = rowptr[i]; q < rowptr[i + 1]; q++) {
+            rows[cursor[cols[q]]++] = i;
+        }
+    }
+}
+
+/* Removes adjacent duplicate rows inside each column, in place. */
+static void pgem_pattern_unique(int block_count, int *colptr, int *rows)
+{
+    int write = 0;
+    int start = colptr[0];
+    for (int j = 0; j < block_count; j++) {
+        int end = colptr[j + 1];
+        colptr[j] = write;
+        for (int q = start; q < end; q++) {
+            if (q == start || rows[q] != rows[q - 1]) {
+                rows[write++] = rows[q];
+            }
+        }
+        start = end;
+    }
+    colptr[block_count] = write;
+}
+
+void pgem_pattern_build(pgem_t *graph, int block_count, int *colptr, int *rows, int *work)
+{
+    pgem_pattern_bucket(graph, block_count, colptr, rows, work);
+    pgem_pattern_unique(block_count, colptr, rows);
+}
+
+/* Fill-reducing ordering of the free poses with CSparse AMD on the block graph; renumbers
+ * linear->pose_block in the new order. CSparse allocates here (hosted builds). */
+int pgem_pattern_order(pgem_t *graph, int block_count)
+{
+    pgem_linear_t *linear = &graph->linear;
+    int *colptr = linear->scratch;
+    int *rows = colptr + block_count + 1;
+    int *work = rows + graph->edge_count;
+    pgem_pattern_build(graph, block_count, colptr, rows, work);
+    cs_di pattern = {colptr[block_count], block_count, block_count, colptr, rows, NULL, -1};
+    int *order = cs_di_amd(1, &pattern);
+    if (order == NULL) {
+        return PGEM_ERR_OUT_OF_MEMORY;
+    }
+    int *position = work; /* free index -> position in the ordering */
+    for (int k = 0; k < block_count; k++) {
+        position[order[k]] = k;
+    }
+    cs_di_free(order);
+    for (uint32_t p = 0; p < graph->pose_count; p++) {
+        int free_index = linear->pose_block[p];
+        linear->pose_block[p] = free_index >= 0 ? position[free_index] : -1;
+    }
+    return PGEM_OK;
+}

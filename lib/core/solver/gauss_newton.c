@@ -1,0 +1,52 @@
+/* Gauss-Newton: linearise, factor, solve, step; stops on chi2 decrease, step norm or count. */
+#include <math.h>
+
+#include "internal.h"
+
+int pgem_gauss_newton(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary)
+{
+    pgem_linear_t *linear = &graph->linear;
+    double chi2 = pgem_linear_assemble(graph);
+    summary->initial_chi2 = chi2;
+    summary->final_chi2 = chi2;
+    if (!isfinite(chi2)) {
+        return pgem_fail_numeric(graph, "initial chi2", 0);
+    }
+    for (uint32_t iteration = 1; iteration <= options->max_iterations; iteration++) {
+        int status = pgem_linear_factor(graph);
+        summary->factorizations++;
+        summary->iterations = iteration;
+        if (status != PGEM_OK) {
+            summary->termination = PGEM_TERM_NOT_POSITIVE_DEFINITE;
+            return status;
+        }
+        pgem_linear_solve(graph, linear->rhs);
+        double step_norm = pgem_norm(linear->rhs, linear->scalar_count);
+        if (!isfinite(step_norm)) {
+            summary->termination = PGEM_TERM_NUMERIC;
+            return pgem_fail_numeric(graph, "step", iteration);
+        }
+        pgem_apply_step(graph, linear->rhs);
+        double next = pgem_linear_assemble(graph);
+        if (!isfinite(next)) {
+            summary->termination = PGEM_TERM_NUMERIC;
+            return pgem_fail_numeric(graph, "chi2", iteration);
+        }
+        summary->final_chi2 = next;
+        if (pgem_report(options, iteration, next, step_norm, 0.0, 1)) {
+            summary->termination = PGEM_TERM_STOPPED;
+            return PGEM_OK;
+        }
+        if (options->step_tolerance >= 0.0 && step_norm < options->step_tolerance) {
+            summary->termination = PGEM_TERM_STEP_CONVERGED;
+            return PGEM_OK;
+        }
+        if (pgem_chi2_converged(chi2, next, options->relative_chi2_tolerance)) {
+            summary->termination = PGEM_TERM_CHI2_CONVERGED;
+            return PGEM_OK;
+        }
+        chi2 = next;
+    }
+    summary->termination = PGEM_TERM_MAX_ITERATIONS;
+    return PGEM_OK;
+}

@@ -1,0 +1,130 @@
+/* Levenberg-Marquardt: H + lambda I with Nielsen's damping update; rejected steps are undone
+ * from the last accepted estimate and the linear system is reused. */
+#include <math.h>
+#include <string.h>
+
+#include "internal.h"
+
+#define PGEM_LM_LAMBDA_LIMIT 1e32
+
+/* State of one LM run. */
+typedef struct pgem_lm {
+    double chi2;     /* weighted chi2 of the last accepted estimate */
+    double lambda;   /* current damping */
+    double growth;   /* factor for the next rejection (Nielsen's nu) */
+} pgem_lm_t;
+
+static double pgem_largest_diagonal(const pgem_linear_t *linear)
+{
+    double largest = 0.0;
+    for (int j = 0; j < linear->scalar_count; j++) {
+        largest = fmax(largest, fabs(linear->diagonal[j]));
+    }
+    return largest > 0.0 ? largest : 1.0;
+}
+
+/* Predicted chi2 decrease of step d for (H + lambda I) d = g with g = -b: g.d + lambda d.d. */
+static double pgem_lm_predicted(const pgem_linear_t *linear, const double *step, double lambda)
+{
+    double gain = 0.0;
+    for (int j = 0; j < linear->scalar_count; j++) {
+        gain += step[j] * (linear->gradient[j] + lambda * step[j]);
+    }
+    return gain;
+}
+
+static void pgem_lm_save(pgem_t *graph)
+{
+    memcpy(graph->pose_accepted, graph->pose,
+           (size_t)graph->pose_count * (size_t)graph->pose_size * sizeof(double));
+    memcpy(graph->linear.gradient, graph->linear.rhs,
+           (size_t)graph->linear.scalar_count * sizeof(double));
+}
+
+static void pgem_lm_undo(pgem_t *graph)
+{
+    memcpy(graph->pose, graph->pose_accepted,
+           (size_t)graph->pose_count * (size_t)graph->pose_size * sizeof(double));
+    memcpy(graph->linear.rhs, graph->linear.gradient,
+           (size_t)graph->linear.scalar_count * sizeof(double));
+}
+
+/* One damped trial step: returns 1 if accepted; *step_norm and *status are set. */
+static int pgem_lm_trial(pgem_t *graph, pgem_lm_t *lm, double *step_norm, int *status)
+{
+    pgem_linear_t *linear = &graph->linear;
+    *status = PGEM_OK;
+    *step_norm = 0.0;
+    pgem_linear_damp(graph, lm->lambda);
+    if (pgem_linear_factor(graph) != PGEM_OK) {
+        return 0; /* damping too small to make H positive definite: grow it */
+    }
+    pgem_linear_solve(graph, linear->rhs);
+    *step_norm = pgem_norm(linear->rhs, linear->scalar_count);
+    if (!isfinite(*step_norm)) {
+        *status = PGEM_ERR_NUMERIC;
+        return 0;
+    }
+    double predicted = pgem_lm_predicted(linear, linear->rhs, lm->lambda);
+    pgem_apply_step(graph, linear->rhs);
+    double trial = pgem_weighted_chi2(graph);
+    double rho = (lm->chi2 - trial) / predicted;
+    if (isfinite(trial) && predicted > 0.0 && rho > 0.0) {
+        double shrink = 1.0 - pow(2.0 * rho - 1.0, 3.0);
+        lm->lambda *= shrink > 1.0 / 3.0 ? shrink : 1.0 / 3.0;
+        lm->growth = 2.0;
+        return 1;
+    }
+    pgem_lm_undo(graph);
+    return 0;
+}
+
+int pgem_levenberg_marquardt(pgem_t *graph, const pgem_solve_options_t *options,
+                             pgem_summary_t *summary)
+{
+    pgem_lm_t lm = {pgem_linear_assemble(graph), 0.0, 2.0};
+    summary->initial_chi2 = summary->final_chi2 = lm.chi2;
+    if (!isfinite(lm.chi2)) {
+        return pgem_fail_numeric(graph, "initial chi2", 0);
+    }
+    lm.lambda = options->initial_lambda * pgem_largest_diagonal(&graph->linear);
+    pgem_lm_save(graph);
+    for (uint32_t iteration = 1; iteration <= options->max_iterations; iteration++) {
+        double step_norm;
+        int status;
+        int accepted = pgem_lm_trial(graph, &lm, &step_norm, &status);
+        summary->iterations = iteration;
+        summary->factorizations++;
+        if (status != PGEM_OK) {
+            summary->termination = PGEM_TERM_NUMERIC;
+            return pgem_fail_numeric(graph, "step", iteration);
+        }
+        double previous = lm.chi2;
+        if (accepted) {
+            lm.chi2 = pgem_linear_assemble(graph);
+            summary->final_chi2 = lm.chi2;
+            pgem_lm_save(graph);
+        } else {
+            lm.lambda *= lm.growth;
+            lm.growth *= 2.0;
+        }
+        if (pgem_report(options, iteration, lm.chi2, step_norm, lm.lambda, accepted)) {
+            summary->termination = PGEM_TERM_STOPPED;
+            return PGEM_OK;
+        }
+        if (accepted && pgem_chi2_converged(previous, lm.chi2, options->relative_chi2_tolerance)) {
+            summary->termination = PGEM_TERM_CHI2_CONVERGED;
+            return PGEM_OK;
+        }
+        if (options->step_tolerance >= 0.0 && step_norm > 0.0 && step_norm < options->step_tolerance) {
+            summary->termination = PGEM_TERM_STEP_CONVERGED;
+            return PGEM_OK;
+        }
+        if (lm.lambda > PGEM_LM_LAMBDA_LIMIT) {
+            summary->termination = PGEM_TERM_NO_PROGRESS;
+            return PGEM_OK;
+        }
+    }
+    summary->termination = PGEM_TERM_MAX_ITERATIONS;
+    return PGEM_OK;
+}

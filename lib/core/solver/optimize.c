@@ -1,0 +1,123 @@
+/* pgem_optimize: options defaults, symbolic analysis when the topology changed, the chosen
+ * method, and restoring the previous estimate when the solve fails. */
+#include <string.h>
+
+#include "internal.h"
+
+static pgem_solve_options_t pgem_options_resolve(const pgem_solve_options_t *options)
+{
+    pgem_solve_options_t out;
+    memset(&out, 0, sizeof out);
+    if (options != NULL) {
+        out = *options;
+    }
+    if (out.max_iterations == 0u) {
+        out.max_iterations = 100u;
+    }
+    if (out.relative_chi2_tolerance == 0.0) {
+        out.relative_chi2_tolerance = 1e-9;
+    }
+    if (out.step_tolerance == 0.0) {
+        out.step_tolerance = 1e-10;
+    }
+    if (out.initial_lambda <= 0.0) {
+        out.initial_lambda = 1e-5;
+    }
+    return out;
+}
+
+int pgem_analyze(pgem_t *graph)
+{
+    if (graph == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    if (graph->edge_count == 0u) {
+        return pgem_fail(graph, PGEM_ERR_EMPTY, "the graph has no edges: nothing to optimize");
+    }
+    if (graph->linear.valid) {
+        return PGEM_OK;
+    }
+    return pgem_linear_analyze(graph);
+}
+
+static pgem_termination_t pgem_failure_termination(int status)
+{
+    switch (status) {
+    case PGEM_ERR_FILL_BUDGET:
+        return PGEM_TERM_FILL_BUDGET;
+    case PGEM_ERR_NOT_POSITIVE_DEFINITE:
+        return PGEM_TERM_NOT_POSITIVE_DEFINITE;
+    case PGEM_ERR_NUMERIC:
+        return PGEM_TERM_NUMERIC;
+    default:
+        return PGEM_TERM_NONE;
+    }
+}
+
+static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary)
+{
+    const size_t pose_bytes = (size_t)graph->pose_count * (size_t)graph->pose_size * sizeof(double);
+    int status = pgem_analyze(graph);
+    summary->factor_nonzeros = (uint32_t)graph->linear.factor_nonzeros;
+    if (status != PGEM_OK) {
+        summary->termination = pgem_failure_termination(status);
+        return status;
+    }
+    summary->variables = (uint32_t)graph->linear.scalar_count;
+    memcpy(graph->pose_saved, graph->pose, pose_bytes);
+    status = options->method == PGEM_LEVENBERG_MARQUARDT
+                 ? pgem_levenberg_marquardt(graph, options, summary)
+                 : pgem_gauss_newton(graph, options, summary);
+    if (status != PGEM_OK) {
+        memcpy(graph->pose, graph->pose_saved, pose_bytes);
+        if (summary->termination == PGEM_TERM_NONE) {
+            summary->termination = pgem_failure_termination(status);
+        }
+        summary->final_chi2 = summary->initial_chi2;
+        return status;
+    }
+    summary->usable = 1;
+    summary->estimate_changed = memcmp(graph->pose, graph->pose_saved, pose_bytes) != 0;
+    return PGEM_OK;
+}
+
+int pgem_optimize(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary)
+{
+    pgem_summary_t local;
+    if (graph == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    if (options != NULL && options->method != PGEM_GAUSS_NEWTON &&
+        options->method != PGEM_LEVENBERG_MARQUARDT) {
+        return pgem_fail(graph, PGEM_ERR_INVALID_ARGUMENT, "unknown solver method");
+    }
+    pgem_solve_options_t resolved = pgem_options_resolve(options);
+    pgem_summary_t *out = summary != NULL ? summary : &local;
+    memset(out, 0, sizeof *out);
+    int status = pgem_run(graph, &resolved, out);
+    if (status == PGEM_OK) {
+        pgem_message_clear(graph);
+    }
+    return status;
+}
+
+const char *pgem_termination_name(pgem_termination_t termination)
+{
+    switch (termination) {
+    case PGEM_TERM_NONE: return "none";
+    case PGEM_TERM_CHI2_CONVERGED: return "chi2-converged";
+    case PGEM_TERM_STEP_CONVERGED: return "step-converged";
+    case PGEM_TERM_MAX_ITERATIONS: return "max-iterations";
+    case PGEM_TERM_STOPPED: return "stopped";
+    case PGEM_TERM_NO_PROGRESS: return "no-progress";
+    case PGEM_TERM_NOT_POSITIVE_DEFINITE: return "not-positive-definite";
+    case PGEM_TERM_NUMERIC: return "non-finite";
+    case PGEM_TERM_FILL_BUDGET: return "fill-budget";
+    }
+    return "unknown";
+}
+
+const char *pgem_method_name(pgem_method_t method)
+{
+    return method == PGEM_LEVENBERG_MARQUARDT ? "levenberg-marquardt" : "gauss-newton";
+}

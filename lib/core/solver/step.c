@@ -1,0 +1,62 @@
+/* Pieces shared by the solvers: applying a step, norms, progress reports, numeric failure. */
+#include <math.h>
+
+#include "internal.h"
+
+void pgem_apply_step(pgem_t *graph, const double *step)
+{
+    const pgem_linear_t *linear = &graph->linear;
+    const size_t size = (size_t)graph->pose_size;
+    for (uint32_t p = 0; p < graph->pose_count; p++) {
+        int block = linear->pose_block[p];
+        if (block < 0) {
+            continue;
+        }
+        double *pose = graph->pose + (size_t)p * size;
+        const double *delta = step + (size_t)block * (size_t)linear->block;
+        if (graph->config.dimension == 3) {
+            pgem_se3_boxplus(pose, delta, pose);
+        } else {
+            pgem_se2_boxplus(pose, delta, pose);
+        }
+    }
+}
+
+double pgem_norm(const double *values, int count)
+{
+    double sum = 0.0;
+    for (int k = 0; k < count; k++) {
+        sum += values[k] * values[k];
+    }
+    return sqrt(sum);
+}
+
+int pgem_report(const pgem_solve_options_t *options, uint32_t iteration, double chi2,
+                double step_norm, double lambda, int accepted)
+{
+    if (options->on_iteration == NULL) {
+        return 0;
+    }
+    pgem_iteration_t info = {iteration, chi2, step_norm, lambda, accepted};
+    return options->on_iteration(&info, options->user);
+}
+
+int pgem_fail_numeric(pgem_t *graph, const char *what, uint32_t iteration)
+{
+    pgem_message_clear(graph);
+    pgem_message_text(graph, what);
+    pgem_message_text(graph, " is not finite at iteration ");
+    pgem_message_u64(graph, iteration);
+    return PGEM_ERR_NUMERIC;
+}
+
+int pgem_chi2_converged(double before, double after, double tolerance)
+{
+    if (tolerance < 0.0) {
+        return 0;
+    }
+    if (before <= 0.0) {
+        return 1;
+    }
+    return fabs(before - after) / before < tolerance;
+}

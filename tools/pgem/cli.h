@@ -1,0 +1,32 @@
+/* Shared pieces of the pgem command-line tool. */
+#ifndef PGEM_CLI_H
+#define PGEM_CLI_H
+
+#include <stdint.h>
+
+#include "pgem/io.h"
+#include "pgem/pgem.h"
+
+/* Exit codes (documented in the README). */
+#define PGEM_EXIT_OK 0
+#define PGEM_EXIT_FAILURE 1  /* the solve failed or the input was rejected */
+#define PGEM_EXIT_USAGE 2    /* bad command line */
+#define PGEM_EXIT_IO 3       /* a file could not be read or written */
+
+/* Monotonic seconds. */
+double pgem_cli_now(void);
+
+/* Parses a non-negative integer option value; prints an error and returns 0 on failure. */
+int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value);
+
+/* Creates an instance sized for a file graph and loads it; when the Cholesky factor needs
+ * more than the default fill budget, recreates it with exactly what the analysis asked for.
+ * Prints errors to stderr. Returns PGEM_OK or an error code. */
+int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance);
+
+/* Writes an instance to a g2o file; prints errors. */
+int pgem_cli_write(const pgem_t *instance, const char *path);
+
+int pgem_cmd_optimize(int argc, char **argv);
+
+#endif /* PGEM_CLI_H */

@@ -1,0 +1,90 @@
+/* Helpers of the command-line tool: clock, option values, loading and writing graphs. */
+#define _POSIX_C_SOURCE 200809L
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+
+#include "cli.h"
+
+double pgem_cli_now(void)
+{
+    struct timespec now;
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
+}
+
+int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value)
+{
+    char *end = NULL;
+    errno = 0;
+    unsigned long parsed = text != NULL ? strtoul(text, &end, 10) : 0;
+    if (text == NULL || *text == '\0' || *text == '-' || *end != '\0' || errno != 0 ||
+        parsed > UINT32_MAX) {
+        fprintf(stderr, "pgem: %s needs a non-negative integer, got '%s'\n", option,
+                text != NULL ? text : "");
+        return 0;
+    }
+    *value = (uint32_t)parsed;
+    return 1;
+}
+
+static int pgem_cli_try_load(const pgem_io_graph_t *file, const pgem_config_t *config,
+                             pgem_t **instance)
+{
+    char message[1024];
+    int status = pgem_create(instance, config);
+    if (status != PGEM_OK) {
+        fprintf(stderr, "pgem: cannot create an instance: %s\n", pgem_error_description(status));
+        return status;
+    }
+    status = pgem_io_load(file, *instance, message, sizeof message);
+    if (status != PGEM_OK) {
+        fprintf(stderr, "pgem: %s\n", message);
+        pgem_destroy(*instance);
+        *instance = NULL;
+    }
+    return status;
+}
+
+int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance)
+{
+    pgem_config_t config;
+    pgem_io_config(file, &config);
+    int status = pgem_cli_try_load(file, &config, instance);
+    if (status != PGEM_OK || pgem_edge_count(*instance) == 0u) {
+        return status;
+    }
+    status = pgem_analyze(*instance);
+    if (status == PGEM_ERR_FILL_BUDGET) {
+        pgem_memory_stats_t stats;
+        pgem_memory_stats(*instance, &stats);
+        pgem_destroy(*instance);
+        config.fill_budget = stats.factor_nonzeros;
+        status = pgem_cli_try_load(file, &config, instance);
+        if (status == PGEM_OK) {
+            status = pgem_analyze(*instance);
+        }
+    }
+    if (status != PGEM_OK && *instance != NULL) {
+        fprintf(stderr, "pgem: %s: %s\n", path, pgem_last_error(*instance));
+    }
+    return status;
+}
+
+int pgem_cli_write(const pgem_t *instance, const char *path)
+{
+    pgem_io_graph_t out = {0};
+    char message[1024];
+    int status = pgem_io_from_instance(instance, &out);
+    if (status == PGEM_OK) {
+        status = pgem_io_write(path, PGEM_FORMAT_G2O, &out, message, sizeof message);
+        if (status != PGEM_OK) {
+            fprintf(stderr, "pgem: %s\n", message);
+        }
+    } else {
+        fprintf(stderr, "pgem: cannot copy the graph for writing: %s\n", pgem_error_description(status));
+    }
+    pgem_io_graph_free(&out);
+    return status;
+}

@@ -1,0 +1,209 @@
+/* pgem optimize: read a graph, run Gauss-Newton or Levenberg-Marquardt, print progress and a
+ * summary, write the result. */
+#include <stdio.h>
+#include <string.h>
+
+#include "cli.h"
+
+/* Command-line choices of one optimize run. */
+typedef struct pgem_optimize_args {
+    const char *input;           /* graph file to read */
+    const char *output;          /* g2o file to write (NULL: none) */
+    pgem_method_t method;        /* gn or lm */
+    uint32_t max_iterations;     /* 0: library default */
+    int quiet;                   /* no per-iteration lines */
+    int json;                    /* summary as one JSON object on stdout */
+} pgem_optimize_args_t;
+
+/* What the progress callback needs. */
+typedef struct pgem_progress {
+    FILE *out;       /* where progress lines go */
+    double start;    /* clock at the start of the solve */
+    int quiet;       /* print nothing */
+} pgem_progress_t;
+
+static void pgem_optimize_help(FILE *out)
+{
+    fprintf(out,
+            "usage: pgem optimize IN [-o OUT.g2o] [--solver gn|lm] [--max-iterations N]\n"
+            "                        [--quiet] [--json]\n"
+            "\n"
+            "Reads a g2o (VERTEX_SE2/EDGE_SE2, VERTEX_SE3:QUAT/EDGE_SE3:QUAT, FIX) or TORO 2D\n"
+            "(VERTEX2/EDGE2) graph, optimizes it from its own initial estimate and prints one\n"
+            "line per iteration (iteration, chi2, step norm, seconds) and a summary.\n"
+            "\n"
+            "  -o OUT.g2o          write the optimized graph (g2o)\n"
+            "  --solver gn|lm      Gauss-Newton (default) or Levenberg-Marquardt\n"
+            "  --max-iterations N  iteration limit (default 100)\n"
+            "  --quiet             no per-iteration lines\n"
+            "  --json              print the summary as one JSON object on stdout (progress goes\n"
+            "                      to stderr)\n");
+}
+
+static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args)
+{
+    memset(args, 0, sizeof *args);
+    for (int k = 1; k < argc; k++) {
+        const char *arg = argv[k];
+        const char *value = k + 1 < argc ? argv[k + 1] : NULL;
+        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
+            pgem_optimize_help(stdout);
+            return -1;
+        } else if (strcmp(arg, "-o") == 0 || strcmp(arg, "--output") == 0) {
+            if (value == NULL) {
+                fprintf(stderr, "pgem optimize: %s needs a file name\n", arg);
+                return PGEM_EXIT_USAGE;
+            }
+            args->output = value;
+            k++;
+        } else if (strcmp(arg, "--solver") == 0) {
+            if (value != NULL && strcmp(value, "gn") == 0) {
+                args->method = PGEM_GAUSS_NEWTON;
+            } else if (value != NULL && strcmp(value, "lm") == 0) {
+                args->method = PGEM_LEVENBERG_MARQUARDT;
+            } else {
+                fprintf(stderr, "pgem optimize: --solver takes gn or lm\n");
+                return PGEM_EXIT_USAGE;
+            }
+            k++;
+        } else if (strcmp(arg, "--max-iterations") == 0) {
+            if (!pgem_cli_parse_u32(arg, value, &args->max_iterations)) {
+                return PGEM_EXIT_USAGE;
+            }
+            k++;
+        } else if (strcmp(arg, "--quiet") == 0) {
+            args->quiet = 1;
+        } else if (strcmp(arg, "--json") == 0) {
+            args->json = 1;
+        } else if (arg[0] == '-' && arg[1] != '\0') {
+            fprintf(stderr, "pgem optimize: unknown option '%s' (see pgem optimize --help)\n", arg);
+            return PGEM_EXIT_USAGE;
+        } else if (args->input == NULL) {
+            args->input = arg;
+        } else {
+            fprintf(stderr, "pgem optimize: more than one input file ('%s')\n", arg);
+            return PGEM_EXIT_USAGE;
+        }
+    }
+    if (args->input == NULL) {
+        fprintf(stderr, "pgem optimize: no input file (see pgem optimize --help)\n");
+        return PGEM_EXIT_USAGE;
+    }
+    return PGEM_EXIT_OK;
+}
+
+static int pgem_progress_line(const pgem_iteration_t *iteration, void *user)
+{
+    const pgem_progress_t *progress = user;
+    if (!progress->quiet) {
+        fprintf(progress->out, "%5u %18.6f %12.4e %10.4f%s\n", iteration->iteration,
+                iteration->chi2, iteration->step_norm, pgem_cli_now() - progress->start,
+                iteration->accepted ? "" : "  (rejected)");
+        fflush(progress->out);
+    }
+    return 0;
+}
+
+static void pgem_describe_input(FILE *out, const char *path, const pgem_io_graph_t *file)
+{
+    size_t loops = 0;
+    for (size_t k = 0; k < file->edge_count; k++) {
+        loops += file->edges[k].kind == PGEM_EDGE_LOOP;
+    }
+    fprintf(out, "%s: %dD, %zu poses, %zu edges (%zu odometry, %zu loop closures)\n", path,
+            file->dimension, file->pose_count, file->edge_count, file->edge_count - loops, loops);
+    if (file->chained_poses > 0) {
+        fprintf(out, "  %zu poses had no VERTEX line: initial guess composed along the edges\n",
+                file->chained_poses);
+    }
+    if (file->unknown_lines > 0) {
+        fprintf(out, "  skipped %zu lines with unknown tags (first: '%s' at line %lu)\n",
+                file->unknown_lines, file->first_unknown_tag, file->first_unknown_line);
+    }
+    if (file->equiv_lines > 0) {
+        fprintf(out, "  skipped %zu TORO EQUIV lines\n", file->equiv_lines);
+    }
+}
+
+static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, const pgem_t *graph,
+                               const pgem_summary_t *summary, double seconds, int status)
+{
+    pgem_memory_stats_t stats;
+    pgem_memory_stats(graph, &stats);
+    if (args->json) {
+        printf("{\"input\":\"%s\",\"method\":\"%s\",\"status\":\"%s\",\"termination\":\"%s\","
+               "\"iterations\":%u,\"initial_chi2\":%.10g,\"final_chi2\":%.10g,"
+               "\"solve_seconds\":%.6f,\"usable\":%s,\"estimate_changed\":%s,"
+               "\"poses\":%u,\"edges\":%u,\"unknowns\":%u,\"factor_nonzeros\":%u,"
+               "\"block_bytes\":%zu}\n",
+               args->input, pgem_method_name(args->method), pgem_error_name(status),
+               pgem_termination_name(summary->termination), summary->iterations,
+               summary->initial_chi2, summary->final_chi2, seconds,
+               summary->usable ? "true" : "false", summary->estimate_changed ? "true" : "false",
+               pgem_pose_count(graph), pgem_edge_count(graph), summary->variables,
+               stats.factor_nonzeros, stats.block_bytes);
+        return;
+    }
+    fprintf(out, "%s: %s after %u iterations; chi2 %.6f -> %.6f in %.4f s\n",
+            pgem_method_name(args->method), pgem_termination_name(summary->termination),
+            summary->iterations, summary->initial_chi2, summary->final_chi2, seconds);
+    fprintf(out, "  %u unknowns, factor %u nonzeros, memory block %zu bytes%s\n",
+            summary->variables, stats.factor_nonzeros, stats.block_bytes,
+            summary->estimate_changed ? "" : ", estimate unchanged");
+    if (status != PGEM_OK) {
+        fprintf(out, "  failed: %s; the estimate is the one before the solve\n", pgem_last_error(graph));
+    }
+}
+
+static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph)
+{
+    FILE *progress_out = args->json ? stderr : stdout;
+    pgem_progress_t progress = {progress_out, 0.0, args->quiet};
+    pgem_solve_options_t options = {0};
+    pgem_summary_t summary;
+    options.method = args->method;
+    options.max_iterations = args->max_iterations;
+    options.on_iteration = pgem_progress_line;
+    options.user = &progress;
+    if (!args->quiet) {
+        fprintf(progress_out, "%5s %18s %12s %10s\n", "iter", "chi2", "step-norm", "seconds");
+    }
+    progress.start = pgem_cli_now();
+    int status = pgem_optimize(graph, &options, &summary);
+    double seconds = pgem_cli_now() - progress.start;
+    pgem_print_summary(progress_out, args, graph, &summary, seconds, status);
+    if (status != PGEM_OK) {
+        return PGEM_EXIT_FAILURE;
+    }
+    if (args->output != NULL && pgem_cli_write(graph, args->output) != PGEM_OK) {
+        return PGEM_EXIT_IO;
+    }
+    return PGEM_EXIT_OK;
+}
+
+int pgem_cmd_optimize(int argc, char **argv)
+{
+    pgem_optimize_args_t args;
+    int status = pgem_optimize_parse(argc, argv, &args);
+    if (status != PGEM_EXIT_OK) {
+        return status < 0 ? PGEM_EXIT_OK : status;
+    }
+    pgem_io_graph_t file = {0};
+    char message[1024];
+    status = pgem_io_read(args.input, PGEM_FORMAT_AUTO, &file, message, sizeof message);
+    if (status != PGEM_OK) {
+        fprintf(stderr, "pgem: %s\n", message);
+        return status == PGEM_ERR_IO ? PGEM_EXIT_IO : PGEM_EXIT_FAILURE;
+    }
+    pgem_describe_input(args.json ? stderr : stdout, args.input, &file);
+    pgem_t *graph = NULL;
+    status = pgem_cli_load(&file, args.input, &graph);
+    pgem_io_graph_free(&file);
+    if (status != PGEM_OK) {
+        pgem_destroy(graph);
+        return PGEM_EXIT_FAILURE;
+    }
+    status = pgem_optimize_run(&args, graph);
+    pgem_destroy(graph);
+    return status;
+}
