@@ -46,11 +46,12 @@ typedef struct pgem_linear {
     int *factor_rows;      /* [fill_budget] */
     double *factor_values;     /* [fill_budget] */
     int factor_nonzeros;   /* nonzeros of L for the current structure */
-    int *parent;           /* [max_poses * block] scalar elimination tree */
-    int *reach_stack;      /* [max_poses * block] cs_ereach output */
-    int *reach_mark;       /* [max_poses * block] cs_ereach marks (kept negative-free) */
-    int *fill_next;        /* [max_poses * block] next free slot per column of L */
-    double *dense;             /* [max_poses * block] scattered row of the factorisation */
+    int *reach_stack;      /* [max_poses] cs_ereach output (block rows) */
+    int *reach_mark;       /* [max_poses] cs_ereach marks (restored after each call) */
+    int *fill_next;        /* [max_poses] off-diagonal blocks filled so far per block
+                                  column of L during a factorisation */
+    double *block_work;        /* [max_poses * block * block] one b x b accumulator per
+                                  block row of the factorisation */
     double *rhs;               /* [max_poses * block] -b in permuted order, then the step */
     double *diagonal;          /* [max_poses * block] diagonal of H (LM damping) */
     double *gradient;          /* [max_poses * block] copy of -b kept across LM retries */

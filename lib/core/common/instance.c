@@ -98,11 +98,10 @@ static void pgem_carve_linear(pgem_t *graph, pgem_arena_t *arena)
     linear->factor_colptr = pgem_arena_take(arena, scalars + 1u, sizeof(int));
     linear->factor_rows = pgem_arena_take(arena, graph->config.fill_budget, sizeof(int));
     linear->factor_values = pgem_arena_take(arena, graph->config.fill_budget, sizeof(double));
-    linear->parent = pgem_arena_take(arena, scalars, sizeof(int));
-    linear->reach_stack = pgem_arena_take(arena, scalars, sizeof(int));
-    linear->reach_mark = pgem_arena_take(arena, scalars, sizeof(int));
-    linear->fill_next = pgem_arena_take(arena, scalars, sizeof(int));
-    linear->dense = pgem_arena_take(arena, scalars, sizeof(double));
+    linear->reach_stack = pgem_arena_take(arena, poses, sizeof(int));
+    linear->reach_mark = pgem_arena_take(arena, poses, sizeof(int));
+    linear->fill_next = pgem_arena_take(arena, poses, sizeof(int));
+    linear->block_work = pgem_arena_take(arena, scalars * block, sizeof(double));
     linear->rhs = pgem_arena_take(arena, scalars, sizeof(double));
     linear->diagonal = pgem_arena_take(arena, scalars, sizeof(double));
     linear->gradient = pgem_arena_take(arena, scalars, sizeof(double));
@@ -169,7 +168,7 @@ int pgem_init(pgem_t **instance, const pgem_config_t *config, void *buffer, size
     graph->block_bytes = size;
     graph->used_bytes = arena.used + skip;
     memset(graph->map_slot, 0, ((size_t)graph->map_mask + 1u) * sizeof(uint32_t));
-    memset(graph->linear.reach_mark, 0, (size_t)resolved.max_poses * (size_t)graph->tangent * sizeof(int));
+    memset(graph->linear.reach_mark, 0, (size_t)resolved.max_poses * sizeof(int));
     *instance = graph;
     return PGEM_OK;
 }

@@ -66,8 +66,8 @@ static void pgem_analyze_upper(pgem_linear_t *linear)
                             linear->upper_colptr, linear->upper_rows, linear->upper_values, -1};
 }
 
-/* Block elimination tree and block column counts of L with CSparse; expands them to the
- * scalar tree and column pointers. Returns nonzeros of L or a negative error. */
+/* Block elimination tree and block column counts of L with CSparse; expands the counts to
+ * scalar column pointers. Returns nonzeros of L or a negative error. */
 static int64_t pgem_analyze_factor(pgem_linear_t *linear)
 {
     const int b = linear->block;
@@ -82,7 +82,6 @@ static int64_t pgem_analyze_factor(pgem_linear_t *linear)
         linear->block_parent[column] = parent[column];
         for (int c = 0; c < b; c++) {
             int scalar = column * b + c;
-            linear->parent[scalar] = c + 1 < b ? scalar + 1 : (parent[column] < 0 ? -1 : parent[column] * b);
             linear->factor_colptr[scalar] = nonzeros > INT32_MAX ? INT32_MAX : (int)nonzeros;
             nonzeros += (int64_t)(counts[column] - 1) * b + (b - c);
         }

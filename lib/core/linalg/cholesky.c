@@ -1,62 +1,174 @@
-/* Numeric up-looking Cholesky H = L L^T into the preallocated L: row k's pattern comes from
- * CSparse's cs_ereach on the elimination tree; no allocation. Then the two triangular solves. */
+/* Numeric block up-looking Cholesky H = L L^T into the preallocated L; no allocation.
+ * Block row K of L comes from CSparse's cs_ereach on the block elimination tree; every
+ * operation is on dense b x b pose blocks, written into L's scalar CSC so CSparse's triangular
+ * solves apply. In scalar column J*b+c of L the diagonal block's rows c..b-1 come first, then
+ * b rows for each off-diagonal block, in increasing block row order. */
 #include <math.h>
 #include <string.h>
 
 #include "internal.h"
 
-/* Eliminates row k of L against the columns in its pattern; returns the pivot d = L(k,k)^2. */
-static double pgem_factor_row(pgem_linear_t *linear, int k)
+/* Index of element (r, c), r >= c, of the diagonal block of column I. */
+static int pgem_l_diag(const pgem_linear_t *linear, int column_block, int r, int c)
 {
-    const cs_di *upper = &linear->upper;
-    int *rows = linear->factor_rows;
-    double *values = linear->factor_values;
-    double *dense = linear->dense;
-    int top = cs_di_ereach(upper, k, linear->parent, linear->reach_stack, linear->reach_mark);
-    dense[k] = 0.0;
-    for (int p = upper->p[k]; p < upper->p[k + 1]; p++) {
-        dense[upper->i[p]] = upper->x[p];
-    }
-    double pivot = dense[k];
-    dense[k] = 0.0;
-    for (; top < linear->scalar_count; top++) {
-        int i = linear->reach_stack[top];
-        int first = linear->factor_colptr[i];
-        double lki = dense[i] / values[first];
-        dense[i] = 0.0;
-        for (int p = first + 1; p < linear->fill_next[i]; p++) {
-            dense[rows[p]] -= values[p] * lki;
+    return linear->factor_colptr[column_block * linear->block + c] + (r - c);
+}
+
+/* Scatters column block K of H's upper triangle: off-diagonal blocks into their accumulators
+ * (row-major, rows of block I, columns of block K), the diagonal block into diagonal (full). */
+static inline void pgem_scatter_column(pgem_linear_t *linear, int b, int k, double *diagonal)
+{
+    const int first = linear->block_colptr[k];
+    const int count = linear->block_colptr[k + 1] - first;
+    for (int c = 0; c < b; c++) {
+        const double *column = linear->upper_values + linear->upper_colptr[k * b + c];
+        for (int q = 0; q < count; q++) {
+            double *target = linear->block_work + (size_t)linear->block_rows[first + q] * (size_t)(b * b);
+            for (int r = 0; r < b; r++) {
+                target[r * b + c] = column[q * b + r];
+            }
         }
-        pivot -= lki * lki;
-        int slot = linear->fill_next[i]++;
-        rows[slot] = k;
-        values[slot] = lki;
+        for (int r = 0; r <= c; r++) {
+            diagonal[r * b + c] = diagonal[c * b + r] = column[count * b + r];
+        }
     }
-    return pivot;
+}
+
+/* Y = L_II^-1 X in place (X row-major b x b, rows of block I). */
+static inline void pgem_solve_diagonal(const pgem_linear_t *linear, int b, int i, double *x)
+{
+    const double *values = linear->factor_values;
+    for (int r = 0; r < b; r++) {
+        double inverse = 1.0 / values[pgem_l_diag(linear, i, r, r)];
+        for (int c = 0; c < b; c++) {
+            double sum = x[r * b + c];
+            for (int m = 0; m < r; m++) {
+                sum -= values[pgem_l_diag(linear, i, r, m)] * x[m * b + c];
+            }
+            x[r * b + c] = sum * inverse;
+        }
+    }
+}
+
+/* X_R -= L_RI Y for every block row R already in column I, then stores L(K, I) = Y^T.
+ * b is passed as a constant by the callers so the compiler specialises the loops. */
+static inline void pgem_eliminate(pgem_linear_t *linear, int b, int i, int k, const double *y)
+{
+    double *values = linear->factor_values;
+    const int filled = linear->fill_next[i];
+    int base[PGEM_TANGENT_SIZE_MAX]; /* start of the off-diagonal rows in column i*b+c */
+    for (int c = 0; c < b; c++) {
+        base[c] = linear->factor_colptr[i * b + c] + (b - c);
+    }
+    for (int slot = 0; slot < filled; slot++) {
+        int row_block = linear->factor_rows[base[0] + slot * b] / b;
+        double *target = linear->block_work + (size_t)row_block * (size_t)(b * b);
+        for (int m = 0; m < b; m++) {
+            const double *l_column = values + base[m] + slot * b;
+            for (int r = 0; r < b; r++) {
+                const double l = l_column[r];
+                for (int c = 0; c < b; c++) {
+                    target[r * b + c] -= l * y[m * b + c];
+                }
+            }
+        }
+    }
+    for (int c = 0; c < b; c++) {
+        int first = base[c] + filled * b;
+        for (int r = 0; r < b; r++) {
+            values[first + r] = y[c * b + r];
+            linear->factor_rows[first + r] = k * b + r;
+        }
+    }
+    linear->fill_next[i] = filled + 1;
+}
+
+/* D -= Y^T Y. */
+static inline void pgem_downdate(int b, const double *y, double *diagonal)
+{
+    for (int r = 0; r < b; r++) {
+        for (int c = 0; c < b; c++) {
+            double sum = 0.0;
+            for (int m = 0; m < b; m++) {
+                sum += y[m * b + r] * y[m * b + c];
+            }
+            diagonal[r * b + c] -= sum;
+        }
+    }
+}
+
+/* Dense Cholesky of the b x b diagonal block into L; returns the failing row or -1. */
+static int pgem_factor_diagonal(pgem_linear_t *linear, int k, const double *diagonal)
+{
+    const int b = linear->block;
+    double *values = linear->factor_values;
+    for (int c = 0; c < b; c++) {
+        double pivot = diagonal[c * b + c];
+        for (int m = 0; m < c; m++) {
+            double l = values[pgem_l_diag(linear, k, c, m)];
+            pivot -= l * l;
+        }
+        if (!(pivot > 0.0) || !isfinite(pivot)) {
+            return c;
+        }
+        double root = sqrt(pivot);
+        for (int r = c; r < b; r++) {
+            double sum = r == c ? root * root : diagonal[r * b + c];
+            for (int m = 0; m < c && r != c; m++) {
+                sum -= values[pgem_l_diag(linear, k, r, m)] * values[pgem_l_diag(linear, k, c, m)];
+            }
+            int slot = pgem_l_diag(linear, k, r, c);
+            values[slot] = r == c ? root : sum / root;
+            linear->factor_rows[slot] = k * b + r;
+        }
+    }
+    return -1;
+}
+
+static int pgem_not_positive_definite(pgem_t *graph, int unknown)
+{
+    pgem_message_clear(graph);
+    pgem_message_text(graph, "normal equations not positive definite at unknown ");
+    pgem_message_i64(graph, unknown);
+    pgem_message_text(graph, " (is every connected part of the graph held by a fixed pose?)");
+    return PGEM_ERR_NOT_POSITIVE_DEFINITE;
+}
+
+/* The factorisation for block size b (called with the constants 3 and 6). */
+static inline int pgem_factor_blocks(pgem_t *graph, int b)
+{
+    pgem_linear_t *linear = &graph->linear;
+    const int blocks = linear->block_count;
+    cs_di pattern = {linear->block_colptr[blocks], blocks, blocks, linear->block_colptr,
+                     linear->block_rows, NULL, -1};
+    double diagonal[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    memset(linear->fill_next, 0, (size_t)blocks * sizeof(int));
+    for (int k = 0; k < blocks; k++) {
+        int top = cs_di_ereach(&pattern, k, linear->block_parent, linear->reach_stack,
+                               linear->reach_mark);
+        for (int p = top; p < blocks; p++) {
+            memset(linear->block_work + (size_t)linear->reach_stack[p] * (size_t)(b * b), 0,
+                   (size_t)(b * b) * sizeof(double));
+        }
+        pgem_scatter_column(linear, b, k, diagonal);
+        for (int p = top; p < blocks; p++) {
+            int i = linear->reach_stack[p];
+            double *y = linear->block_work + (size_t)i * (size_t)(b * b);
+            pgem_solve_diagonal(linear, b, i, y);
+            pgem_eliminate(linear, b, i, k, y);
+            pgem_downdate(b, y, diagonal);
+        }
+        int bad = pgem_factor_diagonal(linear, k, diagonal);
+        if (bad >= 0) {
+            return pgem_not_positive_definite(graph, k * b + bad);
+        }
+    }
+    return PGEM_OK;
 }
 
 int pgem_linear_factor(pgem_t *graph)
 {
-    pgem_linear_t *linear = &graph->linear;
-    const int n = linear->scalar_count;
-    memset(linear->dense, 0, (size_t)n * sizeof(double));
-    for (int k = 0; k < n; k++) {
-        linear->fill_next[k] = linear->factor_colptr[k];
-    }
-    for (int k = 0; k < n; k++) {
-        double pivot = pgem_factor_row(linear, k);
-        if (!(pivot > 0.0) || !isfinite(pivot)) {
-            pgem_message_clear(graph);
-            pgem_message_text(graph, "normal equations not positive definite at unknown ");
-            pgem_message_i64(graph, k);
-            pgem_message_text(graph, " (is every connected part of the graph held by a fixed pose?)");
-            return PGEM_ERR_NOT_POSITIVE_DEFINITE;
-        }
-        int slot = linear->fill_next[k]++;
-        linear->factor_rows[slot] = k;
-        linear->factor_values[slot] = sqrt(pivot);
-    }
-    return PGEM_OK;
+    return graph->linear.block == 6 ? pgem_factor_blocks(graph, 6) : pgem_factor_blocks(graph, 3);
 }
 
 /* Solves H step = rhs in place (permuted order): L y = rhs, then L^T step = y. */

@@ -6,6 +6,7 @@
 #include "internal.h"
 
 #define PGEM_LM_LAMBDA_LIMIT 1e32
+#define PGEM_LM_TRIALS 10
 
 /* State of one LM run. */
 typedef struct pgem_lm {
@@ -70,12 +71,35 @@ static int pgem_lm_trial(pgem_t *graph, pgem_lm_t *lm, double *step_norm, int *s
     double trial = pgem_weighted_chi2(graph);
     double rho = (lm->chi2 - trial) / predicted;
     if (isfinite(trial) && predicted > 0.0 && rho > 0.0) {
+        /* Nielsen's factor, kept in [1/3, 2/3]: an accepted step never grows the damping */
         double shrink = 1.0 - pow(2.0 * rho - 1.0, 3.0);
+        shrink = shrink < 2.0 / 3.0 ? shrink : 2.0 / 3.0;
         lm->lambda *= shrink > 1.0 / 3.0 ? shrink : 1.0 / 3.0;
         lm->growth = 2.0;
         return 1;
     }
     pgem_lm_undo(graph);
+    return 0;
+}
+
+/* Damped trials until one is accepted (at most PGEM_LM_TRIALS, as g2o counts an iteration);
+ * returns 1 if a step was accepted, 0 if not, or a negative error. */
+static int pgem_lm_iteration(pgem_t *graph, pgem_lm_t *lm, pgem_summary_t *summary,
+                             double *step_norm)
+{
+    for (int trial = 0; trial < PGEM_LM_TRIALS && lm->lambda <= PGEM_LM_LAMBDA_LIMIT; trial++) {
+        int status;
+        int accepted = pgem_lm_trial(graph, lm, step_norm, &status);
+        summary->factorizations++;
+        if (status != PGEM_OK) {
+            return status;
+        }
+        if (accepted) {
+            return 1;
+        }
+        lm->lambda *= lm->growth;
+        lm->growth *= 2.0;
+    }
     return 0;
 }
 
@@ -90,12 +114,10 @@ int pgem_levenberg_marquardt(pgem_t *graph, const pgem_solve_options_t *options,
     lm.lambda = options->initial_lambda * pgem_largest_diagonal(&graph->linear);
     pgem_lm_save(graph);
     for (uint32_t iteration = 1; iteration <= options->max_iterations; iteration++) {
-        double step_norm;
-        int status;
-        int accepted = pgem_lm_trial(graph, &lm, &step_norm, &status);
+        double step_norm = 0.0;
+        int accepted = pgem_lm_iteration(graph, &lm, summary, &step_norm);
         summary->iterations = iteration;
-        summary->factorizations++;
-        if (status != PGEM_OK) {
+        if (accepted < 0) {
             summary->termination = PGEM_TERM_NUMERIC;
             return pgem_fail_numeric(graph, "step", iteration);
         }
@@ -104,24 +126,21 @@ int pgem_levenberg_marquardt(pgem_t *graph, const pgem_solve_options_t *options,
             lm.chi2 = pgem_linear_assemble(graph);
             summary->final_chi2 = lm.chi2;
             pgem_lm_save(graph);
-        } else {
-            lm.lambda *= lm.growth;
-            lm.growth *= 2.0;
         }
         if (pgem_report(options, iteration, lm.chi2, step_norm, lm.lambda, accepted)) {
             summary->termination = PGEM_TERM_STOPPED;
             return PGEM_OK;
         }
-        if (accepted && pgem_chi2_converged(previous, lm.chi2, options->relative_chi2_tolerance)) {
+        if (!accepted) {
+            summary->termination = PGEM_TERM_NO_PROGRESS;
+            return PGEM_OK;
+        }
+        if (pgem_chi2_converged(previous, lm.chi2, options->relative_chi2_tolerance)) {
             summary->termination = PGEM_TERM_CHI2_CONVERGED;
             return PGEM_OK;
         }
-        if (options->step_tolerance >= 0.0 && step_norm > 0.0 && step_norm < options->step_tolerance) {
+        if (options->step_tolerance >= 0.0 && step_norm < options->step_tolerance) {
             summary->termination = PGEM_TERM_STEP_CONVERGED;
-            return PGEM_OK;
-        }
-        if (lm.lambda > PGEM_LM_LAMBDA_LIMIT) {
-            summary->termination = PGEM_TERM_NO_PROGRESS;
             return PGEM_OK;
         }
     }
