@@ -60,7 +60,7 @@ int pgem_create(pgem_t **instance, const pgem_config_t *config);
 void pgem_destroy(pgem_t *instance);
 
 /* The resolved configuration of an instance. */
-const pgem_config_t *pgem_config(const pgem_t *instance);
+const pgem_config_t *pgem_get_config(const pgem_t *instance);
 
 /* The message of the last failed call on this instance ("" if none): names the ids, the
  * field or the number that was wrong. Valid until the next call on the instance. */
@@ -75,7 +75,7 @@ typedef struct pgem_memory_stats {
     uint32_t analyses;         /* symbolic analyses run so far (one per topology change) */
 } pgem_memory_stats_t;
 
-void pgem_memory_stats(const pgem_t *instance, pgem_memory_stats_t *stats);
+void pgem_get_memory_stats(const pgem_t *instance, pgem_memory_stats_t *stats);
 
 #ifdef __cplusplus
 }

@@ -58,7 +58,7 @@ int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instan
     status = pgem_analyze(*instance);
     if (status == PGEM_ERR_FILL_BUDGET) {
         pgem_memory_stats_t stats;
-        pgem_memory_stats(*instance, &stats);
+        pgem_get_memory_stats(*instance, &stats);
         pgem_destroy(*instance);
         config.fill_budget = stats.factor_nonzeros;
         status = pgem_cli_try_load(file, &config, instance);

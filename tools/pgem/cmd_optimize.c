@@ -129,7 +129,7 @@ static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, cons
                                const pgem_summary_t *summary, double seconds, int status)
 {
     pgem_memory_stats_t stats;
-    pgem_memory_stats(graph, &stats);
+    pgem_get_memory_stats(graph, &stats);
     if (args->json) {
         printf("{\"input\":\"%s\",\"method\":\"%s\",\"status\":\"%s\",\"termination\":\"%s\","
                "\"iterations\":%u,\"initial_chi2\":%.10g,\"final_chi2\":%.10g,"

@@ -173,7 +173,7 @@ int pgem_init(pgem_t **instance, const pgem_config_t *config, void *buffer, size
     return PGEM_OK;
 }
 
-const pgem_config_t *pgem_config(const pgem_t *instance)
+const pgem_config_t *pgem_get_config(const pgem_t *instance)
 {
     return instance != NULL ? &instance->config : NULL;
 }
@@ -183,7 +183,7 @@ const char *pgem_last_error(const pgem_t *instance)
     return instance != NULL ? instance->message : "no instance";
 }
 
-void pgem_memory_stats(const pgem_t *instance, pgem_memory_stats_t *stats)
+void pgem_get_memory_stats(const pgem_t *instance, pgem_memory_stats_t *stats)
 {
     if (instance == NULL || stats == NULL) {
         return;

@@ -1,0 +1,162 @@
+/* Proves the core allocates nothing while optimizing: malloc, calloc, realloc and free are
+ * interposed and counted; after the symbolic analysis an optimize call must count zero, and
+ * the analysis itself frees everything CSparse took. */
+#include <stdio.h>
+
+#include "test_util.h"
+
+#if defined(__SANITIZE_ADDRESS__)
+#define TEST_ALLOC_UNDER_SANITIZER 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define TEST_ALLOC_UNDER_SANITIZER 1
+#endif
+#endif
+
+#ifndef TEST_ALLOC_UNDER_SANITIZER
+/* glibc's own entry points, so the counters can forward to the real allocator. */
+extern void *__libc_malloc(size_t size);
+extern void *__libc_calloc(size_t count, size_t size);
+extern void *__libc_realloc(void *pointer, size_t size);
+extern void __libc_free(void *pointer);
+
+static long allocations; /* malloc + calloc + realloc calls of any kind */
+static long releases;    /* blocks handed back: free(p) and realloc(p, ...) count the
+                            block they end, so a balanced phase has allocations == releases */
+
+void *malloc(size_t size)
+{
+    allocations++;
+    return __libc_malloc(size);
+}
+
+void *calloc(size_t count, size_t size)
+{
+    allocations++;
+    return __libc_calloc(count, size);
+}
+
+void *realloc(void *pointer, size_t size)
+{
+    allocations++;
+    releases += pointer != NULL;
+    return __libc_realloc(pointer, size);
+}
+
+void free(void *pointer)
+{
+    releases += pointer != NULL;
+    __libc_free(pointer);
+}
+
+static void build(pgem_t *graph, double *truth, int dimension)
+{
+    if (dimension == 2) {
+        test_ring_2d(graph, 200, 7, 0.02, 3, truth);
+        return;
+    }
+    double information[36];
+    test_diagonal_information(6, 50.0, information);
+    for (int k = 0; k < 50; k++) {
+        double tangent[6] = {0.1 * k, 0.3 * sin(k), 0.2, 0.01 * k, 0.02, 0.03 * cos(k)};
+        pgem_se3_exp(tangent, truth + 7 * k);
+        assert_int_equal(pgem_add_pose(graph, (pgem_id_t)k, truth + 7 * k), PGEM_OK);
+        if (k > 0) {
+            double z[7], noise[6] = {0.01, 0, -0.01, 0.002, 0, 0.001};
+            pgem_se3_between(truth + 7 * (k - 1), truth + 7 * k, z);
+            pgem_se3_boxplus(z, noise, z);
+            assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(k - 1), (pgem_id_t)k, z, information,
+                                           PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+        }
+        if (k >= 10 && k % 5 == 0) {
+            double z[7];
+            pgem_se3_between(truth + 7 * (k - 10), truth + 7 * k, z);
+            assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(k - 10), (pgem_id_t)k, z, information,
+                                           PGEM_EDGE_LOOP, NULL), PGEM_OK);
+        }
+    }
+}
+
+static void check_no_allocation(int dimension, pgem_method_t method)
+{
+    static unsigned char buffer[8 << 20];
+    static double truth[7 * 200];
+    pgem_config_t config = {dimension, 200, 400, 0};
+    assert_true(pgem_memory_size(&config) <= sizeof buffer);
+    long before = allocations;
+    pgem_t *graph = NULL;
+    assert_int_equal(pgem_init(&graph, &config, buffer, sizeof buffer), PGEM_OK);
+    build(graph, truth, dimension);
+    assert_int_equal(allocations, before); /* init and adding: nothing */
+
+    long analysis_allocations = allocations, analysis_releases = releases;
+    assert_int_equal(pgem_analyze(graph), PGEM_OK);
+    /* CSparse's symbolic routines allocate and free their own workspace: no leak */
+    assert_int_equal(allocations - analysis_allocations, releases - analysis_releases);
+
+    pgem_solve_options_t options = {0};
+    options.method = method;
+    pgem_summary_t summary;
+    long solve_allocations = allocations, solve_releases = releases;
+    assert_int_equal(pgem_optimize(graph, &options, &summary), PGEM_OK);
+    assert_true(summary.iterations >= 1);
+    assert_int_equal(allocations, solve_allocations);
+    assert_int_equal(releases, solve_releases);
+    /* and again (weights, estimates changed; topology not) */
+    assert_int_equal(pgem_optimize(graph, &options, &summary), PGEM_OK);
+    assert_int_equal(allocations, solve_allocations);
+}
+
+static void test_optimize_allocates_nothing_2d_gn(void **state)
+{
+    (void)state;
+    check_no_allocation(2, PGEM_GAUSS_NEWTON);
+}
+
+static void test_optimize_allocates_nothing_2d_lm(void **state)
+{
+    (void)state;
+    check_no_allocation(2, PGEM_LEVENBERG_MARQUARDT);
+}
+
+static void test_optimize_allocates_nothing_3d(void **state)
+{
+    (void)state;
+    check_no_allocation(3, PGEM_GAUSS_NEWTON);
+}
+
+/* The counters themselves work (so the tests above can fail). */
+static void test_counter_sees_malloc(void **state)
+{
+    (void)state;
+    long before = allocations;
+    void *volatile pointer = malloc(32);
+    assert_int_equal(allocations, before + 1);
+    free(pointer);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_counter_sees_malloc),
+        cmocka_unit_test(test_optimize_allocates_nothing_2d_gn),
+        cmocka_unit_test(test_optimize_allocates_nothing_2d_lm),
+        cmocka_unit_test(test_optimize_allocates_nothing_3d),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
+#else
+static void test_skipped_under_sanitizer(void **state)
+{
+    (void)state;
+    print_message("skipped: AddressSanitizer owns malloc, so this build cannot count allocations; "
+                  "the plain build runs this test\n");
+    skip();
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_skipped_under_sanitizer)};
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
+#endif

@@ -1,0 +1,194 @@
+/* Core API tests: configuration, memory sizing, and every bad input leaving the graph unchanged. */
+#include <stdio.h>
+
+#include "test_util.h"
+
+static const double identity_2d[3] = {0.0, 0.0, 0.0};
+static const double identity_3d[7] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0};
+
+static void test_config_defaults(void **state)
+{
+    (void)state;
+    pgem_config_t zero = {0, 0, 0, 0}, resolved;
+    assert_int_equal(pgem_config_resolve(&zero, &resolved), PGEM_OK);
+    assert_int_equal(resolved.dimension, 2);
+    assert_int_equal(resolved.max_poses, PGEM_DEFAULT_MAX_POSES);
+    assert_int_equal(resolved.max_edges, PGEM_DEFAULT_MAX_POSES * PGEM_DEFAULT_EDGES_PER_POSE);
+    assert_true(resolved.fill_budget > 0);
+    pgem_config_t bad = {4, 10, 10, 0};
+    assert_int_equal(pgem_config_resolve(&bad, &resolved), PGEM_ERR_CONFIG);
+    assert_int_equal(pgem_memory_size(&bad), 0);
+    pgem_config_t huge = {2, PGEM_MAX_POSES_LIMIT + 1u, 0, 0};
+    assert_int_equal(pgem_memory_size(&huge), 0);
+}
+
+static void test_memory_grows_with_capacity(void **state)
+{
+    (void)state;
+    pgem_config_t small = {2, 100, 200, 1000}, large = {2, 200, 200, 1000};
+    pgem_config_t wider = {3, 100, 200, 1000};
+    assert_true(pgem_memory_size(&small) < pgem_memory_size(&large));
+    assert_true(pgem_memory_size(&small) < pgem_memory_size(&wider));
+}
+
+static void test_init_in_static_buffer(void **state)
+{
+    (void)state;
+    static unsigned char buffer[1 << 20];
+    pgem_config_t config = {2, 100, 200, 20000};
+    size_t need = pgem_memory_size(&config);
+    assert_true(need > 0 && need < sizeof buffer);
+    pgem_t *graph = NULL;
+    assert_int_equal(pgem_init(&graph, &config, buffer + 1, need - 1), PGEM_ERR_BUFFER_TOO_SMALL);
+    assert_null(graph);
+    /* an odd start address works: the block is aligned inside */
+    assert_int_equal(pgem_init(&graph, &config, buffer + 1, need), PGEM_OK);
+    assert_non_null(graph);
+    assert_true((unsigned char *)graph >= buffer + 1 && (unsigned char *)graph < buffer + 1 + need);
+    assert_int_equal(pgem_add_pose(graph, 7, identity_2d), PGEM_OK);
+    assert_int_equal(pgem_pose_count(graph), 1);
+    pgem_memory_stats_t stats;
+    pgem_get_memory_stats(graph, &stats);
+    assert_int_equal(stats.block_bytes, need);
+    assert_true(stats.used_bytes <= need);
+    assert_int_equal(pgem_init(NULL, &config, buffer, need), PGEM_ERR_INVALID_ARGUMENT);
+}
+
+static void test_pose_ids_64bit(void **state)
+{
+    (void)state;
+    pgem_t *graph = test_create(3, 4, 4);
+    const pgem_id_t big = UINT64_C(8430738502437568512), top = UINT64_MAX;
+    assert_int_equal(pgem_add_pose(graph, big, identity_3d), PGEM_OK);
+    assert_int_equal(pgem_add_pose(graph, top, identity_3d), PGEM_OK);
+    assert_int_equal(pgem_add_pose(graph, 0, identity_3d), PGEM_OK);
+    double pose[7];
+    assert_int_equal(pgem_get_pose(graph, top, pose), PGEM_OK);
+    assert_int_equal(pgem_get_pose(graph, big + 1u, pose), PGEM_ERR_UNKNOWN_ID);
+    pgem_id_t id;
+    assert_int_equal(pgem_pose_at(graph, 1, &id, NULL, NULL), PGEM_OK);
+    assert_true(id == top);
+    pgem_destroy(graph);
+}
+
+static void test_pose_errors_change_nothing(void **state)
+{
+    (void)state;
+    pgem_t *graph = test_create(2, 2, 2);
+    assert_int_equal(pgem_add_pose(graph, 1, identity_2d), PGEM_OK);
+    assert_int_equal(pgem_add_pose(graph, 1, identity_2d), PGEM_ERR_DUPLICATE_ID);
+    assert_non_null(strstr(pgem_last_error(graph), "pose id 1 already exists"));
+    double nan_pose[3] = {0.0, NAN, 0.0};
+    assert_int_equal(pgem_add_pose(graph, 2, nan_pose), PGEM_ERR_NOT_FINITE);
+    assert_non_null(strstr(pgem_last_error(graph), "field y"));
+    assert_non_null(strstr(pgem_last_error(graph), "pose id 2"));
+    assert_int_equal(pgem_pose_count(graph), 1);
+    assert_int_equal(pgem_add_pose(graph, 2, identity_2d), PGEM_OK);
+    assert_int_equal(pgem_add_pose(graph, 3, identity_2d), PGEM_ERR_CAPACITY);
+    assert_non_null(strstr(pgem_last_error(graph), "max_poses = 2"));
+    assert_int_equal(pgem_pose_count(graph), 2);
+    assert_int_equal(pgem_fix_pose(graph, 99, 1), PGEM_ERR_UNKNOWN_ID);
+    assert_non_null(strstr(pgem_last_error(graph), "99"));
+    pgem_destroy(graph);
+}
+
+static void test_quaternion_checks(void **state)
+{
+    (void)state;
+    pgem_t *graph = test_create(3, 4, 4);
+    double slightly_off[7] = {1, 2, 3, 0, 0, 0, 1.001};
+    assert_int_equal(pgem_add_pose(graph, 1, slightly_off), PGEM_OK);
+    double stored[7];
+    assert_int_equal(pgem_get_pose(graph, 1, stored), PGEM_OK);
+    assert_near(stored[6], 1.0, 1e-15); /* normalised */
+    double zero_quaternion[7] = {0, 0, 0, 0, 0, 0, 0};
+    assert_int_equal(pgem_add_pose(graph, 2, zero_quaternion), PGEM_ERR_ROTATION);
+    assert_non_null(strstr(pgem_last_error(graph), "quaternion"));
+    assert_int_equal(pgem_pose_count(graph), 1);
+    pgem_destroy(graph);
+}
+
+/* Edge inputs: each bad one is rejected with a message naming the ids, graph unchanged. */
+static void test_edge_errors_change_nothing(void **state)
+{
+    (void)state;
+    pgem_t *graph = test_create(2, 4, 2);
+    double z[3] = {1, 0, 0}, information[9];
+    test_diagonal_information(3, 1.0, information);
+    assert_int_equal(pgem_add_pose(graph, 10, identity_2d), PGEM_OK);
+    assert_int_equal(pgem_add_pose(graph, 11, identity_2d), PGEM_OK);
+    assert_int_equal(pgem_add_edge(graph, 10, 12, z, information, PGEM_EDGE_LOOP, NULL), PGEM_ERR_UNKNOWN_ID);
+    assert_non_null(strstr(pgem_last_error(graph), "no pose with id 12 (edge 10 -> 12)"));
+    assert_int_equal(pgem_add_edge(graph, 10, 10, z, information, PGEM_EDGE_LOOP, NULL), PGEM_ERR_SELF_LOOP);
+    assert_non_null(strstr(pgem_last_error(graph), "10 -> 10"));
+    double bad_z[3] = {1, INFINITY, 0};
+    assert_int_equal(pgem_add_edge(graph, 10, 11, bad_z, information, PGEM_EDGE_LOOP, NULL), PGEM_ERR_NOT_FINITE);
+    assert_non_null(strstr(pgem_last_error(graph), "measurement: field y"));
+    double asymmetric[9] = {1, 0.5, 0, 0, 1, 0, 0, 0, 1};
+    assert_int_equal(pgem_add_edge(graph, 10, 11, z, asymmetric, PGEM_EDGE_LOOP, NULL), PGEM_ERR_INFORMATION);
+    assert_non_null(strstr(pgem_last_error(graph), "symmetric"));
+    double indefinite[9] = {1, 2, 0, 2, 1, 0, 0, 0, 1};
+    assert_int_equal(pgem_add_edge(graph, 10, 11, z, indefinite, PGEM_EDGE_LOOP, NULL), PGEM_ERR_INFORMATION);
+    assert_non_null(strstr(pgem_last_error(graph), "positive definite"));
+    double nan_info[9] = {1, 0, 0, 0, NAN, 0, 0, 0, 1};
+    assert_int_equal(pgem_add_edge(graph, 10, 11, z, nan_info, PGEM_EDGE_LOOP, NULL), PGEM_ERR_NOT_FINITE);
+    assert_non_null(strstr(pgem_last_error(graph), "information(1,1)"));
+    assert_int_equal(pgem_add_edge(graph, 10, 11, z, information, (pgem_edge_kind_t)7, NULL), PGEM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pgem_edge_count(graph), 0);
+    uint32_t index = 99;
+    assert_int_equal(pgem_add_edge(graph, 10, 11, z, information, PGEM_EDGE_ODOMETRY, &index), PGEM_OK);
+    assert_int_equal(index, 0);
+    assert_int_equal(pgem_add_edge(graph, 11, 10, z, information, PGEM_EDGE_LOOP, &index), PGEM_OK);
+    assert_int_equal(pgem_add_edge(graph, 11, 10, z, information, PGEM_EDGE_LOOP, &index), PGEM_ERR_CAPACITY);
+    assert_non_null(strstr(pgem_last_error(graph), "max_edges = 2"));
+    assert_int_equal(pgem_edge_count(graph), 2);
+    pgem_edge_view_t view;
+    assert_int_equal(pgem_edge_at(graph, 1, &view), PGEM_OK);
+    assert_true(view.from == 11 && view.to == 10 && view.kind == PGEM_EDGE_LOOP);
+    assert_near(view.weight, 1.0, 0.0);
+    assert_int_equal(pgem_edge_at(graph, 2, &view), PGEM_ERR_INVALID_ARGUMENT);
+    pgem_destroy(graph);
+}
+
+static void test_error_names(void **state)
+{
+    (void)state;
+    assert_string_equal(pgem_error_name(PGEM_ERR_CAPACITY), "PGEM_ERR_CAPACITY");
+    assert_string_equal(pgem_error_name(12345), "PGEM_ERR_UNKNOWN_CODE");
+    for (int code = 0; code >= PGEM_ERR_DIMENSION; code--) {
+        assert_string_not_equal(pgem_error_name(code), "PGEM_ERR_UNKNOWN_CODE");
+        assert_true(strlen(pgem_error_description(code)) > 3);
+    }
+}
+
+static void test_chi2_of_edges(void **state)
+{
+    (void)state;
+    pgem_t *graph = test_create(2, 2, 1);
+    double a[3] = {0, 0, 0}, b[3] = {1, 0, 0}, z[3] = {0.5, 0, 0}, information[9];
+    test_diagonal_information(3, 4.0, information);
+    assert_int_equal(pgem_add_pose(graph, 0, a), PGEM_OK);
+    assert_int_equal(pgem_add_pose(graph, 1, b), PGEM_OK);
+    assert_int_equal(pgem_add_edge(graph, 0, 1, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    double chi2 = 0.0;
+    assert_int_equal(pgem_edge_chi2(graph, 0, &chi2), PGEM_OK);
+    assert_near(chi2, 4.0 * 0.25, 1e-12);
+    assert_near(pgem_total_chi2(graph), 1.0, 1e-12);
+    pgem_destroy(graph);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_config_defaults),
+        cmocka_unit_test(test_memory_grows_with_capacity),
+        cmocka_unit_test(test_init_in_static_buffer),
+        cmocka_unit_test(test_pose_ids_64bit),
+        cmocka_unit_test(test_pose_errors_change_nothing),
+        cmocka_unit_test(test_quaternion_checks),
+        cmocka_unit_test(test_edge_errors_change_nothing),
+        cmocka_unit_test(test_error_names),
+        cmocka_unit_test(test_chi2_of_edges),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
