@@ -1,0 +1,174 @@
+/* pgem I/O ids: after the last line, checks that every id an edge or FIX names has a pose. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "io_internal.h"
+
+/* A vertex id with the line it came from, for sorting. */
+typedef struct io_vertex_id {
+    pgem_id_t id;
+    unsigned long line;
+} io_vertex_id_t;
+
+static int io_compare_ids(const void *a, const void *b)
+{
+    pgem_id_t x = *(const pgem_id_t *)a;
+    pgem_id_t y = *(const pgem_id_t *)b;
+    return (x > y) - (x < y);
+}
+
+static int io_compare_vertex_ids(const void *a, const void *b)
+{
+    const io_vertex_id_t *x = (const io_vertex_id_t *)a;
+    const io_vertex_id_t *y = (const io_vertex_id_t *)b;
+    if (x->id != y->id) {
+        return (x->id > y->id) - (x->id < y->id);
+    }
+    return (x->line > y->line) - (x->line < y->line);
+}
+
+void io_sort_ids(pgem_id_t *ids, size_t count)
+{
+    if (count > 1) {
+        qsort(ids, count, sizeof *ids, io_compare_ids);
+    }
+}
+
+int io_find_id(const pgem_id_t *sorted, size_t count, pgem_id_t id, size_t *index)
+{
+    size_t low = 0;
+    size_t high = count;
+    while (low < high) {
+        size_t middle = low + (high - low) / 2;
+        if (sorted[middle] < id) {
+            low = middle + 1;
+        } else {
+            high = middle;
+        }
+    }
+    if (low < count && sorted[low] == id) {
+        if (index != NULL) {
+            *index = low;
+        }
+        return 1;
+    }
+    return 0;
+}
+
+/* Reports the duplicate seen earliest in the file: the earliest VERTEX line whose id an
+ * earlier VERTEX line already had. sorted is ordered by (id, line). */
+static int io_report_duplicate(const io_reader_t *reader, const io_vertex_id_t *sorted,
+                               size_t count)
+{
+    size_t i;
+    size_t found = 0; /* index of the reported line; 0 = none (index 0 is never a repeat) */
+    size_t first;
+    for (i = 1; i < count; ++i) {
+        if (sorted[i].id == sorted[i - 1].id &&
+            (found == 0 || sorted[i].line < sorted[found].line)) {
+            found = i;
+        }
+    }
+    if (found == 0) {
+        return PGEM_OK;
+    }
+    first = found;
+    while (first > 0 && sorted[first - 1].id == sorted[found].id) {
+        first--;
+    }
+    return io_fail(reader, sorted[found].line, PGEM_ERR_DUPLICATE_ID,
+                   "duplicate VERTEX id %llu (first on line %lu)",
+                   (unsigned long long)sorted[found].id, sorted[first].line);
+}
+
+/* Sorted ids of the vertices into *ids (caller frees); duplicate ids are an error. */
+static int io_sorted_vertex_ids(const io_reader_t *reader, pgem_id_t **ids)
+{
+    const pgem_io_graph_t *graph = reader->graph;
+    size_t count = graph->pose_count;
+    io_vertex_id_t *sorted = (io_vertex_id_t *)malloc(count * sizeof *sorted);
+    int status;
+    size_t i;
+    *ids = (pgem_id_t *)malloc(count * sizeof **ids);
+    if (sorted == NULL || *ids == NULL) {
+        free(sorted);
+        return io_fail(reader, 0, PGEM_ERR_OUT_OF_MEMORY, "out of memory");
+    }
+    for (i = 0; i < count; ++i) {
+        sorted[i].id = graph->poses[i].id;
+        sorted[i].line = graph->poses[i].line;
+    }
+    qsort(sorted, count, sizeof *sorted, io_compare_vertex_ids);
+    status = io_report_duplicate(reader, sorted, count);
+    for (i = 0; i < count; ++i) {
+        (*ids)[i] = sorted[i].id;
+    }
+    free(sorted);
+    return status;
+}
+
+static int io_check_edge_ids(const io_reader_t *reader, const pgem_id_t *ids, size_t count)
+{
+    const pgem_io_graph_t *graph = reader->graph;
+    size_t e;
+    for (e = 0; e < graph->edge_count; ++e) {
+        const pgem_io_edge_t *edge = &graph->edges[e];
+        pgem_id_t missing = edge->from;
+        if (io_find_id(ids, count, edge->from, NULL)) {
+            missing = edge->to;
+            if (io_find_id(ids, count, edge->to, NULL)) {
+                continue;
+            }
+        }
+        return io_fail(reader, edge->line, PGEM_ERR_UNKNOWN_ID,
+                       "edge %llu -> %llu names id %llu, which has no VERTEX line",
+                       (unsigned long long)edge->from, (unsigned long long)edge->to,
+                       (unsigned long long)missing);
+    }
+    return PGEM_OK;
+}
+
+/* FIX ids must name a pose (with a VERTEX line, or referenced by an edge if there is none). */
+static int io_check_fixed_ids(const io_reader_t *reader)
+{
+    const pgem_io_graph_t *graph = reader->graph;
+    pgem_id_t *ids = (pgem_id_t *)malloc((graph->pose_count + 1) * sizeof *ids);
+    size_t i;
+    int status = PGEM_OK;
+    if (ids == NULL) {
+        return io_fail(reader, 0, PGEM_ERR_OUT_OF_MEMORY, "out of memory");
+    }
+    for (i = 0; i < graph->pose_count; ++i) {
+        ids[i] = graph->poses[i].id;
+    }
+    io_sort_ids(ids, graph->pose_count);
+    for (i = 0; i < graph->fixed_count && status == PGEM_OK; ++i) {
+        if (!io_find_id(ids, graph->pose_count, graph->fixed[i], NULL)) {
+            status = io_fail(reader, reader->fixed_lines[i], PGEM_ERR_UNKNOWN_ID,
+                             "FIX names id %llu, which has no pose",
+                             (unsigned long long)graph->fixed[i]);
+        }
+    }
+    free(ids);
+    return status;
+}
+
+int io_check_ids(io_reader_t *reader)
+{
+    pgem_io_graph_t *graph = reader->graph;
+    int status;
+    if (graph->pose_count == 0) {
+        status = graph->edge_count > 0 ? io_chain_poses(reader) : PGEM_OK;
+    } else {
+        pgem_id_t *ids = NULL;
+        status = io_sorted_vertex_ids(reader, &ids);
+        if (status == PGEM_OK) {
+            status = io_check_edge_ids(reader, ids, graph->pose_count);
+        }
+        free(ids);
+    }
+    if (status == PGEM_OK) {
+        status = io_check_fixed_ids(reader);
+    }
+    return status;
+}

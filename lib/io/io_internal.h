@@ -1,0 +1,95 @@
+/* pgem I/O internals: the reader's state and the helpers shared between the lib/io files. */
+#ifndef PGEM_IO_INTERNAL_H
+#define PGEM_IO_INTERNAL_H
+
+#include <stddef.h>
+#include <stdio.h>
+
+#include "pgem/io.h"
+
+/* Longest line accepted, in bytes without the line end. */
+#define IO_LINE_MAX 65536u
+
+/* Most fields a line can hold that the reader keeps (EDGE_SE3:QUAT has 31 with its tag). */
+#define IO_FIELDS_MAX 32u
+
+/* What io_read_line found besides a line (returned as negative values). */
+#define IO_LINE_END 0           /* end of stream, no line */
+#define IO_LINE_READ 1          /* a line was read */
+#define IO_LINE_TOO_LONG (-100) /* more than IO_LINE_MAX bytes */
+#define IO_LINE_HAS_NUL (-101)  /* a NUL byte (binary data) */
+
+/* A growing buffer holding one line, NUL-terminated, without its line end. */
+typedef struct io_line {
+    char *text;
+    size_t length;
+    size_t capacity;
+} io_line_t;
+
+/* Everything one read needs besides the line itself. */
+typedef struct io_reader {
+    const char *name;              /* file name used in messages */
+    pgem_format_t format;          /* which tags are accepted */
+    pgem_io_graph_t *graph;        /* the graph being filled */
+    unsigned long line;            /* current line number (1-based) */
+    unsigned long dimension_line;  /* the line that decided graph->dimension */
+    unsigned long *fixed_lines;    /* line of each graph->fixed entry */
+    size_t fixed_lines_capacity;
+    char *message;                 /* caller's message buffer (may be NULL) */
+    size_t message_size;
+} io_reader_t;
+
+/* message.c: formats "NAME:LINE: text" (or "NAME: text" when line is 0) into the reader's
+ * message and returns code. */
+int io_fail(const io_reader_t *reader, unsigned long line, int code, const char *format, ...);
+/* message.c: vsnprintf into a caller's buffer, tolerating NULL / size 0. */
+void io_message(char *message, size_t size, const char *format, ...);
+/* message.c: copies at most size-1 bytes of text, replacing unprintable bytes by '?'. */
+void io_copy_printable(char *out, size_t size, const char *text);
+
+/* lines.c: reads the next line (any of LF, CRLF; a final line may lack its end). */
+int io_read_line(FILE *stream, io_line_t *line);
+void io_line_free(io_line_t *line);
+
+/* tokens.c: splits text in place on spaces, tabs and CRs; stores at most capacity fields and
+ * returns how many there are in all. */
+size_t io_split(char *text, char **fields, size_t capacity);
+/* tokens.c: a whole unsigned decimal token (no sign, no overflow). 0 on success, -1 if not. */
+int io_parse_id(const char *token, pgem_id_t *id);
+/* tokens.c: a whole number token. */
+#define IO_NUMBER_OK 0
+#define IO_NUMBER_INVALID 1
+#define IO_NUMBER_NOT_FINITE 2
+int io_parse_number(const char *token, double *value);
+
+/* layout.c: where the k-th information value of a line of this format and dimension goes in
+ * the full row-major matrix (row <= col). */
+void io_info_cell(pgem_format_t format, int dimension, size_t k, size_t *row, size_t *col);
+/* layout.c: number of information values on an edge line of this dimension (6 or 21). */
+size_t io_info_values(int dimension);
+/* layout.c: odometry when the ids differ by exactly one (either direction), else loop. */
+pgem_edge_kind_t io_edge_kind(pgem_id_t from, pgem_id_t to);
+/* layout.c: the identity pose of a dimension. */
+void io_identity_pose(int dimension, double *pose);
+
+/* graph.c: append zeroed entries (NULL / PGEM_ERR_OUT_OF_MEMORY when out of memory). */
+pgem_io_pose_t *io_graph_new_pose(pgem_io_graph_t *graph);
+pgem_io_edge_t *io_graph_new_edge(pgem_io_graph_t *graph);
+int io_graph_add_fixed(pgem_io_graph_t *graph, pgem_id_t id);
+
+/* parse.c: handles one line of text (modified in place). */
+int io_parse_line(io_reader_t *reader, char *text);
+
+/* ids.c: after the last line: duplicate vertex ids, edges and FIX naming unknown ids, and
+ * the chain guess for edge-only files. */
+int io_check_ids(io_reader_t *reader);
+
+/* chain.c: creates the poses of an edge-only graph, ordered by id, with a spanning-tree guess
+ * (odometry first). FIX ids are checked afterwards by the caller. */
+int io_chain_poses(io_reader_t *reader);
+
+/* ids.c: sorts ids ascending; finds id in sorted ids (1 and *index if found, else 0). */
+void io_sort_ids(pgem_id_t *ids, size_t count);
+int io_find_id(const pgem_id_t *sorted, size_t count, pgem_id_t id, size_t *index);
+
+#endif /* PGEM_IO_INTERNAL_H */

@@ -1,0 +1,51 @@
+/* pgem I/O messages: "FILE:LINE: what is wrong" into the caller's buffer. */
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "io_internal.h"
+
+static void io_vmessage(char *message, size_t size, const char *format, va_list args)
+{
+    if (message == NULL || size == 0) {
+        return;
+    }
+    vsnprintf(message, size, format, args);
+}
+
+void io_message(char *message, size_t size, const char *format, ...)
+{
+    va_list args;
+    va_start(args, format);
+    io_vmessage(message, size, format, args);
+    va_end(args);
+}
+
+int io_fail(const io_reader_t *reader, unsigned long line, int code, const char *format, ...)
+{
+    char detail[512];
+    va_list args;
+    va_start(args, format);
+    vsnprintf(detail, sizeof detail, format, args);
+    va_end(args);
+    if (line > 0) {
+        io_message(reader->message, reader->message_size, "%s:%lu: %s", reader->name, line,
+                   detail);
+    } else {
+        io_message(reader->message, reader->message_size, "%s: %s", reader->name, detail);
+    }
+    return code;
+}
+
+void io_copy_printable(char *out, size_t size, const char *text)
+{
+    size_t i = 0;
+    if (size == 0) {
+        return;
+    }
+    for (; i + 1 < size && text[i] != '\0'; ++i) {
+        unsigned char c = (unsigned char)text[i];
+        out[i] = (c >= 0x20 && c < 0x7f) ? (char)c : '?';
+    }
+    out[i] = '\0';
+}
