@@ -20,7 +20,7 @@ extern "C" {
 #define PGEM_DEFAULT_DIMENSION 2
 #define PGEM_DEFAULT_MAX_POSES 1024u
 #define PGEM_DEFAULT_EDGES_PER_POSE 4u  /* max_edges = 4 * max_poses */
-#define PGEM_DEFAULT_FILL_PER_POSE 64u  /* fill_budget = 64 * block * block * max_poses */
+#define PGEM_DEFAULT_FILL_PER_POSE 32u  /* fill_budget = 32 * block * block * max_poses */
 
 /* Largest capacities accepted (indices are 32-bit inside the core). */
 #define PGEM_MAX_POSES_LIMIT 4000000u
@@ -32,7 +32,7 @@ typedef struct pgem_config {
     uint32_t max_poses;    /* pose capacity, 1 .. PGEM_MAX_POSES_LIMIT; 0 means 1024 */
     uint32_t max_edges;    /* edge capacity, 1 .. PGEM_MAX_EDGES_LIMIT; 0 means 4 * max_poses */
     uint32_t fill_budget;  /* scalar nonzeros reserved for the Cholesky factor L (each costs
-                              12 bytes); 0 means 64 * b * b * max_poses with b = 3 (2D) or 6 (3D).
+                              12 bytes); 0 means 32 * b * b * max_poses with b = 3 (2D) or 6 (3D).
                               A graph whose factor needs more fails to optimize with
                               PGEM_ERR_FILL_BUDGET and the message gives the number needed. */
 } pgem_config_t;

@@ -19,8 +19,8 @@ double pgem_cli_now(void);
 /* Parses a non-negative integer option value; prints an error and returns 0 on failure. */
 int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value);
 
-/* Creates an instance sized for a file graph and loads it; when the Cholesky factor needs
- * more than the default fill budget, recreates it with exactly what the analysis asked for.
+/* Creates an instance sized for a file graph and loads it, with the fill budget set to
+ * exactly what the symbolic analysis asks for.
  * Prints errors to stderr. Returns PGEM_OK or an error code. */
 int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance);
 
@@ -28,5 +28,6 @@ int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instan
 int pgem_cli_write(const pgem_t *instance, const char *path);
 
 int pgem_cmd_optimize(int argc, char **argv);
+int pgem_cmd_simulate(int argc, char **argv);
 
 #endif /* PGEM_CLI_H */

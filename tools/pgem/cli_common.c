@@ -47,6 +47,17 @@ static int pgem_cli_try_load(const pgem_io_graph_t *file, const pgem_config_t *c
     return status;
 }
 
+/* Recreates *instance with a fill budget of exactly `fill` and re-analyses it. */
+static int pgem_cli_resize(const pgem_io_graph_t *file, pgem_config_t *config, uint32_t fill,
+                           pgem_t **instance)
+{
+    pgem_destroy(*instance);
+    *instance = NULL;
+    config->fill_budget = fill;
+    int status = pgem_cli_try_load(file, config, instance);
+    return status == PGEM_OK ? pgem_analyze(*instance) : status;
+}
+
 int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance)
 {
     pgem_config_t config;
@@ -55,16 +66,13 @@ int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instan
     if (status != PGEM_OK || pgem_edge_count(*instance) == 0u) {
         return status;
     }
+    /* The factor's size is known only after the analysis: size the block to exactly it. */
     status = pgem_analyze(*instance);
-    if (status == PGEM_ERR_FILL_BUDGET) {
-        pgem_memory_stats_t stats;
-        pgem_get_memory_stats(*instance, &stats);
-        pgem_destroy(*instance);
-        config.fill_budget = stats.factor_nonzeros;
-        status = pgem_cli_try_load(file, &config, instance);
-        if (status == PGEM_OK) {
-            status = pgem_analyze(*instance);
-        }
+    pgem_memory_stats_t stats;
+    pgem_get_memory_stats(*instance, &stats);
+    if (status == PGEM_ERR_FILL_BUDGET ||
+        (status == PGEM_OK && stats.factor_nonzeros < stats.factor_budget - stats.factor_budget / 4u)) {
+        status = pgem_cli_resize(file, &config, stats.factor_nonzeros, instance);
     }
     if (status != PGEM_OK && *instance != NULL) {
         fprintf(stderr, "pgem: %s: %s\n", path, pgem_last_error(*instance));

@@ -13,6 +13,7 @@ static void pgem_usage(FILE *out)
             "\n"
             "commands:\n"
             "   optimize   optimize a g2o or TORO pose graph\n"
+            "   simulate   generate a 2D Manhattan-world graph with ground truth\n"
             "\n"
             "'pgem <command> --help' describes a command. Exit codes: 0 success, 1 the solve\n"
             "failed or the input was rejected, 2 bad command line, 3 a file could not be read or\n"
@@ -31,6 +32,9 @@ int main(int argc, char **argv)
     }
     if (strcmp(argv[1], "optimize") == 0) {
         return pgem_cmd_optimize(argc - 1, argv + 1);
+    }
+    if (strcmp(argv[1], "simulate") == 0) {
+        return pgem_cmd_simulate(argc - 1, argv + 1);
     }
     fprintf(stderr, "pgem: '%s' is not a pgem command. See 'pgem --help'.\n", argv[1]);
     return PGEM_EXIT_USAGE;
