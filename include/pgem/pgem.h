@@ -7,5 +7,6 @@
 #include "pgem/geometry.h"
 #include "pgem/graph.h"
 #include "pgem/solver.h"
+#include "pgem/robust.h"
 
 #endif /* PGEM_PGEM_H */

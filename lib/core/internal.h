@@ -6,6 +6,7 @@
 #include <stdint.h>
 
 #include "pgem/pgem.h"
+#include "pgem/robust.h"
 #include "pgem_cs.h"
 
 #define PGEM_MESSAGE_SIZE 256
@@ -71,6 +72,7 @@ struct pgem {
     double *pose;              /* [max_poses * pose_size] current estimate */
     double *pose_saved;        /* [max_poses * pose_size] estimate before a solve */
     double *pose_accepted;     /* [max_poses * pose_size] last accepted LM estimate */
+    double *pose_initial;      /* [max_poses * pose_size] estimate before a robust solve */
     uint8_t *pose_fixed;       /* [max_poses] 1 if held constant by pgem_fix_pose */
     uint32_t fixed_count;      /* poses with pose_fixed set */
     uint32_t map_mask;         /* id map slots - 1 (power of two) */

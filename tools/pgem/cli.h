@@ -19,6 +19,15 @@ double pgem_cli_now(void);
 /* Parses a non-negative integer option value; prints an error and returns 0 on failure. */
 int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value);
 
+/* Parses a robust kernel name (em, cauchy, huber, dcs, none); prints an error on failure. */
+int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel);
+
+/* Parses a positive finite number; prints an error and returns 0 on failure. */
+int pgem_cli_parse_positive(const char *option, const char *text, double *value);
+
+/* Writes one line per loop closure, "from to weight state"; prints errors; 0 on success. */
+int pgem_cli_write_weights(const pgem_t *instance, const char *path);
+
 /* Creates an instance sized for a file graph and loads it, with the fill budget set to
  * exactly what the symbolic analysis asks for.
  * Prints errors to stderr. Returns PGEM_OK or an error code. */
@@ -29,5 +38,6 @@ int pgem_cli_write(const pgem_t *instance, const char *path);
 
 int pgem_cmd_optimize(int argc, char **argv);
 int pgem_cmd_simulate(int argc, char **argv);
+int pgem_cmd_corrupt(int argc, char **argv);
 
 #endif /* PGEM_CLI_H */

@@ -1,8 +1,10 @@
 /* Helpers of the command-line tool: clock, option values, loading and writing graphs. */
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 
 #include "cli.h"
@@ -95,4 +97,54 @@ int pgem_cli_write(const pgem_t *instance, const char *path)
     }
     pgem_io_graph_free(&out);
     return status;
+}
+
+int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel)
+{
+    static const pgem_kernel_t kernels[] = {PGEM_KERNEL_NONE, PGEM_KERNEL_EM, PGEM_KERNEL_CAUCHY,
+                                            PGEM_KERNEL_HUBER, PGEM_KERNEL_DCS};
+    for (size_t k = 0; text != NULL && k < sizeof kernels / sizeof kernels[0]; k++) {
+        if (strcmp(text, pgem_kernel_name(kernels[k])) == 0) {
+            *kernel = kernels[k];
+            return 1;
+        }
+    }
+    fprintf(stderr, "pgem: --robust takes em, cauchy, huber, dcs or none (got '%s')\n",
+            text != NULL ? text : "");
+    return 0;
+}
+
+int pgem_cli_parse_positive(const char *option, const char *text, double *value)
+{
+    char *end = NULL;
+    double parsed = text != NULL ? strtod(text, &end) : -1.0;
+    if (text == NULL || end == text || *end != '\0' || !(parsed > 0.0) || !isfinite(parsed)) {
+        fprintf(stderr, "pgem: %s needs a positive number, got '%s'\n", option, text != NULL ? text : "");
+        return 0;
+    }
+    *value = parsed;
+    return 1;
+}
+
+int pgem_cli_write_weights(const pgem_t *instance, const char *path)
+{
+    FILE *file = fopen(path, "w");
+    if (file == NULL) {
+        fprintf(stderr, "pgem: %s: cannot open for writing: %s\n", path, strerror(errno));
+        return -1;
+    }
+    fprintf(file, "# from to weight state (one line per loop closure)\n");
+    for (uint32_t k = 0; k < pgem_edge_count(instance); k++) {
+        pgem_edge_view_t edge;
+        pgem_edge_at(instance, k, &edge);
+        if (edge.kind == PGEM_EDGE_LOOP) {
+            fprintf(file, "%llu %llu %.9g %s\n", (unsigned long long)edge.from,
+                    (unsigned long long)edge.to, edge.weight, edge.active ? "accepted" : "pruned");
+        }
+    }
+    if (fclose(file) != 0) {
+        fprintf(stderr, "pgem: %s: write failed: %s\n", path, strerror(errno));
+        return -1;
+    }
+    return 0;
 }

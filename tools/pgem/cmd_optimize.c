@@ -13,6 +13,8 @@ typedef struct pgem_optimize_args {
     uint32_t max_iterations;     /* 0: library default */
     int quiet;                   /* no per-iteration lines */
     int json;                    /* summary as one JSON object on stdout */
+    pgem_robust_options_t robust; /* --robust and its parameters */
+    const char *weights;         /* per-loop weights file (NULL: none) */
 } pgem_optimize_args_t;
 
 /* What the progress callback needs. */
@@ -26,7 +28,9 @@ static void pgem_optimize_help(FILE *out)
 {
     fprintf(out,
             "usage: pgem optimize IN [-o OUT.g2o] [--solver gn|lm] [--max-iterations N]\n"
-            "                        [--quiet] [--json]\n"
+            "                        [--robust em|cauchy|huber|dcs|none] [--robust-scale C]\n"
+            "                        [--prune-threshold T] [--m-step-iterations N] [--restart]\n"
+            "                        [--weights FILE] [--quiet] [--json]\n"
             "\n"
             "Reads a g2o (VERTEX_SE2/EDGE_SE2, VERTEX_SE3:QUAT/EDGE_SE3:QUAT, FIX) or TORO 2D\n"
             "(VERTEX2/EDGE2) graph, optimizes it from its own initial estimate and prints one\n"
@@ -35,6 +39,13 @@ static void pgem_optimize_help(FILE *out)
             "  -o OUT.g2o          write the optimized graph (g2o)\n"
             "  --solver gn|lm      Gauss-Newton (default) or Levenberg-Marquardt\n"
             "  --max-iterations N  iteration limit (default 100)\n"
+            "  --robust KERNEL     weight loop closures: em (Lee et al. EM with pruning),\n"
+            "                      cauchy, huber, dcs (IRLS), none (default)\n"
+            "  --robust-scale C    kernel scale: Cauchy c, Huber k, DCS phi (default 1)\n"
+            "  --prune-threshold T EM: prune loops whose weight falls below T (default 0.01)\n"
+            "  --m-step-iterations N  Gauss-Newton iterations per M-step (default 1)\n"
+            "  --restart           EM: restart from the initial estimate after pruning\n"
+            "  --weights FILE      write one line per loop closure: from to weight state\n"
             "  --quiet             no per-iteration lines\n"
             "  --json              print the summary as one JSON object on stdout (progress goes\n"
             "                      to stderr)\n");
@@ -70,6 +81,31 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
             if (!pgem_cli_parse_u32(arg, value, &args->max_iterations)) {
                 return PGEM_EXIT_USAGE;
             }
+            k++;
+        } else if (strcmp(arg, "--robust") == 0) {
+            if (!pgem_cli_parse_kernel(value, &args->robust.kernel)) {
+                return PGEM_EXIT_USAGE;
+            }
+            k++;
+        } else if (strcmp(arg, "--robust-scale") == 0 || strcmp(arg, "--prune-threshold") == 0) {
+            double *target = arg[2] == 'r' ? &args->robust.scale : &args->robust.prune_threshold;
+            if (!pgem_cli_parse_positive(arg, value, target)) {
+                return PGEM_EXIT_USAGE;
+            }
+            k++;
+        } else if (strcmp(arg, "--m-step-iterations") == 0) {
+            if (!pgem_cli_parse_u32(arg, value, &args->robust.m_step_iterations)) {
+                return PGEM_EXIT_USAGE;
+            }
+            k++;
+        } else if (strcmp(arg, "--restart") == 0) {
+            args->robust.restart = 1;
+        } else if (strcmp(arg, "--weights") == 0) {
+            if (value == NULL) {
+                fprintf(stderr, "pgem optimize: --weights needs a file name\n");
+                return PGEM_EXIT_USAGE;
+            }
+            args->weights = value;
             k++;
         } else if (strcmp(arg, "--quiet") == 0) {
             args->quiet = 1;
@@ -155,8 +191,62 @@ static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, cons
     }
 }
 
+static int pgem_round_line(const pgem_robust_progress_t *progress, void *user)
+{
+    const pgem_progress_t *state = user;
+    if (!state->quiet) {
+        fprintf(state->out, "round %3u: %6u active loops, %6u pruned, chi2 %14.6f, largest weight change %.3g, %.3f s\n",
+                progress->round, progress->active_loops, progress->pruned_loops, progress->chi2,
+                progress->largest_change, pgem_cli_now() - state->start);
+        fflush(state->out);
+    }
+    return 0;
+}
+
+static int pgem_robust_run(const pgem_optimize_args_t *args, pgem_t *graph)
+{
+    FILE *progress_out = args->json ? stderr : stdout;
+    pgem_progress_t progress = {progress_out, pgem_cli_now(), args->quiet};
+    pgem_robust_options_t robust = args->robust;
+    pgem_solve_options_t solve = {0};
+    pgem_robust_summary_t summary;
+    solve.method = args->method;
+    robust.on_round = pgem_round_line;
+    robust.user = &progress;
+    int status = pgem_robust_optimize(graph, &robust, &solve, &summary);
+    double seconds = pgem_cli_now() - progress.start;
+    if (args->json) {
+        printf("{\"input\":\"%s\",\"robust\":\"%s\",\"status\":\"%s\",\"rounds\":%u,"
+               "\"em_iterations\":%u,\"gn_iterations\":%u,\"loops\":%u,\"pruned\":%u,"
+               "\"initial_chi2\":%.10g,\"final_chi2\":%.10g,\"solve_seconds\":%.6f}\n",
+               args->input, pgem_kernel_name(robust.kernel), pgem_error_name(status), summary.rounds,
+               summary.em_iterations, summary.gn_iterations, summary.loops, summary.pruned,
+               summary.initial_chi2, summary.final_chi2, seconds);
+    } else {
+        fprintf(progress_out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures pruned; chi2 %.6f -> %.6f in %.4f s\n",
+                pgem_kernel_name(robust.kernel), summary.rounds, summary.em_iterations,
+                summary.gn_iterations, summary.pruned, summary.loops, summary.initial_chi2,
+                summary.final_chi2, seconds);
+    }
+    if (status != PGEM_OK) {
+        fprintf(stderr, "pgem: robust solve failed: %s; the estimate is the one before the solve\n",
+                pgem_last_error(graph));
+        return PGEM_EXIT_FAILURE;
+    }
+    if (args->weights != NULL && pgem_cli_write_weights(graph, args->weights) != 0) {
+        return PGEM_EXIT_IO;
+    }
+    if (args->output != NULL && pgem_cli_write(graph, args->output) != PGEM_OK) {
+        return PGEM_EXIT_IO;
+    }
+    return PGEM_EXIT_OK;
+}
+
 static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph)
 {
+    if (args->robust.kernel != PGEM_KERNEL_NONE) {
+        return pgem_robust_run(args, graph);
+    }
     FILE *progress_out = args->json ? stderr : stdout;
     pgem_progress_t progress = {progress_out, 0.0, args->quiet};
     pgem_solve_options_t options = {0};

@@ -63,6 +63,7 @@ static void pgem_carve_graph(pgem_t *graph, pgem_arena_t *arena)
     graph->pose = pgem_arena_take(arena, poses * (size_t)graph->pose_size, sizeof(double));
     graph->pose_saved = pgem_arena_take(arena, poses * (size_t)graph->pose_size, sizeof(double));
     graph->pose_accepted = pgem_arena_take(arena, poses * (size_t)graph->pose_size, sizeof(double));
+    graph->pose_initial = pgem_arena_take(arena, poses * (size_t)graph->pose_size, sizeof(double));
     graph->pose_fixed = pgem_arena_take(arena, poses, 1);
     graph->map_mask = pgem_map_slots(graph->config.max_poses) - 1u;
     graph->map_slot = pgem_arena_take(arena, (size_t)graph->map_mask + 1u, sizeof(uint32_t));

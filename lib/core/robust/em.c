@@ -1,0 +1,189 @@
+/* Robust solves: the EM loop of Lee et al. (E-step weights, weighted Gauss-Newton M-step,
+ * pruning rounds) and IRLS for the other kernels. Weights live on the edges, in the block. */
+#include <math.h>
+#include <string.h>
+
+#include "internal.h"
+
+static pgem_robust_options_t pgem_robust_resolve(const pgem_robust_options_t *options)
+{
+    pgem_robust_options_t out;
+    memset(&out, 0, sizeof out);
+    if (options != NULL) {
+        out = *options;
+    }
+    out.scale = out.scale > 0.0 ? out.scale : 1.0;
+    out.prune_threshold = out.prune_threshold > 0.0 ? out.prune_threshold : 0.01;
+    out.weight_tolerance = out.weight_tolerance > 0.0 ? out.weight_tolerance : 1e-3;
+    out.m_step_iterations = out.m_step_iterations > 0u ? out.m_step_iterations : 1u;
+    out.max_em_iterations = out.max_em_iterations > 0u ? out.max_em_iterations : 100u;
+    out.max_rounds = out.max_rounds > 0u ? out.max_rounds : 20u;
+    return out;
+}
+
+void pgem_robust_reset(pgem_t *graph)
+{
+    if (graph == NULL) {
+        return;
+    }
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        graph->edge_weight[k] = 1.0;
+        graph->edge_active[k] = 1u;
+    }
+}
+
+/* E-step: every active loop closure's weight from its chi2 under the current estimate;
+ * returns the largest change. */
+static double pgem_e_step(pgem_t *graph, const pgem_robust_options_t *options)
+{
+    double largest = 0.0;
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        if (graph->edge_kind[k] != PGEM_EDGE_LOOP || !graph->edge_active[k]) {
+            continue;
+        }
+        double weight = pgem_kernel_weight(options->kernel, pgem_edge_mahalanobis(graph, k),
+                                           options->scale);
+        largest = fmax(largest, fabs(weight - graph->edge_weight[k]));
+        graph->edge_weight[k] = weight;
+    }
+    return largest;
+}
+
+/* Prunes active loops whose weight fell below the threshold; returns how many. */
+static uint32_t pgem_prune(pgem_t *graph, double threshold)
+{
+    uint32_t pruned = 0;
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        if (graph->edge_kind[k] == PGEM_EDGE_LOOP && graph->edge_active[k] &&
+            graph->edge_weight[k] < threshold) {
+            graph->edge_active[k] = 0u;
+            pruned++;
+        }
+    }
+    return pruned;
+}
+
+static void pgem_count_loops(const pgem_t *graph, pgem_robust_summary_t *summary,
+                             pgem_robust_progress_t *progress)
+{
+    progress->active_loops = progress->pruned_loops = 0;
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        if (graph->edge_kind[k] == PGEM_EDGE_LOOP) {
+            progress->active_loops += graph->edge_active[k];
+            progress->pruned_loops += !graph->edge_active[k];
+        }
+    }
+    summary->loops = progress->active_loops + progress->pruned_loops;
+    summary->pruned = progress->pruned_loops;
+}
+
+/* M-step: a few weighted Gauss-Newton iterations from the current estimate. */
+static int pgem_m_step(pgem_t *graph, const pgem_robust_options_t *options,
+                       const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+{
+    pgem_solve_options_t inner;
+    pgem_summary_t result;
+    memset(&inner, 0, sizeof inner);
+    if (solve != NULL) {
+        inner = *solve;
+    }
+    inner.max_iterations = options->m_step_iterations;
+    int status = pgem_optimize(graph, &inner, &result);
+    summary->gn_iterations += result.iterations;
+    summary->em_iterations++;
+    return status;
+}
+
+/* E/M iterations until no weight moves more than the tolerance. */
+static int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
+                           const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
+                           double *largest_change)
+{
+    for (uint32_t iteration = 0; iteration < options->max_em_iterations; iteration++) {
+        *largest_change = pgem_e_step(graph, options);
+        if (iteration > 0 && *largest_change < options->weight_tolerance) {
+            return PGEM_OK;
+        }
+        int status = pgem_m_step(graph, options, solve, summary);
+        if (status != PGEM_OK) {
+            return status;
+        }
+    }
+    *largest_change = pgem_e_step(graph, options);
+    return PGEM_OK;
+}
+
+static void pgem_restore_initial(pgem_t *graph)
+{
+    memcpy(graph->pose, graph->pose_initial,
+           (size_t)graph->pose_count * (size_t)graph->pose_size * sizeof(double));
+}
+
+/* Rounds of E/M iterations, each followed by pruning, until a round prunes nothing. */
+static int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
+                          const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+{
+    pgem_robust_progress_t progress;
+    memset(&progress, 0, sizeof progress);
+    for (uint32_t round = 1; round <= options->max_rounds; round++) {
+        int status = pgem_em_iterate(graph, options, solve, summary, &progress.largest_change);
+        if (status != PGEM_OK) {
+            return status;
+        }
+        uint32_t pruned = options->kernel == PGEM_KERNEL_EM ? pgem_prune(graph, options->prune_threshold) : 0u;
+        summary->rounds = round;
+        progress.round = round;
+        progress.chi2 = pgem_weighted_chi2(graph);
+        pgem_count_loops(graph, summary, &progress);
+        if (options->on_round != NULL && options->on_round(&progress, options->user)) {
+            return PGEM_OK;
+        }
+        if (pruned == 0u) {
+            return PGEM_OK;
+        }
+        if (options->restart) {
+            pgem_restore_initial(graph);
+        }
+    }
+    return PGEM_OK;
+}
+
+static int pgem_plain(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+{
+    pgem_summary_t result;
+    pgem_robust_reset(graph);
+    int status = pgem_optimize(graph, solve, &result);
+    summary->rounds = 1u;
+    summary->gn_iterations = result.iterations;
+    return status;
+}
+
+int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
+                         const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+{
+    pgem_robust_summary_t local;
+    pgem_robust_summary_t *out = summary != NULL ? summary : &local;
+    memset(out, 0, sizeof *out);
+    if (graph == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    pgem_robust_options_t resolved = pgem_robust_resolve(options);
+    if (resolved.kernel < PGEM_KERNEL_NONE || resolved.kernel > PGEM_KERNEL_DCS) {
+        return pgem_fail(graph, PGEM_ERR_INVALID_ARGUMENT, "unknown robust kernel");
+    }
+    const size_t pose_bytes = (size_t)graph->pose_count * (size_t)graph->pose_size * sizeof(double);
+    memcpy(graph->pose_initial, graph->pose, pose_bytes);
+    out->initial_chi2 = pgem_total_chi2(graph);
+    int status = resolved.kernel == PGEM_KERNEL_NONE ? pgem_plain(graph, solve, out)
+                                                     : pgem_em_rounds(graph, &resolved, solve, out);
+    if (status != PGEM_OK) {
+        memcpy(graph->pose, graph->pose_initial, pose_bytes);
+        return status;
+    }
+    pgem_robust_progress_t progress;
+    pgem_count_loops(graph, out, &progress);
+    out->final_chi2 = pgem_weighted_chi2(graph);
+    out->usable = 1;
+    pgem_message_clear(graph);
+    return PGEM_OK;
+}
