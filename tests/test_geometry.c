@@ -6,6 +6,7 @@
 #include <cmocka.h>
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include <pgem/geometry.h>
@@ -16,6 +17,12 @@
 #define JACOBIAN_TOLERANCE 1e-6
 /* Configurations this close to a discontinuity of the error are not differentiated. */
 #define DISCONTINUITY_MARGIN 1e-3
+
+/* Buffer sizes that fit either group: SE(3) poses have 7 numbers, its tangents 6. */
+#define POSE_MAX 7
+#define TANGENT_MAX 6
+#define JACOBIAN_MAX (TANGENT_MAX * TANGENT_MAX)
+#define LABEL_SIZE 64
 
 /* ---- deterministic random numbers (splitmix64) ---------------------------------------- */
 
@@ -45,6 +52,13 @@ static void random_unit_vector(rng_t *rng, double v[3]) {
     v[2] = z;
 }
 
+static void random_axis_angle(rng_t *rng, double angle, double phi[3]) {
+    random_unit_vector(rng, phi);
+    for (int k = 0; k < 3; ++k) {
+        phi[k] *= angle;
+    }
+}
+
 /* Uniformly distributed unit quaternion (Shoemake). */
 static void random_quaternion(rng_t *rng, double q[4]) {
     const double u1 = rng_uniform(rng, 0.0, 1.0);
@@ -66,6 +80,20 @@ static void random_se3(rng_t *rng, double pose[7]) {
         pose[k] = rng_uniform(rng, -10.0, 10.0);
     }
     random_quaternion(rng, pose + 3);
+}
+
+/* Tangents for the exp/log round trips: translation in [-5, 5), rotation by exactly angle. */
+static void random_se2_tangent(rng_t *rng, double angle, double tangent[3]) {
+    tangent[0] = rng_uniform(rng, -5.0, 5.0);
+    tangent[1] = rng_uniform(rng, -5.0, 5.0);
+    tangent[2] = angle;
+}
+
+static void random_se3_tangent(rng_t *rng, double angle, double tangent[6]) {
+    for (int k = 0; k < 3; ++k) {
+        tangent[k] = rng_uniform(rng, -5.0, 5.0);
+    }
+    random_axis_angle(rng, angle, tangent + 3);
 }
 
 /* ---- comparison helpers ---------------------------------------------------------------- */
@@ -118,6 +146,340 @@ static void assert_identical(const double *a, const double *b, int n, const char
     }
 }
 
+/* ---- the two groups, as the shared checks below see them ------------------------------- */
+
+typedef void (*binary_op)(const double *, const double *, double *);
+typedef void (*unary_op)(const double *, double *);
+typedef void (*error_op)(const double *, const double *, const double *, double *, double *,
+                         double *);
+
+typedef struct {
+    const char *name; /* "se2" or "se3": the prefix of every message */
+    int pose_size;    /* 3 or 7 */
+    int tangent_size; /* 3 or 6; errors and steps have this size, Jacobians its square */
+    const double *identity;
+    error_op error;
+    binary_op boxplus, between, compose;
+    unary_op inverse, exp_map, log_map;
+    void (*random_pose)(rng_t *rng, double *pose);
+    void (*random_tangent)(rng_t *rng, double angle, double *tangent);
+    void (*assert_pose_near)(const double *a, const double *b, double tolerance,
+                             const char *what);
+    /* Asserts a computed pose is in canonical form; NULL where nothing is asserted. */
+    void (*assert_canonical)(const double *pose);
+    /* Nonzero for an error too close to a discontinuity to differentiate numerically. */
+    int (*near_discontinuity)(const double *e);
+} group_t;
+
+static void assert_se2_canonical(const double pose[3]) {
+    assert_true(pose[2] > -PI && pose[2] <= PI);
+}
+
+/* The wrapped angle error jumps at +-pi. */
+static int se2_near_discontinuity(const double e[3]) {
+    return PI - fabs(e[2]) < DISCONTINUITY_MARGIN;
+}
+
+/* The sign flip that keeps w >= 0 jumps at w = 0. */
+static int se3_near_discontinuity(const double e[6]) {
+    const double w_squared = 1.0 - (e[3] * e[3] + e[4] * e[4] + e[5] * e[5]);
+    return w_squared < DISCONTINUITY_MARGIN * DISCONTINUITY_MARGIN;
+}
+
+static const double se2_identity[3] = {0.0, 0.0, 0.0};
+static const double se3_identity[7] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0};
+
+static const group_t se2_group = {
+    .name = "se2",
+    .pose_size = 3,
+    .tangent_size = 3,
+    .identity = se2_identity,
+    .error = pgem_se2_error,
+    .boxplus = pgem_se2_boxplus,
+    .between = pgem_se2_between,
+    .compose = pgem_se2_compose,
+    .inverse = pgem_se2_inverse,
+    .exp_map = pgem_se2_exp,
+    .log_map = pgem_se2_log,
+    .random_pose = random_se2,
+    .random_tangent = random_se2_tangent,
+    .assert_pose_near = assert_se2_near,
+    .assert_canonical = assert_se2_canonical,
+    .near_discontinuity = se2_near_discontinuity,
+};
+
+static const group_t se3_group = {
+    .name = "se3",
+    .pose_size = 7,
+    .tangent_size = 6,
+    .identity = se3_identity,
+    .error = pgem_se3_error,
+    .boxplus = pgem_se3_boxplus,
+    .between = pgem_se3_between,
+    .compose = pgem_se3_compose,
+    .inverse = pgem_se3_inverse,
+    .exp_map = pgem_se3_exp,
+    .log_map = pgem_se3_log,
+    .random_pose = random_se3,
+    .random_tangent = random_se3_tangent,
+    .assert_pose_near = assert_se3_near,
+    .assert_canonical = NULL,
+    .near_discontinuity = se3_near_discontinuity,
+};
+
+/* Writes the message "<group name><suffix>" into label and returns it. */
+static const char *group_label(const group_t *group, const char *suffix,
+                               char label[LABEL_SIZE]) {
+    snprintf(label, LABEL_SIZE, "%s%s", group->name, suffix);
+    return label;
+}
+
+/* ---- checks shared by both groups ------------------------------------------------------- */
+
+/* Inverse, between and associativity on random triples. */
+static void check_group_identities(const group_t *g, rng_t *rng, int samples) {
+    for (int n = 0; n < samples; ++n) {
+        double a[POSE_MAX], b[POSE_MAX], c[POSE_MAX], inv[POSE_MAX], out[POSE_MAX];
+        double ab[POSE_MAX], back[POSE_MAX], bc[POSE_MAX], lhs[POSE_MAX], rhs[POSE_MAX];
+        g->random_pose(rng, a);
+        g->random_pose(rng, b);
+        g->random_pose(rng, c);
+        g->inverse(a, inv);
+        g->compose(a, inv, out);
+        g->assert_pose_near(out, g->identity, 1e-13, "a * a^-1");
+        g->compose(inv, a, out);
+        g->assert_pose_near(out, g->identity, 1e-13, "a^-1 * a");
+        g->compose(a, b, ab);
+        g->between(a, ab, back);
+        g->assert_pose_near(back, b, 1e-12, "between(a, a * b)");
+        g->compose(inv, b, out);
+        g->between(a, b, back);
+        g->assert_pose_near(back, out, 1e-12, "between = inverse * b");
+        g->compose(ab, c, lhs);
+        g->compose(b, c, bc);
+        g->compose(a, bc, rhs);
+        g->assert_pose_near(lhs, rhs, 1e-12, "associativity");
+        if (g->assert_canonical != NULL) {
+            g->assert_canonical(ab);
+            g->assert_canonical(inv);
+        }
+    }
+}
+
+/* per_angle random tangents for each rotation angle: log(exp(t)) = t and exp(log(p)) = p. */
+static void check_exp_log_round_trips(const group_t *g, rng_t *rng, const double *angles,
+                                      size_t angle_count, int per_angle) {
+    char log_of_exp[LABEL_SIZE], exp_of_log[LABEL_SIZE];
+    group_label(g, " log(exp(t))", log_of_exp);
+    group_label(g, " exp(log(p))", exp_of_log);
+    for (size_t k = 0; k < angle_count; ++k) {
+        for (int n = 0; n < per_angle; ++n) {
+            double tangent[TANGENT_MAX], pose[POSE_MAX], back[TANGENT_MAX], again[POSE_MAX];
+            g->random_tangent(rng, angles[k], tangent);
+            g->exp_map(tangent, pose);
+            g->log_map(pose, back);
+            assert_vec_near(back, tangent, g->tangent_size, 1e-12, log_of_exp);
+            g->exp_map(back, again);
+            g->assert_pose_near(again, pose, 1e-12, exp_of_log);
+        }
+    }
+}
+
+/* The series branches agree with the closed forms where they meet: exp and log of tangents
+ * just below and just above a threshold, over the first exp_count / log_count numbers. */
+static void check_exp_log_continuity(const group_t *g, const double *below, const double *above,
+                                     int exp_count, int log_count, double tolerance) {
+    double exp_below[POSE_MAX], exp_above[POSE_MAX], log_below[TANGENT_MAX], log_above[TANGENT_MAX];
+    char label[LABEL_SIZE];
+    g->exp_map(below, exp_below);
+    g->exp_map(above, exp_above);
+    assert_vec_near(exp_below, exp_above, exp_count, tolerance,
+                    group_label(g, " exp continuity", label));
+    g->log_map(exp_below, log_below);
+    g->log_map(exp_above, log_above);
+    assert_vec_near(log_below, below, log_count, tolerance, group_label(g, " log below", label));
+    assert_vec_near(log_above, above, log_count, tolerance, group_label(g, " log above", label));
+}
+
+/* exp is a one-parameter subgroup: exp(s t) exp(r t) = exp((s + r) t); V = I would fail this. */
+static void check_exp_subgroup(const group_t *g, const double *t, double s, double r) {
+    double part_a[TANGENT_MAX], part_b[TANGENT_MAX], whole[TANGENT_MAX];
+    double exp_a[POSE_MAX], exp_b[POSE_MAX], product[POSE_MAX], exp_whole[POSE_MAX];
+    char label[LABEL_SIZE];
+    for (int k = 0; k < g->tangent_size; ++k) {
+        part_a[k] = s * t[k];
+        part_b[k] = r * t[k];
+        whole[k] = (s + r) * t[k];
+    }
+    g->exp_map(part_a, exp_a);
+    g->exp_map(part_b, exp_b);
+    g->compose(exp_a, exp_b, product);
+    g->exp_map(whole, exp_whole);
+    g->assert_pose_near(product, exp_whole, 1e-12, group_label(g, " exp subgroup", label));
+}
+
+/* The error with both Jacobians is expected; without Jacobians it is the same to the bit. */
+static void check_error_value(const group_t *g, const double *xi, const double *xj,
+                              const double *z, const double *expected, const char *what) {
+    double e[TANGENT_MAX], e_plain[TANGENT_MAX], ji[JACOBIAN_MAX], jj[JACOBIAN_MAX];
+    char label[LABEL_SIZE];
+    g->error(xi, xj, z, e, ji, jj);
+    assert_vec_near(e, expected, g->tangent_size, 1e-15, what);
+    g->error(xi, xj, z, e_plain, NULL, NULL);
+    assert_identical(e_plain, e, g->tangent_size,
+                     group_label(g, " error without Jacobians", label));
+}
+
+/* A perfect measurement gives zero error; jacobian_i and jacobian_j (either may be NULL) are
+ * passed on to the error. */
+static void check_exact_measurements(const group_t *g, rng_t *rng, int samples,
+                                     double *jacobian_i, double *jacobian_j) {
+    const double zero[TANGENT_MAX] = {0.0};
+    char label[LABEL_SIZE];
+    group_label(g, " error of exact measurement", label);
+    for (int n = 0; n < samples; ++n) {
+        double p[POSE_MAX], q[POSE_MAX], m[POSE_MAX], e[TANGENT_MAX];
+        g->random_pose(rng, p);
+        g->random_pose(rng, q);
+        g->between(p, q, m);
+        g->error(p, q, m, e, jacobian_i, jacobian_j);
+        assert_vec_near(e, zero, g->tangent_size, 1e-12, label);
+    }
+}
+
+typedef struct {
+    double max_abs;
+    double max_rel;
+} discrepancy_t;
+
+/* Compares two row-major dim x dim Jacobians entry by entry and records the worst gap. */
+static void compare_jacobian(const double *analytic, const double *numeric, int dim,
+                             discrepancy_t *worst, const char *what) {
+    for (int k = 0; k < dim * dim; ++k) {
+        const double diff = fabs(analytic[k] - numeric[k]);
+        const double scale = fmax(1.0, fabs(analytic[k]));
+        worst->max_abs = fmax(worst->max_abs, diff);
+        worst->max_rel = fmax(worst->max_rel, diff / scale);
+        if (!(diff <= JACOBIAN_TOLERANCE * scale)) {
+            fail_msg("%s entry (%d, %d): analytic %.12g numeric %.12g", what, k / dim, k % dim,
+                     analytic[k], numeric[k]);
+        }
+    }
+}
+
+/* Central differences of the error wrt the group's perturbation (boxplus) of xi
+ * (wrt_xj == 0) or of xj (wrt_xj != 0). */
+static void numeric_jacobian(const group_t *g, const double *xi, const double *xj,
+                             const double *z, int wrt_xj, double *jacobian) {
+    const int dim = g->tangent_size;
+    const double *x = wrt_xj ? xj : xi;
+    for (int c = 0; c < dim; ++c) {
+        double step[TANGENT_MAX] = {0.0}, back[TANGENT_MAX] = {0.0};
+        double plus[POSE_MAX], minus[POSE_MAX], e_plus[TANGENT_MAX], e_minus[TANGENT_MAX];
+        step[c] = JACOBIAN_STEP;
+        back[c] = -JACOBIAN_STEP;
+        g->boxplus(x, step, plus);
+        g->boxplus(x, back, minus);
+        if (wrt_xj) {
+            g->error(xi, plus, z, e_plus, NULL, NULL);
+            g->error(xi, minus, z, e_minus, NULL, NULL);
+        } else {
+            g->error(plus, xj, z, e_plus, NULL, NULL);
+            g->error(minus, xj, z, e_minus, NULL, NULL);
+        }
+        for (int r = 0; r < dim; ++r) {
+            jacobian[r * dim + c] = (e_plus[r] - e_minus[r]) / (2.0 * JACOBIAN_STEP);
+        }
+    }
+}
+
+/* Half the measurements are near-consistent (small error), half arbitrary. */
+static void random_measurement(const group_t *g, rng_t *rng, const double *xi, const double *xj,
+                               double *z) {
+    if (rng_next(rng) & 1u) {
+        double noise[TANGENT_MAX];
+        for (int k = 0; k < g->tangent_size; ++k) {
+            noise[k] = rng_uniform(rng, -0.1, 0.1);
+        }
+        g->between(xi, xj, z);
+        g->boxplus(z, noise, z);
+    } else {
+        g->random_pose(rng, z);
+    }
+}
+
+/* Analytic Jacobians against central differences on JACOBIAN_SAMPLES random configurations
+ * away from the error's discontinuity; fewer than one in ten may be skipped. */
+static void check_jacobians(const group_t *g, rng_t *rng) {
+    discrepancy_t worst = {0.0, 0.0};
+    int checked = 0, skipped = 0;
+    char label_i[LABEL_SIZE], label_j[LABEL_SIZE];
+    group_label(g, " jacobian_i", label_i);
+    group_label(g, " jacobian_j", label_j);
+    while (checked < JACOBIAN_SAMPLES) {
+        double xi[POSE_MAX], xj[POSE_MAX], z[POSE_MAX], e[TANGENT_MAX];
+        double ji[JACOBIAN_MAX], jj[JACOBIAN_MAX], ni[JACOBIAN_MAX], nj[JACOBIAN_MAX];
+        g->random_pose(rng, xi);
+        g->random_pose(rng, xj);
+        random_measurement(g, rng, xi, xj, z);
+        g->error(xi, xj, z, e, ji, jj);
+        if (g->near_discontinuity(e)) {
+            ++skipped;
+            continue;
+        }
+        numeric_jacobian(g, xi, xj, z, 0, ni);
+        numeric_jacobian(g, xi, xj, z, 1, nj);
+        compare_jacobian(ji, ni, g->tangent_size, &worst, label_i);
+        compare_jacobian(jj, nj, g->tangent_size, &worst, label_j);
+        ++checked;
+    }
+    assert_true(skipped < JACOBIAN_SAMPLES / 10);
+    print_message("%s: %d configurations, %d skipped, max |diff| %.3g, max rel %.3g\n", g->name,
+                  checked, skipped, worst.max_abs, worst.max_rel);
+}
+
+/* Runs op(a, b) into a fresh buffer, then with out aliasing a; where a and b are of a kind
+ * (n_a == n_b) also with out aliasing b, and both. All must agree. */
+static void check_binary_aliasing(binary_op op, const double *a, const double *b, int n_a,
+                                  int n_b, int n_out, const char *what) {
+    double expected[8], buffer[8], other[8];
+    op(a, b, expected);
+    memcpy(buffer, a, (size_t)n_a * sizeof(double));
+    op(buffer, b, buffer);
+    assert_identical(buffer, expected, n_out, what);
+    if (n_a == n_b) {
+        memcpy(buffer, b, (size_t)n_b * sizeof(double));
+        op(a, buffer, buffer);
+        assert_identical(buffer, expected, n_out, what);
+        op(a, a, expected);
+        memcpy(other, a, (size_t)n_a * sizeof(double));
+        op(other, other, other);
+        assert_identical(other, expected, n_out, what);
+    }
+}
+
+static void check_unary_aliasing(unary_op op, const double *a, int n, const char *what) {
+    double expected[8], buffer[8];
+    op(a, expected);
+    memcpy(buffer, a, (size_t)n * sizeof(double));
+    op(buffer, buffer);
+    assert_identical(buffer, expected, n, what);
+}
+
+/* compose, between, boxplus (by delta) and inverse of one group with out aliasing inputs. */
+static void check_group_aliasing(const group_t *g, const double *a, const double *b,
+                                 const double *delta) {
+    const int pose = g->pose_size;
+    char label[LABEL_SIZE];
+    check_binary_aliasing(g->compose, a, b, pose, pose, pose,
+                          group_label(g, "_compose aliasing", label));
+    check_binary_aliasing(g->between, a, b, pose, pose, pose,
+                          group_label(g, "_between aliasing", label));
+    check_binary_aliasing(g->boxplus, a, delta, pose, g->tangent_size, pose,
+                          group_label(g, "_boxplus aliasing", label));
+    check_unary_aliasing(g->inverse, a, pose, group_label(g, "_inverse aliasing", label));
+}
+
 /* ---- angle wrapping --------------------------------------------------------------------- */
 
 static void test_wrap_angle_boundaries(void **state) {
@@ -159,30 +521,7 @@ static void test_wrap_angle_random(void **state) {
 static void test_se2_group_identities(void **state) {
     rng_t rng = {21};
     (void)state;
-    const double identity[3] = {0.0, 0.0, 0.0};
-    for (int n = 0; n < 2000; ++n) {
-        double a[3], b[3], c[3], inv[3], out[3], ab[3], back[3], bc[3], lhs[3], rhs[3];
-        random_se2(&rng, a);
-        random_se2(&rng, b);
-        random_se2(&rng, c);
-        pgem_se2_inverse(a, inv);
-        pgem_se2_compose(a, inv, out);
-        assert_se2_near(out, identity, 1e-13, "a * a^-1");
-        pgem_se2_compose(inv, a, out);
-        assert_se2_near(out, identity, 1e-13, "a^-1 * a");
-        pgem_se2_compose(a, b, ab);
-        pgem_se2_between(a, ab, back);
-        assert_se2_near(back, b, 1e-12, "between(a, a * b)");
-        pgem_se2_compose(inv, b, out);
-        pgem_se2_between(a, b, back);
-        assert_se2_near(back, out, 1e-12, "between = inverse * b");
-        pgem_se2_compose(ab, c, lhs);
-        pgem_se2_compose(b, c, bc);
-        pgem_se2_compose(a, bc, rhs);
-        assert_se2_near(lhs, rhs, 1e-12, "associativity");
-        assert_true(ab[2] > -PI && ab[2] <= PI);
-        assert_true(inv[2] > -PI && inv[2] <= PI);
-    }
+    check_group_identities(&se2_group, &rng, 2000);
 }
 
 static void test_se2_known_values(void **state) {
@@ -207,14 +546,7 @@ static void test_se2_exp_log_threshold_continuity(void **state) {
     for (size_t k = 0; k < sizeof edges / sizeof edges[0]; ++k) {
         const double below[3] = {1.3, -0.7, nextafter(edges[k], 0.0)};
         const double above[3] = {1.3, -0.7, nextafter(edges[k], 1.0)};
-        double exp_below[3], exp_above[3], log_below[3], log_above[3];
-        pgem_se2_exp(below, exp_below);
-        pgem_se2_exp(above, exp_above);
-        assert_vec_near(exp_below, exp_above, 2, 1e-15, "se2 exp continuity");
-        pgem_se2_log(exp_below, log_below);
-        pgem_se2_log(exp_above, log_above);
-        assert_vec_near(log_below, below, 2, 1e-15, "se2 log below");
-        assert_vec_near(log_above, above, 2, 1e-15, "se2 log above");
+        check_exp_log_continuity(&se2_group, below, above, 2, 2, 1e-15);
     }
 }
 
@@ -224,39 +556,18 @@ static void test_se2_exp_log(void **state) {
     const double angles[] = {0.0,  1e-12, -1e-12,      1e-8,         -1e-8,        1e-4, 1e-3,
                              -1e-3, 0.5,  2.0,          -2.5,         PI - 1e-6,    PI - 1e-9,
                              PI,   -PI + 1e-9, -PI + 1e-6, PI - 1e-12};
-    for (size_t k = 0; k < sizeof angles / sizeof angles[0]; ++k) {
-        for (int n = 0; n < 50; ++n) {
-            const double tangent[3] = {rng_uniform(&rng, -5.0, 5.0), rng_uniform(&rng, -5.0, 5.0),
-                                       angles[k]};
-            double pose[3], back[3], again[3];
-            pgem_se2_exp(tangent, pose);
-            pgem_se2_log(pose, back);
-            assert_vec_near(back, tangent, 3, 1e-12, "se2 log(exp(t))");
-            pgem_se2_exp(back, again);
-            assert_se2_near(again, pose, 1e-12, "se2 exp(log(p))");
-        }
-    }
+    check_exp_log_round_trips(&se2_group, &rng, angles, sizeof angles / sizeof angles[0], 50);
 }
 
-/* exp is a one-parameter subgroup: exp(s t) exp(r t) = exp((s + r) t); V = I would fail this. */
 static void test_se2_exp_subgroup(void **state) {
     rng_t rng = {41};
     (void)state;
     for (int n = 0; n < 2000; ++n) {
-        double t[3], part_a[3], part_b[3], exp_a[3], exp_b[3], product[3], whole[3];
+        double t[3];
         const double s = rng_uniform(&rng, -1.0, 1.0), r = rng_uniform(&rng, -1.0, 1.0);
         random_se2(&rng, t);
         t[2] = rng_uniform(&rng, -1.5, 1.5);
-        for (int k = 0; k < 3; ++k) {
-            part_a[k] = s * t[k];
-            part_b[k] = r * t[k];
-            whole[k] = (s + r) * t[k];
-        }
-        pgem_se2_exp(part_a, exp_a);
-        pgem_se2_exp(part_b, exp_b);
-        pgem_se2_compose(exp_a, exp_b, product);
-        pgem_se2_exp(whole, whole);
-        assert_se2_near(product, whole, 1e-12, "se2 exp subgroup");
+        check_exp_subgroup(&se2_group, t, s, r);
     }
     /* A quarter turn while moving 1 forward ends at (2/pi, 2/pi). */
     const double quarter[3] = {1.0, 0.0, 0.5 * PI};
@@ -286,111 +597,23 @@ static void test_se2_boxplus(void **state) {
 
 static void test_se2_error_values(void **state) {
     (void)state;
-    double e[3], ji[9], jj[9], e_plain[3];
+    double e[3], ji[9], jj[9];
     const double xi[3] = {0.0, 0.0, 0.5 * PI}, xj[3] = {0.0, 1.0, 0.5 * PI + 0.1};
     const double z[3] = {1.0, 0.0, 0.5};
-    pgem_se2_error(xi, xj, z, e, ji, jj);
     const double expected[3] = {0.0, 0.0, -0.4};
-    assert_vec_near(e, expected, 3, 1e-15, "se2 error value");
-    pgem_se2_error(xi, xj, z, e_plain, NULL, NULL);
-    assert_identical(e_plain, e, 3, "se2 error without Jacobians");
+    check_error_value(&se2_group, xi, xj, z, expected, "se2 error value");
     /* The angle error wraps: 3 -> -3 is a small positive turn. */
-    const double a[3] = {0.0, 0.0, 3.0}, b[3] = {0.0, 0.0, -3.0}, none[3] = {0.0, 0.0, 0.0};
-    pgem_se2_error(a, b, none, e, NULL, jj);
+    const double a[3] = {0.0, 0.0, 3.0}, b[3] = {0.0, 0.0, -3.0};
+    pgem_se2_error(a, b, se2_identity, e, NULL, jj);
     assert_near(e[2], 2.0 * PI - 6.0, 1e-15, "se2 error wraps");
-    /* A perfect measurement gives zero error. */
     rng_t rng = {61};
-    for (int n = 0; n < 1000; ++n) {
-        double p[3], q[3], m[3];
-        random_se2(&rng, p);
-        random_se2(&rng, q);
-        pgem_se2_between(p, q, m);
-        pgem_se2_error(p, q, m, e, ji, NULL);
-        assert_vec_near(e, none, 3, 1e-12, "se2 error of exact measurement");
-    }
-}
-
-typedef struct {
-    double max_abs;
-    double max_rel;
-} discrepancy_t;
-
-/* Compares two row-major dim x dim Jacobians entry by entry and records the worst gap. */
-static void compare_jacobian(const double *analytic, const double *numeric, int dim,
-                             discrepancy_t *worst, const char *what) {
-    for (int k = 0; k < dim * dim; ++k) {
-        const double diff = fabs(analytic[k] - numeric[k]);
-        const double scale = fmax(1.0, fabs(analytic[k]));
-        worst->max_abs = fmax(worst->max_abs, diff);
-        worst->max_rel = fmax(worst->max_rel, diff / scale);
-        if (!(diff <= JACOBIAN_TOLERANCE * scale)) {
-            fail_msg("%s entry (%d, %d): analytic %.12g numeric %.12g", what, k / dim, k % dim,
-                     analytic[k], numeric[k]);
-        }
-    }
-}
-
-/* Central differences of the SE(2) error wrt the additive perturbation of xi or xj. */
-static void se2_numeric_jacobians(const double xi[3], const double xj[3], const double z[3],
-                                  double ji[9], double jj[9]) {
-    for (int c = 0; c < 3; ++c) {
-        double step[3] = {0.0, 0.0, 0.0}, back[3] = {0.0, 0.0, 0.0};
-        double plus[3], minus[3], e_plus[3], e_minus[3];
-        step[c] = JACOBIAN_STEP;
-        back[c] = -JACOBIAN_STEP;
-        pgem_se2_boxplus(xi, step, plus);
-        pgem_se2_boxplus(xi, back, minus);
-        pgem_se2_error(plus, xj, z, e_plus, NULL, NULL);
-        pgem_se2_error(minus, xj, z, e_minus, NULL, NULL);
-        for (int r = 0; r < 3; ++r) {
-            ji[r * 3 + c] = (e_plus[r] - e_minus[r]) / (2.0 * JACOBIAN_STEP);
-        }
-        pgem_se2_boxplus(xj, step, plus);
-        pgem_se2_boxplus(xj, back, minus);
-        pgem_se2_error(xi, plus, z, e_plus, NULL, NULL);
-        pgem_se2_error(xi, minus, z, e_minus, NULL, NULL);
-        for (int r = 0; r < 3; ++r) {
-            jj[r * 3 + c] = (e_plus[r] - e_minus[r]) / (2.0 * JACOBIAN_STEP);
-        }
-    }
-}
-
-/* Half the measurements are near-consistent (small error), half arbitrary. */
-static void se2_random_measurement(rng_t *rng, const double xi[3], const double xj[3],
-                                   double z[3]) {
-    if (rng_next(rng) & 1u) {
-        const double noise[3] = {rng_uniform(rng, -0.1, 0.1), rng_uniform(rng, -0.1, 0.1),
-                                 rng_uniform(rng, -0.1, 0.1)};
-        pgem_se2_between(xi, xj, z);
-        pgem_se2_boxplus(z, noise, z);
-    } else {
-        random_se2(rng, z);
-    }
+    check_exact_measurements(&se2_group, &rng, 1000, ji, NULL);
 }
 
 static void test_se2_jacobians(void **state) {
     rng_t rng = {71};
-    discrepancy_t worst = {0.0, 0.0};
-    int checked = 0, skipped = 0;
     (void)state;
-    while (checked < JACOBIAN_SAMPLES) {
-        double xi[3], xj[3], z[3], e[3], ji[9], jj[9], ni[9], nj[9];
-        random_se2(&rng, xi);
-        random_se2(&rng, xj);
-        se2_random_measurement(&rng, xi, xj, z);
-        pgem_se2_error(xi, xj, z, e, ji, jj);
-        if (PI - fabs(e[2]) < DISCONTINUITY_MARGIN) {
-            ++skipped;
-            continue;
-        }
-        se2_numeric_jacobians(xi, xj, z, ni, nj);
-        compare_jacobian(ji, ni, 3, &worst, "se2 jacobian_i");
-        compare_jacobian(jj, nj, 3, &worst, "se2 jacobian_j");
-        ++checked;
-    }
-    assert_true(skipped < JACOBIAN_SAMPLES / 10);
-    print_message("se2: %d configurations, %d skipped, max |diff| %.3g, max rel %.3g\n", checked,
-                  skipped, worst.max_abs, worst.max_rel);
+    check_jacobians(&se2_group, &rng);
 }
 
 /* ---- quaternions and SO(3) -------------------------------------------------------------- */
@@ -432,13 +655,6 @@ static void test_quaternion_helpers(void **state) {
     double out[3];
     pgem_quat_rotate(quarter_z, x_axis, out);
     assert_vec_near(out, y_axis, 3, 1e-15, "quarter turn about z");
-}
-
-static void random_axis_angle(rng_t *rng, double angle, double phi[3]) {
-    random_unit_vector(rng, phi);
-    for (int k = 0; k < 3; ++k) {
-        phi[k] *= angle;
-    }
 }
 
 static void test_so3_exp_log(void **state) {
@@ -523,28 +739,7 @@ static void test_so3_exp_geometry(void **state) {
 static void test_se3_group_identities(void **state) {
     rng_t rng = {111};
     (void)state;
-    const double identity[7] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0};
-    for (int n = 0; n < 2000; ++n) {
-        double a[7], b[7], c[7], inv[7], out[7], ab[7], back[7], bc[7], lhs[7], rhs[7];
-        random_se3(&rng, a);
-        random_se3(&rng, b);
-        random_se3(&rng, c);
-        pgem_se3_inverse(a, inv);
-        pgem_se3_compose(a, inv, out);
-        assert_se3_near(out, identity, 1e-13, "a * a^-1");
-        pgem_se3_compose(inv, a, out);
-        assert_se3_near(out, identity, 1e-13, "a^-1 * a");
-        pgem_se3_compose(a, b, ab);
-        pgem_se3_between(a, ab, back);
-        assert_se3_near(back, b, 1e-12, "between(a, a * b)");
-        pgem_se3_compose(inv, b, out);
-        pgem_se3_between(a, b, back);
-        assert_se3_near(back, out, 1e-12, "between = inverse * b");
-        pgem_se3_compose(ab, c, lhs);
-        pgem_se3_compose(b, c, bc);
-        pgem_se3_compose(a, bc, rhs);
-        assert_se3_near(lhs, rhs, 1e-12, "associativity");
-    }
+    check_group_identities(&se3_group, &rng, 2000);
     /* compose applies b in a's frame: a translation of 1 along x turned a quarter about z. */
     const double a[7] = {1.0, 2.0, 3.0, 0.0, 0.0, sqrt(0.5), sqrt(0.5)};
     const double b[7] = {1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0};
@@ -559,54 +754,24 @@ static void test_se3_exp_log(void **state) {
     (void)state;
     const double angles[] = {0.0, 1e-12, 1e-8, 1e-4, 1e-3 * (1.0 - 1e-9), 1e-3 * (1.0 + 1e-9),
                              0.1, 1.0,   3.0,  PI - 1e-6, PI - 1e-9};
-    for (size_t k = 0; k < sizeof angles / sizeof angles[0]; ++k) {
-        for (int n = 0; n < 100; ++n) {
-            double tangent[6], pose[7], back[6], again[7];
-            for (int i = 0; i < 3; ++i) {
-                tangent[i] = rng_uniform(&rng, -5.0, 5.0);
-            }
-            random_axis_angle(&rng, angles[k], tangent + 3);
-            pgem_se3_exp(tangent, pose);
-            pgem_se3_log(pose, back);
-            assert_vec_near(back, tangent, 6, 1e-12, "se3 log(exp(t))");
-            pgem_se3_exp(back, again);
-            assert_se3_near(again, pose, 1e-12, "se3 exp(log(p))");
-        }
-    }
-    /* The series branches agree with the closed forms where they meet. */
+    check_exp_log_round_trips(&se3_group, &rng, angles, sizeof angles / sizeof angles[0], 100);
     /* A long translation magnifies any mismatch of the V coefficients. */
     const double below[6] = {30.0, -20.0, 5.0, 0.0, 0.0, nextafter(1e-3, 0.0)};
     const double above[6] = {30.0, -20.0, 5.0, 0.0, 0.0, nextafter(1e-3, 1.0)};
-    double exp_below[7], exp_above[7], log_below[6], log_above[6];
-    pgem_se3_exp(below, exp_below);
-    pgem_se3_exp(above, exp_above);
-    assert_vec_near(exp_below, exp_above, 7, 2e-14, "se3 exp continuity");
-    pgem_se3_log(exp_below, log_below);
-    pgem_se3_log(exp_above, log_above);
-    assert_vec_near(log_below, below, 6, 2e-14, "se3 log below");
-    assert_vec_near(log_above, above, 6, 2e-14, "se3 log above");
+    check_exp_log_continuity(&se3_group, below, above, 7, 6, 2e-14);
 }
 
 static void test_se3_exp_subgroup_and_planar(void **state) {
     rng_t rng = {131};
     (void)state;
     for (int n = 0; n < 2000; ++n) {
-        double t[6], part_a[6], part_b[6], whole[6], exp_a[7], exp_b[7], product[7], exp_whole[7];
+        double t[6];
         const double s = rng_uniform(&rng, -1.0, 1.0), r = rng_uniform(&rng, -1.0, 1.0);
         for (int i = 0; i < 3; ++i) {
             t[i] = rng_uniform(&rng, -5.0, 5.0);
         }
         random_axis_angle(&rng, rng_uniform(&rng, 0.0, 1.5), t + 3);
-        for (int i = 0; i < 6; ++i) {
-            part_a[i] = s * t[i];
-            part_b[i] = r * t[i];
-            whole[i] = (s + r) * t[i];
-        }
-        pgem_se3_exp(part_a, exp_a);
-        pgem_se3_exp(part_b, exp_b);
-        pgem_se3_compose(exp_a, exp_b, product);
-        pgem_se3_exp(whole, exp_whole);
-        assert_se3_near(product, exp_whole, 1e-12, "se3 exp subgroup");
+        check_exp_subgroup(&se3_group, t, s, r);
         /* A planar twist moves exactly like the SE(2) exponential. */
         const double planar[6] = {t[0], t[1], 0.0, 0.0, 0.0, t[5]};
         const double planar2[3] = {t[0], t[1], t[5]};
@@ -648,111 +813,38 @@ static void test_se3_boxplus(void **state) {
 
 static void test_se3_error_values(void **state) {
     (void)state;
-    double e[6], e_plain[6], ji[36], jj[36];
-    const double identity[7] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0};
+    double e[6], jj[36];
     /* 1.5 turns of pi about z has w < 0; the error flips to w >= 0. */
     const double xj[7] = {1.0, 2.0, 3.0, 0.0, 0.0, sin(0.75 * PI), cos(0.75 * PI)};
-    pgem_se3_error(identity, xj, identity, e, ji, jj);
     const double expected[6] = {1.0, 2.0, 3.0, 0.0, 0.0, -sin(0.75 * PI)};
-    assert_vec_near(e, expected, 6, 1e-15, "se3 error flips sign");
-    pgem_se3_error(identity, xj, identity, e_plain, NULL, NULL);
-    assert_identical(e_plain, e, 6, "se3 error without Jacobians");
+    check_error_value(&se3_group, se3_identity, xj, se3_identity, expected,
+                      "se3 error flips sign");
     /* A rotation error of a about an axis shows as sin(a / 2) axis. */
-    const double z[7] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0};
     double xk[7];
     const double phi[3] = {0.0, 0.3, 0.0};
     for (int k = 0; k < 3; ++k) {
         xk[k] = 0.0;
     }
     pgem_so3_exp(phi, xk + 3);
-    pgem_se3_error(identity, xk, z, e, NULL, NULL);
+    pgem_se3_error(se3_identity, xk, se3_identity, e, NULL, NULL);
     const double rotation_error[6] = {0.0, 0.0, 0.0, 0.0, sin(0.15), 0.0};
     assert_vec_near(e, rotation_error, 6, 1e-15, "se3 rotation error");
-    /* A perfect measurement gives zero error. */
     rng_t rng = {151};
-    for (int n = 0; n < 1000; ++n) {
-        double p[7], q[7], m[7];
-        random_se3(&rng, p);
-        random_se3(&rng, q);
-        pgem_se3_between(p, q, m);
-        pgem_se3_error(p, q, m, e, NULL, jj);
-        assert_vec_near(e, z, 6, 1e-12, "se3 error of exact measurement");
-    }
-}
-
-/* Central differences of the SE(3) error wrt the right decoupled perturbation of xi or xj. */
-static void se3_numeric_jacobians(const double xi[7], const double xj[7], const double z[7],
-                                  double ji[36], double jj[36]) {
-    for (int c = 0; c < 6; ++c) {
-        double step[6] = {0.0}, back[6] = {0.0};
-        double plus[7], minus[7], e_plus[6], e_minus[6];
-        step[c] = JACOBIAN_STEP;
-        back[c] = -JACOBIAN_STEP;
-        pgem_se3_boxplus(xi, step, plus);
-        pgem_se3_boxplus(xi, back, minus);
-        pgem_se3_error(plus, xj, z, e_plus, NULL, NULL);
-        pgem_se3_error(minus, xj, z, e_minus, NULL, NULL);
-        for (int r = 0; r < 6; ++r) {
-            ji[r * 6 + c] = (e_plus[r] - e_minus[r]) / (2.0 * JACOBIAN_STEP);
-        }
-        pgem_se3_boxplus(xj, step, plus);
-        pgem_se3_boxplus(xj, back, minus);
-        pgem_se3_error(xi, plus, z, e_plus, NULL, NULL);
-        pgem_se3_error(xi, minus, z, e_minus, NULL, NULL);
-        for (int r = 0; r < 6; ++r) {
-            jj[r * 6 + c] = (e_plus[r] - e_minus[r]) / (2.0 * JACOBIAN_STEP);
-        }
-    }
-}
-
-/* Half the measurements are near-consistent (small error), half arbitrary. */
-static void se3_random_measurement(rng_t *rng, const double xi[7], const double xj[7],
-                                   double z[7]) {
-    if (rng_next(rng) & 1u) {
-        double noise[6];
-        for (int k = 0; k < 6; ++k) {
-            noise[k] = rng_uniform(rng, -0.1, 0.1);
-        }
-        pgem_se3_between(xi, xj, z);
-        pgem_se3_boxplus(z, noise, z);
-    } else {
-        random_se3(rng, z);
-    }
+    check_exact_measurements(&se3_group, &rng, 1000, NULL, jj);
 }
 
 static void test_se3_jacobians(void **state) {
     rng_t rng = {161};
-    discrepancy_t worst = {0.0, 0.0};
-    int checked = 0, skipped = 0;
     (void)state;
-    while (checked < JACOBIAN_SAMPLES) {
-        double xi[7], xj[7], z[7], e[6], ji[36], jj[36], ni[36], nj[36];
-        random_se3(&rng, xi);
-        random_se3(&rng, xj);
-        se3_random_measurement(&rng, xi, xj, z);
-        pgem_se3_error(xi, xj, z, e, ji, jj);
-        const double w_squared = 1.0 - (e[3] * e[3] + e[4] * e[4] + e[5] * e[5]);
-        if (w_squared < DISCONTINUITY_MARGIN * DISCONTINUITY_MARGIN) {
-            ++skipped;
-            continue;
-        }
-        se3_numeric_jacobians(xi, xj, z, ni, nj);
-        compare_jacobian(ji, ni, 6, &worst, "se3 jacobian_i");
-        compare_jacobian(jj, nj, 6, &worst, "se3 jacobian_j");
-        ++checked;
-    }
-    assert_true(skipped < JACOBIAN_SAMPLES / 10);
-    print_message("se3: %d configurations, %d skipped, max |diff| %.3g, max rel %.3g\n", checked,
-                  skipped, worst.max_abs, worst.max_rel);
+    check_jacobians(&se3_group, &rng);
 }
 
 /* At a zero error the Jacobians have the textbook form [-I 0; 0 -I/2] and [I 0; 0 I/2]. */
 static void test_se3_jacobian_at_identity(void **state) {
     (void)state;
     const double pose[7] = {1.0, -2.0, 0.5, 0.0, sqrt(0.5), 0.0, sqrt(0.5)};
-    const double identity[7] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0};
     double e[6], ji[36], jj[36];
-    pgem_se3_error(pose, pose, identity, e, ji, jj);
+    pgem_se3_error(pose, pose, se3_identity, e, ji, jj);
     for (int r = 0; r < 6; ++r) {
         assert_near(e[r], 0.0, 1e-15, "zero error");
         for (int c = 0; c < 6; ++c) {
@@ -764,68 +856,6 @@ static void test_se3_jacobian_at_identity(void **state) {
 }
 
 /* ---- aliasing ----------------------------------------------------------------------------- */
-
-typedef void (*binary_op)(const double *, const double *, double *);
-
-/* Runs op(a, b) into a fresh buffer, then with out aliasing a, b, and both; all must agree. */
-static void check_binary_aliasing(binary_op op, const double *a, const double *b, int n_a,
-                                  int n_b, int n_out, const char *what) {
-    double expected[8], buffer[8], other[8];
-    op(a, b, expected);
-    memcpy(buffer, a, (size_t)n_a * sizeof(double));
-    op(buffer, b, buffer);
-    assert_identical(buffer, expected, n_out, what);
-    memcpy(buffer, b, (size_t)n_b * sizeof(double));
-    op(a, buffer, buffer);
-    assert_identical(buffer, expected, n_out, what);
-    if (n_a == n_b) {
-        op(a, a, expected);
-        memcpy(other, a, (size_t)n_a * sizeof(double));
-        op(other, other, other);
-        assert_identical(other, expected, n_out, what);
-    }
-}
-
-typedef void (*unary_op)(const double *, double *);
-
-static void check_unary_aliasing(unary_op op, const double *a, int n, const char *what) {
-    double expected[8], buffer[8];
-    op(a, expected);
-    memcpy(buffer, a, (size_t)n * sizeof(double));
-    op(buffer, buffer);
-    assert_identical(buffer, expected, n, what);
-}
-
-static void se2_compose_op(const double *a, const double *b, double *out) {
-    pgem_se2_compose(a, b, out);
-}
-static void se2_between_op(const double *a, const double *b, double *out) {
-    pgem_se2_between(a, b, out);
-}
-static void se2_boxplus_op(const double *a, const double *b, double *out) {
-    pgem_se2_boxplus(a, b, out);
-}
-static void quat_multiply_op(const double *a, const double *b, double *out) {
-    pgem_quat_multiply(a, b, out);
-}
-static void quat_rotate_op(const double *q, const double *v, double *out) {
-    pgem_quat_rotate(q, v, out);
-}
-static void se3_compose_op(const double *a, const double *b, double *out) {
-    pgem_se3_compose(a, b, out);
-}
-static void se3_between_op(const double *a, const double *b, double *out) {
-    pgem_se3_between(a, b, out);
-}
-static void se3_boxplus_op(const double *a, const double *b, double *out) {
-    pgem_se3_boxplus(a, b, out);
-}
-static void se2_inverse_op(const double *a, double *out) {
-    pgem_se2_inverse(a, out);
-}
-static void se3_inverse_op(const double *a, double *out) {
-    pgem_se3_inverse(a, out);
-}
 
 static void test_aliasing(void **state) {
     rng_t rng = {171};
@@ -842,24 +872,14 @@ static void test_aliasing(void **state) {
         for (int k = 0; k < 6; ++k) {
             d3[k] = rng_uniform(&rng, -1.0, 1.0);
         }
-        check_binary_aliasing(se2_compose_op, a2, b2, 3, 3, 3, "se2_compose aliasing");
-        check_binary_aliasing(se2_between_op, a2, b2, 3, 3, 3, "se2_between aliasing");
-        check_binary_aliasing(se2_boxplus_op, a2, b2, 3, 3, 3, "se2_boxplus aliasing");
-        check_unary_aliasing(se2_inverse_op, a2, 3, "se2_inverse aliasing");
-        check_binary_aliasing(quat_multiply_op, qa, qb, 4, 4, 4, "quat_multiply aliasing");
+        check_group_aliasing(&se2_group, a2, b2, b2);
+        check_binary_aliasing(pgem_quat_multiply, qa, qb, 4, 4, 4, "quat_multiply aliasing");
         double expected[3], buffer[3];
-        quat_rotate_op(qa, v, expected);
+        pgem_quat_rotate(qa, v, expected);
         memcpy(buffer, v, sizeof buffer);
         pgem_quat_rotate(qa, buffer, buffer);
         assert_identical(buffer, expected, 3, "quat_rotate aliasing");
-        check_binary_aliasing(se3_compose_op, a3, b3, 7, 7, 7, "se3_compose aliasing");
-        check_binary_aliasing(se3_between_op, a3, b3, 7, 7, 7, "se3_between aliasing");
-        check_unary_aliasing(se3_inverse_op, a3, 7, "se3_inverse aliasing");
-        double boxed[7], alias[7];
-        se3_boxplus_op(a3, d3, boxed);
-        memcpy(alias, a3, sizeof alias);
-        pgem_se3_boxplus(alias, d3, alias);
-        assert_identical(alias, boxed, 7, "se3_boxplus aliasing");
+        check_group_aliasing(&se3_group, a3, b3, d3);
     }
 }
 
