@@ -52,7 +52,7 @@ void free(void *pointer)
 static void build(pgem_t *graph, double *truth, int dimension)
 {
     if (dimension == 2) {
-        test_ring_2d(graph, 200, 7, 0.02, 3, truth);
+        test_ring_2d(graph, 200, 7, 0.02, 0.02, 3, truth);
         return;
     }
     double information[36];

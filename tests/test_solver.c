@@ -19,7 +19,7 @@ static void test_exact_ring_recovers_truth(void **state)
     (void)state;
     double truth[3 * RING], result[3 * RING];
     pgem_t *graph = test_create(2, RING, 2 * RING);
-    test_ring_2d(graph, RING, 5, 0.0, 1, truth);
+    test_ring_2d(graph, RING, 5, 0.0, 0.0, 1, truth);
     /* spoil the initial estimate so there is work to do */
     for (int k = 1; k < RING; k++) {
         double spoiled[3] = {truth[3 * k] + 0.3 * sin(k), truth[3 * k + 1] - 0.2, truth[3 * k + 2] + 0.1};
@@ -43,8 +43,8 @@ static void test_gn_and_lm_agree_on_noisy_ring(void **state)
     (void)state;
     double truth[3 * RING];
     pgem_t *gn = test_create(2, RING, 2 * RING), *lm = test_create(2, RING, 2 * RING);
-    test_ring_2d(gn, RING, 4, 0.02, 7, truth);
-    test_ring_2d(lm, RING, 4, 0.02, 7, truth);
+    test_ring_2d(gn, RING, 4, 0.02, 0.02, 7, truth);
+    test_ring_2d(lm, RING, 4, 0.02, 0.02, 7, truth);
     pgem_summary_t gn_summary, lm_summary;
     pgem_solve_options_t options = {0};
     assert_int_equal(pgem_optimize(gn, &options, &gn_summary), PGEM_OK);
@@ -116,7 +116,7 @@ static void test_singular_restores_estimate(void **state)
     (void)state;
     double truth[3 * 10], before[3 * 12], after[3 * 12], information[9];
     pgem_t *graph = test_create(2, 12, 20);
-    test_ring_2d(graph, 10, 3, 0.01, 3, truth);
+    test_ring_2d(graph, 10, 3, 0.01, 0.01, 3, truth);
     test_diagonal_information(3, 1.0, information);
     double p[3] = {5, 5, 0}, q[3] = {6, 5, 0.1}, z[3] = {1.2, 0.1, 0};
     assert_int_equal(pgem_add_pose(graph, 100, p), PGEM_OK);
@@ -167,7 +167,7 @@ static void test_fill_budget_reports_need(void **state)
     pgem_config_t config = {2, RING, 2 * RING, 50};
     pgem_t *graph = NULL;
     assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
-    test_ring_2d(graph, RING, 5, 0.01, 5, truth);
+    test_ring_2d(graph, RING, 5, 0.01, 0.01, 5, truth);
     snapshot(graph, before);
     pgem_summary_t summary;
     assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_ERR_FILL_BUDGET);
@@ -182,7 +182,7 @@ static void test_fill_budget_reports_need(void **state)
     /* exactly the reported need is enough */
     config.fill_budget = stats.factor_nonzeros;
     assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
-    test_ring_2d(graph, RING, 5, 0.01, 5, truth);
+    test_ring_2d(graph, RING, 5, 0.01, 0.01, 5, truth);
     assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_OK);
     pgem_destroy(graph);
 }
@@ -199,7 +199,7 @@ static void test_callback_can_stop(void **state)
     (void)state;
     double truth[3 * RING];
     pgem_t *graph = test_create(2, RING, 2 * RING);
-    test_ring_2d(graph, RING, 5, 0.05, 9, truth);
+    test_ring_2d(graph, RING, 5, 0.05, 0.05, 9, truth);
     int calls = 0;
     pgem_solve_options_t options = {0};
     options.on_iteration = stop_after_first;
@@ -219,7 +219,7 @@ static void test_analysis_once_per_topology(void **state)
     double truth[3 * RING], information[9];
     test_diagonal_information(3, 100.0, information);
     pgem_t *graph = test_create(2, RING, 2 * RING);
-    test_ring_2d(graph, RING, 5, 0.01, 11, truth);
+    test_ring_2d(graph, RING, 5, 0.01, 0.01, 11, truth);
     pgem_memory_stats_t stats;
     assert_int_equal(pgem_optimize(graph, NULL, NULL), PGEM_OK);
     assert_int_equal(pgem_optimize(graph, NULL, NULL), PGEM_OK);

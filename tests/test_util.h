@@ -62,14 +62,16 @@ static inline pgem_t *test_create(int dimension, uint32_t poses, uint32_t edges)
 }
 
 /* A 2D ring of n poses (radius 10) with odometry and loop closures every `stride` poses;
- * ground truth into truth[3 n]; measurements exact plus Gaussian noise of `sigma`; initial
+ * ground truth into truth[3 n]; odometry with Gaussian noise of `sigma` (x, y) and
+ * `heading_sigma` (theta), loop closures exact; information matches the noise; initial
  * estimate = odometry composition. */
-static inline void test_ring_2d(pgem_t *graph, int n, int stride, double sigma, uint64_t seed,
-                                double *truth)
+static inline void test_ring_2d(pgem_t *graph, int n, int stride, double sigma,
+                                double heading_sigma, uint64_t seed, double *truth)
 {
     test_rng_t rng = {seed};
     double information[9];
     test_diagonal_information(3, 1.0 / (sigma * sigma + 1e-12), information);
+    information[8] = 1.0 / (heading_sigma * heading_sigma + 1e-12);
     for (int k = 0; k < n; k++) {
         double angle = 6.283185307179586 * k / n;
         truth[3 * k] = 10.0 * cos(angle);
@@ -82,7 +84,7 @@ static inline void test_ring_2d(pgem_t *graph, int n, int stride, double sigma, 
         double z[3];
         pgem_se2_between(truth + 3 * (k - 1), truth + 3 * k, z);
         for (int d = 0; d < 3; d++) {
-            z[d] += sigma * test_gaussian(&rng);
+            z[d] += (d < 2 ? sigma : heading_sigma) * test_gaussian(&rng);
         }
         pgem_se2_compose(estimate, z, estimate);
         assert_int_equal(pgem_add_pose(graph, (pgem_id_t)k, estimate), PGEM_OK);

@@ -54,6 +54,12 @@ typedef struct pgem_robust_options {
     uint32_t max_rounds;             /* EM pruning rounds; 0 means 20 */
     int restart;                     /* EM: after pruning, restart from the initial estimate
                                         (1) or continue from the current one (0, default) */
+    int literal;                     /* EM: 1 = the paper's method as published; 0 (default)
+                                        adds two steps: pruned loops that pass a chi-square
+                                        test (99%) under the settled estimate are re-admitted
+                                        and EM runs again, and at the end every accepted loop
+                                        is re-solved at weight 1 ("polish"), so an
+                                        outlier-free graph reaches the plain optimum */
     pgem_robust_fn on_round;         /* may be NULL; return non-zero to stop */
     void *user;                      /* passed to on_round */
 } pgem_robust_options_t;
@@ -65,6 +71,7 @@ typedef struct pgem_robust_summary {
     uint32_t gn_iterations;          /* Gauss-Newton iterations over all M-steps */
     uint32_t loops;                  /* loop closures in the graph */
     uint32_t pruned;                 /* of them pruned */
+    uint32_t readmitted;             /* pruned loops re-admitted by the chi-square test */
     double initial_chi2;             /* unweighted chi2 before */
     double final_chi2;               /* weighted chi2 after (pruned loops excluded) */
     int usable;                      /* 1 if the estimate is the result of a successful solve */

@@ -30,6 +30,7 @@ static void pgem_optimize_help(FILE *out)
             "usage: pgem optimize IN [-o OUT.g2o] [--solver gn|lm] [--max-iterations N]\n"
             "                        [--robust em|cauchy|huber|dcs|none] [--robust-scale C]\n"
             "                        [--prune-threshold T] [--m-step-iterations N] [--restart]\n"
+            "                        [--literal]\n"
             "                        [--weights FILE] [--quiet] [--json]\n"
             "\n"
             "Reads a g2o (VERTEX_SE2/EDGE_SE2, VERTEX_SE3:QUAT/EDGE_SE3:QUAT, FIX) or TORO 2D\n"
@@ -45,6 +46,8 @@ static void pgem_optimize_help(FILE *out)
             "  --prune-threshold T EM: prune loops whose weight falls below T (default 0.01)\n"
             "  --m-step-iterations N  Gauss-Newton iterations per M-step (default 1)\n"
             "  --restart           EM: restart from the initial estimate after pruning\n"
+            "  --literal           EM exactly as published: keep the EM weights at the end\n"
+            "                      (default: re-solve with accepted loops at weight 1)\n"
             "  --weights FILE      write one line per loop closure: from to weight state\n"
             "  --quiet             no per-iteration lines\n"
             "  --json              print the summary as one JSON object on stdout (progress goes\n"
@@ -100,6 +103,8 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
             k++;
         } else if (strcmp(arg, "--restart") == 0) {
             args->robust.restart = 1;
+        } else if (strcmp(arg, "--literal") == 0) {
+            args->robust.literal = 1;
         } else if (strcmp(arg, "--weights") == 0) {
             if (value == NULL) {
                 fprintf(stderr, "pgem optimize: --weights needs a file name\n");

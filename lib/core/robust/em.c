@@ -77,9 +77,12 @@ static void pgem_count_loops(const pgem_t *graph, pgem_robust_summary_t *summary
     summary->pruned = progress->pruned_loops;
 }
 
-/* M-step: a few weighted Gauss-Newton iterations from the current estimate. */
+/* M-step: a few weighted Gauss-Newton iterations from the current estimate. *settled is set
+ * when they changed the weighted chi2 by less than 1e-6 relatively (the estimate is at the
+ * weighted optimum, so small weight changes mean EM has converged). */
 static int pgem_m_step(pgem_t *graph, const pgem_robust_options_t *options,
-                       const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+                       const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
+                       int *settled)
 {
     pgem_solve_options_t inner;
     pgem_summary_t result;
@@ -91,20 +94,22 @@ static int pgem_m_step(pgem_t *graph, const pgem_robust_options_t *options,
     int status = pgem_optimize(graph, &inner, &result);
     summary->gn_iterations += result.iterations;
     summary->em_iterations++;
+    *settled = fabs(result.initial_chi2 - result.final_chi2) <= 1e-6 * fmax(result.initial_chi2, 1e-300);
     return status;
 }
 
-/* E/M iterations until no weight moves more than the tolerance. */
+/* E/M iterations until the M-step has settled and no weight moves more than the tolerance. */
 static int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
                            const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
                            double *largest_change)
 {
+    int settled = 0;
     for (uint32_t iteration = 0; iteration < options->max_em_iterations; iteration++) {
         *largest_change = pgem_e_step(graph, options);
-        if (iteration > 0 && *largest_change < options->weight_tolerance) {
+        if (settled && *largest_change < options->weight_tolerance) {
             return PGEM_OK;
         }
-        int status = pgem_m_step(graph, options, solve, summary);
+        int status = pgem_m_step(graph, options, solve, summary, &settled);
         if (status != PGEM_OK) {
             return status;
         }
@@ -148,14 +153,57 @@ static int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
     return PGEM_OK;
 }
 
-static int pgem_plain(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+/* 99% quantile of the chi-square distribution with 3 and 6 degrees of freedom. */
+#define PGEM_CHI2_99_DOF3 11.345
+#define PGEM_CHI2_99_DOF6 16.812
+
+/* Re-activates pruned loops consistent with the current estimate; returns how many. */
+static uint32_t pgem_readmit(pgem_t *graph)
+{
+    const double gate = graph->tangent == 6 ? PGEM_CHI2_99_DOF6 : PGEM_CHI2_99_DOF3;
+    uint32_t readmitted = 0;
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        if (!graph->edge_active[k] && pgem_edge_mahalanobis(graph, k) < gate) {
+            graph->edge_active[k] = 1u;
+            readmitted++;
+        }
+    }
+    return readmitted;
+}
+
+/* EM rounds, then re-admission passes until no pruned loop fits the settled estimate. */
+static int pgem_em_with_readmission(pgem_t *graph, const pgem_robust_options_t *options,
+                                    const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+{
+    int status = pgem_em_rounds(graph, options, solve, summary);
+    for (uint32_t pass = 0; status == PGEM_OK && pass < options->max_rounds; pass++) {
+        uint32_t readmitted = pgem_readmit(graph);
+        if (readmitted == 0u) {
+            break;
+        }
+        summary->readmitted += readmitted;
+        status = pgem_em_rounds(graph, options, solve, summary);
+    }
+    return status;
+}
+
+/* Accepted loops back to weight 1, then Gauss-Newton to convergence. */
+static int pgem_polish(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
     pgem_summary_t result;
-    pgem_robust_reset(graph);
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        graph->edge_weight[k] = graph->edge_active[k] ? 1.0 : graph->edge_weight[k];
+    }
     int status = pgem_optimize(graph, solve, &result);
-    summary->rounds = 1u;
-    summary->gn_iterations = result.iterations;
+    summary->gn_iterations += result.iterations;
     return status;
+}
+
+static int pgem_plain(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+{
+    pgem_robust_reset(graph);
+    summary->rounds = 1u;
+    return pgem_polish(graph, solve, summary);
 }
 
 int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
@@ -174,8 +222,17 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     const size_t pose_bytes = (size_t)graph->pose_count * (size_t)graph->pose_size * sizeof(double);
     memcpy(graph->pose_initial, graph->pose, pose_bytes);
     out->initial_chi2 = pgem_total_chi2(graph);
-    int status = resolved.kernel == PGEM_KERNEL_NONE ? pgem_plain(graph, solve, out)
-                                                     : pgem_em_rounds(graph, &resolved, solve, out);
+    int status;
+    if (resolved.kernel == PGEM_KERNEL_NONE) {
+        status = pgem_plain(graph, solve, out);
+    } else if (resolved.kernel == PGEM_KERNEL_EM && !resolved.literal) {
+        status = pgem_em_with_readmission(graph, &resolved, solve, out);
+    } else {
+        status = pgem_em_rounds(graph, &resolved, solve, out);
+    }
+    if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_EM && !resolved.literal) {
+        status = pgem_polish(graph, solve, out);
+    }
     if (status != PGEM_OK) {
         memcpy(graph->pose, graph->pose_initial, pose_bytes);
         return status;
