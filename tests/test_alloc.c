@@ -105,6 +105,14 @@ static void check_no_allocation(int dimension, pgem_method_t method)
     /* and again (weights, estimates changed; topology not) */
     assert_int_equal(pgem_optimize(graph, &options, &summary), PGEM_OK);
     assert_int_equal(allocations, solve_allocations);
+    /* the EM robust solve: E-steps, M-steps, pruning, re-admission, polish */
+    pgem_robust_options_t robust = {0};
+    robust.kernel = PGEM_KERNEL_EM;
+    pgem_robust_summary_t robust_summary;
+    assert_int_equal(pgem_robust_optimize(graph, &robust, &options, &robust_summary), PGEM_OK);
+    assert_true(robust_summary.em_iterations >= 1);
+    assert_int_equal(allocations, solve_allocations);
+    assert_int_equal(releases, solve_releases);
 }
 
 static void test_optimize_allocates_nothing_2d_gn(void **state)
