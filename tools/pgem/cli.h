@@ -19,6 +19,11 @@ double pgem_cli_now(void);
 /* Parses a non-negative integer option value; prints an error and returns 0 on failure. */
 int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value);
 
+/* Deterministic random numbers for a seed on every platform (splitmix64): uniform in [0, 1)
+ * and standard normal (Box-Muller). */
+double pgem_cli_uniform(uint64_t *state);
+double pgem_cli_gaussian(uint64_t *state);
+
 /* Parses a robust kernel name (em, cauchy, huber, dcs, none); prints an error on failure. */
 int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel);
 

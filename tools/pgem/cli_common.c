@@ -148,3 +148,18 @@ int pgem_cli_write_weights(const pgem_t *instance, const char *path)
     }
     return 0;
 }
+
+double pgem_cli_uniform(uint64_t *state)
+{
+    uint64_t z = (*state += UINT64_C(0x9e3779b97f4a7c15));
+    z = (z ^ (z >> 30)) * UINT64_C(0xbf58476d1ce4e5b9);
+    z = (z ^ (z >> 27)) * UINT64_C(0x94d049bb133111eb);
+    z ^= z >> 31;
+    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
+}
+
+double pgem_cli_gaussian(uint64_t *state)
+{
+    double u = pgem_cli_uniform(state), v = pgem_cli_uniform(state);
+    return sqrt(-2.0 * log(u + 1e-300)) * cos(6.283185307179586 * v);
+}

@@ -23,18 +23,9 @@ typedef struct corrupt_args {
 
 static const char *const corrupt_policy_names[] = {"random", "local", "random-grouped", "local-grouped"};
 
-static double corrupt_uniform(uint64_t *state)
-{
-    uint64_t z = (*state += UINT64_C(0x9e3779b97f4a7c15));
-    z = (z ^ (z >> 30)) * UINT64_C(0xbf58476d1ce4e5b9);
-    z = (z ^ (z >> 27)) * UINT64_C(0x94d049bb133111eb);
-    z ^= z >> 31;
-    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
-}
-
 static size_t corrupt_index(uint64_t *state, size_t count)
 {
-    size_t index = (size_t)(corrupt_uniform(state) * (double)count);
+    size_t index = (size_t)(pgem_cli_uniform(state) * (double)count);
     return index < count ? index : count - 1u;
 }
 
@@ -112,17 +103,17 @@ static int corrupt_parse(int argc, char **argv, corrupt_args_t *args)
 static void corrupt_measurement(uint64_t *rng, int dimension, double *measurement)
 {
     for (int d = 0; d < 3; d++) {
-        measurement[d] = 20.0 * corrupt_uniform(rng) - 10.0;
+        measurement[d] = 20.0 * pgem_cli_uniform(rng) - 10.0;
     }
     if (dimension == 2) {
-        measurement[2] = pgem_wrap_angle(6.283185307179586 * corrupt_uniform(rng));
+        measurement[2] = pgem_wrap_angle(6.283185307179586 * pgem_cli_uniform(rng));
         return;
     }
     double q[4], norm = 0.0;
     do { /* uniform on the unit 3-sphere by rejection */
         norm = 0.0;
         for (int d = 0; d < 4; d++) {
-            q[d] = 2.0 * corrupt_uniform(rng) - 1.0;
+            q[d] = 2.0 * pgem_cli_uniform(rng) - 1.0;
             norm += q[d] * q[d];
         }
     } while (norm > 1.0 || norm < 1e-6);

@@ -23,22 +23,6 @@ typedef struct sim_args {
     double loop_probability;     /* chance a revisit yields a loop closure */
 } sim_args_t;
 
-/* splitmix64: deterministic for a seed on every platform. */
-static double sim_uniform(uint64_t *state)
-{
-    uint64_t z = (*state += UINT64_C(0x9e3779b97f4a7c15));
-    z = (z ^ (z >> 30)) * UINT64_C(0xbf58476d1ce4e5b9);
-    z = (z ^ (z >> 27)) * UINT64_C(0x94d049bb133111eb);
-    z ^= z >> 31;
-    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
-}
-
-static double sim_gaussian(uint64_t *state)
-{
-    double u = sim_uniform(state), v = sim_uniform(state);
-    return sqrt(-2.0 * log(u + 1e-300)) * cos(6.283185307179586 * v);
-}
-
 static void sim_help(FILE *out)
 {
     fprintf(out,
@@ -113,7 +97,7 @@ static int sim_parse(int argc, char **argv, sim_args_t *args)
 static int sim_heading(uint64_t *rng, const int *cell, int heading)
 {
     static const int step[4][2] = {{1, 0}, {0, 1}, {-1, 0}, {0, -1}};
-    double turn = sim_uniform(rng);
+    double turn = pgem_cli_uniform(rng);
     int next = turn < 0.15 ? (heading + 1) % 4 : turn < 0.3 ? (heading + 3) % 4 : heading;
     for (int tries = 0; tries < 4; tries++) {
         int x = cell[0] + step[next][0], y = cell[1] + step[next][1];
@@ -133,9 +117,9 @@ static void sim_edge(pgem_io_graph_t *graph, uint32_t from, uint32_t to, const d
     edge->from = from;
     edge->to = to;
     pgem_se2_between(truth + 3 * from, truth + 3 * to, edge->measurement);
-    edge->measurement[0] += args->sigma_translation * sim_gaussian(rng);
-    edge->measurement[1] += args->sigma_translation * sim_gaussian(rng);
-    edge->measurement[2] = pgem_wrap_angle(edge->measurement[2] + args->sigma_rotation * sim_gaussian(rng));
+    edge->measurement[0] += args->sigma_translation * pgem_cli_gaussian(rng);
+    edge->measurement[1] += args->sigma_translation * pgem_cli_gaussian(rng);
+    edge->measurement[2] = pgem_wrap_angle(edge->measurement[2] + args->sigma_rotation * pgem_cli_gaussian(rng));
     double t = 1.0 / fmax(args->sigma_translation * args->sigma_translation, 1e-12);
     double r = 1.0 / fmax(args->sigma_rotation * args->sigma_rotation, 1e-12);
     double information[9] = {t, 0, 0, 0, t, 0, 0, 0, r};
@@ -149,7 +133,7 @@ static void sim_loops(pgem_io_graph_t *graph, uint32_t k, uint32_t *visits, cons
 {
     for (int slot = 0; slot < SIM_SLOTS; slot++) {
         uint32_t earlier = visits[slot];
-        if (earlier != UINT32_MAX && earlier + SIM_MIN_GAP < k && sim_uniform(rng) < args->loop_probability) {
+        if (earlier != UINT32_MAX && earlier + SIM_MIN_GAP < k && pgem_cli_uniform(rng) < args->loop_probability) {
             sim_edge(graph, k, earlier, truth, args, rng);
         }
     }
