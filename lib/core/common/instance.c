@@ -3,11 +3,6 @@
 
 #include "internal.h"
 
-static int pgem_block_of(int dimension)
-{
-    return PGEM_TANGENT_SIZE(dimension);
-}
-
 int pgem_config_resolve(const pgem_config_t *config, pgem_config_t *resolved)
 {
     if (config == NULL || resolved == NULL) {
@@ -33,7 +28,7 @@ int pgem_config_resolve(const pgem_config_t *config, pgem_config_t *resolved)
     if (out.max_edges > PGEM_MAX_EDGES_LIMIT) {
         return PGEM_ERR_CONFIG;
     }
-    uint64_t block = (uint64_t)pgem_block_of(out.dimension);
+    uint64_t block = (uint64_t)PGEM_TANGENT_SIZE(out.dimension);
     if (out.fill_budget == 0) {
         uint64_t fill = (uint64_t)PGEM_DEFAULT_FILL_PER_POSE * block * block * out.max_poses;
         out.fill_budget = fill > (uint64_t)INT32_MAX ? (uint32_t)INT32_MAX : (uint32_t)fill;

@@ -112,13 +112,16 @@ static int pgem_factor_diagonal(pgem_linear_t *linear, int k, const double *diag
             return c;
         }
         double root = sqrt(pivot);
-        for (int r = c; r < b; r++) {
-            double sum = r == c ? root * root : diagonal[r * b + c];
-            for (int m = 0; m < c && r != c; m++) {
+        int slot = pgem_l_diag(linear, k, c, c);
+        values[slot] = root;
+        linear->factor_rows[slot] = k * b + c;
+        for (int r = c + 1; r < b; r++) {
+            double sum = diagonal[r * b + c];
+            for (int m = 0; m < c; m++) {
                 sum -= values[pgem_l_diag(linear, k, r, m)] * values[pgem_l_diag(linear, k, c, m)];
             }
-            int slot = pgem_l_diag(linear, k, r, c);
-            values[slot] = r == c ? root : sum / root;
+            slot = pgem_l_diag(linear, k, r, c);
+            values[slot] = sum / root;
             linear->factor_rows[slot] = k * b + r;
         }
     }

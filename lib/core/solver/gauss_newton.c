@@ -27,7 +27,10 @@ int pgem_gauss_newton(pgem_t *graph, const pgem_solve_options_t *options, pgem_s
             return pgem_fail_numeric(graph, "step", iteration);
         }
         pgem_apply_step(graph, linear->rhs);
-        double next = pgem_linear_assemble(graph);
+        /* the system is re-assembled only if another iteration will use it; after the last
+         * one (every M-step of EM, with one iteration) the chi2 alone is enough */
+        double next = iteration < options->max_iterations ? pgem_linear_assemble(graph)
+                                                          : pgem_weighted_chi2(graph);
         if (!isfinite(next)) {
             summary->termination = PGEM_TERM_NUMERIC;
             return pgem_fail_numeric(graph, "chi2", iteration);
