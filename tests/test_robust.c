@@ -224,6 +224,65 @@ static void test_deterministic_and_resettable(void **state)
     assert_memory_equal(weights[0], weights[1], sizeof weights[0]);
 }
 
+/* Pruned loops leave H's structure (a re-analysis without them), so long-range false loops
+ * stop costing fill once pruned; a reset brings them back. */
+static void test_pruned_loops_leave_the_structure(void **state)
+{
+    (void)state;
+    double truth[3 * RING];
+    uint32_t false_loops[FALSE_LOOPS];
+    pgem_t *graph = test_create(2, RING, 3 * RING);
+    test_ring_2d(graph, RING, 6, SIGMA, HEADING_SIGMA, 33, truth);
+    pgem_memory_stats_t clean, corrupted, after, reset;
+    assert_int_equal(pgem_analyze(graph), PGEM_OK);
+    pgem_get_memory_stats(graph, &clean);
+    add_false_loops(graph, FALSE_LOOPS, 77, false_loops);
+    assert_int_equal(pgem_analyze(graph), PGEM_OK);
+    pgem_get_memory_stats(graph, &corrupted);
+    assert_true(corrupted.factor_nonzeros > clean.factor_nonzeros);
+    pgem_robust_options_t options = em_options();
+    pgem_robust_summary_t summary;
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.pruned, FALSE_LOOPS);
+    pgem_get_memory_stats(graph, &after);
+    assert_int_equal(after.factor_nonzeros, clean.factor_nonzeros);
+    pgem_robust_reset(graph);
+    assert_int_equal(pgem_analyze(graph), PGEM_OK);
+    pgem_get_memory_stats(graph, &reset);
+    assert_int_equal(reset.factor_nonzeros, corrupted.factor_nonzeros);
+    pgem_destroy(graph);
+}
+
+/* The final consistency test prunes a false loop EM alone keeps. The loop claims a loose
+ * 0.2 m (so the chain, surer than that, barely bends to it) and is 1.5 m off: chi2 ~ 56 at the
+ * truth, weight ~ 0.018 > tau, so it survives the rounds, but it still fails the 99.9%
+ * chi-square gate under the polished estimate. The literal method keeps it. */
+static void test_consistency_gate_prunes_what_em_keeps(void **state)
+{
+    (void)state;
+    for (int literal = 0; literal <= 1; literal++) {
+        double truth[3 * RING];
+        pgem_t *graph = test_create(2, RING, 3 * RING);
+        test_ring_2d(graph, RING, 6, SIGMA, HEADING_SIGMA, 12, truth);
+        double z[3], information[9];
+        pgem_se2_between(truth + 3 * 30, truth + 3 * 60, z);
+        z[0] += 1.5;
+        test_diagonal_information(3, 1.0 / (0.2 * 0.2), information);
+        uint32_t bad;
+        assert_int_equal(pgem_add_edge(graph, 30, 60, z, information, PGEM_EDGE_LOOP, &bad), PGEM_OK);
+        pgem_robust_options_t options = em_options();
+        options.literal = literal;
+        pgem_robust_summary_t summary;
+        assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+        pgem_edge_view_t edge;
+        assert_int_equal(pgem_edge_at(graph, bad, &edge), PGEM_OK);
+        assert_int_equal(edge.active, literal);
+        assert_int_equal(summary.pruned, literal ? 0 : 1);
+        assert_int_equal(summary.gated, literal ? 0 : 1);
+        pgem_destroy(graph);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -234,6 +293,8 @@ int main(void)
         cmocka_unit_test(test_dcs_downweights_outliers),
         cmocka_unit_test(test_em_weights_are_cauchy_weights),
         cmocka_unit_test(test_deterministic_and_resettable),
+        cmocka_unit_test(test_pruned_loops_leave_the_structure),
+        cmocka_unit_test(test_consistency_gate_prunes_what_em_keeps),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -25,6 +25,8 @@ void *pgem_arena_take(pgem_arena_t *arena, size_t count, size_t item);
 /* Sparse structure and numeric workspace of the normal equations H dx = -b. */
 typedef struct pgem_linear {
     int valid;                 /* 1 while the structure matches the graph's topology */
+    int all_edges;             /* 1: the structure also holds pruned (inactive) edges, the
+                                  fallback when leaving them out would need more fill */
     int block;             /* scalar size of a pose block: 3 (2D) or 6 (3D) */
     int block_count;       /* free poses in the structure */
     int scalar_count;      /* block_count * block */
@@ -119,6 +121,11 @@ void pgem_edge_error(const pgem_t *graph, uint32_t k, double *error, double *jac
 double pgem_edge_mahalanobis(const pgem_t *graph, uint32_t k);
 
 /* Block pattern of H (linalg/pattern.c). */
+/* 1 if edge k has a place in H's structure (active, or every edge in the fallback). */
+static inline int pgem_edge_in_structure(const pgem_t *graph, uint32_t k)
+{
+    return graph->linear.all_edges || graph->edge_active[k];
+}
 int pgem_pattern_number_free(pgem_t *graph);
 int pgem_pattern_order(pgem_t *graph, int block_count);
 void pgem_pattern_build(pgem_t *graph, int block_count, int *colptr, int *rows, int *work);

@@ -30,7 +30,7 @@ static void pgem_optimize_help(FILE *out)
             "usage: pgem optimize IN [-o OUT.g2o] [--solver gn|lm] [--max-iterations N]\n"
             "                        [--robust em|cauchy|huber|dcs|none] [--robust-scale C]\n"
             "                        [--prune-threshold T] [--m-step-iterations N] [--restart]\n"
-            "                        [--literal]\n"
+            "                        [--max-em-iterations N] [--gate X] [--literal]\n"
             "                        [--weights FILE] [--quiet] [--json]\n"
             "\n"
             "Reads a g2o (VERTEX_SE2/EDGE_SE2, VERTEX_SE3:QUAT/EDGE_SE3:QUAT, FIX) or TORO 2D\n"
@@ -45,6 +45,9 @@ static void pgem_optimize_help(FILE *out)
             "  --robust-scale C    kernel scale: Cauchy c, Huber k, DCS phi (default 1)\n"
             "  --prune-threshold T EM: prune loops whose weight falls below T (default 0.01)\n"
             "  --m-step-iterations N  Gauss-Newton iterations per M-step (default 1)\n"
+            "  --max-em-iterations N  EM: E/M iterations per pruning round (default 100)\n"
+            "  --gate X            EM: chi2 of the final consistency test (default: 99.9%%\n"
+            "                      chi-square quantile, 16.27 in 2D, 22.46 in 3D)\n"
             "  --restart           EM: restart from the initial estimate after pruning\n"
             "  --literal           EM exactly as published: keep the EM weights at the end\n"
             "                      (default: re-solve with accepted loops at weight 1)\n"
@@ -98,6 +101,16 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
             k++;
         } else if (strcmp(arg, "--m-step-iterations") == 0) {
             if (!pgem_cli_parse_u32(arg, value, &args->robust.m_step_iterations)) {
+                return PGEM_EXIT_USAGE;
+            }
+            k++;
+        } else if (strcmp(arg, "--max-em-iterations") == 0) {
+            if (!pgem_cli_parse_u32(arg, value, &args->robust.max_em_iterations)) {
+                return PGEM_EXIT_USAGE;
+            }
+            k++;
+        } else if (strcmp(arg, "--gate") == 0) {
+            if (!pgem_cli_parse_positive(arg, value, &args->robust.gate)) {
                 return PGEM_EXIT_USAGE;
             }
             k++;
@@ -220,17 +233,23 @@ static int pgem_robust_run(const pgem_optimize_args_t *args, pgem_t *graph)
     robust.user = &progress;
     int status = pgem_robust_optimize(graph, &robust, &solve, &summary);
     double seconds = pgem_cli_now() - progress.start;
+    pgem_memory_stats_t stats;
+    pgem_get_memory_stats(graph, &stats);
     if (args->json) {
         printf("{\"input\":\"%s\",\"robust\":\"%s\",\"status\":\"%s\",\"rounds\":%u,"
                "\"em_iterations\":%u,\"gn_iterations\":%u,\"loops\":%u,\"pruned\":%u,"
-               "\"initial_chi2\":%.10g,\"final_chi2\":%.10g,\"solve_seconds\":%.6f}\n",
+               "\"readmitted\":%u,\"initial_chi2\":%.10g,\"final_chi2\":%.10g,"
+               "\"solve_seconds\":%.6f,\"usable\":%s,\"poses\":%u,\"edges\":%u,"
+               "\"analyses\":%u,\"block_bytes\":%zu}\n",
                args->input, pgem_kernel_name(robust.kernel), pgem_error_name(status), summary.rounds,
                summary.em_iterations, summary.gn_iterations, summary.loops, summary.pruned,
-               summary.initial_chi2, summary.final_chi2, seconds);
+               summary.readmitted, summary.initial_chi2, summary.final_chi2, seconds,
+               summary.usable ? "true" : "false", pgem_pose_count(graph), pgem_edge_count(graph),
+               stats.analyses, stats.block_bytes);
     } else {
-        fprintf(progress_out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures pruned; chi2 %.6f -> %.6f in %.4f s\n",
+        fprintf(progress_out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures pruned (%u re-admitted); chi2 %.6f -> %.6f in %.4f s\n",
                 pgem_kernel_name(robust.kernel), summary.rounds, summary.em_iterations,
-                summary.gn_iterations, summary.pruned, summary.loops, summary.initial_chi2,
+                summary.gn_iterations, summary.pruned, summary.loops, summary.readmitted, summary.initial_chi2,
                 summary.final_chi2, seconds);
     }
     if (status != PGEM_OK) {

@@ -31,7 +31,7 @@ static void pgem_analyze_edges(pgem_t *graph)
     for (uint32_t k = 0; k < graph->edge_count; k++) {
         int a = linear->pose_block[graph->edge_from[k]];
         int b = linear->pose_block[graph->edge_to[k]];
-        if (a < 0 || b < 0) {
+        if (a < 0 || b < 0 || !pgem_edge_in_structure(graph, k)) {
             linear->edge_offset[k] = -1;
             continue;
         }
@@ -102,7 +102,7 @@ static int pgem_fill_exceeded(pgem_t *graph, int64_t nonzeros)
     return PGEM_ERR_FILL_BUDGET;
 }
 
-int pgem_linear_analyze(pgem_t *graph)
+static int pgem_linear_analyze_once(pgem_t *graph)
 {
     pgem_linear_t *linear = &graph->linear;
     linear->valid = 0;
@@ -133,4 +133,25 @@ int pgem_linear_analyze(pgem_t *graph)
     linear->analyses++;
     linear->valid = 1;
     return PGEM_OK;
+}
+
+/* Pruned loops are left out of the structure, so a graph cleared of many long-range false
+ * loops factors as sparsely as the clean one. AMD on a subgraph almost always needs less fill
+ * than on the whole graph, but not provably; if it would exceed the budget, the structure is
+ * built over every edge instead (the fill the caller sized for). */
+int pgem_linear_analyze(pgem_t *graph)
+{
+    graph->linear.all_edges = 0;
+    int status = pgem_linear_analyze_once(graph);
+    if (status == PGEM_ERR_FILL_BUDGET) {
+        uint32_t inactive = 0;
+        for (uint32_t k = 0; k < graph->edge_count; k++) {
+            inactive += !graph->edge_active[k];
+        }
+        if (inactive > 0u) {
+            graph->linear.all_edges = 1;
+            status = pgem_linear_analyze_once(graph);
+        }
+    }
+    return status;
 }

@@ -12,7 +12,7 @@ int pgem_pattern_number_free(pgem_t *graph)
     return free_count;
 }
 
-/* Column-compressed (row, column) pairs of every edge joining two free poses, rows sorted
+/* Column-compressed (row, column) pairs of every edge in the structure joining two free poses, rows sorted
  * and duplicates merged: the classic double transpose, into colptr / rows.
  * work must hold 2 * edge_count + 2 * (block_count + 1) ints. */
 static void pgem_pattern_bucket(const pgem_t *graph, int block_count, int *colptr, int *rows,
@@ -28,7 +28,7 @@ static void pgem_pattern_bucket(const pgem_t *graph, int block_count, int *colpt
     for (uint32_t k = 0; k < graph->edge_count; k++) {
         int a = linear->pose_block[graph->edge_from[k]];
         int b = linear->pose_block[graph->edge_to[k]];
-        if (a >= 0 && b >= 0 && a != b) {
+        if (a >= 0 && b >= 0 && a != b && pgem_edge_in_structure(graph, k)) {
             rowptr[(a < b ? a : b) + 1]++;
         }
     }
@@ -40,7 +40,7 @@ static void pgem_pattern_bucket(const pgem_t *graph, int block_count, int *colpt
     for (uint32_t k = 0; k < graph->edge_count; k++) {
         int a = linear->pose_block[graph->edge_from[k]];
         int b = linear->pose_block[graph->edge_to[k]];
-        if (a >= 0 && b >= 0 && a != b) {
+        if (a >= 0 && b >= 0 && a != b && pgem_edge_in_structure(graph, k)) {
             cols[cursor[a < b ? a : b]++] = a < b ? b : a;
         }
     }

@@ -16,7 +16,8 @@ static pgem_robust_options_t pgem_robust_resolve(const pgem_robust_options_t *op
     out.prune_threshold = out.prune_threshold > 0.0 ? out.prune_threshold : 0.01;
     out.weight_tolerance = out.weight_tolerance > 0.0 ? out.weight_tolerance : 1e-3;
     out.m_step_iterations = out.m_step_iterations > 0u ? out.m_step_iterations : 1u;
-    out.max_em_iterations = out.max_em_iterations > 0u ? out.max_em_iterations : 100u;
+    out.max_em_iterations = out.max_em_iterations > 0u ? out.max_em_iterations
+                                                       : (out.literal ? 100u : 5u);
     out.max_rounds = out.max_rounds > 0u ? out.max_rounds : 20u;
     return out;
 }
@@ -26,9 +27,14 @@ void pgem_robust_reset(pgem_t *graph)
     if (graph == NULL) {
         return;
     }
+    uint32_t returned = 0;
     for (uint32_t k = 0; k < graph->edge_count; k++) {
+        returned += !graph->edge_active[k];
         graph->edge_weight[k] = 1.0;
         graph->edge_active[k] = 1u;
+    }
+    if (returned > 0u) {
+        pgem_linear_invalidate(graph); /* pruned loops were out of H's structure */
     }
 }
 
@@ -59,6 +65,9 @@ static uint32_t pgem_prune(pgem_t *graph, double threshold)
             graph->edge_active[k] = 0u;
             pruned++;
         }
+    }
+    if (pruned > 0u) {
+        pgem_linear_invalidate(graph); /* the next M-step factors without them */
     }
     return pruned;
 }
@@ -136,8 +145,8 @@ static int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
             return status;
         }
         uint32_t pruned = options->kernel == PGEM_KERNEL_EM ? pgem_prune(graph, options->prune_threshold) : 0u;
-        summary->rounds = round;
-        progress.round = round;
+        summary->rounds++; /* counted across re-admission passes */
+        progress.round = summary->rounds;
         progress.chi2 = pgem_weighted_chi2(graph);
         pgem_count_loops(graph, summary, &progress);
         if (options->on_round != NULL && options->on_round(&progress, options->user)) {
@@ -153,38 +162,40 @@ static int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
     return PGEM_OK;
 }
 
-/* 99% quantile of the chi-square distribution with 3 and 6 degrees of freedom. */
-#define PGEM_CHI2_99_DOF3 11.345
-#define PGEM_CHI2_99_DOF6 16.812
+/* 99.9% quantiles of the chi-square distribution with 3 and 6 degrees of freedom. */
+#define PGEM_CHI2_999_DOF3 16.266
+#define PGEM_CHI2_999_DOF6 22.458
 
-/* Re-activates pruned loops consistent with the current estimate; returns how many. */
-static uint32_t pgem_readmit(pgem_t *graph)
+static double pgem_gate_value(const pgem_t *graph, const pgem_robust_options_t *options)
 {
-    const double gate = graph->tangent == 6 ? PGEM_CHI2_99_DOF6 : PGEM_CHI2_99_DOF3;
-    uint32_t readmitted = 0;
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (!graph->edge_active[k] && pgem_edge_mahalanobis(graph, k) < gate) {
-            graph->edge_active[k] = 1u;
-            readmitted++;
-        }
+    if (options->gate > 0.0) {
+        return options->gate;
     }
-    return readmitted;
+    return graph->tangent == 6 ? PGEM_CHI2_999_DOF6 : PGEM_CHI2_999_DOF3;
 }
 
-/* EM rounds, then re-admission passes until no pruned loop fits the settled estimate. */
-static int pgem_em_with_readmission(pgem_t *graph, const pgem_robust_options_t *options,
-                                    const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+/* The consistency test under the settled estimate: a pruned loop that passes the chi-square
+ * gate is re-admitted, an accepted loop that fails it is pruned. Every loop is tested against
+ * the same estimate. Returns how many changed state. */
+static uint32_t pgem_gate(pgem_t *graph, double gate, pgem_robust_summary_t *summary)
 {
-    int status = pgem_em_rounds(graph, options, solve, summary);
-    for (uint32_t pass = 0; status == PGEM_OK && pass < options->max_rounds; pass++) {
-        uint32_t readmitted = pgem_readmit(graph);
-        if (readmitted == 0u) {
-            break;
+    uint32_t changed = 0;
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        if (graph->edge_kind[k] != PGEM_EDGE_LOOP) {
+            continue;
         }
-        summary->readmitted += readmitted;
-        status = pgem_em_rounds(graph, options, solve, summary);
+        int consistent = pgem_edge_mahalanobis(graph, k) < gate;
+        if (consistent != (int)graph->edge_active[k]) {
+            graph->edge_active[k] = (uint8_t)consistent;
+            summary->readmitted += (uint32_t)consistent;
+            summary->gated += (uint32_t)!consistent;
+            changed++;
+        }
     }
-    return status;
+    if (changed > 0u) {
+        pgem_linear_invalidate(graph);
+    }
+    return changed;
 }
 
 /* Accepted loops back to weight 1, then Gauss-Newton to convergence. */
@@ -196,6 +207,23 @@ static int pgem_polish(pgem_t *graph, const pgem_solve_options_t *solve, pgem_ro
     }
     int status = pgem_optimize(graph, solve, &result);
     summary->gn_iterations += result.iterations;
+    return status;
+}
+
+/* EM rounds; then, under the polished estimate, the consistency test, and EM again while it
+ * changes any loop's state (bounded by max_rounds passes). Ends polished. */
+static int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
+                             const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+{
+    const double gate = pgem_gate_value(graph, options);
+    int status = pgem_em_rounds(graph, options, solve, summary);
+    for (uint32_t pass = 0; status == PGEM_OK; pass++) {
+        status = pgem_polish(graph, solve, summary);
+        if (status != PGEM_OK || pass == options->max_rounds || pgem_gate(graph, gate, summary) == 0u) {
+            break;
+        }
+        status = pgem_em_rounds(graph, options, solve, summary);
+    }
     return status;
 }
 
@@ -226,12 +254,9 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     if (resolved.kernel == PGEM_KERNEL_NONE) {
         status = pgem_plain(graph, solve, out);
     } else if (resolved.kernel == PGEM_KERNEL_EM && !resolved.literal) {
-        status = pgem_em_with_readmission(graph, &resolved, solve, out);
+        status = pgem_em_with_gate(graph, &resolved, solve, out);
     } else {
         status = pgem_em_rounds(graph, &resolved, solve, out);
-    }
-    if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_EM && !resolved.literal) {
-        status = pgem_polish(graph, solve, out);
     }
     if (status != PGEM_OK) {
         memcpy(graph->pose, graph->pose_initial, pose_bytes);
