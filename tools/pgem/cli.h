@@ -44,5 +44,6 @@ int pgem_cli_write(const pgem_t *instance, const char *path);
 int pgem_cmd_optimize(int argc, char **argv);
 int pgem_cmd_simulate(int argc, char **argv);
 int pgem_cmd_corrupt(int argc, char **argv);
+int pgem_cmd_eval(int argc, char **argv);
 
 #endif /* PGEM_CLI_H */

@@ -238,18 +238,18 @@ static int pgem_robust_run(const pgem_optimize_args_t *args, pgem_t *graph)
     if (args->json) {
         printf("{\"input\":\"%s\",\"robust\":\"%s\",\"status\":\"%s\",\"rounds\":%u,"
                "\"em_iterations\":%u,\"gn_iterations\":%u,\"loops\":%u,\"pruned\":%u,"
-               "\"readmitted\":%u,\"initial_chi2\":%.10g,\"final_chi2\":%.10g,"
+               "\"readmitted\":%u,\"gated\":%u,\"initial_chi2\":%.10g,\"final_chi2\":%.10g,"
                "\"solve_seconds\":%.6f,\"usable\":%s,\"poses\":%u,\"edges\":%u,"
                "\"analyses\":%u,\"block_bytes\":%zu}\n",
                args->input, pgem_kernel_name(robust.kernel), pgem_error_name(status), summary.rounds,
                summary.em_iterations, summary.gn_iterations, summary.loops, summary.pruned,
-               summary.readmitted, summary.initial_chi2, summary.final_chi2, seconds,
+               summary.readmitted, summary.gated, summary.initial_chi2, summary.final_chi2, seconds,
                summary.usable ? "true" : "false", pgem_pose_count(graph), pgem_edge_count(graph),
                stats.analyses, stats.block_bytes);
     } else {
-        fprintf(progress_out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures pruned (%u re-admitted); chi2 %.6f -> %.6f in %.4f s\n",
+        fprintf(progress_out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures pruned (consistency test: %u re-admitted, %u pruned); chi2 %.6f -> %.6f in %.4f s\n",
                 pgem_kernel_name(robust.kernel), summary.rounds, summary.em_iterations,
-                summary.gn_iterations, summary.pruned, summary.loops, summary.readmitted, summary.initial_chi2,
+                summary.gn_iterations, summary.pruned, summary.loops, summary.readmitted, summary.gated, summary.initial_chi2,
                 summary.final_chi2, seconds);
     }
     if (status != PGEM_OK) {

@@ -14,6 +14,7 @@ static void pgem_usage(FILE *out)
             "commands:\n"
             "   optimize   optimize a g2o or TORO pose graph\n"
             "   corrupt    add false loop closures (random, local, grouped) to a graph\n"
+            "   eval       score a result against a reference (ATE, RPE, loop rejection)\n"
             "   simulate   generate a 2D Manhattan-world graph with ground truth\n"
             "\n"
             "'pgem <command> --help' describes a command. Exit codes: 0 success, 1 the solve\n"
@@ -36,6 +37,9 @@ int main(int argc, char **argv)
     }
     if (strcmp(argv[1], "corrupt") == 0) {
         return pgem_cmd_corrupt(argc - 1, argv + 1);
+    }
+    if (strcmp(argv[1], "eval") == 0) {
+        return pgem_cmd_eval(argc - 1, argv + 1);
     }
     if (strcmp(argv[1], "simulate") == 0) {
         return pgem_cmd_simulate(argc - 1, argv + 1);
