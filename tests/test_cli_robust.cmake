@@ -67,3 +67,21 @@ if(DATASETS AND EXISTS "${DATASETS}/2d/intel.g2o" AND EXISTS "${DATASETS}/2d/inp
 else()
   message(STATUS "shared datasets not found (DATASETS='${DATASETS}'): dataset cells skipped")
 endif()
+
+# corrupt --information: the false loops carry the given matrix; a bad one is refused before
+# anything is written.
+pgem(information corrupt sim.g2o -o info.g2o --policy random --count 2 --seed 3
+     --information 1,0,0,2,0,3)
+file(STRINGS "${WORK}/info.g2o" edges REGEX "^EDGE_SE2")
+list(GET edges -1 last)
+string(REGEX MATCH " 1 0 0 2 0 3$" tail "${last}")
+if(NOT tail)
+  fail("--information: last edge is '${last}'")
+endif()
+execute_process(COMMAND "${PGEM}" corrupt sim.g2o -o refused.g2o --policy random --count 2
+                        --seed 3 --information 1,5,0,2,0,3
+                WORKING_DIRECTORY "${WORK}" RESULT_VARIABLE code ERROR_VARIABLE err)
+contains("refused" "${err}" "not positive definite")
+if(NOT code EQUAL 2 OR EXISTS "${WORK}/refused.g2o" OR EXISTS "${WORK}/refused.g2o.outliers")
+  fail("--information not positive definite: exit ${code}, or files were written")
+endif()

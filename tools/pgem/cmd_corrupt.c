@@ -19,6 +19,7 @@ typedef struct corrupt_args {
     uint32_t count;              /* false loops to add */
     uint32_t group_size;         /* consecutive loops per group (grouped policies) */
     uint32_t seed;               /* random seed */
+    const char *information;     /* --information text, or NULL: copy the first loop's */
 } corrupt_args_t;
 
 static const char *const corrupt_policy_names[] = {"random", "local", "random-grouped", "local-grouped"};
@@ -33,21 +34,23 @@ static void corrupt_help(FILE *out)
 {
     fprintf(out,
             "usage: pgem corrupt IN -o OUT --policy random|local|random-grouped|local-grouped\n"
-            "                    --count K [--group-size G] --seed S\n"
+            "                    --count K [--group-size G] --seed S [--information V]\n"
             "\n"
             "Appends K false loop closures after the original edges (the protocol of Suenderhauf &\n"
             "Protzel): random joins two uniformly random poses, local a pose and one within %d\n"
             "ids of it; the grouped policies add groups of G (default 10) consecutive, mutually\n"
             "consistent false loops. Each false measurement is a random pose (translation\n"
             "uniform in +-10 m, any rotation); information is copied from the file's first loop\n"
-            "closure (or its first edge). Writes OUT and OUT.outliers (one 'from to' per line).\n"
+            "closure (or its first edge), or given with --information V: one number (a diagonal\n"
+            "matrix) or the upper triangle row by row as in g2o (6 numbers in 2D, 21 in 3D),\n"
+            "separated by commas. Writes OUT and OUT.outliers (one 'from to' per line).\n"
             "The same input and seed always give the same output.\n",
             CORRUPT_LOCAL_SPAN);
 }
 
 static int corrupt_parse(int argc, char **argv, corrupt_args_t *args)
 {
-    *args = (corrupt_args_t){NULL, NULL, CORRUPT_RANDOM, 0u, 10u, 0u};
+    *args = (corrupt_args_t){NULL, NULL, CORRUPT_RANDOM, 0u, 10u, 0u, NULL};
     int have_policy = 0, have_count = 0, have_seed = 0;
     for (int k = 1; k < argc; k++) {
         const char *arg = argv[k], *value = k + 1 < argc ? argv[k + 1] : NULL;
@@ -81,6 +84,8 @@ static int corrupt_parse(int argc, char **argv, corrupt_args_t *args)
             ok = have_count = pgem_cli_parse_u32(arg, value, &args->count);
         } else if (ok && strcmp(arg, "--group-size") == 0) {
             ok = pgem_cli_parse_u32(arg, value, &args->group_size) && args->group_size >= 1u;
+        } else if (ok && strcmp(arg, "--information") == 0) {
+            args->information = value;
         } else if (ok && strcmp(arg, "--seed") == 0) {
             ok = have_seed = pgem_cli_parse_u32(arg, value, &args->seed);
         } else {
@@ -139,6 +144,75 @@ static void corrupt_pair(uint64_t *rng, const corrupt_args_t *args, size_t poses
     } while (*second + 1u >= *first && *first + 1u >= *second); /* not a self-loop or odometry */
 }
 
+/* Positive definite by a trial Cholesky factorisation (n <= 6, row-major, symmetric). */
+static int corrupt_positive_definite(const double *matrix, int n)
+{
+    double factor[36];
+    for (int j = 0; j < n; j++) {
+        for (int i = j; i < n; i++) {
+            double sum = matrix[i * n + j];
+            for (int k = 0; k < j; k++) {
+                sum -= factor[i * n + k] * factor[j * n + k];
+            }
+            if (i == j) {
+                if (!(sum > 0.0)) {
+                    return 0;
+                }
+                factor[j * n + j] = sqrt(sum);
+            } else {
+                factor[i * n + j] = sum / factor[j * n + j];
+            }
+        }
+    }
+    return 1;
+}
+
+/* --information: one value (diagonal) or the upper triangle, comma-separated, into a full
+ * row-major n x n matrix. Prints an error and returns 0 when it is malformed or not positive
+ * definite. */
+static int corrupt_parse_information(const char *text, int dimension, double *information)
+{
+    const int n = dimension == 2 ? 3 : 6, triangle = n * (n + 1) / 2;
+    double values[21];
+    int count = 0;
+    const char *cursor = text;
+    while (1) {
+        char *end;
+        double value = strtod(cursor, &end);
+        if (end == cursor || !isfinite(value) || count == triangle) {
+            fprintf(stderr, "pgem corrupt: --information '%s': expected 1 or %d finite numbers separated by commas\n",
+                    text, triangle);
+            return 0;
+        }
+        values[count++] = value;
+        if (*end == '\0') {
+            break;
+        }
+        if (*end != ',') {
+            fprintf(stderr, "pgem corrupt: --information '%s': unexpected '%c' after number %d\n", text, *end, count);
+            return 0;
+        }
+        cursor = end + 1;
+    }
+    if (count != 1 && count != triangle) {
+        fprintf(stderr, "pgem corrupt: --information '%s': %d numbers; a %dD graph takes 1 or %d\n", text,
+                count, dimension, triangle);
+        return 0;
+    }
+    memset(information, 0, (size_t)(n * n) * sizeof *information);
+    for (int i = 0, k = 0; i < n; i++) {
+        for (int j = i; j < n; j++) {
+            double value = count == 1 ? (i == j ? values[0] : 0.0) : values[k++];
+            information[i * n + j] = information[j * n + i] = value;
+        }
+    }
+    if (!corrupt_positive_definite(information, n)) {
+        fprintf(stderr, "pgem corrupt: --information '%s' is not positive definite\n", text);
+        return 0;
+    }
+    return 1;
+}
+
 static const pgem_io_edge_t *corrupt_template(const pgem_io_graph_t *graph)
 {
     for (size_t k = 0; k < graph->edge_count; k++) {
@@ -150,7 +224,8 @@ static const pgem_io_edge_t *corrupt_template(const pgem_io_graph_t *graph)
 }
 
 /* Appends the false loops to the graph's edge array and writes their pairs to `outliers`. */
-static int corrupt_apply(const corrupt_args_t *args, pgem_io_graph_t *graph, FILE *outliers)
+static int corrupt_apply(const corrupt_args_t *args, const double *information,
+                         pgem_io_graph_t *graph, FILE *outliers)
 {
     const pgem_io_edge_t *template_edge = corrupt_template(graph);
     int grouped = args->policy == CORRUPT_RANDOM_GROUPED || args->policy == CORRUPT_LOCAL_GROUPED;
@@ -160,6 +235,9 @@ static int corrupt_apply(const corrupt_args_t *args, pgem_io_graph_t *graph, FIL
         return PGEM_EXIT_FAILURE;
     }
     pgem_io_edge_t model = *template_edge;
+    if (information != NULL) {
+        memcpy(model.information, information, sizeof model.information);
+    }
     pgem_io_edge_t *edges = realloc(graph->edges, (graph->edge_count + args->count) * sizeof *edges);
     if (edges == NULL) {
         fprintf(stderr, "pgem corrupt: out of memory\n");
@@ -198,6 +276,11 @@ int pgem_cmd_corrupt(int argc, char **argv)
         fprintf(stderr, "pgem: %s\n", message);
         return PGEM_EXIT_FAILURE;
     }
+    double information[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    if (args.information != NULL && !corrupt_parse_information(args.information, graph.dimension, information)) {
+        pgem_io_graph_free(&graph);
+        return PGEM_EXIT_USAGE;
+    }
     snprintf(outliers_path, sizeof outliers_path, "%s.outliers", args.output);
     FILE *outliers = fopen(outliers_path, "w");
     if (outliers == NULL) {
@@ -205,7 +288,7 @@ int pgem_cmd_corrupt(int argc, char **argv)
         pgem_io_graph_free(&graph);
         return PGEM_EXIT_IO;
     }
-    status = corrupt_apply(&args, &graph, outliers);
+    status = corrupt_apply(&args, args.information != NULL ? information : NULL, &graph, outliers);
     if (fclose(outliers) != 0 && status == PGEM_EXIT_OK) {
         status = PGEM_EXIT_IO;
     }
