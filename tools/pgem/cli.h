@@ -41,9 +41,14 @@ int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instan
 /* Writes an instance to a g2o file; prints errors. */
 int pgem_cli_write(const pgem_t *instance, const char *path);
 
+/* Writes text to stdout as a JSON string: quoted, with '"', '\\' and control bytes escaped. */
+void pgem_cli_json_string(const char *text);
+
 int pgem_cmd_optimize(int argc, char **argv);
 int pgem_cmd_simulate(int argc, char **argv);
 int pgem_cmd_corrupt(int argc, char **argv);
 int pgem_cmd_eval(int argc, char **argv);
+int pgem_cmd_plot(int argc, char **argv);
+int pgem_cmd_stats(int argc, char **argv);
 
 #endif /* PGEM_CLI_H */

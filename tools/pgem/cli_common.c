@@ -163,3 +163,18 @@ double pgem_cli_gaussian(uint64_t *state)
     double u = pgem_cli_uniform(state), v = pgem_cli_uniform(state);
     return sqrt(-2.0 * log(u + 1e-300)) * cos(6.283185307179586 * v);
 }
+
+void pgem_cli_json_string(const char *text)
+{
+    putchar('"');
+    for (const unsigned char *c = (const unsigned char *)text; *c != '\0'; c++) {
+        if (*c == '"' || *c == '\\') {
+            printf("\\%c", *c);
+        } else if (*c < 0x20u) {
+            printf("\\u%04x", (unsigned)*c);
+        } else {
+            putchar(*c);
+        }
+    }
+    putchar('"');
+}

@@ -164,21 +164,6 @@ static int eval_parse(int argc, char **argv, eval_args_t *args)
     return eval_check_args(args);
 }
 
-static void eval_json_string(const char *text)
-{
-    putchar('"');
-    for (const unsigned char *c = (const unsigned char *)text; *c != '\0'; c++) {
-        if (*c == '"' || *c == '\\') {
-            printf("\\%c", *c);
-        } else if (*c < 0x20u) {
-            printf("\\u%04x", (unsigned)*c);
-        } else {
-            putchar(*c);
-        }
-    }
-    putchar('"');
-}
-
 /* ,"key":value with %.10g, or null for a value JSON cannot hold. */
 static void eval_json_number(const char *key, double value)
 {
@@ -212,9 +197,9 @@ static void eval_print_json(const eval_args_t *args, const eval_trajectory_t *t,
                             const eval_scores_t *scores, const eval_loop_t *loops)
 {
     printf("{\"result\":");
-    eval_json_string(args->result);
+    pgem_cli_json_string(args->result);
     printf(",\"reference\":");
-    eval_json_string(args->reference);
+    pgem_cli_json_string(args->reference);
     printf(",\"dimension\":%d,\"poses_matched\":%zu,\"poses_only_result\":%zu,"
            "\"poses_only_reference\":%zu",
            t->dimension, t->matched, t->only_result, t->only_reference);

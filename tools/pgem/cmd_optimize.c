@@ -185,12 +185,14 @@ static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, cons
     pgem_memory_stats_t stats;
     pgem_get_memory_stats(graph, &stats);
     if (args->json) {
-        printf("{\"input\":\"%s\",\"method\":\"%s\",\"status\":\"%s\",\"termination\":\"%s\","
+        printf("{\"input\":");
+        pgem_cli_json_string(args->input);
+        printf(",\"method\":\"%s\",\"status\":\"%s\",\"termination\":\"%s\","
                "\"iterations\":%u,\"initial_chi2\":%.10g,\"final_chi2\":%.10g,"
                "\"solve_seconds\":%.6f,\"usable\":%s,\"estimate_changed\":%s,"
                "\"poses\":%u,\"edges\":%u,\"unknowns\":%u,\"factor_nonzeros\":%u,"
                "\"block_bytes\":%zu}\n",
-               args->input, pgem_method_name(args->method), pgem_error_name(status),
+               pgem_method_name(args->method), pgem_error_name(status),
                pgem_termination_name(summary->termination), summary->iterations,
                summary->initial_chi2, summary->final_chi2, seconds,
                summary->usable ? "true" : "false", summary->estimate_changed ? "true" : "false",
@@ -236,12 +238,14 @@ static int pgem_robust_run(const pgem_optimize_args_t *args, pgem_t *graph)
     pgem_memory_stats_t stats;
     pgem_get_memory_stats(graph, &stats);
     if (args->json) {
-        printf("{\"input\":\"%s\",\"robust\":\"%s\",\"status\":\"%s\",\"rounds\":%u,"
+        printf("{\"input\":");
+        pgem_cli_json_string(args->input);
+        printf(",\"robust\":\"%s\",\"status\":\"%s\",\"rounds\":%u,"
                "\"em_iterations\":%u,\"gn_iterations\":%u,\"loops\":%u,\"pruned\":%u,"
                "\"readmitted\":%u,\"gated\":%u,\"initial_chi2\":%.10g,\"final_chi2\":%.10g,"
                "\"solve_seconds\":%.6f,\"usable\":%s,\"poses\":%u,\"edges\":%u,"
                "\"analyses\":%u,\"block_bytes\":%zu}\n",
-               args->input, pgem_kernel_name(robust.kernel), pgem_error_name(status), summary.rounds,
+               pgem_kernel_name(robust.kernel), pgem_error_name(status), summary.rounds,
                summary.em_iterations, summary.gn_iterations, summary.loops, summary.pruned,
                summary.readmitted, summary.gated, summary.initial_chi2, summary.final_chi2, seconds,
                summary.usable ? "true" : "false", pgem_pose_count(graph), pgem_edge_count(graph),

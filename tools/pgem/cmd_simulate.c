@@ -1,39 +1,64 @@
-/* pgem simulate: a 2D Manhattan-world walk (like M3500) with ground truth, noisy odometry and
- * loop closures where the walk revisits a place; written as g2o. */
+/* pgem simulate: a walk in a synthetic world (2D Manhattan grid, 3D sphere or 3D lattice)
+ * with ground truth, noisy odometry and loop closures; written as g2o. The walks are in
+ * simulate_<world>.c. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "cli.h"
+#include "simulate.h"
 
-#define SIM_HALF_WIDTH 12        /* the world is cells -12 .. 12 on each axis */
-#define SIM_CELLS (2 * SIM_HALF_WIDTH + 1)
-#define SIM_SLOTS 4              /* recent visits remembered per cell */
-#define SIM_MIN_GAP 10           /* a loop joins poses at least this many steps apart */
+/* What differs between the worlds: name, dimension, defaults and the walk. */
+typedef struct sim_world_info {
+    const char *name;            /* --world value */
+    int dimension;               /* 2 or 3 */
+    uint32_t poses;              /* default walk length */
+    double sigma_translation;    /* default noise, metres */
+    double sigma_rotation;       /* default noise, radians */
+    double loop_probability;     /* default chance of a loop closure per candidate */
+    size_t (*capacity)(uint32_t poses);  /* most edges for a walk */
+    sim_walk_fn walk;            /* fills the truth and the edges */
+} sim_world_info_t;
 
-/* Command-line choices of one simulation. */
-typedef struct sim_args {
-    const char *output;          /* noisy graph (initial estimate = odometry composition) */
-    const char *truth;           /* same graph with ground-truth vertices (may be NULL) */
-    uint32_t poses;              /* walk length */
-    uint32_t seed;               /* random seed */
-    double sigma_translation;    /* odometry and loop noise, metres */
-    double sigma_rotation;       /* radians */
-    double loop_probability;     /* chance a revisit yields a loop closure */
-} sim_args_t;
+static const sim_world_info_t sim_worlds[] = {
+    {"manhattan", 2, 1000u, 0.05, 0.01, 0.3, pgem_sim_manhattan_capacity, pgem_sim_manhattan},
+    {"sphere", 3, 2500u, 0.05, 0.01, 1.0, pgem_sim_sphere_capacity, pgem_sim_sphere},
+    {"grid3d", 3, 2000u, 0.05, 0.01, 0.3, pgem_sim_grid3d_capacity, pgem_sim_grid3d},
+};
 
 static void sim_help(FILE *out)
 {
     fprintf(out,
-            "usage: pgem simulate -o OUT.g2o [--truth TRUTH.g2o] [--world manhattan] [--poses N]\n"
-            "                     [--seed S] [--sigma-translation M] [--sigma-rotation RAD]\n"
+            "usage: pgem simulate -o OUT.g2o [--truth TRUTH.g2o]\n"
+            "                     [--world manhattan|sphere|grid3d] [--poses N] [--seed S]\n"
+            "                     [--sigma-translation M] [--sigma-rotation RAD]\n"
             "                     [--loop-probability P]\n"
             "\n"
-            "A robot walks a Manhattan grid (1 m steps, 90-degree turns) with noisy odometry;\n"
-            "revisiting a place gives a loop closure with probability P. OUT holds the odometry-\n"
+            "Simulates a robot with noisy odometry and loop closures. OUT holds the odometry-\n"
             "composed initial estimate, TRUTH the same edges with ground-truth vertices.\n"
-            "Defaults: 1000 poses, seed 1, sigmas 0.05 m and 0.01 rad, P 0.3.\n");
+            "\n"
+            "  --world manhattan  (default) 2D walk like M3500: 1 m steps, 90-degree turns,\n"
+            "                     in a 25 x 25 m square; revisiting a cell gives a loop\n"
+            "                     closure to each of its last 4 visits with probability P.\n"
+            "                     Defaults: 1000 poses, sigmas 0.05 m and 0.01 rad, P 0.3.\n"
+            "  --world sphere     3D, like Sphere2500: a spiral of rings of latitude on a\n"
+            "                     sphere of radius 50 m, about sqrt(N) poses per ring (50\n"
+            "                     x 50 by default); each pose is tied to the pose beside it\n"
+            "                     on the previous ring with probability P.\n"
+            "                     Defaults: 2500 poses, sigmas 0.05 m and 0.01 rad, P 1.\n"
+            "  --world grid3d     3D walk on a lattice: 1 m steps, quarter turns in yaw or\n"
+            "                     pitch, in a cube of at most 1.5 N cells (13^3 for 2000\n"
+            "                     poses); a pose gets loop closures to the last 2 visits of\n"
+            "                     its cell and of the 6 cells next to it (11 or more steps\n"
+            "                     back), each with probability P, at most 4 per pose.\n"
+            "                     Defaults: 2000 poses, sigmas 0.05 m and 0.01 rad, P 0.3.\n"
+            "\n"
+            "Noise: 2D adds N(0, sigma^2) to x, y and the heading. 3D perturbs the true\n"
+            "relative pose on the right by (rho, Exp(phi)), rho ~ N(0, sigma_t^2) and\n"
+            "phi ~ N(0, sigma_r^2) per axis; its g2o information is 1/sigma_t^2 for the\n"
+            "translation and 4/sigma_r^2 for the rotation (g2o's rotation error is the\n"
+            "quaternion's vector part, half the angle). The same seed gives the same files on\n"
+            "every platform.\n");
 }
 
 static int sim_parse_double(const char *option, const char *text, double *value)
@@ -49,9 +74,49 @@ static int sim_parse_double(const char *option, const char *text, double *value)
     return 1;
 }
 
+static int sim_parse_world(const char *text, sim_world_t *world)
+{
+    for (size_t k = 0; k < sizeof sim_worlds / sizeof sim_worlds[0]; k++) {
+        if (strcmp(text, sim_worlds[k].name) == 0) {
+            *world = (sim_world_t)k;
+            return 1;
+        }
+    }
+    fprintf(stderr, "pgem simulate: --world takes manhattan, sphere or grid3d (got '%s')\n", text);
+    return 0;
+}
+
+static int sim_parse_poses(const char *option, const char *text, uint32_t *poses)
+{
+    if (!pgem_cli_parse_u32(option, text, poses)) {
+        return 0;
+    }
+    if (*poses < 2u) {
+        fprintf(stderr, "pgem simulate: %s needs at least 2 poses, got %u\n", option, *poses);
+        return 0;
+    }
+    return 1;
+}
+
+/* Options not given take the world's defaults (0 poses and NaN sigmas mean "not given"). */
+static void sim_defaults(sim_args_t *args)
+{
+    const sim_world_info_t *info = &sim_worlds[args->world];
+    args->poses = args->poses != 0u ? args->poses : info->poses;
+    if (isnan(args->sigma_translation)) {
+        args->sigma_translation = info->sigma_translation;
+    }
+    if (isnan(args->sigma_rotation)) {
+        args->sigma_rotation = info->sigma_rotation;
+    }
+    if (isnan(args->loop_probability)) {
+        args->loop_probability = info->loop_probability;
+    }
+}
+
 static int sim_parse(int argc, char **argv, sim_args_t *args)
 {
-    *args = (sim_args_t){NULL, NULL, 1000u, 1u, 0.05, 0.01, 0.3};
+    *args = (sim_args_t){NULL, NULL, SIM_WORLD_MANHATTAN, 0u, 1u, NAN, NAN, NAN};
     for (int k = 1; k < argc; k++) {
         const char *arg = argv[k], *value = k + 1 < argc ? argv[k + 1] : NULL;
         int ok = 1;
@@ -63,12 +128,9 @@ static int sim_parse(int argc, char **argv, sim_args_t *args)
         } else if (strcmp(arg, "--truth") == 0 && value != NULL) {
             args->truth = value;
         } else if (strcmp(arg, "--world") == 0 && value != NULL) {
-            ok = strcmp(value, "manhattan") == 0;
-            if (!ok) {
-                fprintf(stderr, "pgem simulate: only --world manhattan exists so far\n");
-            }
+            ok = sim_parse_world(value, &args->world);
         } else if (strcmp(arg, "--poses") == 0) {
-            ok = pgem_cli_parse_u32(arg, value, &args->poses) && args->poses >= 2u;
+            ok = sim_parse_poses(arg, value, &args->poses);
         } else if (strcmp(arg, "--seed") == 0) {
             ok = pgem_cli_parse_u32(arg, value, &args->seed);
         } else if (strcmp(arg, "--sigma-translation") == 0) {
@@ -76,7 +138,12 @@ static int sim_parse(int argc, char **argv, sim_args_t *args)
         } else if (strcmp(arg, "--sigma-rotation") == 0) {
             ok = sim_parse_double(arg, value, &args->sigma_rotation);
         } else if (strcmp(arg, "--loop-probability") == 0) {
-            ok = sim_parse_double(arg, value, &args->loop_probability) && args->loop_probability <= 1.0;
+            ok = sim_parse_double(arg, value, &args->loop_probability);
+            if (ok && args->loop_probability > 1.0) {
+                fprintf(stderr, "pgem simulate: --loop-probability must be at most 1, got '%s'\n",
+                        value);
+                ok = 0;
+            }
         } else {
             fprintf(stderr, "pgem simulate: unknown or incomplete option '%s' (see --help)\n", arg);
             return PGEM_EXIT_USAGE;
@@ -90,92 +157,16 @@ static int sim_parse(int argc, char **argv, sim_args_t *args)
         fprintf(stderr, "pgem simulate: -o OUT.g2o is required\n");
         return PGEM_EXIT_USAGE;
     }
+    sim_defaults(args);
     return PGEM_EXIT_OK;
 }
 
-/* Next heading: straight on, or a 90-degree turn; never off the grid. */
-static int sim_heading(uint64_t *rng, const int *cell, int heading)
-{
-    static const int step[4][2] = {{1, 0}, {0, 1}, {-1, 0}, {0, -1}};
-    double turn = pgem_cli_uniform(rng);
-    int next = turn < 0.15 ? (heading + 1) % 4 : turn < 0.3 ? (heading + 3) % 4 : heading;
-    for (int tries = 0; tries < 4; tries++) {
-        int x = cell[0] + step[next][0], y = cell[1] + step[next][1];
-        if (abs(x) <= SIM_HALF_WIDTH && abs(y) <= SIM_HALF_WIDTH) {
-            return next;
-        }
-        next = (next + 1) % 4;
-    }
-    return next;
-}
-
-static void sim_edge(pgem_io_graph_t *graph, uint32_t from, uint32_t to, const double *truth,
-                     const sim_args_t *args, uint64_t *rng)
-{
-    pgem_io_edge_t *edge = &graph->edges[graph->edge_count++];
-    memset(edge, 0, sizeof *edge);
-    edge->from = from;
-    edge->to = to;
-    pgem_se2_between(truth + 3 * from, truth + 3 * to, edge->measurement);
-    edge->measurement[0] += args->sigma_translation * pgem_cli_gaussian(rng);
-    edge->measurement[1] += args->sigma_translation * pgem_cli_gaussian(rng);
-    edge->measurement[2] = pgem_wrap_angle(edge->measurement[2] + args->sigma_rotation * pgem_cli_gaussian(rng));
-    double t = 1.0 / fmax(args->sigma_translation * args->sigma_translation, 1e-12);
-    double r = 1.0 / fmax(args->sigma_rotation * args->sigma_rotation, 1e-12);
-    double information[9] = {t, 0, 0, 0, t, 0, 0, 0, r};
-    memcpy(edge->information, information, sizeof information);
-    edge->kind = to == from + 1u ? PGEM_EDGE_ODOMETRY : PGEM_EDGE_LOOP;
-}
-
-/* Loop closures from pose k to earlier visits of the same cell. */
-static void sim_loops(pgem_io_graph_t *graph, uint32_t k, uint32_t *visits, const double *truth,
-                      const sim_args_t *args, uint64_t *rng)
-{
-    for (int slot = 0; slot < SIM_SLOTS; slot++) {
-        uint32_t earlier = visits[slot];
-        if (earlier != UINT32_MAX && earlier + SIM_MIN_GAP < k && pgem_cli_uniform(rng) < args->loop_probability) {
-            sim_edge(graph, k, earlier, truth, args, rng);
-        }
-    }
-    memmove(visits + 1, visits, (SIM_SLOTS - 1) * sizeof visits[0]);
-    visits[0] = k;
-}
-
-/* Walks the grid; fills truth[3 n] and the edges; returns 0 or -1 (no memory). */
-static int sim_walk(const sim_args_t *args, double *truth, pgem_io_graph_t *graph)
-{
-    uint64_t rng = args->seed;
-    uint32_t *visits = malloc(sizeof(uint32_t) * SIM_CELLS * SIM_CELLS * SIM_SLOTS);
-    if (visits == NULL) {
-        return -1;
-    }
-    memset(visits, 0xff, sizeof(uint32_t) * SIM_CELLS * SIM_CELLS * SIM_SLOTS);
-    int cell[2] = {0, 0}, heading = 0;
-    static const int step[4][2] = {{1, 0}, {0, 1}, {-1, 0}, {0, -1}};
-    for (uint32_t k = 0; k < args->poses; k++) {
-        if (k > 0) {
-            heading = sim_heading(&rng, cell, heading);
-            cell[0] += step[heading][0];
-            cell[1] += step[heading][1];
-        }
-        truth[3 * k] = cell[0];
-        truth[3 * k + 1] = cell[1];
-        truth[3 * k + 2] = pgem_wrap_angle(1.5707963267948966 * heading);
-        if (k > 0) {
-            sim_edge(graph, k - 1, k, truth, args, &rng);
-        }
-        int index = (cell[0] + SIM_HALF_WIDTH) * SIM_CELLS + (cell[1] + SIM_HALF_WIDTH);
-        sim_loops(graph, k, visits + (size_t)index * SIM_SLOTS, truth, args, &rng);
-    }
-    free(visits);
-    return 0;
-}
-
-/* Vertices of the graph: truth, or the odometry composition of the noisy measurements. */
+/* Vertices of the graph: truth, or the composition of the noisy odometry from pose 0. */
 static void sim_vertices(pgem_io_graph_t *graph, const double *truth, int use_truth)
 {
-    double estimate[3] = {0.0, 0.0, 0.0};
-    size_t odometry = 0;
+    size_t size = graph->dimension == 2 ? 3u : 7u, odometry = 0;
+    double estimate[PGEM_POSE_SIZE_MAX];
+    memcpy(estimate, truth, size * sizeof estimate[0]);
     for (uint32_t k = 0; k < graph->pose_count; k++) {
         pgem_io_pose_t *pose = &graph->poses[k];
         memset(pose, 0, sizeof *pose);
@@ -184,9 +175,15 @@ static void sim_vertices(pgem_io_graph_t *graph, const double *truth, int use_tr
             while (graph->edges[odometry].kind != PGEM_EDGE_ODOMETRY) {
                 odometry++;
             }
-            pgem_se2_compose(estimate, graph->edges[odometry++].measurement, estimate);
+            const double *step = graph->edges[odometry++].measurement;
+            if (size == 3u) {
+                pgem_se2_compose(estimate, step, estimate);
+            } else {
+                pgem_se3_compose(estimate, step, estimate);
+                pgem_quat_normalize(estimate + 3);
+            }
         }
-        memcpy(pose->pose, use_truth ? truth + 3 * k : estimate, sizeof estimate);
+        memcpy(pose->pose, use_truth ? truth + size * k : estimate, size * sizeof estimate[0]);
     }
 }
 
@@ -200,6 +197,23 @@ static int sim_write(const char *path, pgem_io_graph_t *graph)
     return PGEM_EXIT_OK;
 }
 
+/* Allocates the graph and the truth and runs the world's walk; 0 or -1 (no memory). */
+static int sim_run(const sim_args_t *args, const sim_world_info_t *info, pgem_io_graph_t *graph,
+                   double **truth)
+{
+    size_t size = info->dimension == 2 ? 3u : 7u, capacity = info->capacity(args->poses);
+    *truth = malloc(sizeof(double) * size * args->poses);
+    graph->dimension = info->dimension;
+    graph->poses = calloc(args->poses, sizeof *graph->poses);
+    graph->edges = calloc(capacity, sizeof *graph->edges);
+    graph->pose_count = graph->pose_capacity = args->poses;
+    graph->edge_capacity = capacity;
+    if (*truth == NULL || graph->poses == NULL || graph->edges == NULL) {
+        return -1;
+    }
+    return info->walk(args, *truth, graph);
+}
+
 int pgem_cmd_simulate(int argc, char **argv)
 {
     sim_args_t args;
@@ -207,14 +221,10 @@ int pgem_cmd_simulate(int argc, char **argv)
     if (status != PGEM_EXIT_OK) {
         return status < 0 ? PGEM_EXIT_OK : status;
     }
+    const sim_world_info_t *info = &sim_worlds[args.world];
     pgem_io_graph_t graph = {0};
-    double *truth = malloc(sizeof(double) * 3u * args.poses);
-    graph.dimension = 2;
-    graph.poses = calloc(args.poses, sizeof *graph.poses);
-    graph.edges = calloc((size_t)args.poses * (1u + SIM_SLOTS), sizeof *graph.edges);
-    graph.pose_count = graph.pose_capacity = args.poses;
-    graph.edge_capacity = (size_t)args.poses * (1u + SIM_SLOTS);
-    if (truth == NULL || graph.poses == NULL || graph.edges == NULL || sim_walk(&args, truth, &graph) != 0) {
+    double *truth = NULL;
+    if (sim_run(&args, info, &graph, &truth) != 0) {
         fprintf(stderr, "pgem simulate: out of memory for %u poses\n", args.poses);
         free(truth);
         pgem_io_graph_free(&graph);
@@ -230,9 +240,10 @@ int pgem_cmd_simulate(int argc, char **argv)
         status = sim_write(args.output, &graph);
     }
     if (status == PGEM_EXIT_OK) {
-        printf("simulated manhattan world: %u poses, %zu edges (%zu loop closures), seed %u -> %s%s%s\n",
-               args.poses, graph.edge_count, graph.edge_count - (args.poses - 1u), args.seed,
-               args.output, args.truth != NULL ? ", truth " : "", args.truth != NULL ? args.truth : "");
+        printf("simulated %s world: %u poses, %zu edges (%zu loop closures), seed %u -> %s%s%s\n",
+               info->name, args.poses, graph.edge_count, graph.edge_count - (args.poses - 1u),
+               args.seed, args.output, args.truth != NULL ? ", truth " : "",
+               args.truth != NULL ? args.truth : "");
     }
     free(truth);
     pgem_io_graph_free(&graph);

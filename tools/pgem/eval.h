@@ -62,4 +62,22 @@ int pgem_eval_trajectory(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
 int pgem_eval_loops(const char *outliers, const char *weights, double reject_below,
                     eval_loop_t **loops, eval_scores_t *scores);
 
+/* Reads a weights file alone ('from to weight state' per line) into *loops (*count entries,
+ * file order; is_false and rejected left 0). *loops is the caller's to free, also on
+ * failure. Prints errors naming FILE:LINE; returns a PGEM_EXIT_* code. */
+int pgem_eval_read_weights(const char *weights, eval_loop_t **loops, size_t *count);
+
+/* Reads an outliers file and sets is_false on the false loops among loops[0..count), matched
+ * as pgem_eval_loops matches them; loops_path names where the loops came from in messages.
+ * *outlier_count is the number of outliers lines. Prints errors; returns a PGEM_EXIT_* code. */
+int pgem_eval_mark_outliers(const char *outliers, const char *loops_path, eval_loop_t *loops,
+                            size_t count, size_t *outlier_count);
+
+/* The rigid alignment of the ATE: matches the poses of res to those of ref by id (same
+ * dimension, res non-empty) and finds the rotation (unit quaternion [qx qy qz qw], about z in
+ * 2D) and centroids with ref_k ~ R (res_k - c_res) + c_ref over the *matched positions (the
+ * identity when none match). Prints an error and returns PGEM_EXIT_FAILURE if out of memory. */
+int pgem_eval_align(const pgem_io_graph_t *ref, const pgem_io_graph_t *res, double rotation[4],
+                    double c_ref[3], double c_res[3], size_t *matched);
+
 #endif /* PGEM_EVAL_H */

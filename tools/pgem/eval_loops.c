@@ -52,7 +52,7 @@ static int eval_open(eval_text_t *text, const char *path)
     text->path = path;
     text->file = fopen(path, "r");
     if (text->file == NULL) {
-        fprintf(stderr, "pgem eval: %s: cannot open: %s\n", path, strerror(errno));
+        fprintf(stderr, "pgem: %s: cannot open: %s\n", path, strerror(errno));
         return PGEM_EXIT_IO;
     }
     return PGEM_EXIT_OK;
@@ -78,7 +78,7 @@ static int eval_next_line(eval_text_t *text, char **fields, size_t max, size_t *
         ssize_t length = getline(&text->line, &text->capacity, text->file);
         if (length < 0) {
             if (ferror(text->file) || errno == ENOMEM) {
-                fprintf(stderr, "pgem eval: %s:%lu: read error: %s\n", text->path,
+                fprintf(stderr, "pgem: %s:%lu: read error: %s\n", text->path,
                         text->number + 1u, errno != 0 ? strerror(errno) : "unknown");
                 return PGEM_EXIT_IO;
             }
@@ -86,7 +86,7 @@ static int eval_next_line(eval_text_t *text, char **fields, size_t max, size_t *
         }
         text->number++;
         if (strlen(text->line) != (size_t)length) {
-            fprintf(stderr, "pgem eval: %s:%lu: line contains a NUL byte (binary data?)\n",
+            fprintf(stderr, "pgem: %s:%lu: line contains a NUL byte (binary data?)\n",
                     text->path, text->number);
             return PGEM_EXIT_FAILURE;
         }
@@ -131,7 +131,7 @@ static int eval_parse_pair(const eval_text_t *text, char **fields, pgem_id_t *fr
     for (int k = 0; k < 2; k++) {
         if (!eval_parse_id(fields[k], k == 0 ? from : to)) {
             fprintf(stderr,
-                    "pgem eval: %s:%lu: field %d (%s) is not an unsigned 64-bit id: '%.40s'\n",
+                    "pgem: %s:%lu: field %d (%s) is not an unsigned 64-bit id: '%.40s'\n",
                     text->path, text->number, k + 1, k == 0 ? "from" : "to", fields[k]);
             return 0;
         }
@@ -169,7 +169,7 @@ static int eval_read_outliers(const char *path, eval_key_t **keys, size_t *count
         }
         eval_key_t key = {0u, 0u, text.number};
         if (fields_read != 2u) {
-            fprintf(stderr, "pgem eval: %s:%lu: expected 2 fields 'from to', got %s\n", path,
+            fprintf(stderr, "pgem: %s:%lu: expected 2 fields 'from to', got %s\n", path,
                     text.number, fields_read < 2u ? "1" : "more");
             status = PGEM_EXIT_FAILURE;
         } else if (!eval_parse_pair(&text, fields, &key.from, &key.to)) {
@@ -177,7 +177,7 @@ static int eval_read_outliers(const char *path, eval_key_t **keys, size_t *count
         } else {
             eval_key_t *grown = eval_reserve(*keys, &capacity, *count, sizeof *grown);
             if (grown == NULL) {
-                fprintf(stderr, "pgem eval: out of memory\n");
+                fprintf(stderr, "pgem: out of memory\n");
                 status = PGEM_EXIT_FAILURE;
             } else {
                 *keys = grown;
@@ -194,7 +194,7 @@ static int eval_parse_loop(const eval_text_t *text, char **fields, size_t count,
 {
     char *end = NULL;
     if (count != 4u) {
-        fprintf(stderr, "pgem eval: %s:%lu: expected 4 fields 'from to weight state', got %s\n",
+        fprintf(stderr, "pgem: %s:%lu: expected 4 fields 'from to weight state', got %s\n",
                 text->path, text->number, count < 4u ? "fewer" : "more");
         return 0;
     }
@@ -203,13 +203,13 @@ static int eval_parse_loop(const eval_text_t *text, char **fields, size_t count,
     }
     loop->weight = strtod(fields[2], &end);
     if (end == fields[2] || *end != '\0' || !isfinite(loop->weight)) {
-        fprintf(stderr, "pgem eval: %s:%lu: field 3 (weight) is not a finite number: '%.40s'\n",
+        fprintf(stderr, "pgem: %s:%lu: field 3 (weight) is not a finite number: '%.40s'\n",
                 text->path, text->number, fields[2]);
         return 0;
     }
     if (strcmp(fields[3], "accepted") != 0 && strcmp(fields[3], "pruned") != 0) {
         fprintf(stderr,
-                "pgem eval: %s:%lu: field 4 (state) must be accepted or pruned, got '%.40s'\n",
+                "pgem: %s:%lu: field 4 (state) must be accepted or pruned, got '%.40s'\n",
                 text->path, text->number, fields[3]);
         return 0;
     }
@@ -237,7 +237,7 @@ static int eval_read_weights(const char *path, eval_loop_t **loops, size_t *coun
         } else {
             eval_loop_t *grown = eval_reserve(*loops, &capacity, *count, sizeof *grown);
             if (grown == NULL) {
-                fprintf(stderr, "pgem eval: out of memory\n");
+                fprintf(stderr, "pgem: out of memory\n");
                 status = PGEM_EXIT_FAILURE;
             } else {
                 *loops = grown;
@@ -285,10 +285,10 @@ static int eval_report_missing(const char *outliers, const char *weights,
         return PGEM_EXIT_OK;
     }
     if (missing->found == 0) {
-        fprintf(stderr, "pgem eval: %s:%zu: false loop %llu %llu is not in %s\n", outliers,
+        fprintf(stderr, "pgem: %s:%zu: false loop %llu %llu is not in %s\n", outliers,
                 key->index, (unsigned long long)key->from, (unsigned long long)key->to, weights);
     } else {
-        fprintf(stderr, "pgem eval: %s:%zu: false loop %llu %llu is listed %zu times but %s has it "
+        fprintf(stderr, "pgem: %s:%zu: false loop %llu %llu is listed %zu times but %s has it "
                         "only %zu times\n", outliers, key->index, (unsigned long long)key->from,
                 (unsigned long long)key->to, missing->listed, weights, missing->found);
     }
@@ -305,7 +305,7 @@ static int eval_mark_false(const char *outliers_path, const char *weights_path,
     eval_key_t *keys = malloc((loop_count > 0 ? loop_count : 1u) * sizeof *keys);
     eval_missing_t missing = {NULL, 0u, 0u};
     if (keys == NULL) {
-        fprintf(stderr, "pgem eval: out of memory\n");
+        fprintf(stderr, "pgem: out of memory\n");
         return PGEM_EXIT_FAILURE;
     }
     for (size_t k = 0; k < loop_count; k++) {
@@ -380,6 +380,24 @@ int pgem_eval_loops(const char *outliers_path, const char *weights_path, double 
     }
     if (status == PGEM_EXIT_OK) {
         eval_score(reject_below, *loops, loop_count, outlier_count, scores);
+    }
+    free(outliers);
+    return status;
+}
+
+int pgem_eval_read_weights(const char *weights_path, eval_loop_t **loops, size_t *count)
+{
+    return eval_read_weights(weights_path, loops, count);
+}
+
+int pgem_eval_mark_outliers(const char *outliers_path, const char *loops_path, eval_loop_t *loops,
+                            size_t count, size_t *outlier_count)
+{
+    eval_key_t *outliers = NULL;
+    int status = eval_read_outliers(outliers_path, &outliers, outlier_count);
+    if (status == PGEM_EXIT_OK) {
+        eval_sort_keys(outliers, *outlier_count);
+        status = eval_mark_false(outliers_path, loops_path, outliers, *outlier_count, loops, count);
     }
     free(outliers);
     return status;

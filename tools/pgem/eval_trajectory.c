@@ -28,7 +28,7 @@ static int eval_normalize(pgem_io_graph_t *graph)
     for (size_t k = 0; graph->dimension == 3 && k < graph->pose_count; k++) {
         double norm = pgem_quat_normalize(graph->poses[k].pose + 3);
         if (!(fabs(norm - 1.0) <= 0.01)) {
-            fprintf(stderr, "pgem eval: %s:%lu: pose %llu has a quaternion of norm %g (off 1 by "
+            fprintf(stderr, "pgem: %s:%lu: pose %llu has a quaternion of norm %g (off 1 by "
                             "more than 1%%)\n", graph->source, graph->poses[k].line,
                     (unsigned long long)graph->poses[k].id, norm);
             return PGEM_EXIT_FAILURE;
@@ -42,15 +42,15 @@ int pgem_eval_read_graph(const char *path, pgem_io_graph_t *graph)
     char message[1024];
     int status = pgem_io_read(path, PGEM_FORMAT_AUTO, graph, message, sizeof message);
     if (status != PGEM_OK) {
-        fprintf(stderr, "pgem eval: %s\n", message);
+        fprintf(stderr, "pgem: %s\n", message);
         return status == PGEM_ERR_IO ? PGEM_EXIT_IO : PGEM_EXIT_FAILURE;
     }
     if (graph->pose_count == 0) {
-        fprintf(stderr, "pgem eval: %s has no poses\n", path);
+        fprintf(stderr, "pgem: %s has no poses\n", path);
         return PGEM_EXIT_FAILURE;
     }
     if (graph->chained_poses > 0) {
-        fprintf(stderr, "pgem eval: warning: %s has no VERTEX lines; its poses are guesses "
+        fprintf(stderr, "pgem: warning: %s has no VERTEX lines; its poses are guesses "
                         "composed along its edges\n", path);
     }
     return eval_normalize(graph);
@@ -89,7 +89,7 @@ static int eval_match_poses(const pgem_io_graph_t *ref, const pgem_io_graph_t *r
     *count = 0;
     if (ids == NULL || *matches == NULL) {
         free(ids);
-        fprintf(stderr, "pgem eval: out of memory\n");
+        fprintf(stderr, "pgem: out of memory\n");
         return PGEM_EXIT_FAILURE;
     }
     for (size_t k = 0; k < res->pose_count; k++) {
@@ -312,7 +312,7 @@ int pgem_eval_trajectory(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
 {
     memset(out, 0, sizeof *out);
     if (ref->dimension != res->dimension) {
-        fprintf(stderr, "pgem eval: dimensions differ: %s is %dD, %s is %dD\n", res->source,
+        fprintf(stderr, "pgem: dimensions differ: %s is %dD, %s is %dD\n", res->source,
                 res->dimension, ref->source, ref->dimension);
         return PGEM_EXIT_FAILURE;
     }
@@ -320,7 +320,7 @@ int pgem_eval_trajectory(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
     size_t count = 0;
     int status = eval_match_poses(ref, res, &matches, &count);
     if (status == PGEM_EXIT_OK && count < 2u) {
-        fprintf(stderr, "pgem eval: %zu pose id(s) in both %s and %s; at least 2 must match\n",
+        fprintf(stderr, "pgem: %zu pose id(s) in both %s and %s; at least 2 must match\n",
                 count, res->source, ref->source);
         status = PGEM_EXIT_FAILURE;
     }
@@ -331,6 +331,23 @@ int pgem_eval_trajectory(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
         out->only_reference = ref->pose_count - count;
         eval_ate(ref, res, matches, count, out);
         eval_rpe(ref, res, matches, count, out);
+    }
+    free(matches);
+    return status;
+}
+
+int pgem_eval_align(const pgem_io_graph_t *ref, const pgem_io_graph_t *res, double rotation[4],
+                    double c_ref[3], double c_res[3], size_t *matched)
+{
+    eval_match_t *matches = NULL;
+    static const double identity[4] = {0.0, 0.0, 0.0, 1.0};
+    memcpy(rotation, identity, sizeof identity);
+    memset(c_ref, 0, 3 * sizeof *c_ref);
+    memset(c_res, 0, 3 * sizeof *c_res);
+    int status = eval_match_poses(ref, res, &matches, matched);
+    if (status == PGEM_EXIT_OK && *matched > 0) {
+        eval_centroids(ref, res, matches, *matched, c_ref, c_res);
+        eval_align_rotation(ref, res, matches, *matched, c_ref, c_res, rotation);
     }
     free(matches);
     return status;

@@ -15,7 +15,9 @@ static void pgem_usage(FILE *out)
             "   optimize   optimize a g2o or TORO pose graph\n"
             "   corrupt    add false loop closures (random, local, grouped) to a graph\n"
             "   eval       score a result against a reference (ATE, RPE, loop rejection)\n"
-            "   simulate   generate a 2D Manhattan-world graph with ground truth\n"
+            "   simulate   generate a graph with ground truth (2D Manhattan walk, 3D sphere or grid)\n"
+            "   plot       draw a graph as SVG, loop closures coloured accepted/rejected\n"
+            "   stats      check a graph before optimizing (counts, connectivity, defects)\n"
             "\n"
             "'pgem <command> --help' describes a command. Exit codes: 0 success, 1 the solve\n"
             "failed or the input was rejected, 2 bad command line, 3 a file could not be read or\n"
@@ -43,6 +45,12 @@ int main(int argc, char **argv)
     }
     if (strcmp(argv[1], "simulate") == 0) {
         return pgem_cmd_simulate(argc - 1, argv + 1);
+    }
+    if (strcmp(argv[1], "plot") == 0) {
+        return pgem_cmd_plot(argc - 1, argv + 1);
+    }
+    if (strcmp(argv[1], "stats") == 0) {
+        return pgem_cmd_stats(argc - 1, argv + 1);
     }
     fprintf(stderr, "pgem: '%s' is not a pgem command. See 'pgem --help'.\n", argv[1]);
     return PGEM_EXIT_USAGE;

@@ -1,0 +1,565 @@
+/* pgem plot: draws a pose graph as SVG, its loop closures coloured by the verdict of a robust
+ * solve (the weights file) and, given the injected false loops, by whether that verdict was
+ * right. Reading and classifying are here; the drawing is in plot_svg.c. */
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "eval.h"
+#include "plot.h"
+
+#define PLOT_REJECT_BELOW 0.01       /* the EM prune threshold, as pgem eval's default */
+#define PLOT_DEFAULT_WIDTH 1000u     /* pixels, one graph */
+#define PLOT_DEFAULT_WIDTH_PAIR 1600u /* pixels, two panels across */
+#define PLOT_MIN_WIDTH 200u
+#define PLOT_MAX_WIDTH 20000u
+
+/* Command-line choices of one picture. */
+typedef struct plot_args {
+    const char *graph;           /* the graph to draw (the result) */
+    const char *output;          /* SVG file */
+    const char *weights;         /* 'from to weight state' per loop (NULL: all accepted) */
+    const char *outliers;        /* false loops, 'from to' per line (NULL: unknown) */
+    const char *truth;           /* ground truth graph (NULL: none) */
+    const char *before;          /* initial graph for a before/after pair (NULL: none) */
+    const char *title;           /* NULL: GRAPH's file name */
+    uint32_t width;              /* 0: the default */
+} plot_args_t;
+
+/* A pose id with its index in the file graph, for sorting. */
+typedef struct plot_id {
+    pgem_id_t id;
+    size_t index;
+} plot_id_t;
+
+/* A graph with its poses sorted by id, and a rigid motion applied to its positions:
+ * p -> R (p - from) + to (the identity unless aligned). */
+typedef struct plot_source {
+    pgem_io_graph_t file;
+    plot_id_t *ids;
+    int aligned;
+    double rotation[4];
+    double from[3];
+    double to[3];
+} plot_source_t;
+
+/* The loop closures to draw, with their verdicts. */
+typedef struct plot_loops {
+    eval_loop_t *items;
+    size_t count;
+    const char *path;            /* where they came from: the weights file or GRAPH */
+    size_t outliers;             /* lines of the outliers file */
+    int judged;                  /* from a weights file */
+    int known;                   /* the false ones are marked (outliers file) */
+} plot_loops_t;
+
+static void plot_help(FILE *out)
+{
+    fprintf(out,
+            "usage: pgem plot GRAPH -o FILE.svg [--weights W] [--outliers O] [--truth T]\n"
+            "                 [--before INITIAL] [--title TEXT] [--width PX]\n"
+            "\n"
+            "Draws a pose graph (g2o 2D/3D or TORO) as an SVG picture in the manner of figure 1\n"
+            "of Lee, Fraundorfer & Pollefeys (IROS 2013): odometry blue, loop closures accepted\n"
+            "green and rejected red. A 3D graph gets two panels side by side, the top (x-y)\n"
+            "and the side (x-z) projection. Panels keep an equal aspect ratio and each graph\n"
+            "has a scale bar; the legend counts each kind of line.\n"
+            "\n"
+            "  --weights W       the file pgem optimize --weights writes, one 'from to weight\n"
+            "                    state' line per loop closure: its lines are the loops drawn,\n"
+            "                    and one is rejected if pruned or its weight is below %g.\n"
+            "                    Without it the loop closures of GRAPH are drawn, all green.\n"
+            "  --outliers O      the false loops pgem corrupt lists, one 'from to' per line,\n"
+            "                    matched as pgem eval matches them. With --weights: false loops\n"
+            "                    rejected red, true loops rejected orange and dashed, false\n"
+            "                    loops accepted (missed) magenta and thick. Without: false\n"
+            "                    loops magenta.\n"
+            "  --truth T         ground truth, another graph file: poses matched by id, rigidly\n"
+            "                    aligned to GRAPH (the alignment of pgem eval's ATE) and drawn\n"
+            "                    in grey beneath, along GRAPH's odometry chain\n"
+            "  --before INITIAL  a before/after pair: INITIAL (e.g. the corrupted input with\n"
+            "                    its initial guess) on the left, GRAPH on the right, the same\n"
+            "                    loops in the same colours\n"
+            "  --title TEXT      the title (default: GRAPH's file name)\n"
+            "  --width PX        width of the picture in pixels, %u to %u (default %u; %u\n"
+            "                    for a 3D graph or with --before)\n"
+            "  -o FILE.svg       the picture to write (required)\n"
+            "\n"
+            "The odometry chain is GRAPH's odometry edges in file order (consecutive poses in\n"
+            "file order if it has none). Exit codes: 0 success, 1 an input was rejected (the\n"
+            "message names the file and line), 2 bad command line, 3 a file could not be read\n"
+            "or written.\n",
+            PLOT_REJECT_BELOW, PLOT_MIN_WIDTH, PLOT_MAX_WIDTH, PLOT_DEFAULT_WIDTH,
+            PLOT_DEFAULT_WIDTH_PAIR);
+}
+
+/* Returns PGEM_EXIT_OK, an exit code, or -1 after --help. */
+static int plot_parse(int argc, char **argv, plot_args_t *args)
+{
+    memset(args, 0, sizeof *args);
+    if (argc < 2) {
+        plot_help(stderr);
+        return PGEM_EXIT_USAGE;
+    }
+    for (int k = 1; k < argc; k++) {
+        const char *arg = argv[k], *value = k + 1 < argc ? argv[k + 1] : NULL;
+        const char **target = NULL;
+        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
+            plot_help(stdout);
+            return -1;
+        }
+        if (arg[0] != '-' || arg[1] == '\0') {
+            if (args->graph != NULL) {
+                fprintf(stderr, "pgem plot: more than one graph file ('%s')\n", arg);
+                return PGEM_EXIT_USAGE;
+            }
+            args->graph = arg;
+            continue;
+        }
+        if (strcmp(arg, "-o") == 0) {
+            target = &args->output;
+        } else if (strcmp(arg, "--weights") == 0) {
+            target = &args->weights;
+        } else if (strcmp(arg, "--outliers") == 0) {
+            target = &args->outliers;
+        } else if (strcmp(arg, "--truth") == 0) {
+            target = &args->truth;
+        } else if (strcmp(arg, "--before") == 0) {
+            target = &args->before;
+        } else if (strcmp(arg, "--title") == 0) {
+            target = &args->title;
+        } else if (strcmp(arg, "--width") != 0) {
+            fprintf(stderr, "pgem plot: unknown option '%s' (see pgem plot --help)\n", arg);
+            return PGEM_EXIT_USAGE;
+        }
+        if (value == NULL) {
+            fprintf(stderr, "pgem plot: %s needs a value\n", arg);
+            return PGEM_EXIT_USAGE;
+        }
+        if (target != NULL) {
+            *target = value;
+        } else if (!pgem_cli_parse_u32(arg, value, &args->width)) {
+            return PGEM_EXIT_USAGE;
+        } else if (args->width < PLOT_MIN_WIDTH || args->width > PLOT_MAX_WIDTH) {
+            fprintf(stderr, "pgem plot: --width takes %u to %u pixels, got %s\n",
+                    PLOT_MIN_WIDTH, PLOT_MAX_WIDTH, value);
+            return PGEM_EXIT_USAGE;
+        }
+        k++;
+    }
+    if (args->graph == NULL || args->output == NULL) {
+        fprintf(stderr, "pgem plot: GRAPH and -o FILE.svg are required (see pgem plot --help)\n");
+        return PGEM_EXIT_USAGE;
+    }
+    return PGEM_EXIT_OK;
+}
+
+static int plot_compare_ids(const void *a, const void *b)
+{
+    const plot_id_t *x = a, *y = b;
+    return (x->id > y->id) - (x->id < y->id);
+}
+
+/* Reads a graph file and sorts its pose ids. Prints errors; returns a PGEM_EXIT_* code. */
+static int plot_read(const char *path, plot_source_t *source)
+{
+    char message[1024];
+    memset(source, 0, sizeof *source);
+    source->rotation[3] = 1.0;
+    int status = pgem_io_read(path, PGEM_FORMAT_AUTO, &source->file, message, sizeof message);
+    if (status != PGEM_OK) {
+        fprintf(stderr, "pgem plot: %s\n", message);
+        return status == PGEM_ERR_IO ? PGEM_EXIT_IO : PGEM_EXIT_FAILURE;
+    }
+    if (source->file.pose_count == 0) {
+        fprintf(stderr, "pgem plot: %s has no poses\n", path);
+        return PGEM_EXIT_FAILURE;
+    }
+    if (source->file.chained_poses > 0) {
+        fprintf(stderr, "pgem plot: warning: %s has no VERTEX lines; its poses are guesses "
+                        "composed along its edges\n", path);
+    }
+    source->ids = malloc(source->file.pose_count * sizeof *source->ids);
+    if (source->ids == NULL) {
+        fprintf(stderr, "pgem plot: out of memory\n");
+        return PGEM_EXIT_FAILURE;
+    }
+    for (size_t k = 0; k < source->file.pose_count; k++) {
+        source->ids[k] = (plot_id_t){source->file.poses[k].id, k};
+    }
+    qsort(source->ids, source->file.pose_count, sizeof *source->ids, plot_compare_ids);
+    return PGEM_EXIT_OK;
+}
+
+static void plot_release(plot_source_t *source)
+{
+    pgem_io_graph_free(&source->file);
+    free(source->ids);
+    source->ids = NULL;
+}
+
+/* The (moved) position of pose id; returns 0 when the graph has no such pose. */
+static int plot_position(const plot_source_t *source, pgem_id_t id, double out[3])
+{
+    size_t low = 0, high = source->file.pose_count;
+    while (low < high) {
+        size_t middle = low + (high - low) / 2u;
+        if (source->ids[middle].id < id) {
+            low = middle + 1u;
+        } else {
+            high = middle;
+        }
+    }
+    if (low == source->file.pose_count || source->ids[low].id != id) {
+        return 0;
+    }
+    const double *pose = source->file.poses[source->ids[low].index].pose;
+    out[0] = pose[0];
+    out[1] = pose[1];
+    out[2] = source->file.dimension == 3 ? pose[2] : 0.0;
+    if (source->aligned) {
+        for (int d = 0; d < 3; d++) {
+            out[d] -= source->from[d];
+        }
+        pgem_quat_rotate(source->rotation, out, out);
+        for (int d = 0; d < 3; d++) {
+            out[d] += source->to[d];
+        }
+    }
+    return 1;
+}
+
+/* Odometry edges of a graph, or 0 when it has none. */
+static size_t plot_odometry_count(const pgem_io_graph_t *graph)
+{
+    size_t count = 0;
+    for (size_t k = 0; k < graph->edge_count; k++) {
+        count += (size_t)(graph->edges[k].kind == PGEM_EDGE_ODOMETRY);
+    }
+    return count;
+}
+
+/* Adds the segment from id a to id b, continuing the last stroke when it ended at a. A pose
+ * missing from the source breaks the stroke. Returns 0 when out of memory. */
+static int plot_chain_step(const plot_source_t *source, pgem_id_t a, pgem_id_t b,
+                           plot_lines_t *lines, int *open, pgem_id_t *last)
+{
+    double p[3], q[3];
+    if (!plot_position(source, a, p) || !plot_position(source, b, q)) {
+        *open = 0;
+        return 1;
+    }
+    int ok = 1;
+    if (!*open || *last != a) {
+        ok = plot_lines_add(lines, p, 1);
+    }
+    ok = ok && plot_lines_add(lines, q, 0);
+    *open = 1;
+    *last = b;
+    return ok;
+}
+
+/* The odometry chain of `topology` (its odometry edges in file order, or its poses in file
+ * order when it has none) drawn at the positions of `source`. Returns 0 when out of memory. */
+static int plot_chain(const pgem_io_graph_t *topology, const plot_source_t *source,
+                      plot_lines_t *lines)
+{
+    int open = 0, ok = 1;
+    pgem_id_t last = 0;
+    if (plot_odometry_count(topology) == 0) {
+        for (size_t k = 0; ok && k + 1u < topology->pose_count; k++) {
+            ok = plot_chain_step(source, topology->poses[k].id, topology->poses[k + 1u].id,
+                                 lines, &open, &last);
+        }
+        return ok;
+    }
+    for (size_t k = 0; ok && k < topology->edge_count; k++) {
+        const pgem_io_edge_t *edge = &topology->edges[k];
+        if (edge->kind == PGEM_EDGE_ODOMETRY) {
+            ok = plot_chain_step(source, edge->from, edge->to, lines, &open, &last);
+        }
+    }
+    return ok;
+}
+
+/* The loops to draw: the weights lines, or GRAPH's loop closures (all accepted); the false
+ * ones marked from the outliers file. Prints errors; returns a PGEM_EXIT_* code. */
+static int plot_collect_loops(const plot_args_t *args, const pgem_io_graph_t *graph,
+                              plot_loops_t *loops)
+{
+    int status = PGEM_EXIT_OK;
+    memset(loops, 0, sizeof *loops);
+    if (args->weights != NULL) {
+        loops->path = args->weights;
+        loops->judged = 1;
+        status = pgem_eval_read_weights(args->weights, &loops->items, &loops->count);
+        size_t in_graph = graph->edge_count - plot_odometry_count(graph);
+        if (status == PGEM_EXIT_OK && loops->count != in_graph) {
+            fprintf(stderr, "pgem plot: warning: %s lists %zu loop closures, %s has %zu\n",
+                    args->weights, loops->count, args->graph, in_graph);
+        }
+    } else {
+        loops->path = args->graph;
+        loops->items = malloc((graph->edge_count > 0 ? graph->edge_count : 1u) *
+                              sizeof *loops->items);
+        if (loops->items == NULL) {
+            fprintf(stderr, "pgem plot: out of memory\n");
+            return PGEM_EXIT_FAILURE;
+        }
+        for (size_t k = 0; k < graph->edge_count; k++) {
+            const pgem_io_edge_t *edge = &graph->edges[k];
+            if (edge->kind == PGEM_EDGE_LOOP) {
+                eval_loop_t loop = {edge->from, edge->to, 1.0, edge->line, 0, 0, 0};
+                loops->items[loops->count++] = loop;
+            }
+        }
+    }
+    if (status == PGEM_EXIT_OK && args->outliers != NULL) {
+        loops->known = 1;
+        status = pgem_eval_mark_outliers(args->outliers, loops->path, loops->items, loops->count,
+                                         &loops->outliers);
+    }
+    for (size_t k = 0; status == PGEM_EXIT_OK && k < loops->count; k++) {
+        eval_loop_t *loop = &loops->items[k];
+        loop->rejected = loops->judged && (loop->pruned || loop->weight < PLOT_REJECT_BELOW);
+    }
+    return status;
+}
+
+static plot_style_t plot_classify(const plot_loops_t *loops, const eval_loop_t *loop)
+{
+    if (loop->is_false) {
+        return loop->rejected ? PLOT_REJECTED : PLOT_MISSED;
+    }
+    if (loop->rejected) {
+        return loops->known ? PLOT_TRUE_REJECTED : PLOT_REJECTED;
+    }
+    return PLOT_ACCEPTED;
+}
+
+/* Adds every loop at the positions of source, by class; counts them per class when counts is
+ * not NULL. Prints errors; returns a PGEM_EXIT_* code. */
+static int plot_add_loops(const plot_loops_t *loops, const plot_source_t *source,
+                          plot_graph_t *drawn, size_t counts[PLOT_STYLE_COUNT])
+{
+    for (size_t k = 0; k < loops->count; k++) {
+        const eval_loop_t *loop = &loops->items[k];
+        double p[3], q[3];
+        int have_from = plot_position(source, loop->from, p);
+        if (!have_from || !plot_position(source, loop->to, q)) {
+            fprintf(stderr, "pgem plot: %s:%lu: loop %llu %llu: pose %llu is not in %s\n",
+                    loops->path, loop->line, (unsigned long long)loop->from,
+                    (unsigned long long)loop->to,
+                    (unsigned long long)(have_from ? loop->to : loop->from), source->file.source);
+            return PGEM_EXIT_FAILURE;
+        }
+        plot_style_t style = plot_classify(loops, loop);
+        plot_lines_t *lines = &drawn->lines[style];
+        if (!plot_lines_add(lines, p, 1) || !plot_lines_add(lines, q, 0)) {
+            fprintf(stderr, "pgem plot: out of memory\n");
+            return PGEM_EXIT_FAILURE;
+        }
+        if (counts != NULL) {
+            counts[style]++;
+        }
+    }
+    return PGEM_EXIT_OK;
+}
+
+static const char *plot_basename(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    return slash != NULL ? slash + 1 : path;
+}
+
+/* "s" unless count is 1. */
+static const char *plot_plural(size_t count)
+{
+    return count == 1u ? "" : "s";
+}
+
+/* The legend's texts: what each kind of line is, with its count. */
+static void plot_legend(const plot_args_t *args, const plot_loops_t *loops, size_t odometry,
+                        size_t truth_matched, const size_t counts[PLOT_STYLE_COUNT],
+                        plot_figure_t *figure)
+{
+    char (*legend)[160] = figure->legend;
+    const size_t size = sizeof figure->legend[0];
+    size_t accepted = counts[PLOT_ACCEPTED], rejected = counts[PLOT_REJECTED];
+    size_t true_rejected = counts[PLOT_TRUE_REJECTED], missed = counts[PLOT_MISSED];
+    snprintf(legend[PLOT_ODOMETRY], size, "%zu odometry edge%s", odometry, plot_plural(odometry));
+    if (args->truth != NULL) {
+        snprintf(legend[PLOT_TRUTH], size, "ground truth, rigidly aligned (%zu pose%s matched)",
+                 truth_matched, plot_plural(truth_matched));
+    }
+    if (!loops->judged) {
+        snprintf(legend[PLOT_ACCEPTED], size, "%zu %sloop closure%s (no weights: none rejected)",
+                 accepted, loops->known ? "true " : "", plot_plural(accepted));
+        if (loops->known) {
+            snprintf(legend[PLOT_MISSED], size, "%zu false loop%s", missed, plot_plural(missed));
+        }
+        return;
+    }
+    if (!loops->known) {
+        snprintf(legend[PLOT_ACCEPTED], size, "%zu loop%s accepted", accepted,
+                 plot_plural(accepted));
+        snprintf(legend[PLOT_REJECTED], size, "%zu loop%s rejected (pruned or weight < %g)",
+                 rejected, plot_plural(rejected), PLOT_REJECT_BELOW);
+        return;
+    }
+    snprintf(legend[PLOT_ACCEPTED], size, "%zu true loop%s accepted", accepted,
+             plot_plural(accepted));
+    snprintf(legend[PLOT_REJECTED], size, "%zu false loop%s rejected", rejected,
+             plot_plural(rejected));
+    snprintf(legend[PLOT_TRUE_REJECTED], size, "%zu true loop%s rejected", true_rejected,
+             plot_plural(true_rejected));
+    snprintf(legend[PLOT_MISSED], size, "%zu false loop%s accepted (missed)", missed,
+             plot_plural(missed));
+}
+
+/* Reads --truth, checks it against GRAPH and aligns it rigidly to GRAPH. */
+static int plot_read_truth(const plot_args_t *args, const plot_source_t *graph,
+                           plot_source_t *truth, size_t *matched)
+{
+    int status = plot_read(args->truth, truth);
+    if (status != PGEM_EXIT_OK) {
+        return status;
+    }
+    if (truth->file.dimension != graph->file.dimension) {
+        fprintf(stderr, "pgem plot: dimensions differ: %s is %dD, %s is %dD\n", args->graph,
+                graph->file.dimension, args->truth, truth->file.dimension);
+        return PGEM_EXIT_FAILURE;
+    }
+    status = pgem_eval_align(&graph->file, &truth->file, truth->rotation, truth->to, truth->from,
+                             matched);
+    if (status == PGEM_EXIT_OK && *matched == 0) {
+        fprintf(stderr, "pgem plot: no pose id of %s is in %s\n", args->truth, args->graph);
+        status = PGEM_EXIT_FAILURE;
+    }
+    truth->aligned = 1;
+    return status;
+}
+
+/* Reads --before and checks its dimension against GRAPH. */
+static int plot_read_before(const plot_args_t *args, const plot_source_t *graph,
+                            plot_source_t *before)
+{
+    int status = plot_read(args->before, before);
+    if (status == PGEM_EXIT_OK && before->file.dimension != graph->file.dimension) {
+        fprintf(stderr, "pgem plot: dimensions differ: %s is %dD, %s is %dD\n", args->graph,
+                graph->file.dimension, args->before, before->file.dimension);
+        status = PGEM_EXIT_FAILURE;
+    }
+    return status;
+}
+
+/* Title, subtitle and captions. */
+static void plot_texts(const plot_args_t *args, const plot_source_t *graph,
+                       const plot_loops_t *loops, plot_figure_t *figure)
+{
+    snprintf(figure->title, sizeof figure->title, "%s",
+             args->title != NULL ? args->title : plot_basename(args->graph));
+    snprintf(figure->subtitle, sizeof figure->subtitle, "%dD, %zu poses, %zu loop closures%s%s",
+             graph->file.dimension, graph->file.pose_count, loops->count,
+             loops->judged ? ", verdicts from " : "",
+             loops->judged ? plot_basename(args->weights) : "");
+    if (args->before != NULL) {
+        snprintf(figure->graphs[0].caption, sizeof figure->graphs[0].caption, "before: %s",
+                 plot_basename(args->before));
+        snprintf(figure->graphs[1].caption, sizeof figure->graphs[1].caption, "after: %s",
+                 plot_basename(args->graph));
+    }
+}
+
+/* Builds the figure from the files named by args. Prints errors; returns a PGEM_EXIT_* code. */
+static int plot_build(const plot_args_t *args, plot_figure_t *figure)
+{
+    plot_source_t graph, truth, before;
+    plot_loops_t loops = {NULL, 0u, NULL, 0u, 0, 0};
+    size_t counts[PLOT_STYLE_COUNT] = {0}, matched = 0;
+    memset(&truth, 0, sizeof truth);
+    memset(&before, 0, sizeof before);
+    int status = plot_read(args->graph, &graph);
+    if (status == PGEM_EXIT_OK && args->before != NULL) {
+        status = plot_read_before(args, &graph, &before);
+    }
+    if (status == PGEM_EXIT_OK && args->truth != NULL) {
+        status = plot_read_truth(args, &graph, &truth, &matched);
+    }
+    if (status == PGEM_EXIT_OK) {
+        status = plot_collect_loops(args, &graph.file, &loops);
+    }
+    figure->dimension = graph.file.dimension;
+    figure->graph_count = args->before != NULL ? 2u : 1u;
+    plot_graph_t *result = &figure->graphs[figure->graph_count - 1u];
+    if (status == PGEM_EXIT_OK && args->before != NULL) {
+        status = plot_add_loops(&loops, &before, &figure->graphs[0], NULL);
+    }
+    if (status == PGEM_EXIT_OK) {
+        status = plot_add_loops(&loops, &graph, result, counts);
+    }
+    if (status == PGEM_EXIT_OK) {
+        int ok = plot_chain(&graph.file, &graph, &result->lines[PLOT_ODOMETRY]);
+        ok = ok && (args->truth == NULL ||
+                    plot_chain(&graph.file, &truth, &result->lines[PLOT_TRUTH]));
+        ok = ok && (args->before == NULL ||
+                    plot_chain(&before.file, &before, &figure->graphs[0].lines[PLOT_ODOMETRY]));
+        if (!ok) {
+            fprintf(stderr, "pgem plot: out of memory\n");
+            status = PGEM_EXIT_FAILURE;
+        }
+    }
+    if (status == PGEM_EXIT_OK) {
+        size_t odometry = plot_odometry_count(&graph.file);
+        plot_legend(args, &loops, odometry > 0 ? odometry : graph.file.pose_count - 1u, matched,
+                    counts, figure);
+        plot_texts(args, &graph, &loops, figure);
+    }
+    free(loops.items);
+    plot_release(&graph);
+    plot_release(&truth);
+    plot_release(&before);
+    return status;
+}
+
+static int plot_write(const plot_args_t *args, const plot_figure_t *figure)
+{
+    FILE *out = fopen(args->output, "w");
+    if (out == NULL) {
+        fprintf(stderr, "pgem plot: %s: cannot open for writing: %s\n", args->output,
+                strerror(errno));
+        return PGEM_EXIT_IO;
+    }
+    int failed = plot_write_svg(figure, out) != 0;
+    failed |= fclose(out) != 0;
+    if (failed) {
+        fprintf(stderr, "pgem plot: %s: write failed: %s\n", args->output, strerror(errno));
+        return PGEM_EXIT_IO;
+    }
+    return PGEM_EXIT_OK;
+}
+
+int pgem_cmd_plot(int argc, char **argv)
+{
+    plot_args_t args;
+    int status = plot_parse(argc, argv, &args);
+    if (status != PGEM_EXIT_OK) {
+        return status < 0 ? PGEM_EXIT_OK : status;
+    }
+    plot_figure_t *figure = calloc(1u, sizeof *figure);
+    if (figure == NULL) {
+        fprintf(stderr, "pgem plot: out of memory\n");
+        return PGEM_EXIT_FAILURE;
+    }
+    status = plot_build(&args, figure);
+    unsigned width = figure->graph_count > 1u || figure->dimension == 3 ? PLOT_DEFAULT_WIDTH_PAIR
+                                                                        : PLOT_DEFAULT_WIDTH;
+    figure->width = args.width != 0 ? args.width : width;
+    if (status == PGEM_EXIT_OK) {
+        status = plot_write(&args, figure);
+    }
+    plot_figure_free(figure);
+    free(figure);
+    return status;
+}

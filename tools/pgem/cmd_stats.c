@@ -1,0 +1,973 @@
+/* pgem stats: reads a graph and reports what decides whether it optimizes as is: counts,
+ * degrees, connected components and their fixed poses, duplicated pairs, self-loops,
+ * information matrices that are not symmetric positive definite, rotations, id gaps and
+ * extent; a verdict (ok, warnings, problems) sets the exit code. */
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+
+#define STATS_SHOWN 3            /* items listed per finding, then "... and N more" */
+#define STATS_SIZES 5            /* component sizes kept, largest first */
+#define STATS_REASONS 16         /* verdict reasons kept */
+#define STATS_PI 3.14159265358979323846
+#define STATS_QUAT_NOTE 1e-6     /* norm error worth a note (printed digits round to this) */
+#define STATS_QUAT_WARN 1e-3     /* beyond rounding: the writer did not normalise */
+#define STATS_QUAT_LIMIT 0.01    /* the core refuses a quaternion whose norm is off by more */
+#define STATS_NONE ((size_t)-1)  /* no pose index */
+
+typedef enum stats_level { STATS_NOTE = 1, STATS_WARNING = 2, STATS_PROBLEM = 3 } stats_level_t;
+
+typedef enum stats_item_kind {
+    STATS_ITEM_EDGE,             /* an edge: from, to, line */
+    STATS_ITEM_POSE,             /* a pose: pose, line */
+    STATS_ITEM_LEAF,             /* a pose and its only edge: pose, from, to, line */
+    STATS_ITEM_PAIR              /* a duplicated pair: from, to (first edge), count, lines */
+} stats_item_kind_t;
+
+/* One finding to show. */
+typedef struct stats_item {
+    stats_item_kind_t kind;
+    pgem_id_t pose;
+    pgem_id_t from;
+    pgem_id_t to;
+    unsigned long line;          /* its file line (0: made by the reader) */
+    unsigned long second_line;   /* pair: the line of the second edge */
+    size_t count;                /* pair: edges joining it */
+} stats_item_t;
+
+/* How many of something were found, and the first few in file order. */
+typedef struct stats_list {
+    size_t count;
+    size_t shown;
+    stats_item_t items[STATS_SHOWN];
+} stats_list_t;
+
+/* A pose id and its index in the file graph. */
+typedef struct stats_id {
+    pgem_id_t id;
+    size_t index;
+} stats_id_t;
+
+/* An edge under its unordered pair, for finding duplicates. */
+typedef struct stats_pair {
+    pgem_id_t low;
+    pgem_id_t high;
+    size_t index;
+} stats_pair_t;
+
+/* Everything measured on one graph. */
+typedef struct stats {
+    const char *path;
+    const pgem_io_graph_t *graph;
+    size_t odometry;
+    size_t loops;
+    size_t degree_min;
+    size_t degree_max;
+    size_t degree_sum;
+    size_t degree0;
+    size_t degree1;
+    stats_list_t loop_leaves;    /* poses whose only edge is a loop closure */
+    size_t components;
+    size_t unheld;               /* components with no held pose */
+    pgem_id_t unheld_example;    /* a pose of the first such component, in file order */
+    size_t sizes[STATS_SIZES];   /* largest component sizes */
+    size_t sizes_kept;
+    stats_list_t duplicates;     /* unordered pairs joined by more than one edge */
+    size_t duplicate_edges;      /* edges beyond the first of each such pair */
+    size_t duplicate_exact;      /* of those, exact copies (same direction and numbers) */
+    stats_list_t self_loops;
+    stats_list_t missing;        /* edges naming an id with no pose */
+    stats_list_t non_finite;     /* poses or edges holding NaN or Inf */
+    stats_list_t asymmetric;     /* information not symmetric */
+    stats_list_t not_pd;         /* information not positive definite */
+    size_t information_ok;
+    size_t angles_out;           /* 2D: theta outside [-pi, pi] (poses and measurements) */
+    size_t quaternions_off;      /* 3D: norm off 1 by more than 1e-6, within 1% */
+    double quaternion_error;     /* 3D: largest |norm - 1| */
+    stats_list_t bad_quaternions; /* 3D: norm off 1 by more than 1% */
+    pgem_id_t id_min;
+    pgem_id_t id_max;
+    size_t id_gaps;              /* breaks in the sorted ids */
+    unsigned long long id_missing; /* ids between id_min and id_max with no pose */
+    double low[3];               /* bounding box of the positions */
+    double high[3];
+    size_t toro_edges;           /* EDGE2 lines in a file without vertices (iSAM-like) */
+    int level;                   /* 0 ok, else the worst stats_level_t of the reasons */
+    size_t reason_count;
+    stats_level_t reason_level[STATS_REASONS];
+    char reason[STATS_REASONS][128];
+} stats_t;
+
+static void stats_help(FILE *out)
+{
+    fprintf(out,
+            "usage: pgem stats GRAPH [--json]\n"
+            "\n"
+            "Reads GRAPH (g2o 2D/3D or TORO 2D, as pgem optimize does) and reports whether it\n"
+            "can be optimized as is: poses and edges (odometry when |from - to| = 1, else loop\n"
+            "closure), pose ids and their gaps, FIX lines, degree (min, mean, max; poses of\n"
+            "degree 0 and 1), connected components (their sizes, and whether each holds a\n"
+            "fixed pose: FIX poses, or the first pose when there is no FIX line), unordered\n"
+            "pairs joined by more than one edge, self-loops, edges naming a missing pose,\n"
+            "information matrices that are not symmetric or not positive definite (Cholesky,\n"
+            "with the tolerances pgem uses when loading), 2D angles outside [-pi, pi], 3D\n"
+            "quaternions off unit norm, NaN/Inf values and the bounding box of the positions.\n"
+            "Lists show the first %d items with their file lines.\n"
+            "\n"
+            "The verdict:\n"
+            "  ok        optimizable as is\n"
+            "  warnings  optimizable, but look: duplicated pairs, a pose held only by a loop\n"
+            "            closure (if a robust kernel rejects it, the pose floats), quaternions\n"
+            "            off unit norm by more than 1e-3, lines with unknown tags, EDGE2 lines\n"
+            "            without vertices (how iSAM files look: square-root information)\n"
+            "  problems  will not optimize correctly as is: no poses, a connected component\n"
+            "            without a fixed pose, self-loops, edges naming a missing pose,\n"
+            "            information not symmetric positive definite, quaternions off unit\n"
+            "            norm by more than 1%% (pgem optimize refuses these when loading),\n"
+            "            NaN/Inf\n"
+            "Angles outside [-pi, pi] and quaternions off by less than 1e-3 are notes: pgem\n"
+            "wraps and normalises them when loading. A pose of degree 1 on an odometry edge is\n"
+            "a trajectory end and fine.\n"
+            "\n"
+            "  --json    print one JSON object on stdout (every number above, the verdict\n"
+            "            and its reasons)\n"
+            "\n"
+            "Exit codes: 0 ok or warnings, 1 problems or the file was rejected by the reader\n"
+            "(the message names the file and line), 2 bad command line, 3 the file could not\n"
+            "be read.\n",
+            STATS_SHOWN);
+}
+
+/* Returns PGEM_EXIT_OK, an exit code, or -1 after --help. */
+static int stats_parse(int argc, char **argv, const char **path, int *json)
+{
+    *path = NULL;
+    *json = 0;
+    if (argc < 2) {
+        stats_help(stderr);
+        return PGEM_EXIT_USAGE;
+    }
+    for (int k = 1; k < argc; k++) {
+        const char *arg = argv[k];
+        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
+            stats_help(stdout);
+            return -1;
+        } else if (strcmp(arg, "--json") == 0) {
+            *json = 1;
+        } else if (arg[0] == '-' && arg[1] != '\0') {
+            fprintf(stderr, "pgem stats: unknown option '%s' (see pgem stats --help)\n", arg);
+            return PGEM_EXIT_USAGE;
+        } else if (*path != NULL) {
+            fprintf(stderr, "pgem stats: more than one graph file ('%s')\n", arg);
+            return PGEM_EXIT_USAGE;
+        } else {
+            *path = arg;
+        }
+    }
+    if (*path == NULL) {
+        fprintf(stderr, "pgem stats: no graph file (see pgem stats --help)\n");
+        return PGEM_EXIT_USAGE;
+    }
+    return PGEM_EXIT_OK;
+}
+
+/* Counts an item and keeps it if it is among the first STATS_SHOWN by line. */
+static void stats_list_add(stats_list_t *list, stats_item_t item)
+{
+    list->count++;
+    size_t at = list->shown;
+    while (at > 0 && list->items[at - 1].line > item.line) {
+        at--;
+    }
+    if (at >= STATS_SHOWN) {
+        return;
+    }
+    size_t last = list->shown < STATS_SHOWN ? list->shown : STATS_SHOWN - 1u;
+    for (size_t k = last; k > at; k--) {
+        list->items[k] = list->items[k - 1];
+    }
+    list->items[at] = item;
+    if (list->shown < STATS_SHOWN) {
+        list->shown++;
+    }
+}
+
+static stats_item_t stats_edge_item(const pgem_io_edge_t *edge)
+{
+    stats_item_t item = {STATS_ITEM_EDGE, 0, edge->from, edge->to, edge->line, 0, 1};
+    return item;
+}
+
+static stats_item_t stats_pose_item(const pgem_io_pose_t *pose)
+{
+    stats_item_t item = {STATS_ITEM_POSE, pose->id, 0, 0, pose->line, 0, 1};
+    return item;
+}
+
+static int stats_compare_ids(const void *a, const void *b)
+{
+    const stats_id_t *x = a, *y = b;
+    return (x->id > y->id) - (x->id < y->id);
+}
+
+static int stats_compare_pairs(const void *a, const void *b)
+{
+    const stats_pair_t *x = a, *y = b;
+    if (x->low != y->low) {
+        return (x->low > y->low) - (x->low < y->low);
+    }
+    if (x->high != y->high) {
+        return (x->high > y->high) - (x->high < y->high);
+    }
+    return (x->index > y->index) - (x->index < y->index);
+}
+
+/* The index of the pose with this id among ids sorted by id, or STATS_NONE. */
+static size_t stats_find(const stats_id_t *ids, size_t count, pgem_id_t id)
+{
+    size_t low = 0, high = count;
+    while (low < high) {
+        size_t middle = low + (high - low) / 2u;
+        if (ids[middle].id < id) {
+            low = middle + 1u;
+        } else {
+            high = middle;
+        }
+    }
+    return low < count && ids[low].id == id ? ids[low].index : STATS_NONE;
+}
+
+static size_t stats_root(size_t *parent, size_t k)
+{
+    while (parent[k] != k) {
+        parent[k] = parent[parent[k]];
+        k = parent[k];
+    }
+    return k;
+}
+
+static int stats_all_finite(const double *values, size_t count)
+{
+    for (size_t k = 0; k < count; k++) {
+        if (!isfinite(values[k])) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* 0 when the n x n row-major matrix is symmetric positive definite, 1 when it is not
+ * symmetric, 2 when a Cholesky pivot is not above n * eps * its largest entry (the
+ * tolerances the core applies when an edge is added). */
+static int stats_information(const double *matrix, int n)
+{
+    double largest = 0.0, factor[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    for (int k = 0; k < n * n; k++) {
+        largest = fmax(largest, fabs(matrix[k]));
+    }
+    for (int i = 0; i < n; i++) {
+        for (int j = i + 1; j < n; j++) {
+            if (fabs(matrix[i * n + j] - matrix[j * n + i]) > 1e-9 * largest) {
+                return 1;
+            }
+        }
+    }
+    const double floor_value = (double)n * DBL_EPSILON * largest;
+    for (int j = 0; j < n; j++) {
+        double pivot = matrix[j * n + j];
+        for (int k = 0; k < j; k++) {
+            pivot -= factor[j * n + k] * factor[j * n + k];
+        }
+        if (!(pivot > floor_value)) {
+            return 2;
+        }
+        factor[j * n + j] = sqrt(pivot);
+        for (int i = j + 1; i < n; i++) {
+            double value = matrix[i * n + j];
+            for (int k = 0; k < j; k++) {
+                value -= factor[i * n + k] * factor[j * n + k];
+            }
+            factor[i * n + j] = value / factor[j * n + j];
+        }
+    }
+    return 0;
+}
+
+/* Theta (2D) or the quaternion (3D) of a pose or measurement with finite values. */
+static void stats_rotation(stats_t *s, const double *value, stats_item_t item)
+{
+    if (s->graph->dimension == 2) {
+        s->angles_out += fabs(value[2]) > STATS_PI;
+        return;
+    }
+    const double *q = value + 3;
+    double error = fabs(sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]) - 1.0);
+    s->quaternion_error = fmax(s->quaternion_error, error);
+    if (error > STATS_QUAT_LIMIT) {
+        stats_list_add(&s->bad_quaternions, item);
+    } else if (error > STATS_QUAT_NOTE) {
+        s->quaternions_off++;
+    }
+}
+
+/* Ids (range, gaps), values and bounding box of the poses; fills ids sorted by id. */
+static void stats_poses(stats_t *s, stats_id_t *ids)
+{
+    const pgem_io_graph_t *g = s->graph;
+    const size_t size = (size_t)PGEM_POSE_SIZE(g->dimension);
+    const int axes = g->dimension == 3 ? 3 : 2;
+    for (int a = 0; a < 3; a++) {
+        s->low[a] = HUGE_VAL;
+        s->high[a] = -HUGE_VAL;
+    }
+    for (size_t k = 0; k < g->pose_count; k++) {
+        const pgem_io_pose_t *pose = &g->poses[k];
+        ids[k].id = pose->id;
+        ids[k].index = k;
+        if (!stats_all_finite(pose->pose, size)) {
+            stats_list_add(&s->non_finite, stats_pose_item(pose));
+            continue;
+        }
+        stats_rotation(s, pose->pose, stats_pose_item(pose));
+        for (int a = 0; a < axes; a++) {
+            s->low[a] = fmin(s->low[a], pose->pose[a]);
+            s->high[a] = fmax(s->high[a], pose->pose[a]);
+        }
+    }
+    qsort(ids, g->pose_count, sizeof *ids, stats_compare_ids);
+    if (g->pose_count > 0) {
+        s->id_min = ids[0].id;
+        s->id_max = ids[g->pose_count - 1u].id;
+    }
+    for (size_t k = 1; k < g->pose_count; k++) {
+        if (ids[k].id - ids[k - 1u].id > 1u) {
+            s->id_gaps++;
+            s->id_missing += (unsigned long long)(ids[k].id - ids[k - 1u].id - 1u);
+        }
+    }
+}
+
+/* Values and information of one edge (ends already checked). */
+static void stats_edge_values(stats_t *s, const pgem_io_edge_t *edge)
+{
+    const int n = PGEM_TANGENT_SIZE(s->graph->dimension);
+    const size_t size = (size_t)PGEM_POSE_SIZE(s->graph->dimension);
+    if (!stats_all_finite(edge->measurement, size) ||
+        !stats_all_finite(edge->information, (size_t)(n * n))) {
+        stats_list_add(&s->non_finite, stats_edge_item(edge));
+        return;
+    }
+    stats_rotation(s, edge->measurement, stats_edge_item(edge));
+    int verdict = stats_information(edge->information, n);
+    if (verdict == 1) {
+        stats_list_add(&s->asymmetric, stats_edge_item(edge));
+    } else if (verdict == 2) {
+        stats_list_add(&s->not_pd, stats_edge_item(edge));
+    } else {
+        s->information_ok++;
+    }
+}
+
+/* Kinds, ends, values, degrees and the union-find of every edge. */
+static void stats_edges(stats_t *s, const stats_id_t *ids, size_t *parent, size_t *degree,
+                        size_t *incident)
+{
+    const pgem_io_graph_t *g = s->graph;
+    for (size_t k = 0; k < g->edge_count; k++) {
+        const pgem_io_edge_t *edge = &g->edges[k];
+        size_t from = stats_find(ids, g->pose_count, edge->from);
+        size_t to = stats_find(ids, g->pose_count, edge->to);
+        if (edge->kind == PGEM_EDGE_ODOMETRY) {
+            s->odometry++;
+        } else {
+            s->loops++;
+        }
+        stats_edge_values(s, edge);
+        if (from == STATS_NONE || to == STATS_NONE) {
+            stats_list_add(&s->missing, stats_edge_item(edge));
+            continue;
+        }
+        if (from == to) {
+            stats_list_add(&s->self_loops, stats_edge_item(edge));
+            continue;
+        }
+        degree[from]++;
+        degree[to]++;
+        incident[from] = incident[to] = k;
+        size_t a = stats_root(parent, from), b = stats_root(parent, to);
+        if (a != b) {
+            parent[a] = b;
+        }
+    }
+}
+
+/* Degree summary and the poses whose only edge is a loop closure. */
+static void stats_degrees(stats_t *s, const size_t *degree, const size_t *incident)
+{
+    const pgem_io_graph_t *g = s->graph;
+    s->degree_min = g->pose_count > 0 ? degree[0] : 0u;
+    for (size_t k = 0; k < g->pose_count; k++) {
+        s->degree_min = degree[k] < s->degree_min ? degree[k] : s->degree_min;
+        s->degree_max = degree[k] > s->degree_max ? degree[k] : s->degree_max;
+        s->degree_sum += degree[k];
+        s->degree0 += degree[k] == 0u;
+        s->degree1 += degree[k] == 1u;
+        const pgem_io_edge_t *edge = degree[k] == 1u ? &g->edges[incident[k]] : NULL;
+        if (edge != NULL && edge->kind == PGEM_EDGE_LOOP) {
+            stats_item_t item = stats_edge_item(edge);
+            item.kind = STATS_ITEM_LEAF;
+            item.pose = g->poses[k].id;
+            stats_list_add(&s->loop_leaves, item);
+        }
+    }
+}
+
+/* Components, their sizes, and which of them hold a fixed pose. size and held have one
+ * entry per pose (indexed by root), zeroed. */
+static void stats_components(stats_t *s, const stats_id_t *ids, size_t *parent, size_t *size,
+                             unsigned char *held)
+{
+    const pgem_io_graph_t *g = s->graph;
+    for (size_t k = 0; k < g->pose_count; k++) {
+        size[stats_root(parent, k)]++;
+    }
+    for (size_t k = 0; k < g->fixed_count; k++) {
+        size_t index = stats_find(ids, g->pose_count, g->fixed[k]);
+        if (index != STATS_NONE) {
+            held[stats_root(parent, index)] = 1u;
+        }
+    }
+    if (g->fixed_count == 0 && g->pose_count > 0) {
+        held[stats_root(parent, 0)] = 1u; /* the gauge: the first pose added */
+    }
+    for (size_t k = 0; k < g->pose_count; k++) {
+        if (parent[k] != k) {
+            continue;
+        }
+        s->components++;
+        size_t at = s->sizes_kept < STATS_SIZES ? s->sizes_kept++ : STATS_SIZES;
+        while (at > 0 && s->sizes[at - 1u] < size[k]) {
+            if (at < STATS_SIZES) {
+                s->sizes[at] = s->sizes[at - 1u];
+            }
+            at--;
+        }
+        if (at < STATS_SIZES) {
+            s->sizes[at] = size[k];
+        }
+    }
+    for (size_t k = 0; k < g->pose_count; k++) {
+        size_t root = stats_root(parent, k);
+        if (held[root] == 0u) {
+            s->unheld_example = s->unheld == 0u ? g->poses[k].id : s->unheld_example;
+            s->unheld++;
+            held[root] = 2u; /* counted */
+        }
+    }
+}
+
+static int stats_same_edge(const pgem_io_edge_t *a, const pgem_io_edge_t *b, int dimension)
+{
+    const size_t n = (size_t)PGEM_TANGENT_SIZE(dimension);
+    return a->from == b->from && a->to == b->to &&
+           memcmp(a->measurement, b->measurement,
+                  (size_t)PGEM_POSE_SIZE(dimension) * sizeof(double)) == 0 &&
+           memcmp(a->information, b->information, n * n * sizeof(double)) == 0;
+}
+
+/* Unordered pairs joined by more than one edge. */
+static void stats_duplicates(stats_t *s, stats_pair_t *pairs)
+{
+    const pgem_io_graph_t *g = s->graph;
+    for (size_t k = 0; k < g->edge_count; k++) {
+        pgem_id_t a = g->edges[k].from, b = g->edges[k].to;
+        pairs[k].low = a < b ? a : b;
+        pairs[k].high = a < b ? b : a;
+        pairs[k].index = k;
+    }
+    qsort(pairs, g->edge_count, sizeof *pairs, stats_compare_pairs);
+    for (size_t start = 0, end; start < g->edge_count; start = end) {
+        for (end = start + 1u; end < g->edge_count && pairs[end].low == pairs[start].low &&
+                               pairs[end].high == pairs[start].high;
+             end++) {
+        }
+        if (end - start < 2u) {
+            continue;
+        }
+        const pgem_io_edge_t *first = &g->edges[pairs[start].index];
+        stats_item_t item = stats_edge_item(first);
+        item.kind = STATS_ITEM_PAIR;
+        item.second_line = g->edges[pairs[start + 1u].index].line;
+        item.count = end - start;
+        stats_list_add(&s->duplicates, item);
+        s->duplicate_edges += end - start - 1u;
+        for (size_t k = start + 1u; k < end; k++) {
+            s->duplicate_exact +=
+                (size_t)stats_same_edge(first, &g->edges[pairs[k].index], g->dimension);
+        }
+    }
+}
+
+/* A 2D file with edges but no vertex line whose edges are TORO EDGE2 lines looks like an
+ * iSAM file (square-root information): counts the EDGE2 lines by reading it as g2o only. */
+static void stats_isam_check(stats_t *s)
+{
+    const pgem_io_graph_t *g = s->graph;
+    if (g->dimension != 2 || g->pose_count == 0 || g->chained_poses != g->pose_count) {
+        return;
+    }
+    pgem_io_graph_t g2o = {0};
+    char message[1024];
+    if (pgem_io_read(s->path, PGEM_FORMAT_G2O, &g2o, message, sizeof message) == PGEM_OK &&
+        g2o.edge_count < g->edge_count) {
+        s->toro_edges = g->edge_count - g2o.edge_count;
+    }
+    pgem_io_graph_free(&g2o);
+}
+
+static const char *stats_s(size_t count)
+{
+    return count == 1u ? "" : "s";
+}
+
+static void stats_reason(stats_t *s, stats_level_t level, const char *format, ...)
+{
+    if (s->reason_count == STATS_REASONS) {
+        return;
+    }
+    va_list args;
+    va_start(args, format);
+    vsnprintf(s->reason[s->reason_count], sizeof s->reason[0], format, args);
+    va_end(args);
+    s->reason_level[s->reason_count++] = level;
+    s->level = (int)level > s->level ? (int)level : s->level;
+}
+
+static void stats_problems(stats_t *s)
+{
+    const pgem_io_graph_t *g = s->graph;
+    if (g->pose_count == 0) {
+        stats_reason(s, STATS_PROBLEM, "no poses");
+    }
+    if (s->unheld > 0) {
+        stats_reason(s, STATS_PROBLEM, "%zu of %zu components without a fixed pose", s->unheld,
+                     s->components);
+    }
+    if (s->self_loops.count > 0) {
+        stats_reason(s, STATS_PROBLEM, "%zu self-loop%s", s->self_loops.count,
+                     stats_s(s->self_loops.count));
+    }
+    if (s->missing.count > 0) {
+        stats_reason(s, STATS_PROBLEM, "%zu edge%s naming a missing pose", s->missing.count,
+                     stats_s(s->missing.count));
+    }
+    if (s->non_finite.count > 0) {
+        stats_reason(s, STATS_PROBLEM, "%zu line%s with NaN or Inf", s->non_finite.count,
+                     stats_s(s->non_finite.count));
+    }
+    if (s->asymmetric.count > 0) {
+        stats_reason(s, STATS_PROBLEM, "%zu information matri%s not symmetric",
+                     s->asymmetric.count, s->asymmetric.count == 1u ? "x" : "ces");
+    }
+    if (s->not_pd.count > 0) {
+        stats_reason(s, STATS_PROBLEM, "%zu information matri%s not positive definite",
+                     s->not_pd.count, s->not_pd.count == 1u ? "x" : "ces");
+    }
+    if (s->bad_quaternions.count > 0) {
+        stats_reason(s, STATS_PROBLEM, "%zu quaternion%s off unit norm by more than 1%%",
+                     s->bad_quaternions.count, stats_s(s->bad_quaternions.count));
+    }
+}
+
+static void stats_warnings(stats_t *s)
+{
+    const pgem_io_graph_t *g = s->graph;
+    if (s->duplicates.count > 0) {
+        stats_reason(s, STATS_WARNING, "%zu duplicated pair%s", s->duplicates.count,
+                     stats_s(s->duplicates.count));
+    }
+    if (s->loop_leaves.count > 0) {
+        stats_reason(s, STATS_WARNING, "%zu pose%s held only by a loop closure",
+                     s->loop_leaves.count, stats_s(s->loop_leaves.count));
+    }
+    if (s->bad_quaternions.count == 0 && s->quaternion_error > STATS_QUAT_WARN) {
+        stats_reason(s, STATS_WARNING, "quaternions off unit norm by up to %.2g",
+                     s->quaternion_error);
+    }
+    if (g->unknown_lines > 0) {
+        stats_reason(s, STATS_WARNING, "%zu line%s with unknown tags skipped", g->unknown_lines,
+                     stats_s(g->unknown_lines));
+    }
+    if (s->toro_edges > 0) {
+        stats_reason(s, STATS_WARNING, "EDGE2 lines without vertices (an iSAM file?)");
+    }
+    if (s->angles_out > 0) {
+        stats_reason(s, STATS_NOTE, "%zu angle%s outside [-pi, pi]", s->angles_out,
+                     stats_s(s->angles_out));
+    }
+    if (s->quaternions_off > 0) {
+        stats_reason(s, STATS_NOTE, "%zu quaternion%s off unit norm by more than 1e-6",
+                     s->quaternions_off, stats_s(s->quaternions_off));
+    }
+    if (g->chained_poses > 0) {
+        stats_reason(s, STATS_NOTE, "%zu pose%s without a VERTEX line", g->chained_poses,
+                     stats_s(g->chained_poses));
+    }
+    if (g->equiv_lines > 0) {
+        stats_reason(s, STATS_NOTE, "%zu TORO EQUIV line%s skipped", g->equiv_lines,
+                     stats_s(g->equiv_lines));
+    }
+}
+
+/* Runs every check; returns PGEM_EXIT_OK or PGEM_EXIT_FAILURE when out of memory. */
+static int stats_measure(stats_t *s)
+{
+    const pgem_io_graph_t *g = s->graph;
+    const size_t poses = g->pose_count > 0 ? g->pose_count : 1u;
+    const size_t edges = g->edge_count > 0 ? g->edge_count : 1u;
+    stats_id_t *ids = malloc(poses * sizeof *ids);
+    size_t *counts = calloc(4u * poses, sizeof *counts); /* parent, degree, incident, size */
+    unsigned char *held = calloc(poses, 1u);
+    stats_pair_t *pairs = malloc(edges * sizeof *pairs);
+    int status = PGEM_EXIT_OK;
+    if (ids == NULL || counts == NULL || held == NULL || pairs == NULL) {
+        fprintf(stderr, "pgem stats: out of memory\n");
+        status = PGEM_EXIT_FAILURE;
+    } else {
+        size_t *parent = counts, *degree = counts + poses, *incident = counts + 2u * poses;
+        for (size_t k = 0; k < g->pose_count; k++) {
+            parent[k] = k;
+        }
+        stats_poses(s, ids);
+        stats_edges(s, ids, parent, degree, incident);
+        stats_degrees(s, degree, incident);
+        stats_components(s, ids, parent, counts + 3u * poses, held);
+        stats_duplicates(s, pairs);
+        stats_isam_check(s);
+        stats_problems(s);
+        stats_warnings(s);
+    }
+    free(ids);
+    free(counts);
+    free(held);
+    free(pairs);
+    return status;
+}
+
+static const char *stats_verdict(const stats_t *s)
+{
+    return s->level >= STATS_PROBLEM ? "problems" : s->level >= STATS_WARNING ? "warnings" : "ok";
+}
+
+/* ---- text report ---- */
+
+static void stats_print_item(const stats_item_t *item)
+{
+    if (item->kind == STATS_ITEM_PAIR) {
+        printf("             %llu - %llu: %zu edges, lines %lu, %lu%s\n",
+               (unsigned long long)item->from, (unsigned long long)item->to, item->count,
+               item->line, item->second_line, item->count > 2u ? ", ..." : "");
+    } else if (item->kind == STATS_ITEM_LEAF) {
+        printf("             pose %llu: only edge %llu -> %llu, line %lu\n",
+               (unsigned long long)item->pose, (unsigned long long)item->from,
+               (unsigned long long)item->to, item->line);
+    } else if (item->kind == STATS_ITEM_POSE) {
+        printf("             line %lu: pose %llu\n", item->line, (unsigned long long)item->pose);
+    } else {
+        printf("             line %lu: edge %llu -> %llu\n", item->line,
+               (unsigned long long)item->from, (unsigned long long)item->to);
+    }
+}
+
+static void stats_print_list(const char *label, const char *what, const stats_list_t *list)
+{
+    if (list->count == 0) {
+        return;
+    }
+    printf("%-13s%zu %s\n", label, list->count, what);
+    for (size_t k = 0; k < list->shown; k++) {
+        stats_print_item(&list->items[k]);
+    }
+    if (list->count > list->shown) {
+        printf("             ... and %zu more\n", list->count - list->shown);
+    }
+}
+
+static void stats_print_ids(const stats_t *s)
+{
+    const pgem_io_graph_t *g = s->graph;
+    if (g->pose_count == 0) {
+        printf("%-13s0\n", "poses");
+        return;
+    }
+    printf("%-13s%zu, ids %llu .. %llu", "poses", g->pose_count, (unsigned long long)s->id_min,
+           (unsigned long long)s->id_max);
+    if (s->id_gaps == 0) {
+        printf(" (contiguous)\n");
+    } else {
+        printf(" (%zu gap%s, %llu id%s missing)\n", s->id_gaps, stats_s(s->id_gaps), s->id_missing,
+               s->id_missing == 1u ? "" : "s");
+    }
+    if (g->fixed_count > 0) {
+        printf("%-13s%zu pose%s named by FIX lines:", "fixed", g->fixed_count,
+               stats_s(g->fixed_count));
+        for (size_t k = 0; k < g->fixed_count && k < STATS_SHOWN; k++) {
+            printf(" %llu", (unsigned long long)g->fixed[k]);
+        }
+        printf("%s\n", g->fixed_count > STATS_SHOWN ? " ..." : "");
+    }
+}
+
+static void stats_print_structure(const stats_t *s)
+{
+    const pgem_io_graph_t *g = s->graph;
+    printf("%-13s%zu: %zu odometry, %zu loop closure%s\n", "edges", g->edge_count, s->odometry,
+           s->loops, stats_s(s->loops));
+    if (g->pose_count == 0) {
+        return;
+    }
+    printf("%-13smin %zu, mean %.2f, max %zu; %zu pose%s of degree 0, %zu of degree 1\n",
+           "degree", s->degree_min, (double)s->degree_sum / (double)g->pose_count, s->degree_max,
+           s->degree0, stats_s(s->degree0), s->degree1);
+    stats_print_list("", "held only by a loop closure:", &s->loop_leaves);
+    printf("%-13s%zu", "components", s->components);
+    for (size_t k = 0; k < s->sizes_kept; k++) {
+        printf("%s%zu", k == 0 ? (s->components == 1u ? " (" : ": sizes ") : ", ", s->sizes[k]);
+    }
+    printf("%s", s->components == 1u ? (g->pose_count == 1u ? " pose)" : " poses)")
+                 : s->components > STATS_SIZES ? ", ..." : "");
+    if (s->unheld == 0) {
+        printf(", %s\n", g->fixed_count > 0 ? "each with a FIX pose" : "held by the first pose");
+    } else {
+        printf("; %zu without a fixed pose\n", s->unheld);
+        printf("             e.g. the part with pose %llu: FIX a pose in each part, or join them\n",
+               (unsigned long long)s->unheld_example);
+    }
+}
+
+static void stats_print_defects(const stats_t *s)
+{
+    if (s->duplicates.count > 0) {
+        char what[96];
+        snprintf(what, sizeof what, "pair%s joined more than once (%zu extra edge%s, %zu exact copies)",
+                 stats_s(s->duplicates.count), s->duplicate_edges, stats_s(s->duplicate_edges),
+                 s->duplicate_exact);
+        stats_print_list("duplicates", what, &s->duplicates);
+    }
+    stats_print_list("self-loops", "(an edge must join two different poses):", &s->self_loops);
+    stats_print_list("missing", "edges name an id with no pose:", &s->missing);
+    stats_print_list("non-finite", "lines with NaN or Inf:", &s->non_finite);
+    if (s->graph->edge_count > 0) {
+        printf("%-13s%zu of %zu symmetric positive definite\n", "information", s->information_ok,
+               s->graph->edge_count);
+    }
+    stats_print_list("", "not symmetric:", &s->asymmetric);
+    stats_print_list("", "not positive definite:", &s->not_pd);
+    if (s->graph->dimension == 2) {
+        printf("%-13s%zu angle%s outside [-pi, pi]%s\n", "rotations", s->angles_out,
+               stats_s(s->angles_out), s->angles_out > 0 ? " (wrapped when loaded)" : "");
+    } else if (s->graph->dimension == 3) {
+        printf("%-13s%zu quaternion%s off unit norm by more than 1e-6 (largest %.2g)\n",
+               "rotations", s->quaternions_off + s->bad_quaternions.count,
+               stats_s(s->quaternions_off + s->bad_quaternions.count), s->quaternion_error);
+        stats_print_list("", "off by more than 1% (refused when loaded):", &s->bad_quaternions);
+    }
+}
+
+static void stats_print_text(const stats_t *s)
+{
+    const pgem_io_graph_t *g = s->graph;
+    printf("%-13s%s (%s)\n", "file", s->path,
+           g->dimension == 3 ? "3D" : g->dimension == 2 ? "2D" : "empty");
+    if (g->chained_poses > 0) {
+        printf("%-13sno VERTEX lines: %zu poses guessed along the edges\n", "", g->chained_poses);
+    }
+    if (s->toro_edges > 0) {
+        printf("%-13s%zu EDGE2 lines and no vertex: iSAM .txt files look like this, and their\n"
+               "%-13snumbers are square-root information (see FORMATS.md)\n",
+               "", s->toro_edges, "");
+    }
+    if (g->unknown_lines > 0) {
+        printf("%-13s%zu line%s with unknown tags skipped (first '%s', line %lu)\n", "",
+               g->unknown_lines, stats_s(g->unknown_lines), g->first_unknown_tag,
+               g->first_unknown_line);
+    }
+    if (g->equiv_lines > 0) {
+        printf("%-13s%zu TORO EQUIV line%s skipped\n", "", g->equiv_lines, stats_s(g->equiv_lines));
+    }
+    stats_print_ids(s);
+    stats_print_structure(s);
+    stats_print_defects(s);
+    if (g->pose_count > 0 && s->low[0] <= s->high[0]) {
+        printf("%-13sx %.6g .. %.6g, y %.6g .. %.6g", "extent", s->low[0], s->high[0], s->low[1],
+               s->high[1]);
+        if (g->dimension == 3) {
+            printf(", z %.6g .. %.6g", s->low[2], s->high[2]);
+        }
+        printf("\n");
+    }
+    /* the reasons after the verdict, wrapped at 100 columns */
+    int column = printf("%-13s%s", "verdict", stats_verdict(s));
+    const char *separator = ": ";
+    for (size_t k = 0; k < s->reason_count; k++) {
+        if (s->reason_level[k] >= STATS_WARNING) {
+            int width = (int)(strlen(separator) + strlen(s->reason[k]));
+            if (column + width > 100) {
+                printf("%s\n%13s", separator[0] == ';' ? ";" : ":", "");
+                column = 13 + printf("%s", s->reason[k]);
+            } else {
+                column += printf("%s%s", separator, s->reason[k]);
+            }
+            separator = "; ";
+        }
+    }
+    printf("\n");
+}
+
+/* ---- JSON ---- */
+
+static void stats_json_list(const char *key, const stats_list_t *list)
+{
+    printf(",\"%s\":%zu,\"%s_first\":[", key, list->count, key);
+    for (size_t k = 0; k < list->shown; k++) {
+        const stats_item_t *item = &list->items[k];
+        printf("%s{\"line\":%lu,", k > 0 ? "," : "", item->line);
+        if (item->kind == STATS_ITEM_PAIR) {
+            printf("\"from\":%llu,\"to\":%llu,\"edges\":%zu,\"second_line\":%lu}",
+                   (unsigned long long)item->from, (unsigned long long)item->to, item->count,
+                   item->second_line);
+        } else if (item->kind == STATS_ITEM_LEAF) {
+            printf("\"pose\":%llu,\"from\":%llu,\"to\":%llu}", (unsigned long long)item->pose,
+                   (unsigned long long)item->from, (unsigned long long)item->to);
+        } else if (item->kind == STATS_ITEM_POSE) {
+            printf("\"pose\":%llu}", (unsigned long long)item->pose);
+        } else {
+            printf("\"from\":%llu,\"to\":%llu}", (unsigned long long)item->from,
+                   (unsigned long long)item->to);
+        }
+    }
+    printf("]");
+}
+
+static void stats_json_box(const char *key, const double *corner, int axes, int present)
+{
+    printf(",\"%s\":", key);
+    if (!present) {
+        printf("null");
+        return;
+    }
+    for (int a = 0; a < axes; a++) {
+        printf("%c%.10g", a == 0 ? '[' : ',', corner[a]);
+    }
+    printf("]");
+}
+
+static void stats_json_reasons(const stats_t *s, const char *key, int warnings)
+{
+    const char *separator = "";
+    printf(",\"%s\":[", key);
+    for (size_t k = 0; k < s->reason_count; k++) {
+        if ((s->reason_level[k] >= STATS_WARNING) == warnings) {
+            printf("%s", separator);
+            pgem_cli_json_string(s->reason[k]);
+            separator = ",";
+        }
+    }
+    printf("]");
+}
+
+static void stats_print_json(const stats_t *s)
+{
+    const pgem_io_graph_t *g = s->graph;
+    const int have = g->pose_count > 0;
+    printf("{\"file\":");
+    pgem_cli_json_string(s->path);
+    printf(",\"dimension\":%d,\"poses\":%zu,\"edges\":%zu,\"odometry\":%zu,\"loops\":%zu,"
+           "\"poses_without_vertex\":%zu,\"unknown_lines\":%zu,\"equiv_lines\":%zu,"
+           "\"isam_like_edges\":%zu,\"fixed\":%zu",
+           g->dimension, g->pose_count, g->edge_count, s->odometry, s->loops, g->chained_poses,
+           g->unknown_lines, g->equiv_lines, s->toro_edges, g->fixed_count);
+    if (have) {
+        printf(",\"id_min\":%llu,\"id_max\":%llu", (unsigned long long)s->id_min,
+               (unsigned long long)s->id_max);
+    } else {
+        printf(",\"id_min\":null,\"id_max\":null");
+    }
+    printf(",\"id_gaps\":%zu,\"ids_missing\":%llu,\"degree_min\":%zu", s->id_gaps, s->id_missing,
+           s->degree_min);
+    if (have) {
+        printf(",\"degree_mean\":%.10g", (double)s->degree_sum / (double)g->pose_count);
+    } else {
+        printf(",\"degree_mean\":null");
+    }
+    printf(",\"degree_max\":%zu,\"degree0\":%zu,\"degree1\":%zu", s->degree_max, s->degree0,
+           s->degree1);
+    stats_json_list("loop_leaves", &s->loop_leaves);
+    printf(",\"components\":%zu,\"components_without_fixed\":%zu,\"component_sizes\":[",
+           s->components, s->unheld);
+    for (size_t k = 0; k < s->sizes_kept; k++) {
+        printf("%s%zu", k > 0 ? "," : "", s->sizes[k]);
+    }
+    printf("]");
+    stats_json_list("duplicate_pairs", &s->duplicates);
+    printf(",\"duplicate_edges\":%zu,\"duplicate_exact\":%zu", s->duplicate_edges,
+           s->duplicate_exact);
+    stats_json_list("self_loops", &s->self_loops);
+    stats_json_list("missing_pose_edges", &s->missing);
+    stats_json_list("non_finite", &s->non_finite);
+    printf(",\"information_ok\":%zu", s->information_ok);
+    stats_json_list("information_asymmetric", &s->asymmetric);
+    stats_json_list("information_not_pd", &s->not_pd);
+    printf(",\"angles_out_of_range\":%zu,\"quaternions_off\":%zu,\"quaternion_error_max\":%.10g",
+           s->angles_out, s->quaternions_off + s->bad_quaternions.count, s->quaternion_error);
+    stats_json_list("quaternions_refused", &s->bad_quaternions);
+    int axes = g->dimension == 3 ? 3 : 2, box = have && s->low[0] <= s->high[0];
+    stats_json_box("bbox_min", s->low, axes, box);
+    stats_json_box("bbox_max", s->high, axes, box);
+    printf(",\"verdict\":\"%s\"", stats_verdict(s));
+    stats_json_reasons(s, "reasons", 1);
+    stats_json_reasons(s, "notes", 0);
+    printf("}\n");
+}
+
+int pgem_cmd_stats(int argc, char **argv)
+{
+    const char *path;
+    int json;
+    int status = stats_parse(argc, argv, &path, &json);
+    if (status != PGEM_EXIT_OK) {
+        return status < 0 ? PGEM_EXIT_OK : status;
+    }
+    pgem_io_graph_t graph = {0};
+    char message[1024];
+    status = pgem_io_read(path, PGEM_FORMAT_AUTO, &graph, message, sizeof message);
+    if (status != PGEM_OK) {
+        fprintf(stderr, "pgem stats: %s\n", message);
+        return status == PGEM_ERR_IO ? PGEM_EXIT_IO : PGEM_EXIT_FAILURE;
+    }
+    stats_t *s = calloc(1u, sizeof *s);
+    if (s == NULL) {
+        fprintf(stderr, "pgem stats: out of memory\n");
+        pgem_io_graph_free(&graph);
+        return PGEM_EXIT_FAILURE;
+    }
+    s->path = path;
+    s->graph = &graph;
+    status = stats_measure(s);
+    if (status == PGEM_EXIT_OK) {
+        if (json) {
+            stats_print_json(s);
+        } else {
+            stats_print_text(s);
+        }
+        status = s->level >= STATS_PROBLEM ? PGEM_EXIT_FAILURE : PGEM_EXIT_OK;
+    }
+    free(s);
+    pgem_io_graph_free(&graph);
+    return status;
+}
