@@ -1,4 +1,5 @@
-/* pgem core: configuration, memory sizing and initialisation of a fixed-memory instance. */
+/** @file
+ * pgem core: configuration, memory sizing and initialisation of a fixed-memory instance. */
 #ifndef PGEM_CORE_H
 #define PGEM_CORE_H
 
@@ -11,68 +12,68 @@
 extern "C" {
 #endif
 
-/* Version of the library (semantic versioning). */
+/** Version of the library (semantic versioning). */
 #define PGEM_VERSION_MAJOR 0
 #define PGEM_VERSION_MINOR 1
 #define PGEM_VERSION_PATCH 0
 
-/* Defaults used when a config field is 0. */
+/** Defaults used when a config field is 0. */
 #define PGEM_DEFAULT_DIMENSION 2
 #define PGEM_DEFAULT_MAX_POSES 1024u
 #define PGEM_DEFAULT_EDGES_PER_POSE 4u  /* max_edges = 4 * max_poses */
 #define PGEM_DEFAULT_FILL_PER_POSE 32u  /* fill_budget = 32 * block * block * max_poses */
 
-/* Largest capacities accepted (indices are 32-bit inside the core). */
+/** Largest capacities accepted (indices are 32-bit inside the core). */
 #define PGEM_MAX_POSES_LIMIT 4000000u
 #define PGEM_MAX_EDGES_LIMIT 16000000u
 
-/* One configuration decides every size; a zeroed config means defaults. */
+/** One configuration decides every size; a zeroed config means defaults. */
 typedef struct pgem_config {
-    int dimension;         /* 2 = SE(2) poses, 3 = SE(3) poses; 0 means 2 */
-    uint32_t max_poses;    /* pose capacity, 1 .. PGEM_MAX_POSES_LIMIT; 0 means 1024 */
-    uint32_t max_edges;    /* edge capacity, 1 .. PGEM_MAX_EDGES_LIMIT; 0 means 4 * max_poses */
-    uint32_t fill_budget;  /* scalar nonzeros reserved for the Cholesky factor L (each costs
+    int dimension;         /**< 2 = SE(2) poses, 3 = SE(3) poses; 0 means 2 */
+    uint32_t max_poses;    /**< pose capacity, 1 .. PGEM_MAX_POSES_LIMIT; 0 means 1024 */
+    uint32_t max_edges;    /**< edge capacity, 1 .. PGEM_MAX_EDGES_LIMIT; 0 means 4 * max_poses */
+    uint32_t fill_budget;  /**< scalar nonzeros reserved for the Cholesky factor L (each costs
                               12 bytes); 0 means 32 * b * b * max_poses with b = 3 (2D) or 6 (3D).
                               A graph whose factor needs more fails to optimize with
                               PGEM_ERR_FILL_BUDGET and the message gives the number needed. */
 } pgem_config_t;
 
-/* An instance: lives entirely inside the caller's memory block. Opaque. */
+/** An instance: lives entirely inside the caller's memory block. Opaque. */
 typedef struct pgem pgem_t;
 
-/* Fills every 0 field of *config with its default; returns PGEM_OK or PGEM_ERR_CONFIG.
+/** Fills every 0 field of *config with its default; returns PGEM_OK or PGEM_ERR_CONFIG.
  * A NULL or invalid config leaves *resolved untouched. */
 int pgem_config_resolve(const pgem_config_t *config, pgem_config_t *resolved);
 
-/* Bytes of the memory block a configuration needs (0 if the config is invalid). The block is
+/** Bytes of the memory block a configuration needs (0 if the config is invalid). The block is
  * used at any alignment. */
 size_t pgem_memory_size(const pgem_config_t *config);
 
-/* Initialises an instance inside buffer (size bytes, at least pgem_memory_size(config)).
+/** Initialises an instance inside buffer (size bytes, at least pgem_memory_size(config)).
  * On success *instance points into buffer; nothing is allocated, now or later (but see
  * DESIGN.md on CSparse's symbolic analysis in hosted builds). There is no teardown: the
  * caller owns the buffer. */
 int pgem_init(pgem_t **instance, const pgem_config_t *config, void *buffer, size_t size);
 
-/* Hosted convenience: mallocs one block of pgem_memory_size(config) and initialises it.
+/** Hosted convenience: mallocs one block of pgem_memory_size(config) and initialises it.
  * Release with pgem_destroy(). Not available when PGEM_NO_MALLOC is defined. */
 int pgem_create(pgem_t **instance, const pgem_config_t *config);
 void pgem_destroy(pgem_t *instance);
 
-/* The resolved configuration of an instance. */
+/** The resolved configuration of an instance. */
 const pgem_config_t *pgem_get_config(const pgem_t *instance);
 
-/* The message of the last failed call on this instance ("" if none): names the ids, the
+/** The message of the last failed call on this instance ("" if none): names the ids, the
  * field or the number that was wrong. Valid until the next call on the instance. */
 const char *pgem_last_error(const pgem_t *instance);
 
-/* Memory diagnostics of an instance. */
+/** Memory diagnostics of an instance. */
 typedef struct pgem_memory_stats {
-    size_t block_bytes;        /* bytes of the block the instance was given */
-    size_t used_bytes;         /* bytes carved from it at init */
-    uint32_t factor_nonzeros;  /* scalar nonzeros of L for the current structure (0 = none) */
-    uint32_t factor_budget;    /* config.fill_budget */
-    uint32_t analyses;         /* symbolic analyses run so far (one per topology change) */
+    size_t block_bytes;        /**< bytes of the block the instance was given */
+    size_t used_bytes;         /**< bytes carved from it at init */
+    uint32_t factor_nonzeros;  /**< scalar nonzeros of L for the current structure (0 = none) */
+    uint32_t factor_budget;    /**< config.fill_budget */
+    uint32_t analyses;         /**< symbolic analyses run so far (one per topology change) */
 } pgem_memory_stats_t;
 
 void pgem_get_memory_stats(const pgem_t *instance, pgem_memory_stats_t *stats);

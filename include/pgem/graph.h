@@ -1,4 +1,5 @@
-/* pgem graph: poses and edges of a fixed-memory instance, with validation of every input. */
+/** @file
+ * pgem graph: poses and edges of a fixed-memory instance, with validation of every input. */
 #ifndef PGEM_GRAPH_H
 #define PGEM_GRAPH_H
 
@@ -10,27 +11,27 @@
 extern "C" {
 #endif
 
-/* Pose ids are 64-bit and need not be contiguous (GTSAM symbol keys work). */
+/** Pose ids are 64-bit and need not be contiguous (GTSAM symbol keys work). */
 typedef uint64_t pgem_id_t;
 
-/* Edge kind: odometry edges keep weight 1; loop closures carry a weight the robust layer sets. */
+/** Edge kind: odometry edges keep weight 1; loop closures carry a weight the robust layer sets. */
 typedef enum pgem_edge_kind {
     PGEM_EDGE_ODOMETRY = 0,
     PGEM_EDGE_LOOP = 1
 } pgem_edge_kind_t;
 
-/* Sizes of one pose, tangent vector and information matrix for a dimension (2 or 3). */
+/** Sizes of one pose, tangent vector and information matrix for a dimension (2 or 3). */
 #define PGEM_POSE_SIZE(dim) ((dim) == 3 ? 7 : 3)  /* doubles in a pose */
 #define PGEM_TANGENT_SIZE(dim) ((dim) == 3 ? 6 : 3) /* rows of an edge error */
 #define PGEM_POSE_SIZE_MAX 7
 #define PGEM_TANGENT_SIZE_MAX 6
 
-/* Adds a pose with its initial estimate: 2D [x, y, theta], 3D [x, y, z, qx, qy, qz, qw].
+/** Adds a pose with its initial estimate: 2D [x, y, theta], 3D [x, y, z, qx, qy, qz, qw].
  * A 3D quaternion is normalised; one whose norm is off 1 by more than 1% is rejected.
  * Errors: CAPACITY, DUPLICATE_ID, NOT_FINITE, ROTATION. */
 int pgem_add_pose(pgem_t *graph, pgem_id_t id, const double *pose);
 
-/* Adds an edge: a measurement of pose `to` in the frame of pose `from` (same layout as a pose)
+/** Adds an edge: a measurement of pose `to` in the frame of pose `from` (same layout as a pose)
  * with its information matrix, full row-major n x n (n = 3 in 2D, 6 in 3D; in 3D the order is
  * x, y, z then the quaternion-vector rotation error). On success *edge_index (if not NULL)
  * receives the edge's index (edges are numbered 0, 1, ... in the order added).
@@ -39,40 +40,40 @@ int pgem_add_pose(pgem_t *graph, pgem_id_t id, const double *pose);
 int pgem_add_edge(pgem_t *graph, pgem_id_t from, pgem_id_t to, const double *measurement,
                   const double *information, pgem_edge_kind_t kind, uint32_t *edge_index);
 
-/* Holds a pose constant during optimisation (fixed != 0) or frees it. If no pose is fixed
+/** Holds a pose constant during optimisation (fixed != 0) or frees it. If no pose is fixed
  * when optimising, the first pose added is held (the gauge). Errors: UNKNOWN_ID. */
 int pgem_fix_pose(pgem_t *graph, pgem_id_t id, int fixed);
 
-/* Reads or overwrites a pose estimate. Errors: UNKNOWN_ID (and for set: NOT_FINITE, ROTATION). */
+/** Reads or overwrites a pose estimate. Errors: UNKNOWN_ID (and for set: NOT_FINITE, ROTATION). */
 int pgem_get_pose(const pgem_t *graph, pgem_id_t id, double *pose);
 int pgem_set_pose(pgem_t *graph, pgem_id_t id, const double *pose);
 
-/* Counts and enumeration in insertion order. */
+/** Counts and enumeration in insertion order. */
 int pgem_dimension(const pgem_t *graph);
 uint32_t pgem_pose_count(const pgem_t *graph);
 uint32_t pgem_edge_count(const pgem_t *graph);
 
-/* The pose at index (0 .. pose_count-1): its id, estimate (may be NULL) and fixed flag (may be
+/** The pose at index (0 .. pose_count-1): its id, estimate (may be NULL) and fixed flag (may be
  * NULL). Errors: INVALID_ARGUMENT. */
 int pgem_pose_at(const pgem_t *graph, uint32_t index, pgem_id_t *id, double *pose, int *fixed);
 
-/* A read-only view of one edge. */
+/** A read-only view of one edge. */
 typedef struct pgem_edge_view {
-    pgem_id_t from;                               /* id of the first pose */
-    pgem_id_t to;                                 /* id of the second pose */
-    pgem_edge_kind_t kind;                        /* odometry or loop closure */
-    double measurement[PGEM_POSE_SIZE_MAX];       /* 3 (2D) or 7 (3D) values used */
-    double information[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX]; /* n x n row-major */
-    double weight;                                /* robust weight in [0, 1]; 1 for odometry */
-    int active;                                   /* 0 once pruned by the robust layer */
+    pgem_id_t from;                               /**< id of the first pose */
+    pgem_id_t to;                                 /**< id of the second pose */
+    pgem_edge_kind_t kind;                        /**< odometry or loop closure */
+    double measurement[PGEM_POSE_SIZE_MAX];       /**< 3 (2D) or 7 (3D) values used */
+    double information[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX]; /**< n x n row-major */
+    double weight;                                /**< robust weight in [0, 1]; 1 for odometry */
+    int active;                                   /**< 0 once pruned by the robust layer */
 } pgem_edge_view_t;
 
 int pgem_edge_at(const pgem_t *graph, uint32_t index, pgem_edge_view_t *view);
 
-/* chi2 of one edge (e^T Omega e, unweighted) under the current estimate. */
+/** chi2 of one edge (e^T Omega e, unweighted) under the current estimate. */
 int pgem_edge_chi2(const pgem_t *graph, uint32_t index, double *chi2);
 
-/* Total chi2 (sum of e^T Omega e over all edges, unweighted) under the current estimate. */
+/** Total chi2 (sum of e^T Omega e over all edges, unweighted) under the current estimate. */
 double pgem_total_chi2(const pgem_t *graph);
 
 #ifdef __cplusplus

@@ -1,4 +1,5 @@
-/* pgem I/O (hosted only): g2o and TORO graph files to and from a core instance. */
+/** @file
+ * pgem I/O (hosted only): g2o and TORO graph files to and from a core instance. */
 #ifndef PGEM_IO_H
 #define PGEM_IO_H
 
@@ -14,51 +15,51 @@ extern "C" {
 #endif
 
 typedef enum pgem_format {
-    PGEM_FORMAT_AUTO = 0,  /* read: decided per line by its tag; write: g2o */
-    PGEM_FORMAT_G2O = 1,   /* VERTEX_SE2, EDGE_SE2, VERTEX_SE3:QUAT, EDGE_SE3:QUAT, FIX */
-    PGEM_FORMAT_TORO = 2   /* VERTEX2, EDGE2 (information xx xy yy tt xt yt), EQUIV skipped */
+    PGEM_FORMAT_AUTO = 0,  /**< read: decided per line by its tag; write: g2o */
+    PGEM_FORMAT_G2O = 1,   /**< VERTEX_SE2, EDGE_SE2, VERTEX_SE3:QUAT, EDGE_SE3:QUAT, FIX */
+    PGEM_FORMAT_TORO = 2   /**< VERTEX2, EDGE2 (information xx xy yy tt xt yt), EQUIV skipped */
 } pgem_format_t;
 
-/* One pose as read from a file. */
+/** One pose as read from a file. */
 typedef struct pgem_io_pose {
-    pgem_id_t id;                        /* pose id as written */
-    double pose[PGEM_POSE_SIZE_MAX];     /* 2D [x y theta]; 3D [x y z qx qy qz qw] */
-    unsigned long line;                  /* line it came from (0 = made by the reader) */
+    pgem_id_t id;                        /**< pose id as written */
+    double pose[PGEM_POSE_SIZE_MAX];     /**< 2D [x y theta]; 3D [x y z qx qy qz qw] */
+    unsigned long line;                  /**< line it came from (0 = made by the reader) */
 } pgem_io_pose_t;
 
-/* One edge as read from a file, information expanded to a full row-major matrix. */
+/** One edge as read from a file, information expanded to a full row-major matrix. */
 typedef struct pgem_io_edge {
-    pgem_id_t from;                      /* first pose id */
-    pgem_id_t to;                        /* second pose id */
+    pgem_id_t from;                      /**< first pose id */
+    pgem_id_t to;                        /**< second pose id */
     double measurement[PGEM_POSE_SIZE_MAX];
     double information[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    pgem_edge_kind_t kind;               /* |from - to| == 1: odometry, else loop closure */
-    unsigned long line;                  /* line it came from (0 = not from a file) */
+    pgem_edge_kind_t kind;               /**< |from - to| == 1: odometry, else loop closure */
+    unsigned long line;                  /**< line it came from (0 = not from a file) */
 } pgem_io_edge_t;
 
-/* A whole graph file in memory (heap-allocated; release with pgem_io_graph_free). */
+/** A whole graph file in memory (heap-allocated; release with pgem_io_graph_free). */
 typedef struct pgem_io_graph {
-    int dimension;                       /* 2 or 3 (0 while empty) */
-    pgem_io_pose_t *poses;               /* pose_count entries, file order */
+    int dimension;                       /**< 2 or 3 (0 while empty) */
+    pgem_io_pose_t *poses;               /**< pose_count entries, file order */
     size_t pose_count;
     size_t pose_capacity;
-    pgem_io_edge_t *edges;               /* edge_count entries, file order */
+    pgem_io_edge_t *edges;               /**< edge_count entries, file order */
     size_t edge_count;
     size_t edge_capacity;
-    pgem_id_t *fixed;                    /* ids named by FIX lines */
+    pgem_id_t *fixed;                    /**< ids named by FIX lines */
     size_t fixed_count;
     size_t fixed_capacity;
-    size_t chained_poses;                /* poses with no VERTEX line, guessed by composing
+    size_t chained_poses;                /**< poses with no VERTEX line, guessed by composing
                                             edges along a spanning tree (odometry first) */
-    size_t unknown_lines;                /* lines with a tag the reader does not know */
-    char first_unknown_tag[32];          /* the first such tag */
-    unsigned long first_unknown_line;    /* and its line */
-    size_t equiv_lines;                  /* TORO EQUIV lines skipped */
-    char source[256];                    /* path or stream name read ("" if not from a file);
+    size_t unknown_lines;                /**< lines with a tag the reader does not know */
+    char first_unknown_tag[32];          /**< the first such tag */
+    unsigned long first_unknown_line;    /**< and its line */
+    size_t equiv_lines;                  /**< TORO EQUIV lines skipped */
+    char source[256];                    /**< path or stream name read ("" if not from a file);
                                             pgem_io_load prefixes its messages with it */
 } pgem_io_graph_t;
 
-/* Reads a graph file. Blank lines and lines starting with '#' are ignored. Poses without a
+/** Reads a graph file. Blank lines and lines starting with '#' are ignored. Poses without a
  * VERTEX line get an initial guess composed from the edges (odometry chain first). On error
  * returns PGEM_ERR_IO / PGEM_ERR_PARSE / PGEM_ERR_DIMENSION / PGEM_ERR_UNKNOWN_ID /
  * PGEM_ERR_DUPLICATE_ID (or PGEM_ERR_OUT_OF_MEMORY), writes "FILE:LINE: what is wrong" into
@@ -76,25 +77,25 @@ typedef struct pgem_io_graph {
 int pgem_io_read(const char *path, pgem_format_t format, pgem_io_graph_t *graph,
                  char *message, size_t message_size);
 
-/* As pgem_io_read, from an open stream; name is used in messages. */
+/** As pgem_io_read, from an open stream; name is used in messages. */
 int pgem_io_read_stream(FILE *stream, const char *name, pgem_format_t format,
                         pgem_io_graph_t *graph, char *message, size_t message_size);
 
 void pgem_io_graph_free(pgem_io_graph_t *graph);
 
-/* A config whose capacities fit the graph exactly (dimension, max_poses, max_edges). */
+/** A config whose capacities fit the graph exactly (dimension, max_poses, max_edges). */
 void pgem_io_config(const pgem_io_graph_t *graph, pgem_config_t *config);
 
-/* Adds every pose, edge and FIX of the file graph to an empty instance. On error the message
+/** Adds every pose, edge and FIX of the file graph to an empty instance. On error the message
  * names the file line of the offending pose or edge and the instance's message is appended. */
 int pgem_io_load(const pgem_io_graph_t *graph, pgem_t *instance, char *message,
                  size_t message_size);
 
-/* Copies an instance (poses, edges, fixed poses) into a file graph (*graph is overwritten, as
+/** Copies an instance (poses, edges, fixed poses) into a file graph (*graph is overwritten, as
  * for pgem_io_read). Edge kinds are copied as the instance has them. */
 int pgem_io_from_instance(const pgem_t *instance, pgem_io_graph_t *graph);
 
-/* Writes a file graph (g2o or TORO 2D) with round-trip precision (%.17g): vertices, then the
+/** Writes a file graph (g2o or TORO 2D) with round-trip precision (%.17g): vertices, then the
  * FIX lines (g2o only; TORO has no way to say a pose is fixed, so they are not written), then
  * edges. TORO for a 3D graph is PGEM_ERR_DIMENSION; a failed write is PGEM_ERR_IO. */
 int pgem_io_write(const char *path, pgem_format_t format, const pgem_io_graph_t *graph,

@@ -1,4 +1,5 @@
-/* pgem umbrella header: the whole public C API of the core (I/O has its own, pgem/io.h). */
+/** @file
+ * pgem umbrella header: the whole public C API of the core (I/O has its own, pgem/io.h). */
 #ifndef PGEM_PGEM_H
 #define PGEM_PGEM_H
 

@@ -12,49 +12,49 @@
 extern "C" {
 #endif
 
-/* How loop closures are weighted. Odometry edges always keep weight 1. */
+/** How loop closures are weighted. Odometry edges always keep weight 1. */
 typedef enum pgem_kernel {
-    PGEM_KERNEL_NONE = 0,    /* every active loop weight 1: plain least squares */
-    PGEM_KERNEL_EM = 1,      /* EM: Cauchy E-step, weighted GN M-step, pruning rounds */
-    PGEM_KERNEL_CAUCHY = 2,  /* Cauchy IRLS, no pruning: w = 1 / (1 + chi2 / c^2) */
-    PGEM_KERNEL_HUBER = 3,   /* Huber IRLS: w = 1 if sqrt(chi2) <= k, else k / sqrt(chi2) */
-    PGEM_KERNEL_DCS = 4      /* dynamic covariance scaling: s = min(1, 2 phi / (phi + chi2)),
+    PGEM_KERNEL_NONE = 0,    /**< every active loop weight 1: plain least squares */
+    PGEM_KERNEL_EM = 1,      /**< EM: Cauchy E-step, weighted GN M-step, pruning rounds */
+    PGEM_KERNEL_CAUCHY = 2,  /**< Cauchy IRLS, no pruning: w = 1 / (1 + chi2 / c^2) */
+    PGEM_KERNEL_HUBER = 3,   /**< Huber IRLS: w = 1 if sqrt(chi2) <= k, else k / sqrt(chi2) */
+    PGEM_KERNEL_DCS = 4      /**< dynamic covariance scaling: s = min(1, 2 phi / (phi + chi2)),
                                 w = s^2 */
 } pgem_kernel_t;
 
-/* The weight one kernel gives a loop closure of Mahalanobis error chi2 = e^T Omega e. */
+/** The weight one kernel gives a loop closure of Mahalanobis error chi2 = e^T Omega e. */
 double pgem_kernel_weight(pgem_kernel_t kernel, double chi2, double scale);
 
-/* State of a loop closure after a robust solve. */
+/** State of a loop closure after a robust solve. */
 typedef enum pgem_loop_state {
-    PGEM_LOOP_ACCEPTED = 0,  /* in the solution with its weight */
-    PGEM_LOOP_PRUNED = 1     /* removed: weight fell below the prune threshold */
+    PGEM_LOOP_ACCEPTED = 0,  /**< in the solution with its weight */
+    PGEM_LOOP_PRUNED = 1     /**< removed: weight fell below the prune threshold */
 } pgem_loop_state_t;
 
-/* What the round callback sees (EM: after each round; IRLS kernels: after each iteration). */
+/** What the round callback sees (EM: after each round; IRLS kernels: after each iteration). */
 typedef struct pgem_robust_progress {
-    uint32_t round;              /* 1, 2, ... */
-    uint32_t active_loops;       /* loop closures still in the problem */
-    uint32_t pruned_loops;       /* loop closures pruned so far */
-    double chi2;                 /* weighted chi2 of the current estimate */
-    double largest_change;       /* largest weight change in the last E-step */
+    uint32_t round;              /**< 1, 2, ... */
+    uint32_t active_loops;       /**< loop closures still in the problem */
+    uint32_t pruned_loops;       /**< loop closures pruned so far */
+    double chi2;                 /**< weighted chi2 of the current estimate */
+    double largest_change;       /**< largest weight change in the last E-step */
 } pgem_robust_progress_t;
 
 typedef int (*pgem_robust_fn)(const pgem_robust_progress_t *progress, void *user);
 
-/* Options; a zeroed struct means the documented defaults. */
+/** Options; a zeroed struct means the documented defaults. */
 typedef struct pgem_robust_options {
-    pgem_kernel_t kernel;            /* default PGEM_KERNEL_NONE (0): set it */
-    double scale;                    /* c for EM/Cauchy, k for Huber, phi for DCS; 0 means 1 */
-    double prune_threshold;          /* EM: prune loops with weight below; 0 means 0.01 */
-    double weight_tolerance;         /* stop E/M iterations when no weight moves more;
+    pgem_kernel_t kernel;            /**< default PGEM_KERNEL_NONE (0): set it */
+    double scale;                    /**< c for EM/Cauchy, k for Huber, phi for DCS; 0 means 1 */
+    double prune_threshold;          /**< EM: prune loops with weight below; 0 means 0.01 */
+    double weight_tolerance;         /**< stop E/M iterations when no weight moves more;
                                         0 means 1e-3 */
-    uint32_t m_step_iterations;      /* Gauss-Newton iterations per M-step; 0 means 1 */
-    uint32_t max_em_iterations;      /* E/M iterations per round; 0 means 5 (literal: 100) */
-    uint32_t max_rounds;             /* EM pruning rounds; 0 means 20 */
-    int restart;                     /* EM: after pruning, restart from the initial estimate
+    uint32_t m_step_iterations;      /**< Gauss-Newton iterations per M-step; 0 means 1 */
+    uint32_t max_em_iterations;      /**< E/M iterations per round; 0 means 5 (literal: 100) */
+    uint32_t max_rounds;             /**< EM pruning rounds; 0 means 20 */
+    int restart;                     /**< EM: after pruning, restart from the initial estimate
                                         (1) or continue from the current one (0, default) */
-    int literal;                     /* EM: 1 = the paper's method as published (rounds of
+    int literal;                     /**< EM: 1 = the paper's method as published (rounds of
                                         E/M to convergence, pruning). 0 (default) adds:
                                         rounds capped at max_em_iterations (5), then "polish"
                                         (accepted loops at weight 1, Gauss-Newton to
@@ -63,28 +63,28 @@ typedef struct pgem_robust_options {
                                         gate come back, accepted ones above it are pruned),
                                         repeated while it changes anything. An outlier-free
                                         graph reaches exactly the plain optimum. */
-    double gate;                     /* EM consistency test (not literal): chi2 threshold;
+    double gate;                     /**< EM consistency test (not literal): chi2 threshold;
                                         0 means the 99.9% chi-square quantile for the edge's
                                         degrees of freedom (16.27 in 2D, 22.46 in 3D) */
-    pgem_robust_fn on_round;         /* may be NULL; return non-zero to stop */
-    void *user;                      /* passed to on_round */
+    pgem_robust_fn on_round;         /**< may be NULL; return non-zero to stop */
+    void *user;                      /**< passed to on_round */
 } pgem_robust_options_t;
 
-/* What a robust solve did. */
+/** What a robust solve did. */
 typedef struct pgem_robust_summary {
-    uint32_t rounds;                 /* EM pruning rounds (1 for IRLS kernels) */
-    uint32_t em_iterations;          /* E-step / M-step pairs */
-    uint32_t gn_iterations;          /* Gauss-Newton iterations over all M-steps */
-    uint32_t loops;                  /* loop closures in the graph */
-    uint32_t pruned;                 /* of them pruned */
-    uint32_t readmitted;             /* pruned loops re-admitted by the consistency test */
-    uint32_t gated;                  /* accepted loops pruned by the consistency test */
-    double initial_chi2;             /* unweighted chi2 before */
-    double final_chi2;               /* weighted chi2 after (pruned loops excluded) */
-    int usable;                      /* 1 if the estimate is the result of a successful solve */
+    uint32_t rounds;                 /**< EM pruning rounds (1 for IRLS kernels) */
+    uint32_t em_iterations;          /**< E-step / M-step pairs */
+    uint32_t gn_iterations;          /**< Gauss-Newton iterations over all M-steps */
+    uint32_t loops;                  /**< loop closures in the graph */
+    uint32_t pruned;                 /**< of them pruned */
+    uint32_t readmitted;             /**< pruned loops re-admitted by the consistency test */
+    uint32_t gated;                  /**< accepted loops pruned by the consistency test */
+    double initial_chi2;             /**< unweighted chi2 before */
+    double final_chi2;               /**< weighted chi2 after (pruned loops excluded) */
+    int usable;                      /**< 1 if the estimate is the result of a successful solve */
 } pgem_robust_summary_t;
 
-/* Robust solve from the current estimate. Weights and prune states are left on the edges
+/** Robust solve from the current estimate. Weights and prune states are left on the edges
  * (pgem_edge_at: weight, active). Pruned loops are never lost: they stay in the graph, and
  * pgem_robust_reset() brings them back. A call starts from the loops' current states, so a
  * second call (say, after new edges arrived) continues from the first one's pruning; the
@@ -94,10 +94,10 @@ typedef struct pgem_robust_summary {
 int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
                          const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
 
-/* Every loop weight back to 1 and every pruned loop active again. */
+/** Every loop weight back to 1 and every pruned loop active again. */
 void pgem_robust_reset(pgem_t *graph);
 
-/* Name of a kernel ("em", "cauchy", "huber", "dcs", "none"); never NULL. */
+/** Name of a kernel ("em", "cauchy", "huber", "dcs", "none"); never NULL. */
 const char *pgem_kernel_name(pgem_kernel_t kernel);
 
 #ifdef __cplusplus

@@ -1,4 +1,5 @@
-/* pgem solver: Gauss-Newton and Levenberg-Marquardt over the fixed-memory sparse Cholesky. */
+/** @file
+ * pgem solver: Gauss-Newton and Levenberg-Marquardt over the fixed-memory sparse Cholesky. */
 #ifndef PGEM_SOLVER_H
 #define PGEM_SOLVER_H
 
@@ -15,73 +16,73 @@ typedef enum pgem_method {
     PGEM_LEVENBERG_MARQUARDT = 1
 } pgem_method_t;
 
-/* Why a solve stopped. */
+/** Why a solve stopped. */
 typedef enum pgem_termination {
-    PGEM_TERM_NONE = 0,              /* no iteration ran */
-    PGEM_TERM_CHI2_CONVERGED = 1,    /* relative chi2 decrease below relative_chi2_tolerance */
-    PGEM_TERM_STEP_CONVERGED = 2,    /* step norm below step_tolerance */
-    PGEM_TERM_MAX_ITERATIONS = 3,    /* max_iterations reached */
-    PGEM_TERM_STOPPED = 4,           /* the iteration callback asked to stop */
-    PGEM_TERM_NO_PROGRESS = 5,       /* LM: damping grew past its limit without a better step */
-    PGEM_TERM_NOT_POSITIVE_DEFINITE = 6, /* failed: normal equations singular */
-    PGEM_TERM_NUMERIC = 7,           /* failed: NaN or Inf in the step or the chi2 */
-    PGEM_TERM_FILL_BUDGET = 8        /* failed: factor larger than config.fill_budget */
+    PGEM_TERM_NONE = 0,              /**< no iteration ran */
+    PGEM_TERM_CHI2_CONVERGED = 1,    /**< relative chi2 decrease below relative_chi2_tolerance */
+    PGEM_TERM_STEP_CONVERGED = 2,    /**< step norm below step_tolerance */
+    PGEM_TERM_MAX_ITERATIONS = 3,    /**< max_iterations reached */
+    PGEM_TERM_STOPPED = 4,           /**< the iteration callback asked to stop */
+    PGEM_TERM_NO_PROGRESS = 5,       /**< LM: damping grew past its limit without a better step */
+    PGEM_TERM_NOT_POSITIVE_DEFINITE = 6, /**< failed: normal equations singular */
+    PGEM_TERM_NUMERIC = 7,           /**< failed: NaN or Inf in the step or the chi2 */
+    PGEM_TERM_FILL_BUDGET = 8        /**< failed: factor larger than config.fill_budget */
 } pgem_termination_t;
 
-/* What the callback sees after each iteration. */
+/** What the callback sees after each iteration. */
 typedef struct pgem_iteration {
-    uint32_t iteration;   /* 1, 2, ... */
-    double chi2;          /* weighted chi2 after the iteration (before it, if rejected) */
-    double step_norm;     /* Euclidean norm of the tangent step */
-    double lambda;        /* LM damping used (0 for Gauss-Newton) */
-    int accepted;         /* 1 if the step was kept */
+    uint32_t iteration;   /**< 1, 2, ... */
+    double chi2;          /**< weighted chi2 after the iteration (before it, if rejected) */
+    double step_norm;     /**< Euclidean norm of the tangent step */
+    double lambda;        /**< LM damping used (0 for Gauss-Newton) */
+    int accepted;         /**< 1 if the step was kept */
 } pgem_iteration_t;
 
-/* Called after every iteration; return non-zero to stop (PGEM_TERM_STOPPED). */
+/** Called after every iteration; return non-zero to stop (PGEM_TERM_STOPPED). */
 typedef int (*pgem_iteration_fn)(const pgem_iteration_t *iteration, void *user);
 
-/* Solver options; a zeroed struct means the documented defaults. */
+/** Solver options; a zeroed struct means the documented defaults. */
 typedef struct pgem_solve_options {
-    pgem_method_t method;            /* default Gauss-Newton */
-    uint32_t max_iterations;         /* 0 means 100 */
-    double relative_chi2_tolerance;  /* stop when (chi2_old - chi2_new) / chi2_old is below;
+    pgem_method_t method;            /**< default Gauss-Newton */
+    uint32_t max_iterations;         /**< 0 means 100 */
+    double relative_chi2_tolerance;  /**< stop when (chi2_old - chi2_new) / chi2_old is below;
                                         0 means 1e-9; negative disables */
-    double step_tolerance;           /* stop when the step norm is below; 0 means 1e-10;
+    double step_tolerance;           /**< stop when the step norm is below; 0 means 1e-10;
                                         negative disables */
-    double initial_lambda;           /* LM: first damping (relative to the largest diagonal
+    double initial_lambda;           /**< LM: first damping (relative to the largest diagonal
                                         entry of H); 0 means 1e-5 */
-    pgem_iteration_fn on_iteration;  /* may be NULL */
-    void *user;                      /* passed to on_iteration */
+    pgem_iteration_fn on_iteration;  /**< may be NULL */
+    void *user;                      /**< passed to on_iteration */
 } pgem_solve_options_t;
 
-/* What a solve did. */
+/** What a solve did. */
 typedef struct pgem_summary {
-    double initial_chi2;             /* weighted chi2 before the first iteration */
-    double final_chi2;               /* weighted chi2 of the estimate left in the graph */
-    uint32_t iterations;             /* iterations run (accepted or not) */
-    uint32_t factorizations;         /* numeric Cholesky factorisations */
-    pgem_termination_t termination;  /* why it stopped */
-    int estimate_changed;            /* 1 if the poses differ from before the call */
-    int usable;                      /* 1 if the estimate is the result of a successful solve */
-    uint32_t factor_nonzeros;        /* scalar nonzeros of L */
-    uint32_t variables;              /* scalar unknowns (free poses x tangent size) */
+    double initial_chi2;             /**< weighted chi2 before the first iteration */
+    double final_chi2;               /**< weighted chi2 of the estimate left in the graph */
+    uint32_t iterations;             /**< iterations run (accepted or not) */
+    uint32_t factorizations;         /**< numeric Cholesky factorisations */
+    pgem_termination_t termination;  /**< why it stopped */
+    int estimate_changed;            /**< 1 if the poses differ from before the call */
+    int usable;                      /**< 1 if the estimate is the result of a successful solve */
+    uint32_t factor_nonzeros;        /**< scalar nonzeros of L */
+    uint32_t variables;              /**< scalar unknowns (free poses x tangent size) */
 } pgem_summary_t;
 
-/* Optimises the graph's poses from their current estimate. Loop closures enter with their
+/** Optimises the graph's poses from their current estimate. Loop closures enter with their
  * robust weight (1 unless the robust layer set it); pruned loops are left out.
  * On failure (NOT_POSITIVE_DEFINITE, NUMERIC, FILL_BUDGET, EMPTY, OUT_OF_MEMORY) the poses are
  * restored to what they were before the call, summary->usable is 0 and the message says why.
  * options and summary may be NULL. */
 int pgem_optimize(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary);
 
-/* Runs the symbolic analysis for the current topology now (otherwise the next pgem_optimize
+/** Runs the symbolic analysis for the current topology now (otherwise the next pgem_optimize
  * does). Useful to move CSparse's symbolic allocation out of a time-critical loop. */
 int pgem_analyze(pgem_t *graph);
 
-/* Name of a termination reason ("chi2-converged", ...); never NULL. */
+/** Name of a termination reason ("chi2-converged", ...); never NULL. */
 const char *pgem_termination_name(pgem_termination_t termination);
 
-/* Name of a method ("gauss-newton" or "levenberg-marquardt"); never NULL. */
+/** Name of a method ("gauss-newton" or "levenberg-marquardt"); never NULL. */
 const char *pgem_method_name(pgem_method_t method);
 
 #ifdef __cplusplus
