@@ -1,7 +1,10 @@
-# Fails unless README contains the example file verbatim (inside a ```c block).
+# Fails unless README contains the example file verbatim (inside a ```c block, or ```FENCE).
+if(NOT FENCE)
+  set(FENCE c)
+endif()
 file(READ "${README}" readme)
 file(READ "${EXAMPLE}" example)
-string(FIND "${readme}" "```c\n${example}```" position)
+string(FIND "${readme}" "```${FENCE}\n${example}```" position)
 if(position EQUAL -1)
   message(FATAL_ERROR "README.md does not contain ${EXAMPLE} verbatim; update the README's example")
 endif()
