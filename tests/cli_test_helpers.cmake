@@ -44,3 +44,15 @@ function(tiny json)
     within("${json}" "${key}" -1e-300 1e-9)
   endforeach()
 endfunction()
+
+# pgem_expect(<expected exit code> <name> args...): runs pgem with args in WORK, fails unless
+# it exits with the expected code; sets <name>_out and <name>_err in the caller's scope.
+function(pgem_expect expected name)
+  execute_process(COMMAND "${PGEM}" ${ARGN} WORKING_DIRECTORY "${WORK}"
+                  RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT code STREQUAL "${expected}")
+    fail("${name}: pgem ${ARGN}: exit code ${code}, expected ${expected}\nstdout: ${out}\nstderr: ${err}")
+  endif()
+  set(${name}_out "${out}" PARENT_SCOPE)
+  set(${name}_err "${err}" PARENT_SCOPE)
+endfunction()

@@ -10,15 +10,9 @@ file(MAKE_DIRECTORY "${WORK}")
 include("${CMAKE_CURRENT_LIST_DIR}/cli_test_helpers.cmake")
 
 # eval(<expected exit code> <name> args...): runs pgem eval; sets <name>_out and <name>_err.
-function(eval expected name)
-  execute_process(COMMAND "${PGEM}" eval ${ARGN} WORKING_DIRECTORY "${WORK}"
-                  RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  if(NOT code STREQUAL "${expected}")
-    fail("${name}: exit code ${code}, expected ${expected}\nstdout: ${out}\nstderr: ${err}")
-  endif()
-  set(${name}_out "${out}" PARENT_SCOPE)
-  set(${name}_err "${err}" PARENT_SCOPE)
-endfunction()
+macro(eval expected name)
+  pgem_expect(${expected} ${name} eval ${ARGN})
+endmacro()
 
 # ---- 2D: a copy rotated by 30 degrees about the origin and moved by (5, -3) ---------------
 # ref2 has edges (ignored) and a pose (200) the result lacks, between ids 2 and 3 in the

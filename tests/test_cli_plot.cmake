@@ -12,15 +12,9 @@ file(MAKE_DIRECTORY "${WORK}")
 include("${CMAKE_CURRENT_LIST_DIR}/cli_test_helpers.cmake")
 
 # plot(<expected exit code> <name> args...): runs pgem plot; sets <name>_out and <name>_err.
-function(plot expected name)
-  execute_process(COMMAND "${PGEM}" plot ${ARGN} WORKING_DIRECTORY "${WORK}"
-                  RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  if(NOT code STREQUAL "${expected}")
-    fail("${name}: exit code ${code}, expected ${expected}\nstdout: ${out}\nstderr: ${err}")
-  endif()
-  set(${name}_out "${out}" PARENT_SCOPE)
-  set(${name}_err "${err}" PARENT_SCOPE)
-endfunction()
+macro(plot expected name)
+  pgem_expect(${expected} ${name} plot ${ARGN})
+endmacro()
 
 # read_svg(<file> <variable>): the document, checked to start with <svg and end with </svg>.
 function(read_svg file variable)

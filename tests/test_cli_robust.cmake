@@ -11,14 +11,9 @@ file(MAKE_DIRECTORY "${WORK}")
 include("${CMAKE_CURRENT_LIST_DIR}/cli_test_helpers.cmake")
 
 # pgem(<name> args...): runs pgem, fails on a non-zero exit; sets <name>_out.
-function(pgem name)
-  execute_process(COMMAND "${PGEM}" ${ARGN} WORKING_DIRECTORY "${WORK}"
-                  RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  if(NOT code EQUAL 0)
-    fail("${name}: pgem ${ARGN}: exit code ${code}\nstdout: ${out}\nstderr: ${err}")
-  endif()
-  set(${name}_out "${out}" PARENT_SCOPE)
-endfunction()
+macro(pgem name)
+  pgem_expect(0 ${name} ${ARGN})
+endmacro()
 
 # all_found(<label> <clean graph> <policy> <count>): corrupt, robust solve, score against the
 # clean optimum. Every false loop rejected, no true loop rejected, the map the clean one.

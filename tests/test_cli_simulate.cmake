@@ -12,15 +12,9 @@ file(MAKE_DIRECTORY "${WORK}")
 include("${CMAKE_CURRENT_LIST_DIR}/cli_test_helpers.cmake")
 
 # pgem(<expected exit code> <name> args...): runs pgem; sets <name>_out and <name>_err.
-function(pgem expected name)
-  execute_process(COMMAND "${PGEM}" ${ARGN} WORKING_DIRECTORY "${WORK}"
-                  RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  if(NOT code STREQUAL "${expected}")
-    fail("${name}: pgem ${ARGN}: exit code ${code}, expected ${expected}\nstdout: ${out}\nstderr: ${err}")
-  endif()
-  set(${name}_out "${out}" PARENT_SCOPE)
-  set(${name}_err "${err}" PARENT_SCOPE)
-endfunction()
+macro(pgem expected name)
+  pgem_expect(${expected} ${name} ${ARGN})
+endmacro()
 
 # hash(<file> <out variable>): SHA-256 of a file in WORK.
 function(hash name variable)

@@ -10,15 +10,9 @@ file(MAKE_DIRECTORY "${WORK}")
 include("${CMAKE_CURRENT_LIST_DIR}/cli_test_helpers.cmake")
 
 # stats(<expected exit code> <name> args...): runs pgem stats; sets <name>_out and <name>_err.
-function(stats expected name)
-  execute_process(COMMAND "${PGEM}" stats ${ARGN} WORKING_DIRECTORY "${WORK}"
-                  RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  if(NOT code STREQUAL "${expected}")
-    fail("${name}: exit code ${code}, expected ${expected}\nstdout: ${out}\nstderr: ${err}")
-  endif()
-  set(${name}_out "${out}" PARENT_SCOPE)
-  set(${name}_err "${err}" PARENT_SCOPE)
-endfunction()
+macro(stats expected name)
+  pgem_expect(${expected} ${name} stats ${ARGN})
+endmacro()
 
 # expect(<json> key value key value ...): every key has exactly that value.
 function(expect json)
