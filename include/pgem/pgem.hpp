@@ -265,6 +265,21 @@ class [[nodiscard]] Result {
     Status status_;
 };
 
+namespace detail {
+/* Calls a user callable from the C solver's callback: void callables never stop the solve,
+ * others stop it when they return true. */
+template <class F, class Argument>
+int trampoline(const Argument *argument, void *context) noexcept {
+    F &callback = *static_cast<F *>(context);
+    if constexpr (std::is_void<decltype(callback(*argument))>::value) {
+        callback(*argument);
+        return 0;
+    } else {
+        return callback(*argument) ? 1 : 0;
+    }
+}
+} // namespace detail
+
 /** Solver options: pgem_solve_options_t zeroed (Gauss-Newton with the documented defaults). */
 struct SolveOptions : pgem_solve_options_t {
     SolveOptions() noexcept : pgem_solve_options_t{} {}
@@ -279,22 +294,11 @@ struct SolveOptions : pgem_solve_options_t {
      */
     template <class F>
     SolveOptions &call_each_iteration(F &callback) noexcept {
-        on_iteration = &trampoline<F>;
+        on_iteration = &detail::trampoline<F, pgem_iteration_t>;
         user = const_cast<void *>(static_cast<const void *>(std::addressof(callback)));
         return *this;
     }
 
-  private:
-    template <class F>
-    static int trampoline(const pgem_iteration_t *iteration, void *context) noexcept {
-        F &callback = *static_cast<F *>(context);
-        if constexpr (std::is_void<decltype(callback(*iteration))>::value) {
-            callback(*iteration);
-            return 0;
-        } else {
-            return callback(*iteration) ? 1 : 0;
-        }
-    }
 };
 
 /** Robust options: pgem_robust_options_t zeroed. Zeroed means PGEM_KERNEL_NONE (plain least
@@ -312,22 +316,11 @@ struct RobustOptions : pgem_robust_options_t {
      */
     template <class F>
     RobustOptions &call_each_round(F &callback) noexcept {
-        on_round = &trampoline<F>;
+        on_round = &detail::trampoline<F, pgem_robust_progress_t>;
         user = const_cast<void *>(static_cast<const void *>(std::addressof(callback)));
         return *this;
     }
 
-  private:
-    template <class F>
-    static int trampoline(const pgem_robust_progress_t *progress, void *context) noexcept {
-        F &callback = *static_cast<F *>(context);
-        if constexpr (std::is_void<decltype(callback(*progress))>::value) {
-            callback(*progress);
-            return 0;
-        } else {
-            return callback(*progress) ? 1 : 0;
-        }
-    }
 };
 
 /** What a solve did: pgem_summary_t with helpers. */
