@@ -177,6 +177,35 @@ static void test_chi2_of_edges(void **state)
     pgem_destroy(graph);
 }
 
+/* The public information check is the one pgem_add_edge applies, and says where it failed. */
+static void test_information_check(void **state)
+{
+    (void)state;
+    double m[9] = {4, 1, 0, 1, 3, 0, 0, 0, 2};
+    int entry = 99;
+    assert_int_equal(pgem_information_check(m, 3, &entry), PGEM_OK);
+    assert_int_equal(entry, -1);
+    m[5] = NAN;
+    assert_int_equal(pgem_information_check(m, 3, &entry), PGEM_ERR_NOT_FINITE);
+    assert_int_equal(entry, 5);
+    m[5] = 0.5; /* (1,2) = 0.5 but (2,1) = 0 */
+    assert_int_equal(pgem_information_check(m, 3, &entry), PGEM_ERR_INFORMATION);
+    assert_int_equal(entry, 1 * 3 + 2);
+    double singular[9] = {1, 1, 0, 1, 1, 0, 0, 0, 1};
+    assert_int_equal(pgem_information_check(singular, 3, NULL), PGEM_ERR_INFORMATION);
+    assert_int_equal(pgem_information_check(singular, 3, &entry), PGEM_ERR_INFORMATION);
+    assert_int_equal(entry, 1 * 3 + 1); /* second pivot */
+    assert_int_equal(pgem_information_check(singular, 4, &entry), PGEM_ERR_INVALID_ARGUMENT);
+    /* and pgem_add_edge refuses the same matrix with the same verdict */
+    pgem_t *graph = test_create(2, 4, 4);
+    const double pose[3] = {0, 0, 0}, z[3] = {1, 0, 0};
+    assert_int_equal(pgem_add_pose(graph, 0, pose), PGEM_OK);
+    assert_int_equal(pgem_add_pose(graph, 1, pose), PGEM_OK);
+    assert_int_equal(pgem_add_edge(graph, 0, 1, z, singular, PGEM_EDGE_ODOMETRY, NULL), PGEM_ERR_INFORMATION);
+    assert_non_null(strstr(pgem_last_error(graph), "pivot 1"));
+    pgem_destroy(graph);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -189,6 +218,7 @@ int main(void)
         cmocka_unit_test(test_edge_errors_change_nothing),
         cmocka_unit_test(test_error_names),
         cmocka_unit_test(test_chi2_of_edges),
+        cmocka_unit_test(test_information_check),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -40,6 +40,17 @@ int pgem_add_pose(pgem_t *graph, pgem_id_t id, const double *pose);
 int pgem_add_edge(pgem_t *graph, pgem_id_t from, pgem_id_t to, const double *measurement,
                   const double *information, pgem_edge_kind_t kind, uint32_t *edge_index);
 
+/**
+ * The check pgem_add_edge applies to an n x n row-major information matrix (n = 3 or 6), for
+ * callers that validate before adding (file checkers, generators): PGEM_OK,
+ * PGEM_ERR_NOT_FINITE (an entry is NaN/Inf), or PGEM_ERR_INFORMATION (not symmetric within
+ * 1e-9 of its largest entry, or a Cholesky pivot not above n * DBL_EPSILON * that entry).
+ * entry (may be NULL) receives the row-major index of the offending entry: the non-finite
+ * one, (i, j) with i < j of an asymmetric pair, or the failing pivot's diagonal entry.
+ * Needs no instance and allocates nothing.
+ */
+int pgem_information_check(const double *information, int n, int *entry);
+
 /** Holds a pose constant during optimisation (fixed != 0) or frees it. If no pose is fixed
  * when optimising, the first pose added is held (the gauge). Errors: UNKNOWN_ID. */
 int pgem_fix_pose(pgem_t *graph, pgem_id_t id, int fixed);

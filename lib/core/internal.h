@@ -38,12 +38,11 @@ typedef struct pgem_linear {
     int *block_rows;       /* [max_edges] block row indices of that pattern */
     int *block_parent;     /* [max_poses] elimination tree of the block pattern */
     int *scratch;          /* [3 * max_edges + 4 * max_poses + 4] symbolic workspace */
-    cs_di upper;               /* permuted upper triangle of H, scalar CSC, values refilled
-                                  every iteration (arrays below) */
-    int *upper_colptr;     /* [max_poses * block + 1] */
-    int *upper_rows;       /* [upper_capacity] */
-    double *upper_values;      /* [upper_capacity] */
-    int upper_capacity;    /* max nonzeros of the upper triangle */
+    int *upper_colptr;     /* [max_poses * block + 1] permuted upper triangle of H, scalar
+                                  CSC column pointers; the rows are implied by the block
+                                  pattern (see linalg/analyze.c), so only values are stored */
+    double *upper_values;      /* [max_edges * b^2 + max_poses * b(b+1)/2] refilled every
+                                  iteration */
     cs_di factor;              /* L, scalar CSC with the fill budget as capacity */
     int *factor_colptr;    /* [max_poses * block + 1] */
     int *factor_rows;      /* [fill_budget] */
@@ -93,6 +92,12 @@ struct pgem {
     char message[PGEM_MESSAGE_SIZE]; /* last error message */
 };
 
+/* Bytes of the whole estimate (every pose), for copies between the estimate buffers. */
+static inline size_t pgem_pose_bytes(const pgem_t *graph)
+{
+    return (size_t)graph->pose_count * (size_t)graph->pose_size * sizeof(double);
+}
+
 /* Carves every array of an instance from the arena (measuring when arena->base is NULL). */
 void pgem_carve(pgem_t *graph, pgem_arena_t *arena);
 
@@ -121,10 +126,13 @@ void pgem_edge_error(const pgem_t *graph, uint32_t k, double *error, double *jac
 double pgem_edge_mahalanobis(const pgem_t *graph, uint32_t k);
 
 /* Block pattern of H (linalg/pattern.c). */
-/* 1 if edge k has a place in H's structure (active, or every edge in the fallback). */
-static inline int pgem_edge_in_structure(const pgem_t *graph, uint32_t k)
+/* 1 if edge k has an off-diagonal block in H's structure: both poses free, and the edge
+ * active (or every edge, in the fallback). *a, *b receive the poses' permuted blocks. */
+static inline int pgem_edge_blocks(const pgem_t *graph, uint32_t k, int *a, int *b)
 {
-    return graph->linear.all_edges || graph->edge_active[k];
+    *a = graph->linear.pose_block[graph->edge_from[k]];
+    *b = graph->linear.pose_block[graph->edge_to[k]];
+    return *a >= 0 && *b >= 0 && (graph->linear.all_edges || graph->edge_active[k]);
 }
 int pgem_pattern_number_free(pgem_t *graph);
 int pgem_pattern_order(pgem_t *graph, int block_count);

@@ -80,7 +80,6 @@ static void pgem_carve_linear(pgem_t *graph, pgem_arena_t *arena)
     const size_t scalars = poses * block;
     const size_t upper = edges * block * block + poses * block * (block + 1u) / 2u;
     linear->block = (int)block;
-    linear->upper_capacity = upper > (size_t)INT32_MAX ? INT32_MAX : (int)upper;
     linear->pose_block = pgem_arena_take(arena, poses, sizeof(int));
     linear->edge_offset = pgem_arena_take(arena, edges, sizeof(int));
     linear->edge_transposed = pgem_arena_take(arena, edges, 1);
@@ -89,7 +88,6 @@ static void pgem_carve_linear(pgem_t *graph, pgem_arena_t *arena)
     linear->block_parent = pgem_arena_take(arena, poses, sizeof(int));
     linear->scratch = pgem_arena_take(arena, 3u * edges + 4u * poses + 4u, sizeof(int));
     linear->upper_colptr = pgem_arena_take(arena, scalars + 1u, sizeof(int));
-    linear->upper_rows = pgem_arena_take(arena, upper, sizeof(int));
     linear->upper_values = pgem_arena_take(arena, upper, sizeof(double));
     linear->factor_colptr = pgem_arena_take(arena, scalars + 1u, sizeof(int));
     linear->factor_rows = pgem_arena_take(arena, graph->config.fill_budget, sizeof(int));

@@ -132,7 +132,9 @@ void pgem_se2_error(const double xi[3], const double xj[3], const double z[3], d
     rotate2(-theta_i, delta, local);
     offset[0] = local[0] - z[0];
     offset[1] = local[1] - z[1];
-    se2_error_jacobians(theta_i, theta_z, local, jacobian_i, jacobian_j);
+    if (jacobian_i || jacobian_j) { /* chi2-only callers (E-steps, LM trials) skip the trig */
+        se2_error_jacobians(theta_i, theta_z, local, jacobian_i, jacobian_j);
+    }
     rotate2(-theta_z, offset, e);
     e[2] = angle;
 }

@@ -212,19 +212,16 @@ static void se3_jacobian_i(const double z[7], const double t_error[3], const dou
 
 void pgem_se3_error(const double xi[7], const double xj[7], const double z[7], double e[6],
                     double jacobian_i[36], double jacobian_j[36]) {
-    double relative[7], error_pose[7], z_copy[7];
-    for (int k = 0; k < 7; ++k) {
-        z_copy[k] = z[k];
-    }
+    double relative[7], error_pose[7]; /* e is written last, so it may alias an input */
     pgem_se3_between(xi, xj, relative);
-    pgem_se3_between(z_copy, relative, error_pose);
+    pgem_se3_between(z, relative, error_pose);
     if (error_pose[6] < 0.0) {
         for (int k = 3; k < 7; ++k) {
             error_pose[k] = -error_pose[k];
         }
     }
     if (jacobian_i) {
-        se3_jacobian_i(z_copy, error_pose, error_pose + 3, jacobian_i);
+        se3_jacobian_i(z, error_pose, error_pose + 3, jacobian_i);
     }
     if (jacobian_j) {
         se3_jacobian_j(error_pose + 3, jacobian_j);

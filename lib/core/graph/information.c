@@ -56,38 +56,56 @@ static int pgem_first_bad_pivot(const double *matrix, int n, double floor)
     return -1;
 }
 
-int pgem_check_information(pgem_t *graph, const double *information)
+int pgem_information_check(const double *information, int n, int *entry)
 {
-    const int n = graph->tangent;
+    int unused;
+    int *where = entry != NULL ? entry : &unused;
+    if (information == NULL || (n != 3 && n != 6)) {
+        *where = -1;
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
     for (int k = 0; k < n * n; k++) {
         if (!isfinite(information[k])) {
-            pgem_message_clear(graph);
-            pgem_message_entry(graph, (pgem_entry_ref_t){k / n, k % n});
-            pgem_message_text(graph, " is not finite");
+            *where = k;
             return PGEM_ERR_NOT_FINITE;
         }
     }
     const double largest = pgem_largest_magnitude(information, n);
     for (int i = 0; i < n; i++) {
         for (int j = i + 1; j < n; j++) {
-            double gap = fabs(information[i * n + j] - information[j * n + i]);
-            if (gap > 1e-9 * largest) {
-                pgem_message_clear(graph);
-                pgem_message_entry(graph, (pgem_entry_ref_t){i, j});
-                pgem_message_text(graph, " differs from ");
-                pgem_message_entry(graph, (pgem_entry_ref_t){j, i});
-                pgem_message_text(graph, ": information must be symmetric");
+            if (fabs(information[i * n + j] - information[j * n + i]) > 1e-9 * largest) {
+                *where = i * n + j;
                 return PGEM_ERR_INFORMATION;
             }
         }
     }
     int bad = pgem_first_bad_pivot(information, n, (double)n * DBL_EPSILON * largest);
-    if (bad >= 0) {
-        pgem_message_clear(graph);
-        pgem_message_text(graph, "information is not positive definite (pivot ");
-        pgem_message_i64(graph, bad);
-        pgem_message_text(graph, " is not positive)");
-        return PGEM_ERR_INFORMATION;
+    *where = bad >= 0 ? bad * (n + 1) : -1;
+    return bad >= 0 ? PGEM_ERR_INFORMATION : PGEM_OK;
+}
+
+int pgem_check_information(pgem_t *graph, const double *information)
+{
+    const int n = graph->tangent;
+    int entry;
+    int status = pgem_information_check(information, n, &entry);
+    if (status == PGEM_OK) {
+        return PGEM_OK;
     }
-    return PGEM_OK;
+    const pgem_entry_ref_t at = {entry / n, entry % n};
+    pgem_message_clear(graph);
+    if (status == PGEM_ERR_NOT_FINITE) {
+        pgem_message_entry(graph, at);
+        pgem_message_text(graph, " is not finite");
+    } else if (at.row != at.column) {
+        pgem_message_entry(graph, at);
+        pgem_message_text(graph, " differs from ");
+        pgem_message_entry(graph, (pgem_entry_ref_t){at.column, at.row});
+        pgem_message_text(graph, ": information must be symmetric");
+    } else {
+        pgem_message_text(graph, "information is not positive definite (pivot ");
+        pgem_message_i64(graph, at.row);
+        pgem_message_text(graph, " is not positive)");
+    }
+    return status;
 }

@@ -29,9 +29,8 @@ static void pgem_analyze_edges(pgem_t *graph)
 {
     pgem_linear_t *linear = &graph->linear;
     for (uint32_t k = 0; k < graph->edge_count; k++) {
-        int a = linear->pose_block[graph->edge_from[k]];
-        int b = linear->pose_block[graph->edge_to[k]];
-        if (a < 0 || b < 0 || !pgem_edge_in_structure(graph, k)) {
+        int a, b;
+        if (!pgem_edge_blocks(graph, k, &a, &b)) {
             linear->edge_offset[k] = -1;
             continue;
         }
@@ -42,28 +41,21 @@ static void pgem_analyze_edges(pgem_t *graph)
     }
 }
 
-/* Scalar upper triangle of H: column J*b+c holds every off-diagonal block row of block
- * column J (b rows each), then rows J*b .. J*b+c of the diagonal block. */
+/* Column pointers of H's scalar upper triangle: column J*b+c holds every off-diagonal block
+ * row of block column J (b rows each), then rows J*b .. J*b+c of the diagonal block. The rows
+ * themselves are never stored: assembly and factorisation address values by block. */
 static void pgem_analyze_upper(pgem_linear_t *linear)
 {
     const int b = linear->block;
     int count = 0;
     for (int column = 0; column < linear->block_count; column++) {
+        const int off_diagonal = (linear->block_colptr[column + 1] - linear->block_colptr[column]) * b;
         for (int c = 0; c < b; c++) {
             linear->upper_colptr[column * b + c] = count;
-            for (int q = linear->block_colptr[column]; q < linear->block_colptr[column + 1]; q++) {
-                for (int r = 0; r < b; r++) {
-                    linear->upper_rows[count++] = linear->block_rows[q] * b + r;
-                }
-            }
-            for (int r = 0; r <= c; r++) {
-                linear->upper_rows[count++] = column * b + r;
-            }
+            count += off_diagonal + c + 1;
         }
     }
     linear->upper_colptr[linear->scalar_count] = count;
-    linear->upper = (cs_di){count, linear->scalar_count, linear->scalar_count,
-                            linear->upper_colptr, linear->upper_rows, linear->upper_values, -1};
 }
 
 /* Block elimination tree and block column counts of L with CSparse; expands the counts to
@@ -144,11 +136,11 @@ int pgem_linear_analyze(pgem_t *graph)
     graph->linear.all_edges = 0;
     int status = pgem_linear_analyze_once(graph);
     if (status == PGEM_ERR_FILL_BUDGET) {
-        uint32_t inactive = 0;
-        for (uint32_t k = 0; k < graph->edge_count; k++) {
-            inactive += !graph->edge_active[k];
+        uint32_t k = 0;
+        while (k < graph->edge_count && graph->edge_active[k]) {
+            k++;
         }
-        if (inactive > 0u) {
+        if (k < graph->edge_count) { /* some edge was left out: try the full structure */
             graph->linear.all_edges = 1;
             status = pgem_linear_analyze_once(graph);
         }

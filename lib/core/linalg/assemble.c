@@ -111,7 +111,7 @@ double pgem_linear_assemble(pgem_t *graph)
 {
     pgem_linear_t *linear = &graph->linear;
     pgem_edge_blocks_t blocks;
-    memset(linear->upper_values, 0, (size_t)linear->upper.nzmax * sizeof(double));
+    memset(linear->upper_values, 0, (size_t)linear->upper_colptr[linear->scalar_count] * sizeof(double));
     memset(linear->rhs, 0, (size_t)linear->scalar_count * sizeof(double));
     double chi2 = 0.0;
     for (uint32_t k = 0; k < graph->edge_count; k++) {

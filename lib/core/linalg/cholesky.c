@@ -15,7 +15,8 @@ static int pgem_l_diag(const pgem_linear_t *linear, int column_block, int r, int
 }
 
 /* Scatters column block K of H's upper triangle: off-diagonal blocks into their accumulators
- * (row-major, rows of block I, columns of block K), the diagonal block into diagonal (full). */
+ * (row-major, rows of block I, columns of block K), the diagonal block's lower triangle into
+ * diagonal (row-major). */
 static inline void pgem_scatter_column(pgem_linear_t *linear, int b, int k, double *diagonal)
 {
     const int first = linear->block_colptr[k];
@@ -29,7 +30,7 @@ static inline void pgem_scatter_column(pgem_linear_t *linear, int b, int k, doub
             }
         }
         for (int r = 0; r <= c; r++) {
-            diagonal[r * b + c] = diagonal[c * b + r] = column[count * b + r];
+            diagonal[c * b + r] = column[count * b + r]; /* lower triangle: all the factor reads */
         }
     }
 }
@@ -83,11 +84,11 @@ static inline void pgem_eliminate(pgem_linear_t *linear, int b, int i, int k, co
     linear->fill_next[i] = filled + 1;
 }
 
-/* D -= Y^T Y. */
+/* D -= Y^T Y, lower triangle only (the part pgem_factor_diagonal reads). */
 static inline void pgem_downdate(int b, const double *y, double *diagonal)
 {
     for (int r = 0; r < b; r++) {
-        for (int c = 0; c < b; c++) {
+        for (int c = 0; c <= r; c++) {
             double sum = 0.0;
             for (int m = 0; m < b; m++) {
                 sum += y[m * b + r] * y[m * b + c];

@@ -18,7 +18,6 @@ int pgem_pattern_number_free(pgem_t *graph)
 static void pgem_pattern_bucket(const pgem_t *graph, int block_count, int *colptr, int *rows,
                                 int *work)
 {
-    const pgem_linear_t *linear = &graph->linear;
     int *rowptr = work;
     int *cols = work + block_count + 1;
     int *cursor = cols + graph->edge_count;
@@ -26,9 +25,8 @@ static void pgem_pattern_bucket(const pgem_t *graph, int block_count, int *colpt
         rowptr[j] = 0;
     }
     for (uint32_t k = 0; k < graph->edge_count; k++) {
-        int a = linear->pose_block[graph->edge_from[k]];
-        int b = linear->pose_block[graph->edge_to[k]];
-        if (a >= 0 && b >= 0 && a != b && pgem_edge_in_structure(graph, k)) {
+        int a, b;
+        if (pgem_edge_blocks(graph, k, &a, &b)) {
             rowptr[(a < b ? a : b) + 1]++;
         }
     }
@@ -38,9 +36,8 @@ static void pgem_pattern_bucket(const pgem_t *graph, int block_count, int *colpt
     }
     /* rows bucketed by row index, holding their column */
     for (uint32_t k = 0; k < graph->edge_count; k++) {
-        int a = linear->pose_block[graph->edge_from[k]];
-        int b = linear->pose_block[graph->edge_to[k]];
-        if (a >= 0 && b >= 0 && a != b && pgem_edge_in_structure(graph, k)) {
+        int a, b;
+        if (pgem_edge_blocks(graph, k, &a, &b)) {
             cols[cursor[a < b ? a : b]++] = a < b ? b : a;
         }
     }

@@ -72,18 +72,16 @@ static uint32_t pgem_prune(pgem_t *graph, double threshold)
     return pruned;
 }
 
-static void pgem_count_loops(const pgem_t *graph, pgem_robust_summary_t *summary,
-                             pgem_robust_progress_t *progress)
+/* Loop closures in the graph and how many are pruned, into the summary. */
+static void pgem_count_loops(const pgem_t *graph, pgem_robust_summary_t *summary)
 {
-    progress->active_loops = progress->pruned_loops = 0;
+    summary->loops = summary->pruned = 0;
     for (uint32_t k = 0; k < graph->edge_count; k++) {
         if (graph->edge_kind[k] == PGEM_EDGE_LOOP) {
-            progress->active_loops += graph->edge_active[k];
-            progress->pruned_loops += !graph->edge_active[k];
+            summary->loops++;
+            summary->pruned += !graph->edge_active[k];
         }
     }
-    summary->loops = progress->active_loops + progress->pruned_loops;
-    summary->pruned = progress->pruned_loops;
 }
 
 /* M-step: a few weighted Gauss-Newton iterations from the current estimate. *settled is set
@@ -107,14 +105,19 @@ static int pgem_m_step(pgem_t *graph, const pgem_robust_options_t *options,
     return status;
 }
 
-/* E/M iterations until the M-step has settled and no weight moves more than the tolerance. */
+/* E/M iterations until the M-step has settled and no weight moves more than the tolerance.
+ * Every call ends with an E-step at the final estimate; weights_current says the weights
+ * already are that E-step's (the previous round's, when pruning left the estimate alone), so
+ * the first E-step is skipped. */
 static int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
                            const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
-                           double *largest_change)
+                           int weights_current, double *largest_change)
 {
     int settled = 0;
     for (uint32_t iteration = 0; iteration < options->max_em_iterations; iteration++) {
-        *largest_change = pgem_e_step(graph, options);
+        if (iteration > 0u || !weights_current) {
+            *largest_change = pgem_e_step(graph, options);
+        }
         if (settled && *largest_change < options->weight_tolerance) {
             return PGEM_OK;
         }
@@ -129,8 +132,7 @@ static int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
 
 static void pgem_restore_initial(pgem_t *graph)
 {
-    memcpy(graph->pose, graph->pose_initial,
-           (size_t)graph->pose_count * (size_t)graph->pose_size * sizeof(double));
+    memcpy(graph->pose, graph->pose_initial, pgem_pose_bytes(graph));
 }
 
 /* Rounds of E/M iterations, each followed by pruning, until a round prunes nothing. */
@@ -140,17 +142,22 @@ static int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
     pgem_robust_progress_t progress;
     memset(&progress, 0, sizeof progress);
     for (uint32_t round = 1; round <= options->max_rounds; round++) {
-        int status = pgem_em_iterate(graph, options, solve, summary, &progress.largest_change);
+        int status = pgem_em_iterate(graph, options, solve, summary, round > 1u && !options->restart,
+                                     &progress.largest_change);
         if (status != PGEM_OK) {
             return status;
         }
         uint32_t pruned = options->kernel == PGEM_KERNEL_EM ? pgem_prune(graph, options->prune_threshold) : 0u;
         summary->rounds++; /* counted across re-admission passes */
-        progress.round = summary->rounds;
-        progress.chi2 = pgem_weighted_chi2(graph);
-        pgem_count_loops(graph, summary, &progress);
-        if (options->on_round != NULL && options->on_round(&progress, options->user)) {
-            return PGEM_OK;
+        if (options->on_round != NULL) {
+            progress.round = summary->rounds;
+            progress.chi2 = pgem_weighted_chi2(graph);
+            pgem_count_loops(graph, summary);
+            progress.active_loops = summary->loops - summary->pruned;
+            progress.pruned_loops = summary->pruned;
+            if (options->on_round(&progress, options->user)) {
+                return PGEM_OK;
+            }
         }
         if (pruned == 0u) {
             return PGEM_OK;
@@ -247,8 +254,7 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     if (resolved.kernel < PGEM_KERNEL_NONE || resolved.kernel > PGEM_KERNEL_DCS) {
         return pgem_fail(graph, PGEM_ERR_INVALID_ARGUMENT, "unknown robust kernel");
     }
-    const size_t pose_bytes = (size_t)graph->pose_count * (size_t)graph->pose_size * sizeof(double);
-    memcpy(graph->pose_initial, graph->pose, pose_bytes);
+    memcpy(graph->pose_initial, graph->pose, pgem_pose_bytes(graph));
     out->initial_chi2 = pgem_total_chi2(graph);
     int status;
     if (resolved.kernel == PGEM_KERNEL_NONE) {
@@ -259,11 +265,10 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
         status = pgem_em_rounds(graph, &resolved, solve, out);
     }
     if (status != PGEM_OK) {
-        memcpy(graph->pose, graph->pose_initial, pose_bytes);
+        pgem_restore_initial(graph);
         return status;
     }
-    pgem_robust_progress_t progress;
-    pgem_count_loops(graph, out, &progress);
+    pgem_count_loops(graph, out);
     out->final_chi2 = pgem_weighted_chi2(graph);
     out->usable = 1;
     pgem_message_clear(graph);

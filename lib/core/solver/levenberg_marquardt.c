@@ -36,16 +36,14 @@ static double pgem_lm_predicted(const pgem_linear_t *linear, const double *step,
 
 static void pgem_lm_save(pgem_t *graph)
 {
-    memcpy(graph->pose_accepted, graph->pose,
-           (size_t)graph->pose_count * (size_t)graph->pose_size * sizeof(double));
+    memcpy(graph->pose_accepted, graph->pose, pgem_pose_bytes(graph));
     memcpy(graph->linear.gradient, graph->linear.rhs,
            (size_t)graph->linear.scalar_count * sizeof(double));
 }
 
 static void pgem_lm_undo(pgem_t *graph)
 {
-    memcpy(graph->pose, graph->pose_accepted,
-           (size_t)graph->pose_count * (size_t)graph->pose_size * sizeof(double));
+    memcpy(graph->pose, graph->pose_accepted, pgem_pose_bytes(graph));
     memcpy(graph->linear.rhs, graph->linear.gradient,
            (size_t)graph->linear.scalar_count * sizeof(double));
 }

@@ -56,7 +56,7 @@ static pgem_termination_t pgem_failure_termination(int status)
 
 static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary)
 {
-    const size_t pose_bytes = (size_t)graph->pose_count * (size_t)graph->pose_size * sizeof(double);
+    const size_t pose_bytes = pgem_pose_bytes(graph);
     int status = pgem_analyze(graph);
     summary->factor_nonzeros = (uint32_t)graph->linear.factor_nonzeros;
     if (status != PGEM_OK) {
