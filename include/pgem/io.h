@@ -55,6 +55,8 @@ typedef struct pgem_io_graph {
     char first_unknown_tag[32];          /**< the first such tag */
     unsigned long first_unknown_line;    /**< and its line */
     size_t equiv_lines;                  /**< TORO EQUIV lines skipped */
+    size_t toro_edges;                   /**< edges read from TORO EDGE2 lines (counted in
+                                            edge_count too; 0 for g2o edges) */
     char source[256];                    /**< path or stream name read ("" if not from a file);
                                             pgem_io_load prefixes its messages with it */
 } pgem_io_graph_t;

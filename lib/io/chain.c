@@ -1,5 +1,4 @@
 /* pgem I/O chain: poses of an edge-only file, guessed along a spanning tree, odometry first. */
-#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -105,21 +104,14 @@ static void io_tree_link(io_tree_t *tree, const pgem_id_t *ids)
     }
 }
 
-/* The measurement of an edge, quaternion normalised (a copy; the edge keeps what was read). */
+/* The measurement of an edge, quaternion normalised (a copy; the edge keeps what was read); a
+ * zero quaternion becomes the identity rotation. */
 static void io_unit_measurement(int dimension, const double *measurement, double *out)
 {
     memcpy(out, measurement, sizeof(double) * (size_t)PGEM_POSE_SIZE(dimension));
-    if (dimension == 3) {
-        double norm = sqrt(out[3] * out[3] + out[4] * out[4] + out[5] * out[5] + out[6] * out[6]);
-        if (norm > 0.0) {
-            out[3] /= norm;
-            out[4] /= norm;
-            out[5] /= norm;
-            out[6] /= norm;
-        } else {
-            io_identity_pose(3, out);
-            memcpy(out, measurement, sizeof(double) * 3);
-        }
+    if (dimension == 3 && !(pgem_quat_normalize(&out[3]) > 0.0)) {
+        io_identity_pose(3, out);
+        memcpy(out, measurement, sizeof(double) * 3);
     }
 }
 

@@ -128,47 +128,42 @@ static int io_check_edge_ids(const io_reader_t *reader, const pgem_id_t *ids, si
     return PGEM_OK;
 }
 
-/* FIX ids must name a pose (with a VERTEX line, or referenced by an edge if there is none). */
-static int io_check_fixed_ids(const io_reader_t *reader)
+/* FIX ids must name a pose (with a VERTEX line, or referenced by an edge if there is none);
+ * ids are the sorted pose ids. */
+static int io_check_fixed_ids(const io_reader_t *reader, const pgem_id_t *ids, size_t count)
 {
     const pgem_io_graph_t *graph = reader->graph;
-    pgem_id_t *ids = (pgem_id_t *)malloc((graph->pose_count + 1) * sizeof *ids);
     size_t i;
-    int status = PGEM_OK;
-    if (ids == NULL) {
-        return io_fail(reader, 0, PGEM_ERR_OUT_OF_MEMORY, "out of memory");
-    }
-    for (i = 0; i < graph->pose_count; ++i) {
-        ids[i] = graph->poses[i].id;
-    }
-    io_sort_ids(ids, graph->pose_count);
-    for (i = 0; i < graph->fixed_count && status == PGEM_OK; ++i) {
-        if (!io_find_id(ids, graph->pose_count, graph->fixed[i], NULL)) {
-            status = io_fail(reader, reader->fixed_lines[i], PGEM_ERR_UNKNOWN_ID,
-                             "FIX names id %llu, which has no pose",
-                             (unsigned long long)graph->fixed[i]);
+    for (i = 0; i < graph->fixed_count; ++i) {
+        if (!io_find_id(ids, count, graph->fixed[i], NULL)) {
+            return io_fail(reader, reader->fixed_lines[i], PGEM_ERR_UNKNOWN_ID,
+                           "FIX names id %llu, which has no pose",
+                           (unsigned long long)graph->fixed[i]);
         }
     }
-    free(ids);
-    return status;
+    return PGEM_OK;
 }
 
 int io_check_ids(io_reader_t *reader)
 {
     pgem_io_graph_t *graph = reader->graph;
-    int status;
-    if (graph->pose_count == 0) {
-        status = graph->edge_count > 0 ? io_chain_poses(reader) : PGEM_OK;
-    } else {
-        pgem_id_t *ids = NULL;
+    pgem_id_t *ids = NULL;
+    int status = PGEM_OK;
+    if (graph->pose_count > 0) {
         status = io_sorted_vertex_ids(reader, &ids);
         if (status == PGEM_OK) {
             status = io_check_edge_ids(reader, ids, graph->pose_count);
         }
-        free(ids);
+    } else if (graph->edge_count > 0) {
+        status = io_chain_poses(reader);
+        /* chained poses have unique ids: this only sorts them, for the FIX check */
+        if (status == PGEM_OK && graph->fixed_count > 0) {
+            status = io_sorted_vertex_ids(reader, &ids);
+        }
     }
     if (status == PGEM_OK) {
-        status = io_check_fixed_ids(reader);
+        status = io_check_fixed_ids(reader, ids, graph->pose_count);
     }
+    free(ids);
     return status;
 }

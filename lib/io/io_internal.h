@@ -2,6 +2,7 @@
 #ifndef PGEM_IO_INTERNAL_H
 #define PGEM_IO_INTERNAL_H
 
+#include <stdarg.h>
 #include <stddef.h>
 #include <stdio.h>
 
@@ -34,13 +35,17 @@ typedef struct io_reader {
     unsigned long line;            /* current line number (1-based) */
     unsigned long dimension_line;  /* the line that decided graph->dimension */
     unsigned long *fixed_lines;    /* line of each graph->fixed entry */
+    size_t fixed_line_count;       /* entries in fixed_lines (graph->fixed_count) */
     size_t fixed_lines_capacity;
     char *message;                 /* caller's message buffer (may be NULL) */
     size_t message_size;
 } io_reader_t;
 
-/* message.c: formats "NAME:LINE: text" (or "NAME: text" when line is 0) into the reader's
- * message and returns code. */
+/* message.c: formats "NAME:LINE: text" (or "NAME: text" when line is 0) into a caller's
+ * buffer (NULL / size 0 tolerated); text is cut to 511 bytes. */
+void io_vmessage_at(char *message, size_t size, const char *name, unsigned long line,
+                    const char *format, va_list args);
+/* message.c: io_vmessage_at into the reader's message, with the reader's name; returns code. */
 int io_fail(const io_reader_t *reader, unsigned long line, int code, const char *format, ...);
 /* message.c: vsnprintf into a caller's buffer, tolerating NULL / size 0. */
 void io_message(char *message, size_t size, const char *format, ...);
@@ -72,7 +77,11 @@ pgem_edge_kind_t io_edge_kind(pgem_id_t from, pgem_id_t to);
 /* layout.c: the identity pose of a dimension. */
 void io_identity_pose(int dimension, double *pose);
 
-/* graph.c: append zeroed entries (NULL / PGEM_ERR_OUT_OF_MEMORY when out of memory). */
+/* graph.c: appends one zeroed element of element_size bytes to *array (*count used of
+ * *capacity, grown by doubling from 64) and returns it with *count bumped; NULL (nothing
+ * changed) when out of memory. */
+void *io_append(void **array, size_t *count, size_t *capacity, size_t element_size);
+/* graph.c: io_append on a graph's arrays (NULL / PGEM_ERR_OUT_OF_MEMORY when out of memory). */
 pgem_io_pose_t *io_graph_new_pose(pgem_io_graph_t *graph);
 pgem_io_edge_t *io_graph_new_edge(pgem_io_graph_t *graph);
 int io_graph_add_fixed(pgem_io_graph_t *graph, pgem_id_t id);

@@ -1,6 +1,6 @@
 /* pgem I/O load: sizes a core config for a file graph and adds the graph to an instance. */
+#include <stdarg.h>
 #include <stdint.h>
-#include <stdio.h>
 #include <string.h>
 
 #include "io_internal.h"
@@ -35,17 +35,14 @@ static const char *io_source(const pgem_io_graph_t *graph)
     return graph->source[0] != '\0' ? graph->source : "(graph)";
 }
 
-/* "SOURCE:LINE: what: the instance's message" (no LINE when the entry has none). */
-static int io_load_failed(const pgem_io_graph_t *graph, unsigned long line, const char *what,
-                          const pgem_t *instance, int code, char *message, size_t message_size)
+/* "SOURCE:LINE: text" (no LINE when it is 0) into message; returns code. */
+static int io_load_failed(const pgem_io_graph_t *graph, unsigned long line, int code,
+                          char *message, size_t message_size, const char *format, ...)
 {
-    if (line > 0) {
-        io_message(message, message_size, "%s:%lu: %s: %s", io_source(graph), line, what,
-                   pgem_last_error(instance));
-    } else {
-        io_message(message, message_size, "%s: %s: %s", io_source(graph), what,
-                   pgem_last_error(instance));
-    }
+    va_list args;
+    va_start(args, format);
+    io_vmessage_at(message, message_size, io_source(graph), line, format, args);
+    va_end(args);
     return code;
 }
 
@@ -57,10 +54,9 @@ static int io_load_poses(const pgem_io_graph_t *graph, pgem_t *instance, char *m
         const pgem_io_pose_t *pose = &graph->poses[i];
         int status = pgem_add_pose(instance, pose->id, pose->pose);
         if (status != PGEM_OK) {
-            char what[64];
-            snprintf(what, sizeof what, "pose %llu", (unsigned long long)pose->id);
-            return io_load_failed(graph, pose->line, what, instance, status, message,
-                                  message_size);
+            return io_load_failed(graph, pose->line, status, message, message_size,
+                                  "pose %llu: %s", (unsigned long long)pose->id,
+                                  pgem_last_error(instance));
         }
     }
     return PGEM_OK;
@@ -75,11 +71,9 @@ static int io_load_edges(const pgem_io_graph_t *graph, pgem_t *instance, char *m
         int status = pgem_add_edge(instance, edge->from, edge->to, edge->measurement,
                                    edge->information, edge->kind, NULL);
         if (status != PGEM_OK) {
-            char what[96];
-            snprintf(what, sizeof what, "edge %llu -> %llu", (unsigned long long)edge->from,
-                     (unsigned long long)edge->to);
-            return io_load_failed(graph, edge->line, what, instance, status, message,
-                                  message_size);
+            return io_load_failed(graph, edge->line, status, message, message_size,
+                                  "edge %llu -> %llu: %s", (unsigned long long)edge->from,
+                                  (unsigned long long)edge->to, pgem_last_error(instance));
         }
     }
     return PGEM_OK;
@@ -92,9 +86,8 @@ static int io_load_fixed(const pgem_io_graph_t *graph, pgem_t *instance, char *m
     for (i = 0; i < graph->fixed_count; ++i) {
         int status = pgem_fix_pose(instance, graph->fixed[i], 1);
         if (status != PGEM_OK) {
-            char what[64];
-            snprintf(what, sizeof what, "FIX %llu", (unsigned long long)graph->fixed[i]);
-            return io_load_failed(graph, 0, what, instance, status, message, message_size);
+            return io_load_failed(graph, 0, status, message, message_size, "FIX %llu: %s",
+                                  (unsigned long long)graph->fixed[i], pgem_last_error(instance));
         }
     }
     return PGEM_OK;
@@ -110,9 +103,9 @@ int pgem_io_load(const pgem_io_graph_t *graph, pgem_t *instance, char *message,
         return PGEM_ERR_INVALID_ARGUMENT;
     }
     if (graph->dimension != 0 && graph->dimension != pgem_dimension(instance)) {
-        io_message(message, message_size, "%s: the graph is %dD but the instance is %dD",
-                   io_source(graph), graph->dimension, pgem_dimension(instance));
-        return PGEM_ERR_DIMENSION;
+        return io_load_failed(graph, 0, PGEM_ERR_DIMENSION, message, message_size,
+                              "the graph is %dD but the instance is %dD", graph->dimension,
+                              pgem_dimension(instance));
     }
     status = io_load_poses(graph, instance, message, message_size);
     if (status == PGEM_OK) {

@@ -21,19 +21,24 @@ void io_message(char *message, size_t size, const char *format, ...)
     va_end(args);
 }
 
-int io_fail(const io_reader_t *reader, unsigned long line, int code, const char *format, ...)
+void io_vmessage_at(char *message, size_t size, const char *name, unsigned long line,
+                    const char *format, va_list args)
 {
     char detail[512];
+    vsnprintf(detail, sizeof detail, format, args);
+    if (line > 0) {
+        io_message(message, size, "%s:%lu: %s", name, line, detail);
+    } else {
+        io_message(message, size, "%s: %s", name, detail);
+    }
+}
+
+int io_fail(const io_reader_t *reader, unsigned long line, int code, const char *format, ...)
+{
     va_list args;
     va_start(args, format);
-    vsnprintf(detail, sizeof detail, format, args);
+    io_vmessage_at(reader->message, reader->message_size, reader->name, line, format, args);
     va_end(args);
-    if (line > 0) {
-        io_message(reader->message, reader->message_size, "%s:%lu: %s", reader->name, line,
-                   detail);
-    } else {
-        io_message(reader->message, reader->message_size, "%s: %s", reader->name, detail);
-    }
     return code;
 }
 

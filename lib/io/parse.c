@@ -1,5 +1,4 @@
 /* pgem I/O parse: turns one line of a g2o or TORO file into a pose, edge or FIX entry. */
-#include <stdlib.h>
 #include <string.h>
 
 #include "io_internal.h"
@@ -208,22 +207,22 @@ static int io_store_edge(io_reader_t *reader, const io_tag_t *tag, const io_valu
     io_expand_information(tag, values->numbers + pose_size, edge->information);
     edge->kind = io_edge_kind(edge->from, edge->to);
     edge->line = reader->line;
+    if (tag->format == PGEM_FORMAT_TORO) {
+        reader->graph->toro_edges++;
+    }
     return PGEM_OK;
 }
 
 static int io_remember_fixed_line(io_reader_t *reader)
 {
-    size_t count = reader->graph->fixed_count;
-    if (count > reader->fixed_lines_capacity) {
-        size_t capacity = reader->graph->fixed_capacity;
-        void *grown = realloc(reader->fixed_lines, capacity * sizeof(unsigned long));
-        if (grown == NULL) {
-            return PGEM_ERR_OUT_OF_MEMORY;
-        }
-        reader->fixed_lines = (unsigned long *)grown;
-        reader->fixed_lines_capacity = capacity;
+    void *lines = reader->fixed_lines;
+    unsigned long *line = (unsigned long *)io_append(&lines, &reader->fixed_line_count,
+                                                     &reader->fixed_lines_capacity, sizeof *line);
+    reader->fixed_lines = (unsigned long *)lines;
+    if (line == NULL) {
+        return PGEM_ERR_OUT_OF_MEMORY;
     }
-    reader->fixed_lines[count - 1] = reader->line;
+    *line = reader->line;
     return PGEM_OK;
 }
 
