@@ -2,7 +2,9 @@
 #ifndef PGEM_CLI_H
 #define PGEM_CLI_H
 
+#include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #include "pgem/io.h"
 #include "pgem/pgem.h"
@@ -16,8 +18,22 @@
 /* Monotonic seconds. */
 double pgem_cli_now(void);
 
+/* The core refuses a 3D quaternion whose norm is off 1 by more than this (and normalises the
+ * others); the tools apply the same rule. */
+#define PGEM_CLI_QUAT_TOLERANCE 0.01
+
 /* Parses a non-negative integer option value; prints an error and returns 0 on failure. */
 int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value);
+
+/* As pgem_cli_parse_u32, and at least `least`: below it prints "PREFIX: OPTION needs at least
+ * LEAST WHAT, got N" and returns 0. */
+int pgem_cli_parse_at_least(const char *prefix, const char *option, const char *text,
+                            uint32_t least, const char *what, uint32_t *value);
+
+/* Parses a finite number, positive when strict, else non-negative; prints "PREFIX: OPTION
+ * needs a positive (non-negative) number, got 'TEXT'" and returns 0 on failure. */
+int pgem_cli_parse_number(const char *prefix, const char *option, const char *text, int strict,
+                          double *value);
 
 /* Deterministic random numbers for a seed on every platform (splitmix64): uniform in [0, 1)
  * and standard normal (Box-Muller). */
@@ -27,8 +43,29 @@ double pgem_cli_gaussian(uint64_t *state);
 /* Parses a robust kernel name (em, cauchy, huber, dcs, none); prints an error on failure. */
 int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel);
 
-/* Parses a positive finite number; prints an error and returns 0 on failure. */
-int pgem_cli_parse_positive(const char *option, const char *text, double *value);
+/* pgem_cli_read_graph flags. */
+#define PGEM_CLI_NEED_POSES 1u   /* a graph without poses is an error ("PATH has no poses") */
+#define PGEM_CLI_WARN_CHAINED 2u /* warn when the poses were guessed along the edges */
+
+/* Reads a graph file (format by tag). Every message starts with prefix ("pgem", "pgem plot").
+ * Returns PGEM_EXIT_OK, PGEM_EXIT_IO when the file could not be read, or PGEM_EXIT_FAILURE
+ * when it was refused (or has no poses under PGEM_CLI_NEED_POSES). *graph is the caller's to
+ * free, also on failure. */
+int pgem_cli_read_graph(const char *prefix, const char *path, unsigned flags,
+                        pgem_io_graph_t *graph);
+
+/* Writes a file graph as g2o; prints "PREFIX: message" on failure. Returns a PGEM_EXIT_*
+ * code. */
+int pgem_cli_write_graph(const char *prefix, const pgem_io_graph_t *graph, const char *path);
+
+/* Opens a text file for writing; prints "PREFIX: PATH: cannot open for writing: reason" and
+ * returns NULL on failure. */
+FILE *pgem_cli_create(const char *prefix, const char *path);
+
+/* Closes a file from pgem_cli_create. When failed is set (an earlier write failed) or the
+ * close fails, prints "PREFIX: PATH: write failed: reason" and returns PGEM_EXIT_IO; else
+ * PGEM_EXIT_OK. */
+int pgem_cli_finish(const char *prefix, const char *path, FILE *file, int failed);
 
 /* Writes one line per loop closure, "from to weight state"; prints errors; 0 on success. */
 int pgem_cli_write_weights(const pgem_t *instance, const char *path);
@@ -38,8 +75,41 @@ int pgem_cli_write_weights(const pgem_t *instance, const char *path);
  * Prints errors to stderr. Returns PGEM_OK or an error code. */
 int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance);
 
-/* Writes an instance to a g2o file; prints errors. */
+/* Writes an instance to a g2o file; prints errors. Returns a PGEM_EXIT_* code. */
 int pgem_cli_write(const pgem_t *instance, const char *path);
+
+/* A pose id and the index of its pose in a file graph. */
+typedef struct pgem_cli_id {
+    pgem_id_t id;
+    size_t index;
+} pgem_cli_id_t;
+
+#define PGEM_CLI_NO_POSE ((size_t)-1) /* pgem_cli_find_pose: no pose with that id */
+
+/* The poses of a file graph sorted by id, in a new array of pose_count entries (the caller
+ * frees it); NULL when out of memory (nothing printed). */
+pgem_cli_id_t *pgem_cli_index_poses(const pgem_io_graph_t *graph);
+
+/* The index in the file graph of the pose with this id, from its sorted ids (count entries),
+ * or PGEM_CLI_NO_POSE. */
+size_t pgem_cli_find_pose(const pgem_cli_id_t *ids, size_t count, pgem_id_t id);
+
+/* An ordered pair of pose ids and what it belongs to (an edge, a line, a loop). */
+typedef struct pgem_cli_pair {
+    pgem_id_t from;
+    pgem_id_t to;
+    size_t index;
+} pgem_cli_pair_t;
+
+/* Sorts pairs by (from, to, index); pairs may be NULL when count is 0. */
+void pgem_cli_sort_pairs(pgem_cli_pair_t *pairs, size_t count);
+
+/* The end of the run of sorted pairs equal to (from, to) that starts at `first`. */
+size_t pgem_cli_pair_run_end(const pgem_cli_pair_t *pairs, size_t count, size_t first,
+                             pgem_id_t from, pgem_id_t to);
+
+/* "s" unless count is 1. */
+const char *pgem_cli_plural(size_t count);
 
 /* Writes text to stdout as a JSON string: quoted, with '"', '\\' and control bytes escaped. */
 void pgem_cli_json_string(const char *text);

@@ -1,4 +1,5 @@
-/* Helpers of the command-line tool: clock, option values, loading and writing graphs. */
+/* Helpers of the command-line tool: clock, option values, reading, loading and writing graphs
+ * and text files, pose-id indexes and sorted id pairs. */
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
 #include <math.h>
@@ -29,6 +30,83 @@ int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value)
     }
     *value = (uint32_t)parsed;
     return 1;
+}
+
+int pgem_cli_parse_at_least(const char *prefix, const char *option, const char *text,
+                            uint32_t least, const char *what, uint32_t *value)
+{
+    if (!pgem_cli_parse_u32(option, text, value)) {
+        return 0;
+    }
+    if (*value < least) {
+        fprintf(stderr, "%s: %s needs at least %u %s, got %u\n", prefix, option, least, what,
+                *value);
+        return 0;
+    }
+    return 1;
+}
+
+int pgem_cli_parse_number(const char *prefix, const char *option, const char *text, int strict,
+                          double *value)
+{
+    char *end = NULL;
+    double parsed = text != NULL ? strtod(text, &end) : -1.0;
+    int in_range = strict ? parsed > 0.0 : parsed >= 0.0;
+    if (text == NULL || end == text || *end != '\0' || !in_range || !isfinite(parsed)) {
+        fprintf(stderr, "%s: %s needs a %s number, got '%s'\n", prefix, option,
+                strict ? "positive" : "non-negative", text != NULL ? text : "");
+        return 0;
+    }
+    *value = parsed;
+    return 1;
+}
+
+int pgem_cli_read_graph(const char *prefix, const char *path, unsigned flags,
+                        pgem_io_graph_t *graph)
+{
+    char message[1024];
+    int status = pgem_io_read(path, PGEM_FORMAT_AUTO, graph, message, sizeof message);
+    if (status != PGEM_OK) {
+        fprintf(stderr, "%s: %s\n", prefix, message);
+        return status == PGEM_ERR_IO ? PGEM_EXIT_IO : PGEM_EXIT_FAILURE;
+    }
+    if ((flags & PGEM_CLI_NEED_POSES) != 0u && graph->pose_count == 0) {
+        fprintf(stderr, "%s: %s has no poses\n", prefix, path);
+        return PGEM_EXIT_FAILURE;
+    }
+    if ((flags & PGEM_CLI_WARN_CHAINED) != 0u && graph->chained_poses > 0) {
+        fprintf(stderr, "%s: warning: %s has no VERTEX lines; its poses are guesses composed "
+                        "along its edges\n", prefix, path);
+    }
+    return PGEM_EXIT_OK;
+}
+
+int pgem_cli_write_graph(const char *prefix, const pgem_io_graph_t *graph, const char *path)
+{
+    char message[1024];
+    if (pgem_io_write(path, PGEM_FORMAT_G2O, graph, message, sizeof message) != PGEM_OK) {
+        fprintf(stderr, "%s: %s\n", prefix, message);
+        return PGEM_EXIT_IO;
+    }
+    return PGEM_EXIT_OK;
+}
+
+FILE *pgem_cli_create(const char *prefix, const char *path)
+{
+    FILE *file = fopen(path, "w");
+    if (file == NULL) {
+        fprintf(stderr, "%s: %s: cannot open for writing: %s\n", prefix, path, strerror(errno));
+    }
+    return file;
+}
+
+int pgem_cli_finish(const char *prefix, const char *path, FILE *file, int failed)
+{
+    if (fclose(file) != 0 || failed) {
+        fprintf(stderr, "%s: %s: write failed: %s\n", prefix, path, strerror(errno));
+        return PGEM_EXIT_IO;
+    }
+    return PGEM_EXIT_OK;
 }
 
 static int pgem_cli_try_load(const pgem_io_graph_t *file, const pgem_config_t *config,
@@ -85,15 +163,12 @@ int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instan
 int pgem_cli_write(const pgem_t *instance, const char *path)
 {
     pgem_io_graph_t out = {0};
-    char message[1024];
     int status = pgem_io_from_instance(instance, &out);
     if (status == PGEM_OK) {
-        status = pgem_io_write(path, PGEM_FORMAT_G2O, &out, message, sizeof message);
-        if (status != PGEM_OK) {
-            fprintf(stderr, "pgem: %s\n", message);
-        }
+        status = pgem_cli_write_graph("pgem", &out, path);
     } else {
         fprintf(stderr, "pgem: cannot copy the graph for writing: %s\n", pgem_error_description(status));
+        status = PGEM_EXIT_IO;
     }
     pgem_io_graph_free(&out);
     return status;
@@ -114,23 +189,10 @@ int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel)
     return 0;
 }
 
-int pgem_cli_parse_positive(const char *option, const char *text, double *value)
-{
-    char *end = NULL;
-    double parsed = text != NULL ? strtod(text, &end) : -1.0;
-    if (text == NULL || end == text || *end != '\0' || !(parsed > 0.0) || !isfinite(parsed)) {
-        fprintf(stderr, "pgem: %s needs a positive number, got '%s'\n", option, text != NULL ? text : "");
-        return 0;
-    }
-    *value = parsed;
-    return 1;
-}
-
 int pgem_cli_write_weights(const pgem_t *instance, const char *path)
 {
-    FILE *file = fopen(path, "w");
+    FILE *file = pgem_cli_create("pgem", path);
     if (file == NULL) {
-        fprintf(stderr, "pgem: %s: cannot open for writing: %s\n", path, strerror(errno));
         return -1;
     }
     fprintf(file, "# from to weight state (one line per loop closure)\n");
@@ -142,11 +204,7 @@ int pgem_cli_write_weights(const pgem_t *instance, const char *path)
                     (unsigned long long)edge.to, edge.weight, edge.active ? "accepted" : "pruned");
         }
     }
-    if (fclose(file) != 0) {
-        fprintf(stderr, "pgem: %s: write failed: %s\n", path, strerror(errno));
-        return -1;
-    }
-    return 0;
+    return pgem_cli_finish("pgem", path, file, 0) == PGEM_EXIT_OK ? 0 : -1;
 }
 
 double pgem_cli_uniform(uint64_t *state)
@@ -177,4 +235,73 @@ void pgem_cli_json_string(const char *text)
         }
     }
     putchar('"');
+}
+
+static int pgem_cli_compare_ids(const void *a, const void *b)
+{
+    const pgem_cli_id_t *x = a, *y = b;
+    if (x->id != y->id) {
+        return (x->id > y->id) - (x->id < y->id);
+    }
+    return (x->index > y->index) - (x->index < y->index);
+}
+
+pgem_cli_id_t *pgem_cli_index_poses(const pgem_io_graph_t *graph)
+{
+    pgem_cli_id_t *ids = malloc((graph->pose_count > 0 ? graph->pose_count : 1u) * sizeof *ids);
+    if (ids == NULL) {
+        return NULL;
+    }
+    for (size_t k = 0; k < graph->pose_count; k++) {
+        ids[k] = (pgem_cli_id_t){graph->poses[k].id, k};
+    }
+    qsort(ids, graph->pose_count, sizeof *ids, pgem_cli_compare_ids);
+    return ids;
+}
+
+size_t pgem_cli_find_pose(const pgem_cli_id_t *ids, size_t count, pgem_id_t id)
+{
+    size_t low = 0, high = count;
+    while (low < high) {
+        size_t middle = low + (high - low) / 2u;
+        if (ids[middle].id < id) {
+            low = middle + 1u;
+        } else {
+            high = middle;
+        }
+    }
+    return low < count && ids[low].id == id ? ids[low].index : PGEM_CLI_NO_POSE;
+}
+
+static int pgem_cli_compare_pairs(const void *a, const void *b)
+{
+    const pgem_cli_pair_t *x = a, *y = b;
+    if (x->from != y->from) {
+        return (x->from > y->from) - (x->from < y->from);
+    }
+    if (x->to != y->to) {
+        return (x->to > y->to) - (x->to < y->to);
+    }
+    return (x->index > y->index) - (x->index < y->index);
+}
+
+void pgem_cli_sort_pairs(pgem_cli_pair_t *pairs, size_t count)
+{
+    if (count > 1u) {
+        qsort(pairs, count, sizeof *pairs, pgem_cli_compare_pairs);
+    }
+}
+
+size_t pgem_cli_pair_run_end(const pgem_cli_pair_t *pairs, size_t count, size_t first,
+                             pgem_id_t from, pgem_id_t to)
+{
+    while (first < count && pairs[first].from == from && pairs[first].to == to) {
+        first++;
+    }
+    return first;
+}
+
+const char *pgem_cli_plural(size_t count)
+{
+    return count == 1u ? "" : "s";
 }

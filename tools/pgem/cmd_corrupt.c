@@ -144,32 +144,9 @@ static void corrupt_pair(uint64_t *rng, const corrupt_args_t *args, size_t poses
     } while (*second + 1u >= *first && *first + 1u >= *second); /* not a self-loop or odometry */
 }
 
-/* Positive definite by a trial Cholesky factorisation (n <= 6, row-major, symmetric). */
-static int corrupt_positive_definite(const double *matrix, int n)
-{
-    double factor[36];
-    for (int j = 0; j < n; j++) {
-        for (int i = j; i < n; i++) {
-            double sum = matrix[i * n + j];
-            for (int k = 0; k < j; k++) {
-                sum -= factor[i * n + k] * factor[j * n + k];
-            }
-            if (i == j) {
-                if (!(sum > 0.0)) {
-                    return 0;
-                }
-                factor[j * n + j] = sqrt(sum);
-            } else {
-                factor[i * n + j] = sum / factor[j * n + j];
-            }
-        }
-    }
-    return 1;
-}
-
 /* --information: one value (diagonal) or the upper triangle, comma-separated, into a full
- * row-major n x n matrix. Prints an error and returns 0 when it is malformed or not positive
- * definite. */
+ * row-major n x n matrix. Prints an error and returns 0 when it is malformed or fails the
+ * check the core applies when an edge is added ("not positive definite"). */
 static int corrupt_parse_information(const char *text, int dimension, double *information)
 {
     const int n = dimension == 2 ? 3 : 6, triangle = n * (n + 1) / 2;
@@ -206,7 +183,7 @@ static int corrupt_parse_information(const char *text, int dimension, double *in
             information[i * n + j] = information[j * n + i] = value;
         }
     }
-    if (!corrupt_positive_definite(information, n)) {
+    if (pgem_information_check(information, n, NULL) != PGEM_OK) {
         fprintf(stderr, "pgem corrupt: --information '%s' is not positive definite\n", text);
         return 0;
     }
@@ -271,10 +248,11 @@ int pgem_cmd_corrupt(int argc, char **argv)
         return status < 0 ? PGEM_EXIT_OK : status;
     }
     pgem_io_graph_t graph = {0};
-    char message[1024], outliers_path[4096];
-    if (pgem_io_read(args.input, PGEM_FORMAT_AUTO, &graph, message, sizeof message) != PGEM_OK) {
-        fprintf(stderr, "pgem: %s\n", message);
-        return PGEM_EXIT_FAILURE;
+    char outliers_path[4096];
+    status = pgem_cli_read_graph("pgem", args.input, 0u, &graph);
+    if (status != PGEM_EXIT_OK) {
+        pgem_io_graph_free(&graph);
+        return PGEM_EXIT_FAILURE; /* every read failure exits 1 here, PGEM_EXIT_IO included */
     }
     double information[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     if (args.information != NULL && !corrupt_parse_information(args.information, graph.dimension, information)) {
@@ -282,20 +260,16 @@ int pgem_cmd_corrupt(int argc, char **argv)
         return PGEM_EXIT_USAGE;
     }
     snprintf(outliers_path, sizeof outliers_path, "%s.outliers", args.output);
-    FILE *outliers = fopen(outliers_path, "w");
+    FILE *outliers = pgem_cli_create("pgem corrupt", outliers_path);
     if (outliers == NULL) {
-        fprintf(stderr, "pgem corrupt: %s: cannot open for writing\n", outliers_path);
         pgem_io_graph_free(&graph);
         return PGEM_EXIT_IO;
     }
     status = corrupt_apply(&args, args.information != NULL ? information : NULL, &graph, outliers);
-    if (fclose(outliers) != 0 && status == PGEM_EXIT_OK) {
-        status = PGEM_EXIT_IO;
-    }
-    if (status == PGEM_EXIT_OK &&
-        pgem_io_write(args.output, PGEM_FORMAT_G2O, &graph, message, sizeof message) != PGEM_OK) {
-        fprintf(stderr, "pgem corrupt: %s\n", message);
-        status = PGEM_EXIT_IO;
+    int closed = pgem_cli_finish("pgem corrupt", outliers_path, outliers, 0);
+    status = status != PGEM_EXIT_OK ? status : closed;
+    if (status == PGEM_EXIT_OK) {
+        status = pgem_cli_write_graph("pgem corrupt", &graph, args.output);
     }
     if (status == PGEM_EXIT_OK) {
         printf("%s: added %u false loop closures (%s, seed %u) -> %s, %s\n", args.input, args.count,

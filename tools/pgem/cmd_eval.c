@@ -8,8 +8,6 @@
 
 #include "eval.h"
 
-#define EVAL_DEFAULT_REJECT 0.01 /* the EM prune threshold */
-
 /* Command-line choices of one evaluation. */
 typedef struct eval_args {
     const char *result;          /* optimized graph */
@@ -70,20 +68,13 @@ static void eval_help(FILE *out)
 }
 
 /* A non-negative finite number; prints an error and returns 0 on failure. */
-static int eval_parse_threshold(const char *text, double *value)
+static int eval_parse_threshold(const char *option, const char *text, double *value)
 {
-    char *end = NULL;
-    double parsed = text != NULL ? strtod(text, &end) : -1.0;
     if (text == NULL) {
-        fprintf(stderr, "pgem eval: --reject-below needs a non-negative number\n");
+        fprintf(stderr, "pgem eval: %s needs a non-negative number\n", option);
         return 0;
     }
-    if (end == text || *end != '\0' || !(parsed >= 0.0) || !isfinite(parsed)) {
-        fprintf(stderr, "pgem eval: --reject-below needs a non-negative number, got '%s'\n", text);
-        return 0;
-    }
-    *value = parsed;
-    return 1;
+    return pgem_cli_parse_number("pgem eval", option, text, 0, value);
 }
 
 /* The value of a file option into *target; prints an error and returns 0 without one. */
@@ -121,7 +112,7 @@ static int eval_check_args(const eval_args_t *args)
 static int eval_parse(int argc, char **argv, eval_args_t *args)
 {
     memset(args, 0, sizeof *args);
-    args->reject_below = EVAL_DEFAULT_REJECT;
+    args->reject_below = PGEM_EVAL_REJECT_BELOW;
     if (argc < 2) {
         eval_help(stderr);
         return PGEM_EXIT_USAGE;
@@ -139,7 +130,7 @@ static int eval_parse(int argc, char **argv, eval_args_t *args)
         } else if (strcmp(arg, "--weights") == 0) {
             ok = eval_file_option(arg, value, &args->weights);
         } else if (strcmp(arg, "--reject-below") == 0) {
-            ok = args->reject_given = eval_parse_threshold(value, &args->reject_below);
+            ok = args->reject_given = eval_parse_threshold(arg, value, &args->reject_below);
         } else {
             takes_value = 0;
             if (strcmp(arg, "--list") == 0) {

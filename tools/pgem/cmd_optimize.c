@@ -93,9 +93,13 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
                 return PGEM_EXIT_USAGE;
             }
             k++;
-        } else if (strcmp(arg, "--robust-scale") == 0 || strcmp(arg, "--prune-threshold") == 0) {
-            double *target = arg[2] == 'r' ? &args->robust.scale : &args->robust.prune_threshold;
-            if (!pgem_cli_parse_positive(arg, value, target)) {
+        } else if (strcmp(arg, "--robust-scale") == 0) {
+            if (!pgem_cli_parse_number("pgem", arg, value, 1, &args->robust.scale)) {
+                return PGEM_EXIT_USAGE;
+            }
+            k++;
+        } else if (strcmp(arg, "--prune-threshold") == 0) {
+            if (!pgem_cli_parse_number("pgem", arg, value, 1, &args->robust.prune_threshold)) {
                 return PGEM_EXIT_USAGE;
             }
             k++;
@@ -110,7 +114,7 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
             }
             k++;
         } else if (strcmp(arg, "--gate") == 0) {
-            if (!pgem_cli_parse_positive(arg, value, &args->robust.gate)) {
+            if (!pgem_cli_parse_number("pgem", arg, value, 1, &args->robust.gate)) {
                 return PGEM_EXIT_USAGE;
             }
             k++;
@@ -223,18 +227,16 @@ static int pgem_round_line(const pgem_robust_progress_t *progress, void *user)
     return 0;
 }
 
-static int pgem_robust_run(const pgem_optimize_args_t *args, pgem_t *graph)
+/* Progress lines and the text summary go to stdout, or to stderr when stdout holds the JSON. */
+static FILE *pgem_progress_stream(const pgem_optimize_args_t *args)
 {
-    FILE *progress_out = args->json ? stderr : stdout;
-    pgem_progress_t progress = {progress_out, pgem_cli_now(), args->quiet};
-    pgem_robust_options_t robust = args->robust;
-    pgem_solve_options_t solve = {0};
-    pgem_robust_summary_t summary;
-    solve.method = args->method;
-    robust.on_round = pgem_round_line;
-    robust.user = &progress;
-    int status = pgem_robust_optimize(graph, &robust, &solve, &summary);
-    double seconds = pgem_cli_now() - progress.start;
+    return args->json ? stderr : stdout;
+}
+
+static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *args,
+                                      const pgem_t *graph, const pgem_robust_summary_t *summary,
+                                      double seconds, int status)
+{
     pgem_memory_stats_t stats;
     pgem_get_memory_stats(graph, &stats);
     if (args->json) {
@@ -245,58 +247,61 @@ static int pgem_robust_run(const pgem_optimize_args_t *args, pgem_t *graph)
                "\"readmitted\":%u,\"gated\":%u,\"initial_chi2\":%.10g,\"final_chi2\":%.10g,"
                "\"solve_seconds\":%.6f,\"usable\":%s,\"poses\":%u,\"edges\":%u,"
                "\"analyses\":%u,\"block_bytes\":%zu}\n",
-               pgem_kernel_name(robust.kernel), pgem_error_name(status), summary.rounds,
-               summary.em_iterations, summary.gn_iterations, summary.loops, summary.pruned,
-               summary.readmitted, summary.gated, summary.initial_chi2, summary.final_chi2, seconds,
-               summary.usable ? "true" : "false", pgem_pose_count(graph), pgem_edge_count(graph),
-               stats.analyses, stats.block_bytes);
+               pgem_kernel_name(args->robust.kernel), pgem_error_name(status), summary->rounds,
+               summary->em_iterations, summary->gn_iterations, summary->loops, summary->pruned,
+               summary->readmitted, summary->gated, summary->initial_chi2, summary->final_chi2,
+               seconds, summary->usable ? "true" : "false", pgem_pose_count(graph),
+               pgem_edge_count(graph), stats.analyses, stats.block_bytes);
     } else {
-        fprintf(progress_out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures pruned (consistency test: %u re-admitted, %u pruned); chi2 %.6f -> %.6f in %.4f s\n",
-                pgem_kernel_name(robust.kernel), summary.rounds, summary.em_iterations,
-                summary.gn_iterations, summary.pruned, summary.loops, summary.readmitted, summary.gated, summary.initial_chi2,
-                summary.final_chi2, seconds);
+        fprintf(out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures pruned (consistency test: %u re-admitted, %u pruned); chi2 %.6f -> %.6f in %.4f s\n",
+                pgem_kernel_name(args->robust.kernel), summary->rounds, summary->em_iterations,
+                summary->gn_iterations, summary->pruned, summary->loops, summary->readmitted,
+                summary->gated, summary->initial_chi2, summary->final_chi2, seconds);
     }
     if (status != PGEM_OK) {
         fprintf(stderr, "pgem: robust solve failed: %s; the estimate is the one before the solve\n",
                 pgem_last_error(graph));
-        return PGEM_EXIT_FAILURE;
     }
-    if (args->weights != NULL && pgem_cli_write_weights(graph, args->weights) != 0) {
-        return PGEM_EXIT_IO;
-    }
-    if (args->output != NULL && pgem_cli_write(graph, args->output) != PGEM_OK) {
-        return PGEM_EXIT_IO;
-    }
-    return PGEM_EXIT_OK;
 }
 
+/* Runs the robust solve (one line per round) or the plain one (one line per iteration), prints
+ * the summary and writes the files asked for. Returns a PGEM_EXIT_* code. */
 static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph)
 {
-    if (args->robust.kernel != PGEM_KERNEL_NONE) {
-        return pgem_robust_run(args, graph);
-    }
-    FILE *progress_out = args->json ? stderr : stdout;
-    pgem_progress_t progress = {progress_out, 0.0, args->quiet};
-    pgem_solve_options_t options = {0};
+    const int robust = args->robust.kernel != PGEM_KERNEL_NONE;
+    pgem_progress_t progress = {pgem_progress_stream(args), 0.0, args->quiet};
+    pgem_robust_options_t robust_options = args->robust;
+    pgem_solve_options_t solve = {0};
+    pgem_robust_summary_t robust_summary;
     pgem_summary_t summary;
-    options.method = args->method;
-    options.max_iterations = args->max_iterations;
-    options.on_iteration = pgem_progress_line;
-    options.user = &progress;
-    if (!args->quiet) {
-        fprintf(progress_out, "%5s %18s %12s %10s\n", "iter", "chi2", "step-norm", "seconds");
+    solve.method = args->method;
+    robust_options.on_round = pgem_round_line;
+    robust_options.user = &progress;
+    if (!robust) { /* --max-iterations is not passed to the robust solve */
+        solve.max_iterations = args->max_iterations;
+        solve.on_iteration = pgem_progress_line;
+        solve.user = &progress;
+        if (!args->quiet) {
+            fprintf(progress.out, "%5s %18s %12s %10s\n", "iter", "chi2", "step-norm", "seconds");
+        }
     }
     progress.start = pgem_cli_now();
-    int status = pgem_optimize(graph, &options, &summary);
+    int status = robust ? pgem_robust_optimize(graph, &robust_options, &solve, &robust_summary)
+                        : pgem_optimize(graph, &solve, &summary);
     double seconds = pgem_cli_now() - progress.start;
-    pgem_print_summary(progress_out, args, graph, &summary, seconds, status);
+    if (robust) {
+        pgem_print_robust_summary(progress.out, args, graph, &robust_summary, seconds, status);
+    } else {
+        pgem_print_summary(progress.out, args, graph, &summary, seconds, status);
+    }
     if (status != PGEM_OK) {
         return PGEM_EXIT_FAILURE;
     }
-    if (args->output != NULL && pgem_cli_write(graph, args->output) != PGEM_OK) {
+    /* --weights is written after a robust solve only */
+    if (robust && args->weights != NULL && pgem_cli_write_weights(graph, args->weights) != 0) {
         return PGEM_EXIT_IO;
     }
-    return PGEM_EXIT_OK;
+    return args->output != NULL ? pgem_cli_write(graph, args->output) : PGEM_EXIT_OK;
 }
 
 int pgem_cmd_optimize(int argc, char **argv)
@@ -307,13 +312,12 @@ int pgem_cmd_optimize(int argc, char **argv)
         return status < 0 ? PGEM_EXIT_OK : status;
     }
     pgem_io_graph_t file = {0};
-    char message[1024];
-    status = pgem_io_read(args.input, PGEM_FORMAT_AUTO, &file, message, sizeof message);
-    if (status != PGEM_OK) {
-        fprintf(stderr, "pgem: %s\n", message);
-        return status == PGEM_ERR_IO ? PGEM_EXIT_IO : PGEM_EXIT_FAILURE;
+    status = pgem_cli_read_graph("pgem", args.input, 0u, &file);
+    if (status != PGEM_EXIT_OK) {
+        pgem_io_graph_free(&file);
+        return status;
     }
-    pgem_describe_input(args.json ? stderr : stdout, args.input, &file);
+    pgem_describe_input(pgem_progress_stream(&args), args.input, &file);
     pgem_t *graph = NULL;
     status = pgem_cli_load(&file, args.input, &graph);
     pgem_io_graph_free(&file);

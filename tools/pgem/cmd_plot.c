@@ -1,7 +1,6 @@
 /* pgem plot: draws a pose graph as SVG, its loop closures coloured by the verdict of a robust
  * solve (the weights file) and, given the injected false loops, by whether that verdict was
  * right. Reading and classifying are here; the drawing is in plot_svg.c. */
-#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -9,7 +8,6 @@
 #include "eval.h"
 #include "plot.h"
 
-#define PLOT_REJECT_BELOW 0.01       /* the EM prune threshold, as pgem eval's default */
 #define PLOT_DEFAULT_WIDTH 1000u     /* pixels, one graph */
 #define PLOT_DEFAULT_WIDTH_PAIR 1600u /* pixels, two panels across */
 #define PLOT_MIN_WIDTH 200u
@@ -27,17 +25,12 @@ typedef struct plot_args {
     uint32_t width;              /* 0: the default */
 } plot_args_t;
 
-/* A pose id with its index in the file graph, for sorting. */
-typedef struct plot_id {
-    pgem_id_t id;
-    size_t index;
-} plot_id_t;
-
-/* A graph with its poses sorted by id, and a rigid motion applied to its positions:
- * p -> R (p - from) + to (the identity unless aligned). */
+/* A graph with its poses sorted by id, its odometry edge count, and a rigid motion applied
+ * to its positions: p -> R (p - from) + to (the identity unless aligned). */
 typedef struct plot_source {
     pgem_io_graph_t file;
-    plot_id_t *ids;
+    pgem_cli_id_t *ids;
+    size_t odometry;             /* odometry edges (0: none) */
     int aligned;
     double rotation[4];
     double from[3];
@@ -90,7 +83,7 @@ static void plot_help(FILE *out)
             "file order if it has none). Exit codes: 0 success, 1 an input was rejected (the\n"
             "message names the file and line), 2 bad command line, 3 a file could not be read\n"
             "or written.\n",
-            PLOT_REJECT_BELOW, PLOT_MIN_WIDTH, PLOT_MAX_WIDTH, PLOT_DEFAULT_WIDTH,
+            PGEM_EVAL_REJECT_BELOW, PLOT_MIN_WIDTH, PLOT_MAX_WIDTH, PLOT_DEFAULT_WIDTH,
             PLOT_DEFAULT_WIDTH_PAIR);
 }
 
@@ -155,40 +148,25 @@ static int plot_parse(int argc, char **argv, plot_args_t *args)
     return PGEM_EXIT_OK;
 }
 
-static int plot_compare_ids(const void *a, const void *b)
-{
-    const plot_id_t *x = a, *y = b;
-    return (x->id > y->id) - (x->id < y->id);
-}
-
-/* Reads a graph file and sorts its pose ids. Prints errors; returns a PGEM_EXIT_* code. */
+/* Reads a graph file, sorts its pose ids and counts its odometry edges. Prints errors;
+ * returns a PGEM_EXIT_* code. */
 static int plot_read(const char *path, plot_source_t *source)
 {
-    char message[1024];
     memset(source, 0, sizeof *source);
     source->rotation[3] = 1.0;
-    int status = pgem_io_read(path, PGEM_FORMAT_AUTO, &source->file, message, sizeof message);
-    if (status != PGEM_OK) {
-        fprintf(stderr, "pgem plot: %s\n", message);
-        return status == PGEM_ERR_IO ? PGEM_EXIT_IO : PGEM_EXIT_FAILURE;
+    const unsigned flags = PGEM_CLI_NEED_POSES | PGEM_CLI_WARN_CHAINED;
+    int status = pgem_cli_read_graph("pgem plot", path, flags, &source->file);
+    if (status != PGEM_EXIT_OK) {
+        return status;
     }
-    if (source->file.pose_count == 0) {
-        fprintf(stderr, "pgem plot: %s has no poses\n", path);
-        return PGEM_EXIT_FAILURE;
-    }
-    if (source->file.chained_poses > 0) {
-        fprintf(stderr, "pgem plot: warning: %s has no VERTEX lines; its poses are guesses "
-                        "composed along its edges\n", path);
-    }
-    source->ids = malloc(source->file.pose_count * sizeof *source->ids);
+    source->ids = pgem_cli_index_poses(&source->file);
     if (source->ids == NULL) {
         fprintf(stderr, "pgem plot: out of memory\n");
         return PGEM_EXIT_FAILURE;
     }
-    for (size_t k = 0; k < source->file.pose_count; k++) {
-        source->ids[k] = (plot_id_t){source->file.poses[k].id, k};
+    for (size_t k = 0; k < source->file.edge_count; k++) {
+        source->odometry += (size_t)(source->file.edges[k].kind == PGEM_EDGE_ODOMETRY);
     }
-    qsort(source->ids, source->file.pose_count, sizeof *source->ids, plot_compare_ids);
     return PGEM_EXIT_OK;
 }
 
@@ -202,19 +180,11 @@ static void plot_release(plot_source_t *source)
 /* The (moved) position of pose id; returns 0 when the graph has no such pose. */
 static int plot_position(const plot_source_t *source, pgem_id_t id, double out[3])
 {
-    size_t low = 0, high = source->file.pose_count;
-    while (low < high) {
-        size_t middle = low + (high - low) / 2u;
-        if (source->ids[middle].id < id) {
-            low = middle + 1u;
-        } else {
-            high = middle;
-        }
-    }
-    if (low == source->file.pose_count || source->ids[low].id != id) {
+    size_t index = pgem_cli_find_pose(source->ids, source->file.pose_count, id);
+    if (index == PGEM_CLI_NO_POSE) {
         return 0;
     }
-    const double *pose = source->file.poses[source->ids[low].index].pose;
+    const double *pose = source->file.poses[index].pose;
     out[0] = pose[0];
     out[1] = pose[1];
     out[2] = source->file.dimension == 3 ? pose[2] : 0.0;
@@ -228,16 +198,6 @@ static int plot_position(const plot_source_t *source, pgem_id_t id, double out[3
         }
     }
     return 1;
-}
-
-/* Odometry edges of a graph, or 0 when it has none. */
-static size_t plot_odometry_count(const pgem_io_graph_t *graph)
-{
-    size_t count = 0;
-    for (size_t k = 0; k < graph->edge_count; k++) {
-        count += (size_t)(graph->edges[k].kind == PGEM_EDGE_ODOMETRY);
-    }
-    return count;
 }
 
 /* Adds the segment from id a to id b, continuing the last stroke when it ended at a. A pose
@@ -262,20 +222,21 @@ static int plot_chain_step(const plot_source_t *source, pgem_id_t a, pgem_id_t b
 
 /* The odometry chain of `topology` (its odometry edges in file order, or its poses in file
  * order when it has none) drawn at the positions of `source`. Returns 0 when out of memory. */
-static int plot_chain(const pgem_io_graph_t *topology, const plot_source_t *source,
+static int plot_chain(const plot_source_t *topology, const plot_source_t *source,
                       plot_lines_t *lines)
 {
+    const pgem_io_graph_t *file = &topology->file;
     int open = 0, ok = 1;
     pgem_id_t last = 0;
-    if (plot_odometry_count(topology) == 0) {
-        for (size_t k = 0; ok && k + 1u < topology->pose_count; k++) {
-            ok = plot_chain_step(source, topology->poses[k].id, topology->poses[k + 1u].id,
-                                 lines, &open, &last);
+    if (topology->odometry == 0) {
+        for (size_t k = 0; ok && k + 1u < file->pose_count; k++) {
+            ok = plot_chain_step(source, file->poses[k].id, file->poses[k + 1u].id, lines, &open,
+                                 &last);
         }
         return ok;
     }
-    for (size_t k = 0; ok && k < topology->edge_count; k++) {
-        const pgem_io_edge_t *edge = &topology->edges[k];
+    for (size_t k = 0; ok && k < file->edge_count; k++) {
+        const pgem_io_edge_t *edge = &file->edges[k];
         if (edge->kind == PGEM_EDGE_ODOMETRY) {
             ok = plot_chain_step(source, edge->from, edge->to, lines, &open, &last);
         }
@@ -285,16 +246,17 @@ static int plot_chain(const pgem_io_graph_t *topology, const plot_source_t *sour
 
 /* The loops to draw: the weights lines, or GRAPH's loop closures (all accepted); the false
  * ones marked from the outliers file. Prints errors; returns a PGEM_EXIT_* code. */
-static int plot_collect_loops(const plot_args_t *args, const pgem_io_graph_t *graph,
+static int plot_collect_loops(const plot_args_t *args, const plot_source_t *source,
                               plot_loops_t *loops)
 {
+    const pgem_io_graph_t *graph = &source->file;
     int status = PGEM_EXIT_OK;
     memset(loops, 0, sizeof *loops);
     if (args->weights != NULL) {
         loops->path = args->weights;
         loops->judged = 1;
         status = pgem_eval_read_weights(args->weights, &loops->items, &loops->count);
-        size_t in_graph = graph->edge_count - plot_odometry_count(graph);
+        size_t in_graph = graph->edge_count - source->odometry;
         if (status == PGEM_EXIT_OK && loops->count != in_graph) {
             fprintf(stderr, "pgem plot: warning: %s lists %zu loop closures, %s has %zu\n",
                     args->weights, loops->count, args->graph, in_graph);
@@ -320,9 +282,8 @@ static int plot_collect_loops(const plot_args_t *args, const pgem_io_graph_t *gr
         status = pgem_eval_mark_outliers(args->outliers, loops->path, loops->items, loops->count,
                                          &loops->outliers);
     }
-    for (size_t k = 0; status == PGEM_EXIT_OK && k < loops->count; k++) {
-        eval_loop_t *loop = &loops->items[k];
-        loop->rejected = loops->judged && (loop->pruned || loop->weight < PLOT_REJECT_BELOW);
+    if (status == PGEM_EXIT_OK && loops->judged) {
+        pgem_eval_mark_rejected(loops->items, loops->count, PGEM_EVAL_REJECT_BELOW);
     }
     return status;
 }
@@ -373,12 +334,6 @@ static const char *plot_basename(const char *path)
     return slash != NULL ? slash + 1 : path;
 }
 
-/* "s" unless count is 1. */
-static const char *plot_plural(size_t count)
-{
-    return count == 1u ? "" : "s";
-}
-
 /* The legend's texts: what each kind of line is, with its count. */
 static void plot_legend(const plot_args_t *args, const plot_loops_t *loops, size_t odometry,
                         size_t truth_matched, const size_t counts[PLOT_STYLE_COUNT],
@@ -388,69 +343,66 @@ static void plot_legend(const plot_args_t *args, const plot_loops_t *loops, size
     const size_t size = sizeof figure->legend[0];
     size_t accepted = counts[PLOT_ACCEPTED], rejected = counts[PLOT_REJECTED];
     size_t true_rejected = counts[PLOT_TRUE_REJECTED], missed = counts[PLOT_MISSED];
-    snprintf(legend[PLOT_ODOMETRY], size, "%zu odometry edge%s", odometry, plot_plural(odometry));
+    snprintf(legend[PLOT_ODOMETRY], size, "%zu odometry edge%s", odometry,
+             pgem_cli_plural(odometry));
     if (args->truth != NULL) {
         snprintf(legend[PLOT_TRUTH], size, "ground truth, rigidly aligned (%zu pose%s matched)",
-                 truth_matched, plot_plural(truth_matched));
+                 truth_matched, pgem_cli_plural(truth_matched));
     }
     if (!loops->judged) {
         snprintf(legend[PLOT_ACCEPTED], size, "%zu %sloop closure%s (no weights: none rejected)",
-                 accepted, loops->known ? "true " : "", plot_plural(accepted));
+                 accepted, loops->known ? "true " : "", pgem_cli_plural(accepted));
         if (loops->known) {
-            snprintf(legend[PLOT_MISSED], size, "%zu false loop%s", missed, plot_plural(missed));
+            snprintf(legend[PLOT_MISSED], size, "%zu false loop%s", missed,
+                     pgem_cli_plural(missed));
         }
         return;
     }
     if (!loops->known) {
         snprintf(legend[PLOT_ACCEPTED], size, "%zu loop%s accepted", accepted,
-                 plot_plural(accepted));
+                 pgem_cli_plural(accepted));
         snprintf(legend[PLOT_REJECTED], size, "%zu loop%s rejected (pruned or weight < %g)",
-                 rejected, plot_plural(rejected), PLOT_REJECT_BELOW);
+                 rejected, pgem_cli_plural(rejected), PGEM_EVAL_REJECT_BELOW);
         return;
     }
     snprintf(legend[PLOT_ACCEPTED], size, "%zu true loop%s accepted", accepted,
-             plot_plural(accepted));
+             pgem_cli_plural(accepted));
     snprintf(legend[PLOT_REJECTED], size, "%zu false loop%s rejected", rejected,
-             plot_plural(rejected));
+             pgem_cli_plural(rejected));
     snprintf(legend[PLOT_TRUE_REJECTED], size, "%zu true loop%s rejected", true_rejected,
-             plot_plural(true_rejected));
+             pgem_cli_plural(true_rejected));
     snprintf(legend[PLOT_MISSED], size, "%zu false loop%s accepted (missed)", missed,
-             plot_plural(missed));
+             pgem_cli_plural(missed));
+}
+
+/* Reads a graph drawn with GRAPH (--truth, --before) and checks its dimension. */
+static int plot_read_beside(const plot_args_t *args, const plot_source_t *graph, const char *path,
+                            plot_source_t *source)
+{
+    int status = plot_read(path, source);
+    if (status == PGEM_EXIT_OK && source->file.dimension != graph->file.dimension) {
+        fprintf(stderr, "pgem plot: dimensions differ: %s is %dD, %s is %dD\n", args->graph,
+                graph->file.dimension, path, source->file.dimension);
+        status = PGEM_EXIT_FAILURE;
+    }
+    return status;
 }
 
 /* Reads --truth, checks it against GRAPH and aligns it rigidly to GRAPH. */
 static int plot_read_truth(const plot_args_t *args, const plot_source_t *graph,
                            plot_source_t *truth, size_t *matched)
 {
-    int status = plot_read(args->truth, truth);
+    int status = plot_read_beside(args, graph, args->truth, truth);
     if (status != PGEM_EXIT_OK) {
         return status;
     }
-    if (truth->file.dimension != graph->file.dimension) {
-        fprintf(stderr, "pgem plot: dimensions differ: %s is %dD, %s is %dD\n", args->graph,
-                graph->file.dimension, args->truth, truth->file.dimension);
-        return PGEM_EXIT_FAILURE;
-    }
-    status = pgem_eval_align(&graph->file, &truth->file, truth->rotation, truth->to, truth->from,
-                             matched);
+    status = pgem_eval_align(&graph->file, &truth->file, truth->ids, truth->rotation, truth->to,
+                             truth->from, matched);
     if (status == PGEM_EXIT_OK && *matched == 0) {
         fprintf(stderr, "pgem plot: no pose id of %s is in %s\n", args->truth, args->graph);
         status = PGEM_EXIT_FAILURE;
     }
     truth->aligned = 1;
-    return status;
-}
-
-/* Reads --before and checks its dimension against GRAPH. */
-static int plot_read_before(const plot_args_t *args, const plot_source_t *graph,
-                            plot_source_t *before)
-{
-    int status = plot_read(args->before, before);
-    if (status == PGEM_EXIT_OK && before->file.dimension != graph->file.dimension) {
-        fprintf(stderr, "pgem plot: dimensions differ: %s is %dD, %s is %dD\n", args->graph,
-                graph->file.dimension, args->before, before->file.dimension);
-        status = PGEM_EXIT_FAILURE;
-    }
     return status;
 }
 
@@ -482,13 +434,13 @@ static int plot_build(const plot_args_t *args, plot_figure_t *figure)
     memset(&before, 0, sizeof before);
     int status = plot_read(args->graph, &graph);
     if (status == PGEM_EXIT_OK && args->before != NULL) {
-        status = plot_read_before(args, &graph, &before);
+        status = plot_read_beside(args, &graph, args->before, &before);
     }
     if (status == PGEM_EXIT_OK && args->truth != NULL) {
         status = plot_read_truth(args, &graph, &truth, &matched);
     }
     if (status == PGEM_EXIT_OK) {
-        status = plot_collect_loops(args, &graph.file, &loops);
+        status = plot_collect_loops(args, &graph, &loops);
     }
     figure->dimension = graph.file.dimension;
     figure->graph_count = args->before != NULL ? 2u : 1u;
@@ -500,20 +452,18 @@ static int plot_build(const plot_args_t *args, plot_figure_t *figure)
         status = plot_add_loops(&loops, &graph, result, counts);
     }
     if (status == PGEM_EXIT_OK) {
-        int ok = plot_chain(&graph.file, &graph, &result->lines[PLOT_ODOMETRY]);
-        ok = ok && (args->truth == NULL ||
-                    plot_chain(&graph.file, &truth, &result->lines[PLOT_TRUTH]));
+        int ok = plot_chain(&graph, &graph, &result->lines[PLOT_ODOMETRY]);
+        ok = ok && (args->truth == NULL || plot_chain(&graph, &truth, &result->lines[PLOT_TRUTH]));
         ok = ok && (args->before == NULL ||
-                    plot_chain(&before.file, &before, &figure->graphs[0].lines[PLOT_ODOMETRY]));
+                    plot_chain(&before, &before, &figure->graphs[0].lines[PLOT_ODOMETRY]));
         if (!ok) {
             fprintf(stderr, "pgem plot: out of memory\n");
             status = PGEM_EXIT_FAILURE;
         }
     }
     if (status == PGEM_EXIT_OK) {
-        size_t odometry = plot_odometry_count(&graph.file);
-        plot_legend(args, &loops, odometry > 0 ? odometry : graph.file.pose_count - 1u, matched,
-                    counts, figure);
+        size_t odometry = graph.odometry > 0 ? graph.odometry : graph.file.pose_count - 1u;
+        plot_legend(args, &loops, odometry, matched, counts, figure);
         plot_texts(args, &graph, &loops, figure);
     }
     free(loops.items);
@@ -525,19 +475,11 @@ static int plot_build(const plot_args_t *args, plot_figure_t *figure)
 
 static int plot_write(const plot_args_t *args, const plot_figure_t *figure)
 {
-    FILE *out = fopen(args->output, "w");
+    FILE *out = pgem_cli_create("pgem plot", args->output);
     if (out == NULL) {
-        fprintf(stderr, "pgem plot: %s: cannot open for writing: %s\n", args->output,
-                strerror(errno));
         return PGEM_EXIT_IO;
     }
-    int failed = plot_write_svg(figure, out) != 0;
-    failed |= fclose(out) != 0;
-    if (failed) {
-        fprintf(stderr, "pgem plot: %s: write failed: %s\n", args->output, strerror(errno));
-        return PGEM_EXIT_IO;
-    }
-    return PGEM_EXIT_OK;
+    return pgem_cli_finish("pgem plot", args->output, out, plot_write_svg(figure, out) != 0);
 }
 
 int pgem_cmd_plot(int argc, char **argv)

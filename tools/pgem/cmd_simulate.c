@@ -61,19 +61,6 @@ static void sim_help(FILE *out)
             "every platform.\n");
 }
 
-static int sim_parse_double(const char *option, const char *text, double *value)
-{
-    char *end = NULL;
-    double parsed = text != NULL ? strtod(text, &end) : -1.0;
-    if (text == NULL || end == text || *end != '\0' || !(parsed >= 0.0) || !isfinite(parsed)) {
-        fprintf(stderr, "pgem simulate: %s needs a non-negative number, got '%s'\n", option,
-                text != NULL ? text : "");
-        return 0;
-    }
-    *value = parsed;
-    return 1;
-}
-
 static int sim_parse_world(const char *text, sim_world_t *world)
 {
     for (size_t k = 0; k < sizeof sim_worlds / sizeof sim_worlds[0]; k++) {
@@ -84,18 +71,6 @@ static int sim_parse_world(const char *text, sim_world_t *world)
     }
     fprintf(stderr, "pgem simulate: --world takes manhattan, sphere or grid3d (got '%s')\n", text);
     return 0;
-}
-
-static int sim_parse_poses(const char *option, const char *text, uint32_t *poses)
-{
-    if (!pgem_cli_parse_u32(option, text, poses)) {
-        return 0;
-    }
-    if (*poses < 2u) {
-        fprintf(stderr, "pgem simulate: %s needs at least 2 poses, got %u\n", option, *poses);
-        return 0;
-    }
-    return 1;
 }
 
 /* Options not given take the world's defaults (0 poses and NaN sigmas mean "not given"). */
@@ -130,15 +105,15 @@ static int sim_parse(int argc, char **argv, sim_args_t *args)
         } else if (strcmp(arg, "--world") == 0 && value != NULL) {
             ok = sim_parse_world(value, &args->world);
         } else if (strcmp(arg, "--poses") == 0) {
-            ok = sim_parse_poses(arg, value, &args->poses);
+            ok = pgem_cli_parse_at_least("pgem simulate", arg, value, 2u, "poses", &args->poses);
         } else if (strcmp(arg, "--seed") == 0) {
             ok = pgem_cli_parse_u32(arg, value, &args->seed);
         } else if (strcmp(arg, "--sigma-translation") == 0) {
-            ok = sim_parse_double(arg, value, &args->sigma_translation);
+            ok = pgem_cli_parse_number("pgem simulate", arg, value, 0, &args->sigma_translation);
         } else if (strcmp(arg, "--sigma-rotation") == 0) {
-            ok = sim_parse_double(arg, value, &args->sigma_rotation);
+            ok = pgem_cli_parse_number("pgem simulate", arg, value, 0, &args->sigma_rotation);
         } else if (strcmp(arg, "--loop-probability") == 0) {
-            ok = sim_parse_double(arg, value, &args->loop_probability);
+            ok = pgem_cli_parse_number("pgem simulate", arg, value, 0, &args->loop_probability);
             if (ok && args->loop_probability > 1.0) {
                 fprintf(stderr, "pgem simulate: --loop-probability must be at most 1, got '%s'\n",
                         value);
@@ -164,7 +139,7 @@ static int sim_parse(int argc, char **argv, sim_args_t *args)
 /* Vertices of the graph: truth, or the composition of the noisy odometry from pose 0. */
 static void sim_vertices(pgem_io_graph_t *graph, const double *truth, int use_truth)
 {
-    size_t size = graph->dimension == 2 ? 3u : 7u, odometry = 0;
+    size_t size = (size_t)PGEM_POSE_SIZE(graph->dimension), odometry = 0;
     double estimate[PGEM_POSE_SIZE_MAX];
     memcpy(estimate, truth, size * sizeof estimate[0]);
     for (uint32_t k = 0; k < graph->pose_count; k++) {
@@ -187,21 +162,11 @@ static void sim_vertices(pgem_io_graph_t *graph, const double *truth, int use_tr
     }
 }
 
-static int sim_write(const char *path, pgem_io_graph_t *graph)
-{
-    char message[1024];
-    if (pgem_io_write(path, PGEM_FORMAT_G2O, graph, message, sizeof message) != PGEM_OK) {
-        fprintf(stderr, "pgem simulate: %s\n", message);
-        return PGEM_EXIT_IO;
-    }
-    return PGEM_EXIT_OK;
-}
-
 /* Allocates the graph and the truth and runs the world's walk; 0 or -1 (no memory). */
 static int sim_run(const sim_args_t *args, const sim_world_info_t *info, pgem_io_graph_t *graph,
                    double **truth)
 {
-    size_t size = info->dimension == 2 ? 3u : 7u, capacity = info->capacity(args->poses);
+    size_t size = (size_t)PGEM_POSE_SIZE(info->dimension), capacity = info->capacity(args->poses);
     *truth = malloc(sizeof(double) * size * args->poses);
     graph->dimension = info->dimension;
     graph->poses = calloc(args->poses, sizeof *graph->poses);
@@ -233,11 +198,11 @@ int pgem_cmd_simulate(int argc, char **argv)
     status = PGEM_EXIT_OK;
     if (args.truth != NULL) {
         sim_vertices(&graph, truth, 1);
-        status = sim_write(args.truth, &graph);
+        status = pgem_cli_write_graph("pgem simulate", &graph, args.truth);
     }
     sim_vertices(&graph, truth, 0);
     if (status == PGEM_EXIT_OK) {
-        status = sim_write(args.output, &graph);
+        status = pgem_cli_write_graph("pgem simulate", &graph, args.output);
     }
     if (status == PGEM_EXIT_OK) {
         printf("simulated %s world: %u poses, %zu edges (%zu loop closures), seed %u -> %s%s%s\n",

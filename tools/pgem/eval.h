@@ -6,6 +6,10 @@
 
 #include "cli.h"
 
+/* The default rejection threshold (pgem eval --reject-below, pgem plot): the EM prune
+ * threshold. */
+#define PGEM_EVAL_REJECT_BELOW 0.01
+
 /* Trajectory accuracy of a result against a reference. */
 typedef struct eval_trajectory {
     int dimension;               /* 2 or 3 */
@@ -62,6 +66,9 @@ int pgem_eval_trajectory(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
 int pgem_eval_loops(const char *outliers, const char *weights, double reject_below,
                     eval_loop_t **loops, eval_scores_t *scores);
 
+/* Sets rejected on each of loops[0..count): pruned, or a weight below reject_below. */
+void pgem_eval_mark_rejected(eval_loop_t *loops, size_t count, double reject_below);
+
 /* Reads a weights file alone ('from to weight state' per line) into *loops (*count entries,
  * file order; is_false and rejected left 0). *loops is the caller's to free, also on
  * failure. Prints errors naming FILE:LINE; returns a PGEM_EXIT_* code. */
@@ -73,11 +80,13 @@ int pgem_eval_read_weights(const char *weights, eval_loop_t **loops, size_t *cou
 int pgem_eval_mark_outliers(const char *outliers, const char *loops_path, eval_loop_t *loops,
                             size_t count, size_t *outlier_count);
 
-/* The rigid alignment of the ATE: matches the poses of res to those of ref by id (same
- * dimension, res non-empty) and finds the rotation (unit quaternion [qx qy qz qw], about z in
- * 2D) and centroids with ref_k ~ R (res_k - c_res) + c_ref over the *matched positions (the
- * identity when none match). Prints an error and returns PGEM_EXIT_FAILURE if out of memory. */
-int pgem_eval_align(const pgem_io_graph_t *ref, const pgem_io_graph_t *res, double rotation[4],
-                    double c_ref[3], double c_res[3], size_t *matched);
+/* The rigid alignment of the ATE: matches the poses of res (res_ids: its poses sorted by id,
+ * from pgem_cli_index_poses) to those of ref by id (same dimension) and finds the rotation
+ * (unit quaternion [qx qy qz qw], about z in 2D) and centroids with
+ * ref_k ~ R (res_k - c_res) + c_ref over the *matched positions (the identity when none
+ * match). Prints an error and returns PGEM_EXIT_FAILURE if out of memory. */
+int pgem_eval_align(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
+                    const pgem_cli_id_t *res_ids, double rotation[4], double c_ref[3],
+                    double c_res[3], size_t *matched);
 
 #endif /* PGEM_EVAL_H */

@@ -11,11 +11,8 @@
 
 #define EVAL_MAX_FIELDS 4 /* fields of a weights line */
 
-/* A (from, to) pair with its position, for sorting. */
-typedef struct eval_key {
-    pgem_id_t from, to;
-    size_t index;                /* weights: index of the loop; outliers: file line */
-} eval_key_t;
+/* Pairs here (pgem_cli_pair_t) carry, as index, the index of the loop for the weights and
+ * the file line for the outliers. */
 
 /* A text file read line by line. */
 typedef struct eval_text {
@@ -25,26 +22,6 @@ typedef struct eval_text {
     size_t capacity;
     unsigned long number;        /* 1-based number of the current line */
 } eval_text_t;
-
-static int eval_compare_keys(const void *a, const void *b)
-{
-    const eval_key_t *x = a, *y = b;
-    if (x->from != y->from) {
-        return (x->from > y->from) - (x->from < y->from);
-    }
-    if (x->to != y->to) {
-        return (x->to > y->to) - (x->to < y->to);
-    }
-    return (x->index > y->index) - (x->index < y->index);
-}
-
-/* Sorts keys by (from, to, index); keys may be NULL when count is 0. */
-static void eval_sort_keys(eval_key_t *keys, size_t count)
-{
-    if (count > 1u) {
-        qsort(keys, count, sizeof *keys, eval_compare_keys);
-    }
-}
 
 static int eval_open(eval_text_t *text, const char *path)
 {
@@ -153,45 +130,66 @@ static void *eval_reserve(void *items, size_t *capacity, size_t count, size_t si
     return moved;
 }
 
-/* Reads the outliers file into keys (index = file line). */
-static int eval_read_outliers(const char *path, eval_key_t **keys, size_t *count)
+/* Parses the fields of one line into *item; prints an error naming the line and returns 0
+ * on failure. */
+typedef int (*eval_parse_fn)(const eval_text_t *text, char **fields, size_t count, void *item);
+
+/* Reads every line of a file through parse into a grown array of `size`-byte items, in file
+ * order (*items is the caller's to free, also on failure). */
+static int eval_read_items(const char *path, size_t max_fields, eval_parse_fn parse, size_t size,
+                           void **items, size_t *count)
 {
     eval_text_t text;
-    char *fields[3] = {NULL};
+    char *fields[EVAL_MAX_FIELDS + 1] = {NULL};
+    union {
+        pgem_cli_pair_t pair;
+        eval_loop_t loop;
+    } item;
     size_t fields_read = 0, capacity = 0;
     int status = eval_open(&text, path);
-    *keys = NULL;
+    *items = NULL;
     *count = 0;
     while (status == PGEM_EXIT_OK) {
-        status = eval_next_line(&text, fields, 2u, &fields_read);
+        status = eval_next_line(&text, fields, max_fields, &fields_read);
         if (status != PGEM_EXIT_OK || fields_read == 0) {
             break;
         }
-        eval_key_t key = {0u, 0u, text.number};
-        if (fields_read != 2u) {
-            fprintf(stderr, "pgem: %s:%lu: expected 2 fields 'from to', got %s\n", path,
-                    text.number, fields_read < 2u ? "1" : "more");
+        memset(&item, 0, sizeof item);
+        if (!parse(&text, fields, fields_read, &item)) {
             status = PGEM_EXIT_FAILURE;
-        } else if (!eval_parse_pair(&text, fields, &key.from, &key.to)) {
+            continue;
+        }
+        unsigned char *grown = eval_reserve(*items, &capacity, *count, size);
+        if (grown == NULL) {
+            fprintf(stderr, "pgem: out of memory\n");
             status = PGEM_EXIT_FAILURE;
         } else {
-            eval_key_t *grown = eval_reserve(*keys, &capacity, *count, sizeof *grown);
-            if (grown == NULL) {
-                fprintf(stderr, "pgem: out of memory\n");
-                status = PGEM_EXIT_FAILURE;
-            } else {
-                *keys = grown;
-                (*keys)[(*count)++] = key;
-            }
+            memcpy(grown + *count * size, &item, size);
+            *items = grown;
+            ++*count;
         }
     }
     eval_close(&text);
     return status;
 }
 
-/* One weights line (4 fields) into *loop; prints an error naming the line on failure. */
-static int eval_parse_loop(const eval_text_t *text, char **fields, size_t count, eval_loop_t *loop)
+/* One outliers line (2 fields) into a pair indexed by its line. */
+static int eval_parse_outlier(const eval_text_t *text, char **fields, size_t count, void *item)
 {
+    pgem_cli_pair_t *pair = item;
+    if (count != 2u) {
+        fprintf(stderr, "pgem: %s:%lu: expected 2 fields 'from to', got %s\n", text->path,
+                text->number, count < 2u ? "1" : "more");
+        return 0;
+    }
+    pair->index = text->number;
+    return eval_parse_pair(text, fields, &pair->from, &pair->to);
+}
+
+/* One weights line (4 fields) into *loop; prints an error naming the line on failure. */
+static int eval_parse_loop(const eval_text_t *text, char **fields, size_t count, void *item)
+{
+    eval_loop_t *loop = item;
     char *end = NULL;
     if (count != 4u) {
         fprintf(stderr, "pgem: %s:%lu: expected 4 fields 'from to weight state', got %s\n",
@@ -218,50 +216,18 @@ static int eval_parse_loop(const eval_text_t *text, char **fields, size_t count,
     return 1;
 }
 
-static int eval_read_weights(const char *path, eval_loop_t **loops, size_t *count)
+int pgem_eval_read_weights(const char *weights, eval_loop_t **loops, size_t *count)
 {
-    eval_text_t text;
-    char *fields[EVAL_MAX_FIELDS + 1] = {NULL};
-    size_t fields_read = 0, capacity = 0;
-    int status = eval_open(&text, path);
-    *loops = NULL;
-    *count = 0;
-    while (status == PGEM_EXIT_OK) {
-        status = eval_next_line(&text, fields, EVAL_MAX_FIELDS, &fields_read);
-        if (status != PGEM_EXIT_OK || fields_read == 0) {
-            break;
-        }
-        eval_loop_t loop = {0};
-        if (!eval_parse_loop(&text, fields, fields_read, &loop)) {
-            status = PGEM_EXIT_FAILURE;
-        } else {
-            eval_loop_t *grown = eval_reserve(*loops, &capacity, *count, sizeof *grown);
-            if (grown == NULL) {
-                fprintf(stderr, "pgem: out of memory\n");
-                status = PGEM_EXIT_FAILURE;
-            } else {
-                *loops = grown;
-                (*loops)[(*count)++] = loop;
-            }
-        }
-    }
-    eval_close(&text);
+    void *items = NULL;
+    int status = eval_read_items(weights, EVAL_MAX_FIELDS, eval_parse_loop, sizeof **loops,
+                                 &items, count);
+    *loops = items;
     return status;
 }
 
-/* The end of the run of keys equal to (from, to) that starts at `first`. */
-static size_t eval_run_end(const eval_key_t *keys, size_t count, size_t first, pgem_id_t from,
-                           pgem_id_t to)
-{
-    while (first < count && keys[first].from == from && keys[first].to == to) {
-        first++;
-    }
-    return first;
-}
-
 /* The first key at or after `first` that is not ordered before (from, to). */
-static size_t eval_skip_before(const eval_key_t *keys, size_t count, size_t first, pgem_id_t from,
-                               pgem_id_t to)
+static size_t eval_skip_before(const pgem_cli_pair_t *keys, size_t count, size_t first,
+                               pgem_id_t from, pgem_id_t to)
 {
     while (first < count &&
            (keys[first].from < from || (keys[first].from == from && keys[first].to < to))) {
@@ -272,7 +238,7 @@ static size_t eval_skip_before(const eval_key_t *keys, size_t count, size_t firs
 
 /* The outliers line that found no weights line, and how often its pair occurs in each. */
 typedef struct eval_missing {
-    const eval_key_t *outlier;   /* NULL: none */
+    const pgem_cli_pair_t *outlier; /* NULL: none */
     size_t listed;               /* times in the outliers file */
     size_t found;                /* times in the weights file */
 } eval_missing_t;
@@ -280,7 +246,7 @@ typedef struct eval_missing {
 static int eval_report_missing(const char *outliers, const char *weights,
                                const eval_missing_t *missing)
 {
-    const eval_key_t *key = missing->outlier;
+    const pgem_cli_pair_t *key = missing->outlier;
     if (key == NULL) {
         return PGEM_EXIT_OK;
     }
@@ -297,29 +263,30 @@ static int eval_report_missing(const char *outliers, const char *weights,
 
 /* Marks the false loops: for each ordered pair listed n times in the outliers, the last n
  * of its lines in the weights. An outlier without a weights line is an error, reported at
- * the earliest such outliers line. `outliers` is sorted by (pair, line). */
+ * the earliest such outliers line. Sorts `outliers` by (pair, line). */
 static int eval_mark_false(const char *outliers_path, const char *weights_path,
-                           const eval_key_t *outliers, size_t outlier_count, eval_loop_t *loops,
+                           pgem_cli_pair_t *outliers, size_t outlier_count, eval_loop_t *loops,
                            size_t loop_count)
 {
-    eval_key_t *keys = malloc((loop_count > 0 ? loop_count : 1u) * sizeof *keys);
+    pgem_cli_pair_t *keys = malloc((loop_count > 0 ? loop_count : 1u) * sizeof *keys);
     eval_missing_t missing = {NULL, 0u, 0u};
     if (keys == NULL) {
         fprintf(stderr, "pgem: out of memory\n");
         return PGEM_EXIT_FAILURE;
     }
     for (size_t k = 0; k < loop_count; k++) {
-        keys[k] = (eval_key_t){loops[k].from, loops[k].to, k};
+        keys[k] = (pgem_cli_pair_t){loops[k].from, loops[k].to, k};
     }
-    eval_sort_keys(keys, loop_count);
+    pgem_cli_sort_pairs(keys, loop_count);
+    pgem_cli_sort_pairs(outliers, outlier_count);
     for (size_t o = 0, w = 0; o < outlier_count;) {
         pgem_id_t from = outliers[o].from, to = outliers[o].to;
-        size_t o_end = eval_run_end(outliers, outlier_count, o, from, to);
+        size_t o_end = pgem_cli_pair_run_end(outliers, outlier_count, o, from, to);
         w = eval_skip_before(keys, loop_count, w, from, to);
-        size_t w_end = eval_run_end(keys, loop_count, w, from, to);
+        size_t w_end = pgem_cli_pair_run_end(keys, loop_count, w, from, to);
         size_t listed = o_end - o, found = w_end - w;
         if (listed > found) {
-            const eval_key_t *first_missing = &outliers[o + found];
+            const pgem_cli_pair_t *first_missing = &outliers[o + found];
             if (missing.outlier == NULL || first_missing->index < missing.outlier->index) {
                 missing = (eval_missing_t){first_missing, listed, found};
             }
@@ -340,6 +307,13 @@ static double eval_ratio(size_t numerator, size_t denominator)
     return denominator > 0 ? (double)numerator / (double)denominator : 1.0;
 }
 
+void pgem_eval_mark_rejected(eval_loop_t *loops, size_t count, double reject_below)
+{
+    for (size_t k = 0; k < count; k++) {
+        loops[k].rejected = loops[k].pruned || loops[k].weight < reject_below;
+    }
+}
+
 static void eval_score(double reject_below, eval_loop_t *loops, size_t count, size_t outliers,
                        eval_scores_t *scores)
 {
@@ -347,9 +321,9 @@ static void eval_score(double reject_below, eval_loop_t *loops, size_t count, si
     memset(scores, 0, sizeof *scores);
     scores->loops = count;
     scores->outliers = outliers;
+    pgem_eval_mark_rejected(loops, count, reject_below);
     for (size_t k = 0; k < count; k++) {
-        eval_loop_t *loop = &loops[k];
-        loop->rejected = loop->pruned || loop->weight < reject_below;
+        const eval_loop_t *loop = &loops[k];
         scores->rejected += (size_t)loop->rejected;
         scores->true_positives += (size_t)(loop->rejected && loop->is_false);
         scores->false_positives += (size_t)(loop->rejected && !loop->is_false);
@@ -362,43 +336,42 @@ static void eval_score(double reject_below, eval_loop_t *loops, size_t count, si
     scores->inlier_recall = eval_ratio(true_accepted, count - outliers);
 }
 
-int pgem_eval_loops(const char *outliers_path, const char *weights_path, double reject_below,
-                    eval_loop_t **loops, eval_scores_t *scores)
+/* Reads the outliers file, then (when weights_path is not NULL) the loops from the weights
+ * file, and marks the false ones among the loops; loops_path names the loops in messages. */
+static int eval_read_and_mark(const char *outliers_path, const char *weights_path,
+                              const char *loops_path, eval_loop_t **loops, size_t *count,
+                              size_t *outlier_count)
 {
-    eval_key_t *outliers = NULL;
-    size_t outlier_count = 0, loop_count = 0;
-    memset(scores, 0, sizeof *scores);
-    *loops = NULL;
-    int status = eval_read_outliers(outliers_path, &outliers, &outlier_count);
-    if (status == PGEM_EXIT_OK) {
-        status = eval_read_weights(weights_path, loops, &loop_count);
+    void *outliers = NULL;
+    int status = eval_read_items(outliers_path, 2u, eval_parse_outlier, sizeof(pgem_cli_pair_t),
+                                 &outliers, outlier_count);
+    if (status == PGEM_EXIT_OK && weights_path != NULL) {
+        status = pgem_eval_read_weights(weights_path, loops, count);
     }
     if (status == PGEM_EXIT_OK) {
-        eval_sort_keys(outliers, outlier_count);
-        status = eval_mark_false(outliers_path, weights_path, outliers, outlier_count, *loops,
-                                 loop_count);
-    }
-    if (status == PGEM_EXIT_OK) {
-        eval_score(reject_below, *loops, loop_count, outlier_count, scores);
+        status = eval_mark_false(outliers_path, loops_path, outliers, *outlier_count, *loops,
+                                 *count);
     }
     free(outliers);
     return status;
 }
 
-int pgem_eval_read_weights(const char *weights_path, eval_loop_t **loops, size_t *count)
+int pgem_eval_loops(const char *outliers_path, const char *weights_path, double reject_below,
+                    eval_loop_t **loops, eval_scores_t *scores)
 {
-    return eval_read_weights(weights_path, loops, count);
+    size_t outlier_count = 0, loop_count = 0;
+    memset(scores, 0, sizeof *scores);
+    *loops = NULL;
+    int status = eval_read_and_mark(outliers_path, weights_path, weights_path, loops, &loop_count,
+                                    &outlier_count);
+    if (status == PGEM_EXIT_OK) {
+        eval_score(reject_below, *loops, loop_count, outlier_count, scores);
+    }
+    return status;
 }
 
 int pgem_eval_mark_outliers(const char *outliers_path, const char *loops_path, eval_loop_t *loops,
                             size_t count, size_t *outlier_count)
 {
-    eval_key_t *outliers = NULL;
-    int status = eval_read_outliers(outliers_path, &outliers, outlier_count);
-    if (status == PGEM_EXIT_OK) {
-        eval_sort_keys(outliers, *outlier_count);
-        status = eval_mark_false(outliers_path, loops_path, outliers, *outlier_count, loops, count);
-    }
-    free(outliers);
-    return status;
+    return eval_read_and_mark(outliers_path, NULL, loops_path, &loops, &count, outlier_count);
 }

@@ -15,19 +15,13 @@ typedef struct eval_match {
     size_t res;
 } eval_match_t;
 
-/* A pose id with its index in the file graph, for sorting. */
-typedef struct eval_id {
-    pgem_id_t id;
-    size_t index;
-} eval_id_t;
-
 /* Normalises every quaternion of a 3D graph; a norm off 1 by more than 1% is an error (as
  * when the core loads a graph). */
 static int eval_normalize(pgem_io_graph_t *graph)
 {
     for (size_t k = 0; graph->dimension == 3 && k < graph->pose_count; k++) {
         double norm = pgem_quat_normalize(graph->poses[k].pose + 3);
-        if (!(fabs(norm - 1.0) <= 0.01)) {
+        if (!(fabs(norm - 1.0) <= PGEM_CLI_QUAT_TOLERANCE)) {
             fprintf(stderr, "pgem: %s:%lu: pose %llu has a quaternion of norm %g (off 1 by "
                             "more than 1%%)\n", graph->source, graph->poses[k].line,
                     (unsigned long long)graph->poses[k].id, norm);
@@ -39,70 +33,28 @@ static int eval_normalize(pgem_io_graph_t *graph)
 
 int pgem_eval_read_graph(const char *path, pgem_io_graph_t *graph)
 {
-    char message[1024];
-    int status = pgem_io_read(path, PGEM_FORMAT_AUTO, graph, message, sizeof message);
-    if (status != PGEM_OK) {
-        fprintf(stderr, "pgem: %s\n", message);
-        return status == PGEM_ERR_IO ? PGEM_EXIT_IO : PGEM_EXIT_FAILURE;
-    }
-    if (graph->pose_count == 0) {
-        fprintf(stderr, "pgem: %s has no poses\n", path);
-        return PGEM_EXIT_FAILURE;
-    }
-    if (graph->chained_poses > 0) {
-        fprintf(stderr, "pgem: warning: %s has no VERTEX lines; its poses are guesses "
-                        "composed along its edges\n", path);
-    }
-    return eval_normalize(graph);
+    int status =
+        pgem_cli_read_graph("pgem", path, PGEM_CLI_NEED_POSES | PGEM_CLI_WARN_CHAINED, graph);
+    return status == PGEM_EXIT_OK ? eval_normalize(graph) : status;
 }
 
-static int eval_compare_ids(const void *a, const void *b)
-{
-    const eval_id_t *x = a, *y = b;
-    if (x->id != y->id) {
-        return (x->id > y->id) - (x->id < y->id);
-    }
-    return (x->index > y->index) - (x->index < y->index);
-}
-
-/* Finds id among ids sorted by id; returns its position or count. */
-static size_t eval_find(const eval_id_t *ids, size_t count, pgem_id_t id)
-{
-    size_t low = 0, high = count;
-    while (low < high) {
-        size_t middle = low + (high - low) / 2u;
-        if (ids[middle].id < id) {
-            low = middle + 1u;
-        } else {
-            high = middle;
-        }
-    }
-    return low < count && ids[low].id == id ? low : count;
-}
-
-/* The poses in both graphs, in the reference's order, into *matches (caller frees). */
+/* The poses in both graphs, in the reference's order, into *matches (caller frees); res_ids
+ * are the poses of res sorted by id. */
 static int eval_match_poses(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
-                            eval_match_t **matches, size_t *count)
+                            const pgem_cli_id_t *res_ids, eval_match_t **matches, size_t *count)
 {
-    eval_id_t *ids = malloc(res->pose_count * sizeof *ids);
-    *matches = malloc(ref->pose_count * sizeof **matches);
+    *matches = malloc((ref->pose_count > 0 ? ref->pose_count : 1u) * sizeof **matches);
     *count = 0;
-    if (ids == NULL || *matches == NULL) {
-        free(ids);
+    if (*matches == NULL) {
         fprintf(stderr, "pgem: out of memory\n");
         return PGEM_EXIT_FAILURE;
     }
-    for (size_t k = 0; k < res->pose_count; k++) {
-        ids[k] = (eval_id_t){res->poses[k].id, k};
-    }
-    qsort(ids, res->pose_count, sizeof *ids, eval_compare_ids);
     for (size_t k = 0; k < ref->pose_count; k++) {
-        size_t found = eval_find(ids, res->pose_count, ref->poses[k].id);
-        if (found < res->pose_count) {
-            (*matches)[(*count)++] = (eval_match_t){k, ids[found].index};
+        size_t found = pgem_cli_find_pose(res_ids, res->pose_count, ref->poses[k].id);
+        if (found != PGEM_CLI_NO_POSE) {
+            (*matches)[(*count)++] = (eval_match_t){k, found};
         }
     }
-    free(ids);
     return PGEM_EXIT_OK;
 }
 
@@ -224,6 +176,15 @@ static void eval_align_rotation(const pgem_io_graph_t *ref, const pgem_io_graph_
     memcpy(rotation, q_out, sizeof q_out);
 }
 
+/* The rigid alignment of the matched poses: centroids and rotation. */
+static void eval_alignment(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
+                           const eval_match_t *matches, size_t count, double c_ref[3],
+                           double c_res[3], double rotation[4])
+{
+    eval_centroids(ref, res, matches, count, c_ref, c_res);
+    eval_align_rotation(ref, res, matches, count, c_ref, c_res, rotation);
+}
+
 /* Angle (radians, >= 0) of the rotation from a to b: 2D headings, or 3D unit quaternions. */
 static double eval_angle_between(int dimension, const double *a, const double *b)
 {
@@ -252,8 +213,7 @@ static void eval_ate(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
                      const eval_match_t *matches, size_t count, eval_trajectory_t *out)
 {
     double c_ref[3], c_res[3], rotation[4], p[3], q[3], aligned[7];
-    eval_centroids(ref, res, matches, count, c_ref, c_res);
-    eval_align_rotation(ref, res, matches, count, c_ref, c_res, rotation);
+    eval_alignment(ref, res, matches, count, c_ref, c_res, rotation);
     double translation = 0.0, angle = 0.0, spread = 0.0;
     for (size_t k = 0; k < count; k++) {
         const double *ref_pose = ref->poses[matches[k].ref].pose;
@@ -318,7 +278,14 @@ int pgem_eval_trajectory(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
     }
     eval_match_t *matches = NULL;
     size_t count = 0;
-    int status = eval_match_poses(ref, res, &matches, &count);
+    pgem_cli_id_t *res_ids = pgem_cli_index_poses(res);
+    int status = PGEM_EXIT_FAILURE;
+    if (res_ids == NULL) {
+        fprintf(stderr, "pgem: out of memory\n");
+    } else {
+        status = eval_match_poses(ref, res, res_ids, &matches, &count);
+    }
+    free(res_ids);
     if (status == PGEM_EXIT_OK && count < 2u) {
         fprintf(stderr, "pgem: %zu pose id(s) in both %s and %s; at least 2 must match\n",
                 count, res->source, ref->source);
@@ -336,18 +303,18 @@ int pgem_eval_trajectory(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
     return status;
 }
 
-int pgem_eval_align(const pgem_io_graph_t *ref, const pgem_io_graph_t *res, double rotation[4],
-                    double c_ref[3], double c_res[3], size_t *matched)
+int pgem_eval_align(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
+                    const pgem_cli_id_t *res_ids, double rotation[4], double c_ref[3],
+                    double c_res[3], size_t *matched)
 {
     eval_match_t *matches = NULL;
     static const double identity[4] = {0.0, 0.0, 0.0, 1.0};
     memcpy(rotation, identity, sizeof identity);
     memset(c_ref, 0, 3 * sizeof *c_ref);
     memset(c_res, 0, 3 * sizeof *c_res);
-    int status = eval_match_poses(ref, res, &matches, matched);
+    int status = eval_match_poses(ref, res, res_ids, &matches, matched);
     if (status == PGEM_EXIT_OK && *matched > 0) {
-        eval_centroids(ref, res, matches, *matched, c_ref, c_res);
-        eval_align_rotation(ref, res, matches, *matched, c_ref, c_res, rotation);
+        eval_alignment(ref, res, matches, *matched, c_ref, c_res, rotation);
     }
     free(matches);
     return status;

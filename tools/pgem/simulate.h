@@ -42,9 +42,6 @@ int pgem_sim_manhattan(const sim_args_t *args, double *truth, pgem_io_graph_t *g
 int pgem_sim_sphere(const sim_args_t *args, double *truth, pgem_io_graph_t *graph);
 int pgem_sim_grid3d(const sim_args_t *args, double *truth, pgem_io_graph_t *graph);
 
-/* Poses per ring of the sphere world for a walk of `poses` poses. */
-uint32_t pgem_sim_sphere_ring_size(uint32_t poses);
-
 /* Appends the 3D edge from -> to: the true relative pose perturbed on the right by
  * (rho, Exp(phi)), rho ~ N(0, sigma_t^2 I), phi ~ N(0, sigma_r^2 I), with the information
  * that noise has in g2o's error (translation 1/sigma_t^2, quaternion vector 4/sigma_r^2). */
@@ -53,5 +50,8 @@ void pgem_sim_se3_edge(pgem_io_graph_t *graph, uint32_t from, uint32_t to, const
 
 /* Unit quaternion [qx qy qz qw], qw >= 0, of a row-major rotation matrix. */
 void pgem_sim_quat_from_matrix(const double rotation[9], double q[4]);
+
+/* Negates a quaternion [qx qy qz qw] whose qw is negative (the same rotation, qw >= 0). */
+void pgem_sim_quat_positive(double q[4]);
 
 #endif /* PGEM_SIMULATE_H */

@@ -24,11 +24,7 @@ void pgem_sim_se3_edge(pgem_io_graph_t *graph, uint32_t from, uint32_t to, const
      * translation -Exp(phi)^T rho (isotropic, variance sigma_t^2 per axis) and quaternion
      * vector -sin(|phi|/2) phi/|phi| ~ -phi/2 (variance sigma_r^2 / 4 per axis). */
     pgem_se3_boxplus(between, noise, edge->measurement);
-    if (edge->measurement[6] < 0.0) {
-        for (int k = 3; k < 7; k++) {
-            edge->measurement[k] = -edge->measurement[k];
-        }
-    }
+    pgem_sim_quat_positive(edge->measurement + 3);
     double t = 1.0 / fmax(args->sigma_translation * args->sigma_translation, 1e-12);
     double r = 4.0 / fmax(args->sigma_rotation * args->sigma_rotation, 1e-12);
     for (int axis = 0; axis < 6; axis++) {
@@ -67,10 +63,15 @@ void pgem_sim_quat_from_matrix(const double rotation[9], double q[4])
         q[2] = 0.25 * s;
         q[3] = (m[3] - m[1]) / s;
     }
+    pgem_sim_quat_positive(q);
+    pgem_quat_normalize(q);
+}
+
+void pgem_sim_quat_positive(double q[4])
+{
     if (q[3] < 0.0) {
         for (int k = 0; k < 4; k++) {
             q[k] = -q[k];
         }
     }
-    pgem_quat_normalize(q);
 }

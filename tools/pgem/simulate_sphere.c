@@ -15,7 +15,8 @@ size_t pgem_sim_sphere_capacity(uint32_t poses)
     return 2u * (size_t)poses;
 }
 
-uint32_t pgem_sim_sphere_ring_size(uint32_t poses)
+/* Poses per ring for a walk of `poses` poses. */
+static uint32_t sphere_ring_size(uint32_t poses)
 {
     uint32_t size = (uint32_t)lround(sqrt((double)poses));
     return size < SPHERE_MIN_RING ? SPHERE_MIN_RING : size;
@@ -55,7 +56,7 @@ static void sphere_pose(uint32_t k, uint32_t ring, uint32_t rings, double pose[7
 int pgem_sim_sphere(const sim_args_t *args, double *truth, pgem_io_graph_t *graph)
 {
     uint64_t rng = args->seed;
-    uint32_t ring = pgem_sim_sphere_ring_size(args->poses);
+    uint32_t ring = sphere_ring_size(args->poses);
     uint32_t rings = args->poses / ring + (args->poses % ring != 0u);
     double origin[7], world[7];
     sphere_pose(0, ring, rings, origin);
@@ -63,11 +64,7 @@ int pgem_sim_sphere(const sim_args_t *args, double *truth, pgem_io_graph_t *grap
         double *pose = truth + 7 * (size_t)k;
         sphere_pose(k, ring, rings, world);
         pgem_se3_between(origin, world, pose);   /* pose 0 is the identity */
-        if (pose[6] < 0.0) {
-            for (int c = 3; c < 7; c++) {
-                pose[c] = -pose[c];
-            }
-        }
+        pgem_sim_quat_positive(pose + 3);
         if (k > 0) {
             pgem_sim_se3_edge(graph, k - 1, k, truth, args, &rng);
         }
