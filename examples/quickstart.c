@@ -9,8 +9,9 @@ int main(void)
 {
     pgem_config_t config = {2, 16, 32, 2048}; /* 2D, 16 poses, 32 edges, 2048 factor nonzeros */
     pgem_t *graph = NULL;
-    if (pgem_memory_size(&config) > sizeof block ||
-        pgem_init(&graph, &config, block, sizeof block) != PGEM_OK) {
+    const int status = pgem_init(&graph, &config, block, sizeof block);
+    if (status != PGEM_OK) { /* PGEM_ERR_BUFFER_TOO_SMALL if the block is too small */
+        fprintf(stderr, "pgem_init: %s\n", pgem_error_name(status));
         return 1;
     }
     const double odometry[3] = {1.0, 0.0, 1.5707963267948966}; /* 1 m forward, turn left */

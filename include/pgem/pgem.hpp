@@ -278,6 +278,12 @@ int trampoline(const Argument *argument, void *context) noexcept {
         return callback(*argument) ? 1 : 0;
     }
 }
+
+/* The C callbacks' context: the callable's address (const stripped; trampoline<F> restores F). */
+template <class F>
+void *context(F &callback) noexcept {
+    return const_cast<void *>(static_cast<const void *>(std::addressof(callback)));
+}
 } // namespace detail
 
 /** Solver options: pgem_solve_options_t zeroed (Gauss-Newton with the documented defaults). */
@@ -295,10 +301,9 @@ struct SolveOptions : pgem_solve_options_t {
     template <class F>
     SolveOptions &call_each_iteration(F &callback) noexcept {
         on_iteration = &detail::trampoline<F, pgem_iteration_t>;
-        user = const_cast<void *>(static_cast<const void *>(std::addressof(callback)));
+        user = detail::context(callback);
         return *this;
     }
-
 };
 
 /** Robust options: pgem_robust_options_t zeroed. Zeroed means PGEM_KERNEL_NONE (plain least
@@ -317,10 +322,9 @@ struct RobustOptions : pgem_robust_options_t {
     template <class F>
     RobustOptions &call_each_round(F &callback) noexcept {
         on_round = &detail::trampoline<F, pgem_robust_progress_t>;
-        user = const_cast<void *>(static_cast<const void *>(std::addressof(callback)));
+        user = detail::context(callback);
         return *this;
     }
-
 };
 
 /** What a solve did: pgem_summary_t with helpers. */
@@ -359,6 +363,7 @@ struct Traits;
 template <>
 struct Traits<2> {
     using Pose = Eigen::Isometry2d;
+    using Information = Eigen::Matrix3d;
     static void to_array(const Pose &pose, double *out) noexcept {
         out[0] = pose.translation().x();
         out[1] = pose.translation().y();
@@ -375,6 +380,7 @@ struct Traits<2> {
 template <>
 struct Traits<3> {
     using Pose = Eigen::Isometry3d;
+    using Information = Eigen::Matrix<double, 6, 6>;
     static void to_array(const Pose &pose, double *out) noexcept {
         const Eigen::Quaterniond rotation(pose.linear());
         out[0] = pose.translation().x();
@@ -400,8 +406,10 @@ using RowMajorInformation = Eigen::Matrix<double, PGEM_TANGENT_SIZE(Dim), PGEM_T
 #ifndef PGEM_NO_MALLOC
 /* Messages of the file path (no instance to hold them): one buffer per thread, valid until the
  * next load on that thread. */
+constexpr std::size_t load_message_size = 1024;
+
 inline char *load_message() noexcept {
-    thread_local char message[1024];
+    thread_local char message[load_message_size];
     return message;
 }
 #endif
@@ -418,7 +426,7 @@ class EdgeView {
     /** Eigen::Isometry2d or Eigen::Isometry3d. */
     using Pose = typename detail::Traits<Dim>::Pose;
     /** 3x3 or 6x6 information (see the 3D convention in the header comment). */
-    using Information = Eigen::Matrix<double, PGEM_TANGENT_SIZE(Dim), PGEM_TANGENT_SIZE(Dim)>;
+    using Information = typename detail::Traits<Dim>::Information;
 
     EdgeView() noexcept : view_{} {}
 
@@ -478,25 +486,31 @@ class Graph {
     /** Eigen::Isometry2d or Eigen::Isometry3d. */
     using Pose = typename detail::Traits<Dim>::Pose;
     /** Eigen::Matrix3d or Eigen::Matrix<double, 6, 6>. */
-    using Information = Eigen::Matrix<double, tangent_size, tangent_size>;
+    using Information = typename detail::Traits<Dim>::Information;
     /** What edge iteration yields. */
     using Edge = EdgeView<Dim>;
 
-    /** Iterates the edges in index order, optionally only the loop closures. */
-    class EdgeRange {
+  private:
+    /* Walks indices 0 .. count-1 of the instance, yielding each entry that reads and passes
+     * the filter (nullptr: every entry), read into the iterator once per step. */
+    template <class Value>
+    class Range {
       public:
-        /** Input iterator; dereferencing yields the current edge, read once per step. */
+        /** Keeps an entry or skips it. */
+        using Filter = bool (*)(const Value &) noexcept;
+
+        /** Input iterator; dereferencing yields the current entry. */
         class iterator {
           public:
             using iterator_category = std::input_iterator_tag;
-            using value_type = Edge;
+            using value_type = Value;
             using difference_type = std::ptrdiff_t;
-            using pointer = const Edge *;
-            using reference = const Edge &;
+            using pointer = const Value *;
+            using reference = const Value &;
 
             iterator() noexcept = default;
-            reference operator*() const noexcept { return edge_; }
-            pointer operator->() const noexcept { return &edge_; }
+            reference operator*() const noexcept { return value_; }
+            pointer operator->() const noexcept { return &value_; }
             iterator &operator++() noexcept {
                 ++index_;
                 settle();
@@ -511,17 +525,16 @@ class Graph {
             bool operator!=(const iterator &other) const noexcept { return index_ != other.index_; }
 
           private:
-            friend class EdgeRange;
-            iterator(const pgem_t *graph, std::uint32_t index, std::uint32_t end,
-                     bool loops) noexcept
-                : graph_(graph), index_(index), end_(end), loops_only_(loops) {
+            friend class Range;
+            iterator(const Range &range, std::uint32_t index) noexcept
+                : graph_(range.graph_), index_(index), end_(range.end_), filter_(range.filter_) {
                 settle();
             }
+            /* Moves to the first index from here whose entry reads and passes the filter. */
             void settle() noexcept {
                 for (; index_ < end_; ++index_) {
-                    (void)pgem_edge_at(graph_, index_, &edge_.view_);
-                    edge_.index_ = index_;
-                    if (!loops_only_ || edge_.is_loop()) {
+                    if (read_at(graph_, index_, value_) == PGEM_OK &&
+                        (filter_ == nullptr || filter_(value_))) {
                         return;
                     }
                 }
@@ -529,77 +542,27 @@ class Graph {
             const pgem_t *graph_ = nullptr;
             std::uint32_t index_ = 0;
             std::uint32_t end_ = 0;
-            bool loops_only_ = false;
-            Edge edge_;
+            Filter filter_ = nullptr;
+            Value value_;
         };
 
-        iterator begin() const noexcept { return iterator(graph_, 0, end_, loops_only_); }
-        iterator end() const noexcept { return iterator(graph_, end_, end_, loops_only_); }
+        iterator begin() const noexcept { return iterator(*this, 0); }
+        iterator end() const noexcept { return iterator(*this, end_); }
 
       private:
         friend class Graph;
-        EdgeRange(const pgem_t *graph, bool loops) noexcept
-            : graph_(graph), end_(pgem_edge_count(graph)), loops_only_(loops) {}
+        Range(const pgem_t *graph, std::uint32_t count, Filter filter = nullptr) noexcept
+            : graph_(graph), end_(count), filter_(filter) {}
         const pgem_t *graph_;
         std::uint32_t end_;
-        bool loops_only_;
+        Filter filter_;
     };
 
-    /** Iterates the poses in insertion order. */
-    class PoseRange {
-      public:
-        /** Input iterator yielding pgem_cpp::PoseEntry. */
-        class iterator {
-          public:
-            using iterator_category = std::input_iterator_tag;
-            using value_type = PoseEntry<Dim>;
-            using difference_type = std::ptrdiff_t;
-            using pointer = const value_type *;
-            using reference = const value_type &;
-
-            iterator() noexcept = default;
-            reference operator*() const noexcept { return entry_; }
-            pointer operator->() const noexcept { return &entry_; }
-            iterator &operator++() noexcept {
-                ++index_;
-                read();
-                return *this;
-            }
-            iterator operator++(int) noexcept {
-                iterator before = *this;
-                ++*this;
-                return before;
-            }
-            bool operator==(const iterator &other) const noexcept { return index_ == other.index_; }
-            bool operator!=(const iterator &other) const noexcept { return index_ != other.index_; }
-
-          private:
-            friend class PoseRange;
-            iterator(const pgem_t *graph, std::uint32_t index, std::uint32_t end) noexcept
-                : graph_(graph), index_(index), end_(end) {
-                read();
-            }
-            void read() noexcept {
-                if (index_ < end_) {
-                    entry_ = Graph::read_pose_at(graph_, index_);
-                }
-            }
-            const pgem_t *graph_ = nullptr;
-            std::uint32_t index_ = 0;
-            std::uint32_t end_ = 0;
-            PoseEntry<Dim> entry_;
-        };
-
-        iterator begin() const noexcept { return iterator(graph_, 0, end_); }
-        iterator end() const noexcept { return iterator(graph_, end_, end_); }
-
-      private:
-        friend class Graph;
-        explicit PoseRange(const pgem_t *graph) noexcept
-            : graph_(graph), end_(pgem_pose_count(graph)) {}
-        const pgem_t *graph_;
-        std::uint32_t end_;
-    };
+  public:
+    /** Iterates the edges in index order (all, or the loop closures only). */
+    using EdgeRange = Range<Edge>;
+    /** Iterates the poses in insertion order, yielding pgem_cpp::PoseEntry. */
+    using PoseRange = Range<PoseEntry<Dim>>;
 
     /** An empty Graph (no instance); only assignment, valid() and destruction are meaningful. */
     Graph() noexcept = default;
@@ -717,12 +680,10 @@ class Graph {
                                        const Information &information,
                                        EdgeKind kind = PGEM_EDGE_ODOMETRY) noexcept {
         double values[PGEM_POSE_SIZE_MAX];
-        double matrix[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
         detail::Traits<Dim>::to_array(measurement, values);
-        Eigen::Map<detail::RowMajorInformation<Dim>> row_major(matrix);
-        row_major = information;
+        const detail::RowMajorInformation<Dim> row_major = information;
         std::uint32_t index = 0;
-        const int code = pgem_add_edge(handle_, from, to, values, matrix, kind, &index);
+        const int code = pgem_add_edge(handle_, from, to, values, row_major.data(), kind, &index);
         return Result<std::uint32_t>(index, status(code));
     }
 
@@ -753,17 +714,18 @@ class Graph {
     /** The edge at an index (0 .. edge_count()-1). Error: INVALID_ARGUMENT. */
     Result<Edge> try_edge(std::uint32_t index) const noexcept {
         Edge edge;
-        const int code = pgem_edge_at(handle_, index, &edge.view_);
-        edge.index_ = index;
+        const int code = read_at(handle_, index, edge);
         return Result<Edge>(edge, Status(code, nullptr));
     }
 
     /** The pose at an index (0 .. pose_count()-1). Error: INVALID_ARGUMENT. */
     Result<PoseEntry<Dim>> try_pose_at(std::uint32_t index) const noexcept {
-        if (index >= pose_count()) {
-            return Status(PGEM_ERR_INVALID_ARGUMENT, nullptr);
+        PoseEntry<Dim> entry;
+        const int code = read_at(handle_, index, entry);
+        if (code != PGEM_OK) {
+            return Status(code, nullptr);
         }
-        return read_pose_at(handle_, index);
+        return entry;
     }
 
     /** chi2 (e^T Omega e, unweighted) of one edge under the current estimate. */
@@ -774,11 +736,14 @@ class Graph {
     }
 
     /** Every edge, in index order: `for (const auto &edge : graph.edges())`. */
-    EdgeRange edges() const noexcept { return EdgeRange(handle_, false); }
+    EdgeRange edges() const noexcept { return EdgeRange(handle_, edge_count()); }
     /** The loop closures only, with their robust weight and state. */
-    EdgeRange loops() const noexcept { return EdgeRange(handle_, true); }
+    EdgeRange loops() const noexcept {
+        return EdgeRange(handle_, edge_count(),
+                         [](const Edge &edge) noexcept { return edge.is_loop(); });
+    }
     /** Every pose, in insertion order. */
-    PoseRange poses() const noexcept { return PoseRange(handle_); }
+    PoseRange poses() const noexcept { return PoseRange(handle_, pose_count()); }
 
     /** Number of poses. */
     std::uint32_t pose_count() const noexcept { return pgem_pose_count(handle_); }
@@ -846,15 +811,15 @@ class Graph {
      */
     static Result<Graph> try_load(const char *path,
                                   const LoadOptions &options = LoadOptions()) noexcept {
-        char *message = detail::load_message();
-        message[0] = '\0';
+        char *message = detail::load_message(); /* pgem_io_read writes it on every path */
+        constexpr std::size_t size = detail::load_message_size;
         pgem_io_graph_t file;
-        int code = pgem_io_read(path, options.format, &file, message, 1024);
+        const int code = pgem_io_read(path, options.format, &file, message, size);
         if (code != PGEM_OK) {
             return Status(code, message);
         }
         if (file.dimension != 0 && file.dimension != Dim) {
-            std::snprintf(message, 1024,
+            std::snprintf(message, size,
                           "%s: the file holds a %dD graph, pgem_cpp::Graph<%d> is %dD", path,
                           file.dimension, Dim, Dim);
             pgem_io_graph_free(&file);
@@ -868,15 +833,12 @@ class Graph {
         config.fill_budget = options.fill_budget;
         Result<Graph> graph = create(config);
         if (graph.ok()) {
-            code = pgem_io_load(&file, graph->handle_, message, 1024);
+            const int loaded = pgem_io_load(&file, graph->handle_, message, size);
+            if (loaded != PGEM_OK) {
+                graph = Status(loaded, message); /* releases the half-loaded instance */
+            }
         }
         pgem_io_graph_free(&file);
-        if (!graph.ok()) {
-            return graph;
-        }
-        if (code != PGEM_OK) {
-            return Status(code, message);
-        }
         return graph;
     }
 #endif
@@ -903,27 +865,15 @@ class Graph {
     }
     /** try_edge, throwing pgem_cpp::Error naming the index. */
     Edge edge(std::uint32_t index) const {
-        Result<Edge> result = try_edge(index);
-        if (!result.ok()) {
-            throw Error(result.code(), out_of_range("edge", index, edge_count()));
-        }
-        return *result;
+        return or_out_of_range(try_edge(index), "edge", index, edge_count());
     }
     /** try_pose_at, throwing pgem_cpp::Error naming the index. */
     PoseEntry<Dim> pose_at(std::uint32_t index) const {
-        Result<PoseEntry<Dim>> result = try_pose_at(index);
-        if (!result.ok()) {
-            throw Error(result.code(), out_of_range("pose", index, pose_count()));
-        }
-        return *result;
+        return or_out_of_range(try_pose_at(index), "pose", index, pose_count());
     }
     /** try_edge_chi2, throwing pgem_cpp::Error naming the index. */
     double edge_chi2(std::uint32_t index) const {
-        Result<double> result = try_edge_chi2(index);
-        if (!result.ok()) {
-            throw Error(result.code(), out_of_range("edge", index, edge_count()));
-        }
-        return *result;
+        return or_out_of_range(try_edge_chi2(index), "edge", index, edge_count());
     }
     /** try_analyze, throwing pgem_cpp::Error. */
     void analyze() { raise(try_analyze()); }
@@ -973,15 +923,23 @@ class Graph {
         return code == PGEM_OK ? Status() : Status(code, pgem_last_error(handle_));
     }
 
-    static PoseEntry<Dim> read_pose_at(const pgem_t *graph, std::uint32_t index) noexcept {
-        PoseEntry<Dim> entry;
+    /* Reads the entry at an index into `out` (the C code: INVALID_ARGUMENT out of range). */
+    static int read_at(const pgem_t *graph, std::uint32_t index, Edge &out) noexcept {
+        out.index_ = index;
+        return pgem_edge_at(graph, index, &out.view_);
+    }
+    static int read_at(const pgem_t *graph, std::uint32_t index, PoseEntry<Dim> &out) noexcept {
+        Id id = 0;
         double values[PGEM_POSE_SIZE_MAX];
         int fixed = 0;
-        (void)pgem_pose_at(graph, index, &entry.id, values, &fixed);
-        entry.index = index;
-        entry.pose = detail::Traits<Dim>::from_array(values);
-        entry.fixed = fixed != 0;
-        return entry;
+        const int code = pgem_pose_at(graph, index, &id, values, &fixed);
+        if (code == PGEM_OK) {
+            out.index = index;
+            out.id = id;
+            out.pose = detail::Traits<Dim>::from_array(values);
+            out.fixed = fixed != 0;
+        }
+        return code;
     }
 
 #ifndef PGEM_NO_MALLOC
@@ -997,9 +955,16 @@ class Graph {
             throw Error(status);
         }
     }
-    static std::string out_of_range(const char *what, std::uint32_t index, std::uint32_t count) {
-        return std::string(what) + " index " + std::to_string(index) + " is out of range (" +
-               std::to_string(count) + " " + what + "s)";
+    /* The value of an index-based read, or Error "<what> index 7 is out of range (3 <what>s)". */
+    template <class T>
+    static T or_out_of_range(Result<T> &&result, const char *what, std::uint32_t index,
+                             std::uint32_t count) {
+        if (!result.ok()) {
+            throw Error(result.code(), std::string(what) + " index " + std::to_string(index) +
+                                           " is out of range (" + std::to_string(count) + " " +
+                                           what + "s)");
+        }
+        return *std::move(result);
     }
 #endif
 
