@@ -1,4 +1,13 @@
-# Helpers shared by the command-line tests (CMake scripts run with cmake -P).
+# Helpers shared by the command-line tests, CMake scripts run as
+#   cmake -DPGEM=<pgem> -DWORK=<folder> [-DDATASETS=<dir>] -P <script>
+# Including this file checks that PGEM and WORK are given and empties WORK, the folder every
+# pgem command runs in.
+if(NOT PGEM OR NOT WORK)
+  get_filename_component(cli_test_script "${CMAKE_SCRIPT_MODE_FILE}" NAME)
+  message(FATAL_ERROR "usage: cmake -DPGEM=<pgem> -DWORK=<folder> [-DDATASETS=<dir>] -P ${cli_test_script}")
+endif()
+file(REMOVE_RECURSE "${WORK}")
+file(MAKE_DIRECTORY "${WORK}")
 
 function(fail text)
   message(SEND_ERROR "FAIL: ${text}")
@@ -38,6 +47,39 @@ function(equals json key expected)
   endif()
 endfunction()
 
+# expect(<json> key value key value ...): every key has exactly that value (as equals()).
+function(expect json)
+  set(pairs ${ARGN})
+  while(pairs)
+    list(POP_FRONT pairs key value)
+    equals("${json}" "${key}" "${value}")
+  endwhile()
+endfunction()
+
+# nested(<json> <expected> path...): the value at a path of keys and indices.
+function(nested json expected)
+  string(JSON value ERROR_VARIABLE error GET "${json}" ${ARGN})
+  if(error OR NOT value STREQUAL "${expected}")
+    fail("${ARGN} = '${value}' ${error}, expected ${expected}\nin ${json}")
+  endif()
+endfunction()
+
+# length(<json> <expected> path...): the number of elements of the array at a path.
+function(length json expected)
+  string(JSON value ERROR_VARIABLE error LENGTH "${json}" ${ARGN})
+  if(error OR NOT value EQUAL expected)
+    fail("length of ${ARGN} = '${value}' ${error}, expected ${expected}\nin ${json}")
+  endif()
+endfunction()
+
+# json_object(<name> <text>): the text (a command's stdout) is one JSON object.
+function(json_object name text)
+  string(JSON type ERROR_VARIABLE error TYPE "${text}")
+  if(NOT type STREQUAL "OBJECT")
+    fail("${name}: stdout is not one JSON object: ${text}")
+  endif()
+endfunction()
+
 # tiny(<json> <key>...): each value is below 1e-9.
 function(tiny json)
   foreach(key IN LISTS ARGN)
@@ -55,4 +97,20 @@ function(pgem_expect expected name)
   endif()
   set(${name}_out "${out}" PARENT_SCOPE)
   set(${name}_err "${err}" PARENT_SCOPE)
+endfunction()
+
+# pgem_ok(<name> args...): pgem_expect with exit code 0.
+function(pgem_ok name)
+  pgem_expect(0 ${name} ${ARGN})
+  set(${name}_out "${${name}_out}" PARENT_SCOPE)
+  set(${name}_err "${${name}_err}" PARENT_SCOPE)
+endfunction()
+
+# pgem_fails(<expected exit code> <name> <fragment> args...): pgem_expect, and stderr holds
+# the fragment.
+function(pgem_fails expected name fragment)
+  pgem_expect(${expected} ${name} ${ARGN})
+  contains(${name} "${${name}_err}" "${fragment}")
+  set(${name}_out "${${name}_out}" PARENT_SCOPE)
+  set(${name}_err "${${name}_err}" PARENT_SCOPE)
 endfunction()

@@ -1,54 +1,11 @@
 /* Proves the core allocates nothing while optimizing: malloc, calloc, realloc and free are
  * interposed and counted; after the symbolic analysis an optimize call must count zero, and
  * the analysis itself frees everything CSparse took. */
-#include <stdio.h>
-
 #include "test_util.h"
 
-#if defined(__SANITIZE_ADDRESS__)
-#define TEST_ALLOC_UNDER_SANITIZER 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define TEST_ALLOC_UNDER_SANITIZER 1
-#endif
-#endif
+#include "test_alloc_counters.h"
 
-#ifndef TEST_ALLOC_UNDER_SANITIZER
-/* glibc's own entry points, so the counters can forward to the real allocator. */
-extern void *__libc_malloc(size_t size);
-extern void *__libc_calloc(size_t count, size_t size);
-extern void *__libc_realloc(void *pointer, size_t size);
-extern void __libc_free(void *pointer);
-
-static long allocations; /* malloc + calloc + realloc calls of any kind */
-static long releases;    /* blocks handed back: free(p) and realloc(p, ...) count the
-                            block they end, so a balanced phase has allocations == releases */
-
-void *malloc(size_t size)
-{
-    allocations++;
-    return __libc_malloc(size);
-}
-
-void *calloc(size_t count, size_t size)
-{
-    allocations++;
-    return __libc_calloc(count, size);
-}
-
-void *realloc(void *pointer, size_t size)
-{
-    allocations++;
-    releases += pointer != NULL;
-    return __libc_realloc(pointer, size);
-}
-
-void free(void *pointer)
-{
-    releases += pointer != NULL;
-    __libc_free(pointer);
-}
-
+#if !TEST_UNDER_SANITIZER
 static void build(pgem_t *graph, double *truth, int dimension)
 {
     if (dimension == 2) {

@@ -1,12 +1,6 @@
 # pgem eval, end to end: writes small graphs, weights and outlier lists into WORK, runs the
 # tool and checks its numbers against values worked out by hand, and its errors.
 # Run by CTest as: cmake -DPGEM=<pgem executable> -DWORK=<scratch folder> -P test_cli_eval.cmake
-if(NOT PGEM OR NOT WORK)
-  message(FATAL_ERROR "usage: cmake -DPGEM=<pgem> -DWORK=<folder> -P test_cli_eval.cmake")
-endif()
-file(REMOVE_RECURSE "${WORK}")
-file(MAKE_DIRECTORY "${WORK}")
-
 include("${CMAKE_CURRENT_LIST_DIR}/cli_test_helpers.cmake")
 
 # eval(<expected exit code> <name> args...): runs pgem eval; sets <name>_out and <name>_err.
@@ -37,10 +31,7 @@ file(WRITE "${WORK}/rotated2.g2o"
   "VERTEX_SE2 5 3.6339745962155616 -2.633974596215561 -0.4764012244017012\n"
   "VERTEX_SE2 100 9 9 0\n")
 eval(0 rotated2 rotated2.g2o --reference ref2.g2o --json)
-string(JSON type ERROR_VARIABLE error TYPE "${rotated2_out}")
-if(NOT type STREQUAL "OBJECT")
-  fail("rotated2: stdout is not one JSON object: ${rotated2_out}")
-endif()
+json_object(rotated2 "${rotated2_out}")
 equals("${rotated2_out}" result "rotated2.g2o")
 equals("${rotated2_out}" reference "ref2.g2o")
 equals("${rotated2_out}" dimension 2)
@@ -207,70 +198,60 @@ equals("${no_outliers_out}" precision 0)
 equals("${no_outliers_out}" recall 1)
 
 # ---- errors ----------------------------------------------------------------------------------
-eval(3 missing no_such.g2o --reference square.txt)
-contains(missing "${missing_err}" "no_such.g2o: cannot open")
-eval(3 missing_weights square_moved.g2o --reference square.txt --outliers loops.outliers
-     --weights no_such.txt)
-contains(missing_weights "${missing_weights_err}" "no_such.txt: cannot open")
+pgem_fails(3 missing "no_such.g2o: cannot open" eval no_such.g2o --reference square.txt)
+pgem_fails(3 missing_weights "no_such.txt: cannot open" eval square_moved.g2o
+           --reference square.txt --outliers loops.outliers --weights no_such.txt)
 
 file(WRITE "${WORK}/bad_weights.txt" "# from to weight state\n0 4 1 accepted\n1 5 heavy accepted\n")
-eval(1 bad_weight square_moved.g2o --reference square.txt --outliers loops.outliers
-     --weights bad_weights.txt)
-contains(bad_weight "${bad_weight_err}" "bad_weights.txt:3: field 3 (weight) is not a finite number")
+pgem_fails(1 bad_weight "bad_weights.txt:3: field 3 (weight) is not a finite number" eval
+           square_moved.g2o --reference square.txt --outliers loops.outliers
+           --weights bad_weights.txt)
 file(WRITE "${WORK}/bad_state.txt" "0 4 1 accepted\n\n1 5 0.5 maybe\n")
-eval(1 bad_state square_moved.g2o --reference square.txt --outliers loops.outliers
-     --weights bad_state.txt)
-contains(bad_state "${bad_state_err}" "bad_state.txt:3: field 4 (state) must be accepted or pruned")
+pgem_fails(1 bad_state "bad_state.txt:3: field 4 (state) must be accepted or pruned" eval
+           square_moved.g2o --reference square.txt --outliers loops.outliers
+           --weights bad_state.txt)
 file(WRITE "${WORK}/short_weights.txt" "0 4 1\n")
-eval(1 short_weights square_moved.g2o --reference square.txt --outliers loops.outliers
-     --weights short_weights.txt)
-contains(short_weights "${short_weights_err}" "short_weights.txt:1: expected 4 fields")
+pgem_fails(1 short_weights "short_weights.txt:1: expected 4 fields" eval square_moved.g2o
+           --reference square.txt --outliers loops.outliers --weights short_weights.txt)
 file(WRITE "${WORK}/bad.outliers" "2 7\n2 -7\n")
-eval(1 bad_outliers square_moved.g2o --reference square.txt --outliers bad.outliers
-     --weights weights.txt)
-contains(bad_outliers "${bad_outliers_err}" "bad.outliers:2: field 2 (to) is not an unsigned 64-bit id")
+pgem_fails(1 bad_outliers "bad.outliers:2: field 2 (to) is not an unsigned 64-bit id" eval
+           square_moved.g2o --reference square.txt --outliers bad.outliers --weights weights.txt)
 
 file(WRITE "${WORK}/absent.outliers" "2 7\n7 2\n")
-eval(1 absent square_moved.g2o --reference square.txt --outliers absent.outliers
-     --weights weights.txt)
-contains(absent "${absent_err}" "absent.outliers:2: false loop 7 2 is not in weights.txt")
+pgem_fails(1 absent "absent.outliers:2: false loop 7 2 is not in weights.txt" eval square_moved.g2o
+           --reference square.txt --outliers absent.outliers --weights weights.txt)
 file(WRITE "${WORK}/thrice.outliers" "# 5 9 is in weights.txt three times\n5 9\n5 9\n5 9\n5 9\n")
-eval(1 thrice square_moved.g2o --reference square.txt --outliers thrice.outliers
-     --weights weights.txt)
-contains(thrice "${thrice_err}" "thrice.outliers:5: false loop 5 9 is listed 4 times but weights.txt has it only 3 times")
+pgem_fails(1 thrice
+           "thrice.outliers:5: false loop 5 9 is listed 4 times but weights.txt has it only 3 times"
+           eval square_moved.g2o --reference square.txt --outliers thrice.outliers
+           --weights weights.txt)
 
-eval(1 dimensions rotated3.g2o --reference square.txt)
-contains(dimensions "${dimensions_err}" "dimensions differ: rotated3.g2o is 3D, square.txt is 2D")
+pgem_fails(1 dimensions "dimensions differ: rotated3.g2o is 3D, square.txt is 2D" eval rotated3.g2o
+           --reference square.txt)
 file(WRITE "${WORK}/other_ids.g2o" "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 50 1 1 1\nVERTEX_SE2 51 1 1 1\n")
-eval(1 one_match other_ids.g2o --reference square.txt)
-contains(one_match "${one_match_err}" "1 pose id(s) in both other_ids.g2o and square.txt; at least 2 must match")
+pgem_fails(1 one_match "1 pose id(s) in both other_ids.g2o and square.txt; at least 2 must match"
+           eval other_ids.g2o --reference square.txt)
 file(WRITE "${WORK}/empty.g2o" "# nothing\n")
-eval(1 empty empty.g2o --reference square.txt)
-contains(empty "${empty_err}" "empty.g2o has no poses")
+pgem_fails(1 empty "empty.g2o has no poses" eval empty.g2o --reference square.txt)
 file(WRITE "${WORK}/broken.g2o" "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 2 zero 0\n")
-eval(1 broken square_moved.g2o --reference broken.g2o)
-contains(broken "${broken_err}" "broken.g2o:2:")
+pgem_fails(1 broken "broken.g2o:2:" eval square_moved.g2o --reference broken.g2o)
 file(WRITE "${WORK}/bad_quat.g2o" "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT 1 1 0 0 0 0 0 2\n")
-eval(1 bad_quat bad_quat.g2o --reference ref3.g2o)
-contains(bad_quat "${bad_quat_err}" "bad_quat.g2o:2: pose 1 has a quaternion of norm 2")
+pgem_fails(1 bad_quat "bad_quat.g2o:2: pose 1 has a quaternion of norm 2" eval bad_quat.g2o
+           --reference ref3.g2o)
 
 # ---- command line ------------------------------------------------------------------------------
-eval(2 no_args)
-contains(no_args "${no_args_err}" "usage: pgem eval RESULT --reference REF")
+pgem_fails(2 no_args "usage: pgem eval RESULT --reference REF" eval)
 eval(0 help --help)
 contains(help "${help_out}" "usage: pgem eval RESULT --reference REF")
-eval(2 no_reference square_moved.g2o)
-contains(no_reference "${no_reference_err}" "--reference REF are required")
-eval(2 outliers_alone square_moved.g2o --reference square.txt --outliers loops.outliers)
-contains(outliers_alone "${outliers_alone_err}" "--outliers and --weights go together")
-eval(2 weights_alone square_moved.g2o --reference square.txt --weights weights.txt)
-contains(weights_alone "${weights_alone_err}" "--outliers and --weights go together")
-eval(2 bad_threshold square_moved.g2o --reference square.txt --outliers loops.outliers
-     --weights weights.txt --reject-below -1)
-contains(bad_threshold "${bad_threshold_err}" "--reject-below needs a non-negative number")
-eval(2 list_alone square_moved.g2o --reference square.txt --list)
-contains(list_alone "${list_alone_err}" "--list needs --outliers and --weights")
-eval(2 unknown square_moved.g2o --reference square.txt --align sim3)
-contains(unknown "${unknown_err}" "unknown option '--align'")
-eval(2 dangling square_moved.g2o --reference)
-contains(dangling "${dangling_err}" "--reference needs a file name")
+pgem_fails(2 no_reference "--reference REF are required" eval square_moved.g2o)
+pgem_fails(2 outliers_alone "--outliers and --weights go together" eval square_moved.g2o
+           --reference square.txt --outliers loops.outliers)
+pgem_fails(2 weights_alone "--outliers and --weights go together" eval square_moved.g2o
+           --reference square.txt --weights weights.txt)
+pgem_fails(2 bad_threshold "--reject-below needs a non-negative number" eval square_moved.g2o
+           --reference square.txt --outliers loops.outliers --weights weights.txt --reject-below -1)
+pgem_fails(2 list_alone "--list needs --outliers and --weights" eval square_moved.g2o
+           --reference square.txt --list)
+pgem_fails(2 unknown "unknown option '--align'" eval square_moved.g2o --reference square.txt
+           --align sim3)
+pgem_fails(2 dangling "--reference needs a file name" eval square_moved.g2o --reference)

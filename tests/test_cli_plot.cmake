@@ -3,12 +3,6 @@
 # a rotated ground truth, runs the tool and reads the SVG back: well formed, one <path> per
 # kind of line with the expected number of strokes, the legend counts, and the errors.
 # Run by CTest as: cmake -DPGEM=<pgem executable> -DWORK=<scratch folder> -P test_cli_plot.cmake
-if(NOT PGEM OR NOT WORK)
-  message(FATAL_ERROR "usage: cmake -DPGEM=<pgem> -DWORK=<folder> -P test_cli_plot.cmake")
-endif()
-file(REMOVE_RECURSE "${WORK}")
-file(MAKE_DIRECTORY "${WORK}")
-
 include("${CMAKE_CURRENT_LIST_DIR}/cli_test_helpers.cmake")
 
 # plot(<expected exit code> <name> args...): runs pgem plot; sets <name>_out and <name>_err.
@@ -212,8 +206,7 @@ endif()
 plot(0 help --help)
 contains(help "${help_out}" "usage: pgem plot GRAPH")
 plot(2 no_arguments)
-plot(2 no_output g2.g2o)
-contains(no_output "${no_output_err}" "pgem plot: ")
+pgem_fails(2 no_output "pgem plot: " plot g2.g2o)
 plot(2 two_graphs g2.g2o g3.g2o -o x.svg)
 plot(2 unknown_option g2.g2o --colour red -o x.svg)
 plot(2 no_value g2.g2o -o x.svg --weights)
@@ -225,22 +218,18 @@ plot(3 missing_before g2.g2o --before nothing.g2o -o x.svg)
 plot(3 unwritable g2.g2o -o no_such_folder/x.svg)
 
 file(WRITE "${WORK}/bad.g2o" "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 one 0 0\n")
-plot(1 malformed bad.g2o -o bad.svg)
-contains(malformed "${malformed_err}" "bad.g2o:2")
+pgem_fails(1 malformed "bad.g2o:2" plot bad.g2o -o bad.svg)
 file(WRITE "${WORK}/empty.g2o" "# nothing here\n")
-plot(1 empty empty.g2o -o empty.svg)
-contains(empty "${empty_err}" "has no poses")
+pgem_fails(1 empty "has no poses" plot empty.g2o -o empty.svg)
 file(WRITE "${WORK}/w_bad.txt" "# from to weight state\n7 0 1 accepted\n6 0 heavy accepted\n")
-plot(1 bad_weights g2.g2o --weights w_bad.txt -o bad_weights.svg)
-contains(bad_weights "${bad_weights_err}" "w_bad.txt:3")
+pgem_fails(1 bad_weights "w_bad.txt:3" plot g2.g2o --weights w_bad.txt -o bad_weights.svg)
 file(WRITE "${WORK}/o_bad.outliers" "2 6\n4 1\n")
-plot(1 bad_outliers g2.g2o --weights w2.txt --outliers o_bad.outliers -o bad_outliers.svg)
-contains(bad_outliers "${bad_outliers_err}" "o_bad.outliers:2")
+pgem_fails(1 bad_outliers "o_bad.outliers:2" plot g2.g2o --weights w2.txt --outliers o_bad.outliers
+           -o bad_outliers.svg)
 file(WRITE "${WORK}/w_unknown.txt" "7 0 1 accepted\n7 99 1 pruned\n")
-plot(1 unknown_pose g2.g2o --weights w_unknown.txt -o unknown_pose.svg)
-contains(unknown_pose "${unknown_pose_err}" "w_unknown.txt:2: loop 7 99: pose 99 is not in")
-plot(1 truth_dimension g2.g2o --truth g3.g2o -o truth_dimension.svg)
-contains(truth_dimension "${truth_dimension_err}" "dimensions differ")
+pgem_fails(1 unknown_pose "w_unknown.txt:2: loop 7 99: pose 99 is not in" plot g2.g2o
+           --weights w_unknown.txt -o unknown_pose.svg)
+pgem_fails(1 truth_dimension "dimensions differ" plot g2.g2o --truth g3.g2o -o truth_dimension.svg)
 plot(1 before_dimension g2.g2o --before g3.g2o -o before_dimension.svg)
 foreach(name bad empty bad_weights bad_outliers unknown_pose truth_dimension before_dimension)
   if(EXISTS "${WORK}/${name}.svg")

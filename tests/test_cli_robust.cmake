@@ -3,28 +3,23 @@
 # `pgem optimize --robust em` (precision = recall = 1 from `pgem eval`), the map is the clean
 # optimum, and the same input gives the same bits.
 # Run by CTest as: cmake -DPGEM=<pgem> -DWORK=<folder> [-DDATASETS=<dir>] -P test_cli_robust.cmake
-if(NOT PGEM OR NOT WORK)
-  message(FATAL_ERROR "usage: cmake -DPGEM=<pgem> -DWORK=<folder> [-DDATASETS=<dir>] -P test_cli_robust.cmake")
-endif()
-file(REMOVE_RECURSE "${WORK}")
-file(MAKE_DIRECTORY "${WORK}")
 include("${CMAKE_CURRENT_LIST_DIR}/cli_test_helpers.cmake")
 
-# pgem(<name> args...): runs pgem, fails on a non-zero exit; sets <name>_out.
-macro(pgem name)
-  pgem_expect(0 ${name} ${ARGN})
-endmacro()
+# reference(<tag> <clean graph>): the clean graph's optimum, written to <tag>_ref.g2o.
+function(reference tag clean)
+  pgem_ok(${tag}_reference optimize "${clean}" -o ${tag}_ref.g2o --quiet)
+endfunction()
 
-# all_found(<label> <clean graph> <policy> <count>): corrupt, robust solve, score against the
-# clean optimum. Every false loop rejected, no true loop rejected, the map the clean one.
-function(all_found label clean policy count)
-  pgem(${label}_reference optimize "${clean}" -o ${label}_ref.g2o --quiet)
-  pgem(${label}_corrupt corrupt "${clean}" -o ${label}_bad.g2o --policy ${policy}
-       --count ${count} --seed 1)
-  pgem(${label}_solve optimize ${label}_bad.g2o --robust em -o ${label}_res.g2o
-       --weights ${label}_w.txt --quiet)
-  pgem(${label}_eval eval ${label}_res.g2o --reference ${label}_ref.g2o
-       --outliers ${label}_bad.g2o.outliers --weights ${label}_w.txt --json)
+# all_found(<label> <clean graph> <its reference> <policy> <count>): corrupt, robust solve,
+# score against the clean optimum. Every false loop rejected, no true loop rejected, the map
+# the clean one.
+function(all_found label clean reference policy count)
+  pgem_ok(${label}_corrupt corrupt "${clean}" -o ${label}_bad.g2o --policy ${policy}
+          --count ${count} --seed 1)
+  pgem_ok(${label}_solve optimize ${label}_bad.g2o --robust em -o ${label}_res.g2o
+          --weights ${label}_w.txt --quiet)
+  pgem_ok(${label}_eval eval ${label}_res.g2o --reference ${reference}
+          --outliers ${label}_bad.g2o.outliers --weights ${label}_w.txt --json)
   set(json "${${label}_eval_out}")
   message(STATUS "${label}: ${json}")
   equals("${json}" outliers ${count})
@@ -35,13 +30,14 @@ function(all_found label clean policy count)
 endfunction()
 
 # A simulated Manhattan walk (independent of the shared datasets).
-pgem(simulate simulate -o sim.g2o --poses 800 --seed 5)
+pgem_ok(simulate simulate -o sim.g2o --poses 800 --seed 5)
+reference(sim sim.g2o)
 foreach(policy random local random-grouped local-grouped)
-  all_found(sim_${policy} sim.g2o ${policy} 50)
+  all_found(sim_${policy} sim.g2o sim_ref.g2o ${policy} 50)
 endforeach()
 
 # Determinism: the same corrupted input twice gives byte-identical graphs and weights.
-pgem(again optimize sim_random_bad.g2o --robust em -o again.g2o --weights again_w.txt --quiet)
+pgem_ok(again optimize sim_random_bad.g2o --robust em -o again.g2o --weights again_w.txt --quiet)
 foreach(pair "sim_random_res.g2o;again.g2o" "sim_random_w.txt;again_w.txt")
   list(GET pair 0 first)
   list(GET pair 1 second)
@@ -54,29 +50,31 @@ endforeach()
 
 # Shared datasets (skipped with a note when the folder is not beside the repository).
 if(DATASETS AND EXISTS "${DATASETS}/2d/intel.g2o" AND EXISTS "${DATASETS}/2d/input_M3500_g2o.g2o")
+  set(intel "${DATASETS}/2d/intel.g2o")
+  set(m3500 "${DATASETS}/2d/input_M3500_g2o.g2o")
+  reference(intel "${intel}")
   foreach(policy random local random-grouped local-grouped)
-    all_found(intel_${policy} "${DATASETS}/2d/intel.g2o" ${policy} 100)
+    all_found(intel_${policy} "${intel}" intel_ref.g2o ${policy} 100)
   endforeach()
-  all_found(m3500_random "${DATASETS}/2d/input_M3500_g2o.g2o" random 100)
-  all_found(m3500_grouped "${DATASETS}/2d/input_M3500_g2o.g2o" local-grouped 100)
+  reference(m3500 "${m3500}")
+  all_found(m3500_random "${m3500}" m3500_ref.g2o random 100)
+  all_found(m3500_grouped "${m3500}" m3500_ref.g2o local-grouped 100)
 else()
   message(STATUS "shared datasets not found (DATASETS='${DATASETS}'): dataset cells skipped")
 endif()
 
 # corrupt --information: the false loops carry the given matrix; a bad one is refused before
 # anything is written.
-pgem(information corrupt sim.g2o -o info.g2o --policy random --count 2 --seed 3
-     --information 1,0,0,2,0,3)
+pgem_ok(information corrupt sim.g2o -o info.g2o --policy random --count 2 --seed 3
+        --information 1,0,0,2,0,3)
 file(STRINGS "${WORK}/info.g2o" edges REGEX "^EDGE_SE2")
 list(GET edges -1 last)
 string(REGEX MATCH " 1 0 0 2 0 3$" tail "${last}")
 if(NOT tail)
   fail("--information: last edge is '${last}'")
 endif()
-execute_process(COMMAND "${PGEM}" corrupt sim.g2o -o refused.g2o --policy random --count 2
-                        --seed 3 --information 1,5,0,2,0,3
-                WORKING_DIRECTORY "${WORK}" RESULT_VARIABLE code ERROR_VARIABLE err)
-contains("refused" "${err}" "not positive definite")
-if(NOT code EQUAL 2 OR EXISTS "${WORK}/refused.g2o" OR EXISTS "${WORK}/refused.g2o.outliers")
-  fail("--information not positive definite: exit ${code}, or files were written")
+pgem_fails(2 refused "not positive definite" corrupt sim.g2o -o refused.g2o --policy random
+           --count 2 --seed 3 --information 1,5,0,2,0,3)
+if(EXISTS "${WORK}/refused.g2o" OR EXISTS "${WORK}/refused.g2o.outliers")
+  fail("--information not positive definite: files were written")
 endif()

@@ -4,17 +4,7 @@
 # chi2 at the truth and at the optimum show that the information matches the noise drawn.
 # Also the usage errors (unknown world, too few poses) exit 2 with a message.
 # Run by CTest as: cmake -DPGEM=<pgem executable> -DWORK=<scratch folder> -P test_cli_simulate.cmake
-if(NOT PGEM OR NOT WORK)
-  message(FATAL_ERROR "usage: cmake -DPGEM=<pgem> -DWORK=<folder> -P test_cli_simulate.cmake")
-endif()
-file(REMOVE_RECURSE "${WORK}")
-file(MAKE_DIRECTORY "${WORK}")
 include("${CMAKE_CURRENT_LIST_DIR}/cli_test_helpers.cmake")
-
-# pgem(<expected exit code> <name> args...): runs pgem; sets <name>_out and <name>_err.
-macro(pgem expected name)
-  pgem_expect(${expected} ${name} ${ARGN})
-endmacro()
 
 # hash(<file> <out variable>): SHA-256 of a file in WORK.
 function(hash name variable)
@@ -70,9 +60,9 @@ endfunction()
 function(check_world world poses dimension max_relative)
   set(label "${world}")
   set(args simulate --world ${world} --poses ${poses})
-  pgem(0 ${label}_a ${args} --seed 1 -o ${world}_a.g2o --truth ${world}_truth_a.g2o)
-  pgem(0 ${label}_b ${args} --seed 1 -o ${world}_b.g2o --truth ${world}_truth_b.g2o)
-  pgem(0 ${label}_c ${args} --seed 2 -o ${world}_c.g2o)
+  pgem_ok(${label}_a ${args} --seed 1 -o ${world}_a.g2o --truth ${world}_truth_a.g2o)
+  pgem_ok(${label}_b ${args} --seed 1 -o ${world}_b.g2o --truth ${world}_truth_b.g2o)
+  pgem_ok(${label}_c ${args} --seed 2 -o ${world}_c.g2o)
   hash(${world}_a.g2o a)
   hash(${world}_b.g2o b)
   hash(${world}_c.g2o c)
@@ -118,9 +108,9 @@ function(check_world world poses dimension max_relative)
   set(${world}_loops ${loops} PARENT_SCOPE)
 
   # The truth's chi2 (no iteration) and the solve from the odometry-composed estimate.
-  pgem(0 ${label}_truth optimize ${world}_truth_a.g2o --max-iterations 0 --json)
+  pgem_ok(${label}_truth optimize ${world}_truth_a.g2o --max-iterations 0 --json)
   json_value("${${label}_truth_out}" initial_chi2 truth_chi2)
-  pgem(0 ${label}_solve optimize ${world}_a.g2o -o ${world}_opt.g2o --json)
+  pgem_ok(${label}_solve optimize ${world}_a.g2o -o ${world}_opt.g2o --json)
   set(solve "${${label}_solve_out}")
   contains(${label} "${${label}_solve_err}"
            "${dimension}D, ${poses} poses, ${edges} edges (${odometry} odometry, ${loops} loop closures)")
@@ -138,8 +128,8 @@ function(check_world world poses dimension max_relative)
   chi2_band("${label} at the truth" "${truth_chi2}" ${truth_dof})
   chi2_band("${label} at the optimum" "${final_chi2}" ${final_dof})
 
-  pgem(0 ${label}_eval eval ${world}_opt.g2o --reference ${world}_truth_a.g2o --json)
-  pgem(0 ${label}_initial eval ${world}_a.g2o --reference ${world}_truth_a.g2o --json)
+  pgem_ok(${label}_eval eval ${world}_opt.g2o --reference ${world}_truth_a.g2o --json)
+  pgem_ok(${label}_initial eval ${world}_a.g2o --reference ${world}_truth_a.g2o --json)
   set(eval "${${label}_eval_out}")
   equals("${eval}" poses_matched ${poses})
   within("${eval}" ate_translation_rmse 0 0.15)
@@ -175,7 +165,7 @@ file(STRINGS "${WORK}/sphere_truth_a.g2o" first_vertex REGEX "^VERTEX_SE3:QUAT 0
 if(NOT first_vertex STREQUAL "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1")
   fail("sphere: the first true pose is '${first_vertex}', not the identity")
 endif()
-pgem(0 sphere_half simulate --world sphere --poses 900 --loop-probability 0.5 -o sphere_half.g2o)
+pgem_ok(sphere_half simulate --world sphere --poses 900 --loop-probability 0.5 -o sphere_half.g2o)
 if(NOT sphere_half_out MATCHES "simulated sphere world: 900 poses, ([0-9]+) edges \\(([0-9]+) loop")
   fail("sphere_half: unexpected summary: ${sphere_half_out}")
 elseif(CMAKE_MATCH_2 LESS 380 OR CMAKE_MATCH_2 GREATER 490)
@@ -211,18 +201,16 @@ if(NOT checked EQUAL grid3d_loops)
 endif()
 
 # Usage errors: exit 2 with a message on stderr, nothing written.
-pgem(2 bad_world simulate --world mars -o bad.g2o)
-contains(bad_world "${bad_world_err}" "--world takes manhattan, sphere or grid3d (got 'mars')")
-pgem(2 zero_poses simulate --world sphere --poses 0 -o bad.g2o)
-contains(zero_poses "${zero_poses_err}" "--poses needs at least 2 poses, got 0")
-pgem(2 one_pose simulate --poses 1 -o bad.g2o)
-contains(one_pose "${one_pose_err}" "--poses needs at least 2 poses, got 1")
-pgem(2 probability simulate --world grid3d --loop-probability 1.5 -o bad.g2o)
-contains(probability "${probability_err}" "--loop-probability must be at most 1")
-pgem(2 no_output simulate --world grid3d)
-contains(no_output "${no_output_err}" "-o OUT.g2o is required")
+pgem_fails(2 bad_world "--world takes manhattan, sphere or grid3d (got 'mars')" simulate
+           --world mars -o bad.g2o)
+pgem_fails(2 zero_poses "--poses needs at least 2 poses, got 0" simulate --world sphere --poses 0
+           -o bad.g2o)
+pgem_fails(2 one_pose "--poses needs at least 2 poses, got 1" simulate --poses 1 -o bad.g2o)
+pgem_fails(2 probability "--loop-probability must be at most 1" simulate --world grid3d
+           --loop-probability 1.5 -o bad.g2o)
+pgem_fails(2 no_output "-o OUT.g2o is required" simulate --world grid3d)
 if(EXISTS "${WORK}/bad.g2o")
   fail("a rejected command line wrote bad.g2o")
 endif()
-pgem(0 help simulate --help)
+pgem_ok(help simulate --help)
 contains(help "${help_out}" "--world manhattan|sphere|grid3d")

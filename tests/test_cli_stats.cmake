@@ -2,42 +2,12 @@
 # counts, the verdict and the exit code; then, when the shared datasets are present, checks
 # intel.g2o against counts made here from its lines.
 # Run by CTest as: cmake -DPGEM=<pgem> -DWORK=<folder> [-DDATASETS=<dir>] -P test_cli_stats.cmake
-if(NOT PGEM OR NOT WORK)
-  message(FATAL_ERROR "usage: cmake -DPGEM=<pgem> -DWORK=<folder> [-DDATASETS=<dir>] -P test_cli_stats.cmake")
-endif()
-file(REMOVE_RECURSE "${WORK}")
-file(MAKE_DIRECTORY "${WORK}")
 include("${CMAKE_CURRENT_LIST_DIR}/cli_test_helpers.cmake")
 
 # stats(<expected exit code> <name> args...): runs pgem stats; sets <name>_out and <name>_err.
 macro(stats expected name)
   pgem_expect(${expected} ${name} stats ${ARGN})
 endmacro()
-
-# expect(<json> key value key value ...): every key has exactly that value.
-function(expect json)
-  set(pairs ${ARGN})
-  while(pairs)
-    list(POP_FRONT pairs key value)
-    equals("${json}" "${key}" "${value}")
-  endwhile()
-endfunction()
-
-# nested(<json> <expected> path...): the value at a path of keys and indices.
-function(nested json expected)
-  string(JSON value ERROR_VARIABLE error GET "${json}" ${ARGN})
-  if(error OR NOT value STREQUAL "${expected}")
-    fail("${ARGN} = '${value}' ${error}, expected ${expected}\nin ${json}")
-  endif()
-endfunction()
-
-# length(<json> <expected> path...): the number of elements of the array at a path.
-function(length json expected)
-  string(JSON value ERROR_VARIABLE error LENGTH "${json}" ${ARGN})
-  if(error OR NOT value EQUAL expected)
-    fail("length of ${ARGN} = '${value}' ${error}, expected ${expected}\nin ${json}")
-  endif()
-endfunction()
 
 set(I2 "100 0 0 100 0 400")
 
@@ -49,10 +19,7 @@ file(WRITE "${WORK}/clean.g2o"
   "EDGE_SE2 2 3 1 0 1.5707963 ${I2}\nEDGE_SE2 3 4 1 0 1.5707963 ${I2}\n"
   "EDGE_SE2 4 0 0 0 0 ${I2}\n")
 stats(0 clean clean.g2o --json)
-string(JSON type ERROR_VARIABLE error TYPE "${clean_out}")
-if(NOT type STREQUAL "OBJECT")
-  fail("clean: stdout is not one JSON object: ${clean_out}")
-endif()
+json_object(clean "${clean_out}")
 expect("${clean_out}" verdict ok file clean.g2o dimension 2 poses 5 edges 5 odometry 4 loops 1
        degree_min 2 degree_max 2 degree0 0 degree1 0 loop_leaves 0 components 1
        components_without_fixed 0 duplicate_pairs 0 self_loops 0 information_ok 5
@@ -150,8 +117,7 @@ nested("${bad3_out}" 2 quaternions_refused_first 0 pose)
 
 # ---- files the reader refuses or cannot open; empty files; the command line --------------------
 file(WRITE "${WORK}/nan.g2o" "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 nan 0 0\n")
-stats(1 nan nan.g2o)
-contains(nan "${nan_err}" "pgem stats: nan.g2o:2:")
+pgem_fails(1 nan "pgem stats: nan.g2o:2:" stats nan.g2o)
 stats(3 absent absent.g2o)
 file(WRITE "${WORK}/empty.g2o" "# nothing\nVERTEX3 0 0 0 0 0 0 0\n")
 stats(1 empty empty.g2o --json)

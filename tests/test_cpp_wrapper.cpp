@@ -7,76 +7,25 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <new>
 #include <string>
 #include <type_traits>
 #include <utility>
 
-// cmocka comes last (its fail() macro would clash with the C++ headers); cmocka 1.1 has no
-// C++ guards of its own.
-#include <cstdarg>
-#include <cstddef>
-#include <csetjmp>
-#include <cstdint>
-extern "C" {
-#include <cmocka.h>
-}
+#include "test_alloc_counters.h"
 
-#if defined(__SANITIZE_ADDRESS__)
-#define TEST_UNDER_SANITIZER 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define TEST_UNDER_SANITIZER 1
-#endif
-#endif
-#ifndef TEST_UNDER_SANITIZER
-#define TEST_UNDER_SANITIZER 0
-#endif
+// cmocka (through test_util.h) comes last: its fail() macro would clash with the C++ headers.
+#include "test_util.h"
 
 // ---- allocation counters ------------------------------------------------------------------------
-// The malloc family is interposed (as tests/test_alloc.c does) and the global operator new and
-// delete are replaced, so both C and C++ allocations are seen. AddressSanitizer owns malloc, so
-// the sanitizer build does not count (the plain build does).
+// test_alloc_counters.h interposes and counts the malloc family (as tests/test_alloc.c does); the
+// global operator new and delete are replaced here, so both C and C++ allocations are seen.
+// AddressSanitizer owns malloc, so the sanitizer build does not count (the plain build does).
 namespace {
-long allocations = 0; // malloc + calloc + realloc calls
-long releases = 0;    // blocks handed back (free, realloc of a block)
-long news = 0;        // operator new calls of any form
+long news = 0; // operator new calls of any form
 } // namespace
 
 #if !TEST_UNDER_SANITIZER
-extern "C" {
-void *__libc_malloc(std::size_t size) noexcept;
-void *__libc_calloc(std::size_t count, std::size_t size) noexcept;
-void *__libc_realloc(void *pointer, std::size_t size) noexcept;
-void __libc_free(void *pointer) noexcept;
-
-void *malloc(std::size_t size) noexcept
-{
-    allocations++;
-    return __libc_malloc(size);
-}
-
-void *calloc(std::size_t count, std::size_t size) noexcept
-{
-    allocations++;
-    return __libc_calloc(count, size);
-}
-
-void *realloc(void *pointer, std::size_t size) noexcept
-{
-    allocations++;
-    releases += pointer != nullptr;
-    return __libc_realloc(pointer, size);
-}
-
-void free(void *pointer) noexcept
-{
-    releases += pointer != nullptr;
-    __libc_free(pointer);
-}
-}
-
 namespace {
 void *counted_new(std::size_t size)
 {
@@ -128,22 +77,6 @@ namespace {
 // ---- helpers ------------------------------------------------------------------------------------
 
 constexpr double kPi = 3.14159265358979323846;
-
-#define assert_near(actual, expected, tolerance)                                                   \
-    do {                                                                                           \
-        const double near_a = (actual), near_e = (expected);                                       \
-        if (!(std::fabs(near_a - near_e) <= (tolerance))) {                                        \
-            fail_msg("%s = %.17g, expected %.17g (tolerance %g)", #actual, near_a, near_e,         \
-                     static_cast<double>(tolerance));                                              \
-        }                                                                                          \
-    } while (0)
-
-#define assert_contains(text, part)                                                                \
-    do {                                                                                           \
-        if (std::strstr((text), (part)) == nullptr) {                                              \
-            fail_msg("\"%s\" does not contain \"%s\"", (text), (part));                            \
-        }                                                                                          \
-    } while (0)
 
 Eigen::Isometry2d se2(double x, double y, double theta)
 {

@@ -1,9 +1,6 @@
 /* The shared public datasets optimized to the optimum g2o reaches (REFERENCE_OPTIMA.md): the
  * initial chi2 checks the error conventions, the final chi2 the solver. Skips without data. */
-#include <stdio.h>
-
-#include "pgem/io.h"
-#include "test_util.h"
+#include "test_io_util.h"
 
 /* One dataset and what REFERENCE_OPTIMA.md says of it. */
 typedef struct dataset_case {
@@ -22,52 +19,15 @@ static const dataset_case_t cases[] = {
     {"3d/sphere2500.g2o", PGEM_GAUSS_NEWTON, 2547810.849, 727.1522316},
 };
 
-static const char *datasets_dir(void)
-{
-    const char *dir = getenv("PGEM_DATASETS");
-    char probe[4096];
-    if (dir == NULL || dir[0] == '\0') {
-        return NULL;
-    }
-    snprintf(probe, sizeof probe, "%s/2d/intel.g2o", dir);
-    FILE *file = fopen(probe, "r");
-    if (file == NULL) {
-        return NULL;
-    }
-    fclose(file);
-    return dir;
-}
-
-static pgem_t *load(const char *path)
-{
-    pgem_io_graph_t file = {0};
-    char message[1024];
-    int status = pgem_io_read(path, PGEM_FORMAT_AUTO, &file, message, sizeof message);
-    if (status != PGEM_OK) {
-        fail_msg("%s", message);
-    }
-    pgem_config_t config;
-    pgem_io_config(&file, &config);
-    pgem_t *graph = NULL;
-    assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
-    status = pgem_io_load(&file, graph, message, sizeof message);
-    if (status != PGEM_OK) {
-        fail_msg("%s", message);
-    }
-    pgem_io_graph_free(&file);
-    return graph;
-}
-
 static void run_case(const dataset_case_t *item)
 {
-    const char *dir = datasets_dir();
+    const char *dir = test_datasets_dir("2d/intel.g2o");
     if (dir == NULL) {
-        print_message("skipped: PGEM_DATASETS does not point at the shared datasets folder\n");
         skip();
     }
     char path[4096];
     snprintf(path, sizeof path, "%s/%s", dir, item->file);
-    pgem_t *graph = load(path);
+    pgem_t *graph = test_load_file(path);
     assert_near(pgem_total_chi2(graph), item->initial_chi2, 1e-6 * item->initial_chi2);
     pgem_solve_options_t options = {0};
     options.method = item->method;

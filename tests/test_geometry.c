@@ -1,15 +1,5 @@
 /* Geometry tests: Jacobians vs central differences, exp/log, group identities, aliasing, wrap. */
-#include <stdarg.h>
-#include <stddef.h>
-#include <stdint.h>
-#include <setjmp.h>
-#include <cmocka.h>
-
-#include <math.h>
-#include <stdio.h>
-#include <string.h>
-
-#include <pgem/geometry.h>
+#include "test_util.h"
 
 #define PI 3.14159265358979323846
 #define JACOBIAN_SAMPLES 5000
@@ -24,35 +14,18 @@
 #define JACOBIAN_MAX (TANGENT_MAX * TANGENT_MAX)
 #define LABEL_SIZE 64
 
-/* ---- deterministic random numbers (splitmix64) ---------------------------------------- */
+/* ---- random samples (test_util.h's splitmix64) ----------------------------------------- */
 
-typedef struct {
-    uint64_t state;
-} rng_t;
-
-static uint64_t rng_next(rng_t *rng) {
-    uint64_t z = (rng->state += UINT64_C(0x9E3779B97F4A7C15));
-    z = (z ^ (z >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
-    z = (z ^ (z >> 27)) * UINT64_C(0x94D049BB133111EB);
-    return z ^ (z >> 31);
-}
-
-/* Uniform in [lo, hi). */
-static double rng_uniform(rng_t *rng, double lo, double hi) {
-    const double unit = (double)(rng_next(rng) >> 11) * (1.0 / 9007199254740992.0);
-    return lo + (hi - lo) * unit;
-}
-
-static void random_unit_vector(rng_t *rng, double v[3]) {
-    const double z = rng_uniform(rng, -1.0, 1.0);
-    const double azimuth = rng_uniform(rng, -PI, PI);
+static void random_unit_vector(test_rng_t *rng, double v[3]) {
+    const double z = test_uniform_in(rng, -1.0, 1.0);
+    const double azimuth = test_uniform_in(rng, -PI, PI);
     const double r = sqrt(1.0 - z * z);
     v[0] = r * cos(azimuth);
     v[1] = r * sin(azimuth);
     v[2] = z;
 }
 
-static void random_axis_angle(rng_t *rng, double angle, double phi[3]) {
+static void random_axis_angle(test_rng_t *rng, double angle, double phi[3]) {
     random_unit_vector(rng, phi);
     for (int k = 0; k < 3; ++k) {
         phi[k] *= angle;
@@ -60,66 +33,59 @@ static void random_axis_angle(rng_t *rng, double angle, double phi[3]) {
 }
 
 /* Uniformly distributed unit quaternion (Shoemake). */
-static void random_quaternion(rng_t *rng, double q[4]) {
-    const double u1 = rng_uniform(rng, 0.0, 1.0);
-    const double a = rng_uniform(rng, 0.0, 2.0 * PI), b = rng_uniform(rng, 0.0, 2.0 * PI);
+static void random_quaternion(test_rng_t *rng, double q[4]) {
+    const double u1 = test_uniform_in(rng, 0.0, 1.0);
+    const double a = test_uniform_in(rng, 0.0, 2.0 * PI), b = test_uniform_in(rng, 0.0, 2.0 * PI);
     q[0] = sqrt(1.0 - u1) * sin(a);
     q[1] = sqrt(1.0 - u1) * cos(a);
     q[2] = sqrt(u1) * sin(b);
     q[3] = sqrt(u1) * cos(b);
 }
 
-static void random_se2(rng_t *rng, double pose[3]) {
-    pose[0] = rng_uniform(rng, -10.0, 10.0);
-    pose[1] = rng_uniform(rng, -10.0, 10.0);
-    pose[2] = rng_uniform(rng, -PI, PI);
+static void random_se2(test_rng_t *rng, double pose[3]) {
+    pose[0] = test_uniform_in(rng, -10.0, 10.0);
+    pose[1] = test_uniform_in(rng, -10.0, 10.0);
+    pose[2] = test_uniform_in(rng, -PI, PI);
 }
 
-static void random_se3(rng_t *rng, double pose[7]) {
+static void random_se3(test_rng_t *rng, double pose[7]) {
     for (int k = 0; k < 3; ++k) {
-        pose[k] = rng_uniform(rng, -10.0, 10.0);
+        pose[k] = test_uniform_in(rng, -10.0, 10.0);
     }
     random_quaternion(rng, pose + 3);
 }
 
 /* Tangents for the exp/log round trips: translation in [-5, 5), rotation by exactly angle. */
-static void random_se2_tangent(rng_t *rng, double angle, double tangent[3]) {
-    tangent[0] = rng_uniform(rng, -5.0, 5.0);
-    tangent[1] = rng_uniform(rng, -5.0, 5.0);
+static void random_se2_tangent(test_rng_t *rng, double angle, double tangent[3]) {
+    tangent[0] = test_uniform_in(rng, -5.0, 5.0);
+    tangent[1] = test_uniform_in(rng, -5.0, 5.0);
     tangent[2] = angle;
 }
 
-static void random_se3_tangent(rng_t *rng, double angle, double tangent[6]) {
+static void random_se3_tangent(test_rng_t *rng, double angle, double tangent[6]) {
     for (int k = 0; k < 3; ++k) {
-        tangent[k] = rng_uniform(rng, -5.0, 5.0);
+        tangent[k] = test_uniform_in(rng, -5.0, 5.0);
     }
     random_axis_angle(rng, angle, tangent + 3);
 }
 
 /* ---- comparison helpers ---------------------------------------------------------------- */
 
-static void assert_near(double actual, double expected, double tolerance, const char *what) {
-    if (!(fabs(actual - expected) <= tolerance)) {
-        fail_msg("%s: got %.17g, expected %.17g (tolerance %g)", what, actual, expected,
-                 tolerance);
-    }
-}
-
 static void assert_angle_near(double actual, double expected, double tolerance, const char *what) {
-    assert_near(pgem_wrap_angle(actual - expected), 0.0, tolerance, what);
+    assert_near_labelled(pgem_wrap_angle(actual - expected), 0.0, tolerance, what);
 }
 
 static void assert_se2_near(const double a[3], const double b[3], double tolerance,
                             const char *what) {
-    assert_near(a[0], b[0], tolerance, what);
-    assert_near(a[1], b[1], tolerance, what);
+    assert_near_labelled(a[0], b[0], tolerance, what);
+    assert_near_labelled(a[1], b[1], tolerance, what);
     assert_angle_near(a[2], b[2], tolerance, what);
 }
 
 static void assert_vec_near(const double *a, const double *b, int n, double tolerance,
                             const char *what) {
     for (int k = 0; k < n; ++k) {
-        assert_near(a[k], b[k], tolerance, what);
+        assert_near_labelled(a[k], b[k], tolerance, what);
     }
 }
 
@@ -128,7 +94,7 @@ static void assert_rotation_near(const double a[4], const double b[4], double to
                                  const char *what) {
     const double sign = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] < 0.0 ? -1.0 : 1.0;
     for (int k = 0; k < 4; ++k) {
-        assert_near(a[k], sign * b[k], tolerance, what);
+        assert_near_labelled(a[k], sign * b[k], tolerance, what);
     }
 }
 
@@ -161,8 +127,8 @@ typedef struct {
     error_op error;
     binary_op boxplus, between, compose;
     unary_op inverse, exp_map, log_map;
-    void (*random_pose)(rng_t *rng, double *pose);
-    void (*random_tangent)(rng_t *rng, double angle, double *tangent);
+    void (*random_pose)(test_rng_t *rng, double *pose);
+    void (*random_tangent)(test_rng_t *rng, double angle, double *tangent);
     void (*assert_pose_near)(const double *a, const double *b, double tolerance,
                              const char *what);
     /* Asserts a computed pose is in canonical form; NULL where nothing is asserted. */
@@ -237,7 +203,7 @@ static const char *group_label(const group_t *group, const char *suffix,
 /* ---- checks shared by both groups ------------------------------------------------------- */
 
 /* Inverse, between and associativity on random triples. */
-static void check_group_identities(const group_t *g, rng_t *rng, int samples) {
+static void check_group_identities(const group_t *g, test_rng_t *rng, int samples) {
     for (int n = 0; n < samples; ++n) {
         double a[POSE_MAX], b[POSE_MAX], c[POSE_MAX], inv[POSE_MAX], out[POSE_MAX];
         double ab[POSE_MAX], back[POSE_MAX], bc[POSE_MAX], lhs[POSE_MAX], rhs[POSE_MAX];
@@ -267,7 +233,7 @@ static void check_group_identities(const group_t *g, rng_t *rng, int samples) {
 }
 
 /* per_angle random tangents for each rotation angle: log(exp(t)) = t and exp(log(p)) = p. */
-static void check_exp_log_round_trips(const group_t *g, rng_t *rng, const double *angles,
+static void check_exp_log_round_trips(const group_t *g, test_rng_t *rng, const double *angles,
                                       size_t angle_count, int per_angle) {
     char log_of_exp[LABEL_SIZE], exp_of_log[LABEL_SIZE];
     group_label(g, " log(exp(t))", log_of_exp);
@@ -332,7 +298,7 @@ static void check_error_value(const group_t *g, const double *xi, const double *
 
 /* A perfect measurement gives zero error; jacobian_i and jacobian_j (either may be NULL) are
  * passed on to the error. */
-static void check_exact_measurements(const group_t *g, rng_t *rng, int samples,
+static void check_exact_measurements(const group_t *g, test_rng_t *rng, int samples,
                                      double *jacobian_i, double *jacobian_j) {
     const double zero[TANGENT_MAX] = {0.0};
     char label[LABEL_SIZE];
@@ -394,12 +360,12 @@ static void numeric_jacobian(const group_t *g, const double *xi, const double *x
 }
 
 /* Half the measurements are near-consistent (small error), half arbitrary. */
-static void random_measurement(const group_t *g, rng_t *rng, const double *xi, const double *xj,
-                               double *z) {
-    if (rng_next(rng) & 1u) {
+static void random_measurement(const group_t *g, test_rng_t *rng, const double *xi,
+                               const double *xj, double *z) {
+    if (test_next(rng) & 1u) {
         double noise[TANGENT_MAX];
         for (int k = 0; k < g->tangent_size; ++k) {
-            noise[k] = rng_uniform(rng, -0.1, 0.1);
+            noise[k] = test_uniform_in(rng, -0.1, 0.1);
         }
         g->between(xi, xj, z);
         g->boxplus(z, noise, z);
@@ -410,7 +376,7 @@ static void random_measurement(const group_t *g, rng_t *rng, const double *xi, c
 
 /* Analytic Jacobians against central differences on JACOBIAN_SAMPLES random configurations
  * away from the error's discontinuity; fewer than one in ten may be skipped. */
-static void check_jacobians(const group_t *g, rng_t *rng) {
+static void check_jacobians(const group_t *g, test_rng_t *rng) {
     discrepancy_t worst = {0.0, 0.0};
     int checked = 0, skipped = 0;
     char label_i[LABEL_SIZE], label_j[LABEL_SIZE];
@@ -490,36 +456,36 @@ static void test_wrap_angle_boundaries(void **state) {
     assert_true(pgem_wrap_angle(nextafter(-PI, 0.0)) == nextafter(-PI, 0.0));
     assert_true(pgem_wrap_angle(nextafter(PI, 0.0)) == nextafter(PI, 0.0));
     assert_true(pgem_wrap_angle(nextafter(PI, 4.0)) > -PI);
-    assert_near(pgem_wrap_angle(nextafter(PI, 4.0)), -PI, 1e-15, "just above pi");
-    assert_near(pgem_wrap_angle(3.0 * PI), PI, 1e-15, "3 pi");
-    assert_near(fabs(pgem_wrap_angle(-3.0 * PI)), PI, 1e-15, "-3 pi");
-    assert_near(pgem_wrap_angle(2.0 * PI), 0.0, 1e-15, "2 pi");
-    assert_near(pgem_wrap_angle(-2.0 * PI), 0.0, 1e-15, "-2 pi");
-    assert_near(pgem_wrap_angle(1.5 * PI), -0.5 * PI, 1e-15, "1.5 pi");
-    assert_near(pgem_wrap_angle(-1.5 * PI), 0.5 * PI, 1e-15, "-1.5 pi");
-    assert_near(pgem_wrap_angle(0.3 + 2.0 * PI * 1000.0), 0.3, 1e-11, "1000 turns");
-    assert_near(pgem_wrap_angle(-0.3 - 2.0 * PI * 123456.0), -0.3, 1e-9, "-123456 turns");
+    assert_near_labelled(pgem_wrap_angle(nextafter(PI, 4.0)), -PI, 1e-15, "just above pi");
+    assert_near_labelled(pgem_wrap_angle(3.0 * PI), PI, 1e-15, "3 pi");
+    assert_near_labelled(fabs(pgem_wrap_angle(-3.0 * PI)), PI, 1e-15, "-3 pi");
+    assert_near_labelled(pgem_wrap_angle(2.0 * PI), 0.0, 1e-15, "2 pi");
+    assert_near_labelled(pgem_wrap_angle(-2.0 * PI), 0.0, 1e-15, "-2 pi");
+    assert_near_labelled(pgem_wrap_angle(1.5 * PI), -0.5 * PI, 1e-15, "1.5 pi");
+    assert_near_labelled(pgem_wrap_angle(-1.5 * PI), 0.5 * PI, 1e-15, "-1.5 pi");
+    assert_near_labelled(pgem_wrap_angle(0.3 + 2.0 * PI * 1000.0), 0.3, 1e-11, "1000 turns");
+    assert_near_labelled(pgem_wrap_angle(-0.3 - 2.0 * PI * 123456.0), -0.3, 1e-9, "-123456 turns");
 }
 
 static void test_wrap_angle_random(void **state) {
-    rng_t rng = {11};
+    test_rng_t rng = {11};
     (void)state;
     for (int n = 0; n < 100000; ++n) {
-        const double angle = rng_uniform(&rng, -1e4, 1e4);
+        const double angle = test_uniform_in(&rng, -1e4, 1e4);
         const double wrapped = pgem_wrap_angle(angle);
         assert_true(wrapped > -PI && wrapped <= PI);
         /* Same direction: differs by a whole number of turns. */
         const double turns = (angle - wrapped) / (2.0 * PI);
-        assert_near(turns, round(turns), 1e-9, "whole turns");
-        assert_near(cos(wrapped), cos(angle), 1e-11, "cos");
-        assert_near(sin(wrapped), sin(angle), 1e-11, "sin");
+        assert_near_labelled(turns, round(turns), 1e-9, "whole turns");
+        assert_near_labelled(cos(wrapped), cos(angle), 1e-11, "cos");
+        assert_near_labelled(sin(wrapped), sin(angle), 1e-11, "sin");
     }
 }
 
 /* ---- SE(2) ------------------------------------------------------------------------------ */
 
 static void test_se2_group_identities(void **state) {
-    rng_t rng = {21};
+    test_rng_t rng = {21};
     (void)state;
     check_group_identities(&se2_group, &rng, 2000);
 }
@@ -551,7 +517,7 @@ static void test_se2_exp_log_threshold_continuity(void **state) {
 }
 
 static void test_se2_exp_log(void **state) {
-    rng_t rng = {31};
+    test_rng_t rng = {31};
     (void)state;
     const double angles[] = {0.0,  1e-12, -1e-12,      1e-8,         -1e-8,        1e-4, 1e-3,
                              -1e-3, 0.5,  2.0,          -2.5,         PI - 1e-6,    PI - 1e-9,
@@ -560,13 +526,13 @@ static void test_se2_exp_log(void **state) {
 }
 
 static void test_se2_exp_subgroup(void **state) {
-    rng_t rng = {41};
+    test_rng_t rng = {41};
     (void)state;
     for (int n = 0; n < 2000; ++n) {
         double t[3];
-        const double s = rng_uniform(&rng, -1.0, 1.0), r = rng_uniform(&rng, -1.0, 1.0);
+        const double s = test_uniform_in(&rng, -1.0, 1.0), r = test_uniform_in(&rng, -1.0, 1.0);
         random_se2(&rng, t);
-        t[2] = rng_uniform(&rng, -1.5, 1.5);
+        t[2] = test_uniform_in(&rng, -1.5, 1.5);
         check_exp_subgroup(&se2_group, t, s, r);
     }
     /* A quarter turn while moving 1 forward ends at (2/pi, 2/pi). */
@@ -578,7 +544,7 @@ static void test_se2_exp_subgroup(void **state) {
 }
 
 static void test_se2_boxplus(void **state) {
-    rng_t rng = {51};
+    test_rng_t rng = {51};
     (void)state;
     const double zero[3] = {0.0, 0.0, 0.0};
     for (int n = 0; n < 1000; ++n) {
@@ -590,9 +556,9 @@ static void test_se2_boxplus(void **state) {
     const double x[3] = {1.0, 2.0, 3.0}, delta[3] = {0.5, -1.0, 0.5};
     double out[3];
     pgem_se2_boxplus(x, delta, out);
-    assert_near(out[0], 1.5, 0.0, "boxplus x");
-    assert_near(out[1], 1.0, 0.0, "boxplus y");
-    assert_near(out[2], 3.5 - 2.0 * PI, 1e-15, "boxplus wraps");
+    assert_near_labelled(out[0], 1.5, 0.0, "boxplus x");
+    assert_near_labelled(out[1], 1.0, 0.0, "boxplus y");
+    assert_near_labelled(out[2], 3.5 - 2.0 * PI, 1e-15, "boxplus wraps");
 }
 
 static void test_se2_error_values(void **state) {
@@ -605,13 +571,13 @@ static void test_se2_error_values(void **state) {
     /* The angle error wraps: 3 -> -3 is a small positive turn. */
     const double a[3] = {0.0, 0.0, 3.0}, b[3] = {0.0, 0.0, -3.0};
     pgem_se2_error(a, b, se2_identity, e, NULL, jj);
-    assert_near(e[2], 2.0 * PI - 6.0, 1e-15, "se2 error wraps");
-    rng_t rng = {61};
+    assert_near_labelled(e[2], 2.0 * PI - 6.0, 1e-15, "se2 error wraps");
+    test_rng_t rng = {61};
     check_exact_measurements(&se2_group, &rng, 1000, ji, NULL);
 }
 
 static void test_se2_jacobians(void **state) {
-    rng_t rng = {71};
+    test_rng_t rng = {71};
     (void)state;
     check_jacobians(&se2_group, &rng);
 }
@@ -625,7 +591,7 @@ static void matrix_vector(const double m[9], const double v[3], double out[3]) {
 }
 
 static void test_quaternion_helpers(void **state) {
-    rng_t rng = {81};
+    test_rng_t rng = {81};
     (void)state;
     for (int n = 0; n < 2000; ++n) {
         double a[4], b[4], ab[4], v[3], rotated[3], via_matrix[3], nested[3], ra[9], rab[9];
@@ -637,9 +603,10 @@ static void test_quaternion_helpers(void **state) {
         pgem_quat_to_matrix(a, ra);
         matrix_vector(ra, v, via_matrix);
         assert_vec_near(rotated, via_matrix, 3, 1e-14, "rotate vs matrix");
-        assert_near(sqrt(rotated[0] * rotated[0] + rotated[1] * rotated[1] +
-                         rotated[2] * rotated[2]),
-                    sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]), 1e-14, "rotation keeps length");
+        assert_near_labelled(sqrt(rotated[0] * rotated[0] + rotated[1] * rotated[1] +
+                                  rotated[2] * rotated[2]),
+                             sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]), 1e-14,
+                             "rotation keeps length");
         pgem_quat_multiply(a, b, ab);
         pgem_quat_rotate(b, v, nested);
         pgem_quat_rotate(a, nested, nested);
@@ -647,7 +614,7 @@ static void test_quaternion_helpers(void **state) {
         matrix_vector(rab, v, via_matrix);
         assert_vec_near(nested, via_matrix, 3, 1e-14, "R(a b) = R(a) R(b)");
         double scaled[4] = {2.5 * a[0], 2.5 * a[1], 2.5 * a[2], 2.5 * a[3]};
-        assert_near(pgem_quat_normalize(scaled), 2.5, 1e-14, "normalize returns norm");
+        assert_near_labelled(pgem_quat_normalize(scaled), 2.5, 1e-14, "normalize returns norm");
         assert_vec_near(scaled, a, 4, 1e-15, "normalize");
     }
     const double quarter_z[4] = {0.0, 0.0, sqrt(0.5), sqrt(0.5)};
@@ -658,7 +625,7 @@ static void test_quaternion_helpers(void **state) {
 }
 
 static void test_so3_exp_log(void **state) {
-    rng_t rng = {91};
+    test_rng_t rng = {91};
     (void)state;
     const double angles[] = {0.0, 1e-12, 1e-8, 1e-4, 1e-3 * (1.0 - 1e-9), 1e-3 * (1.0 + 1e-9),
                              0.1, 1.0,   3.0,  PI - 1e-6, PI - 1e-9, PI - 1e-12};
@@ -667,9 +634,9 @@ static void test_so3_exp_log(void **state) {
             double phi[3], q[4], back[3], again[4], minus_q[4];
             random_axis_angle(&rng, angles[k], phi);
             pgem_so3_exp(phi, q);
-            assert_near(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3], 1.0, 1e-15,
-                        "so3 exp unit");
-            assert_near(q[3], cos(0.5 * angles[k]), 1e-15, "so3 exp w");
+            assert_near_labelled(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3], 1.0,
+                                 1e-15, "so3 exp unit");
+            assert_near_labelled(q[3], cos(0.5 * angles[k]), 1e-15, "so3 exp w");
             pgem_so3_log(q, back);
             assert_vec_near(back, phi, 3, 1e-13 * fmax(1.0, angles[k]), "so3 log(exp(phi))");
             pgem_so3_exp(back, again);
@@ -683,7 +650,7 @@ static void test_so3_exp_log(void **state) {
     }
     /* Angles beyond pi come back as the shorter rotation about the opposite axis. */
     for (int n = 0; n < 1000; ++n) {
-        const double angle = rng_uniform(&rng, PI + 1e-6, 2.0 * PI - 1e-6);
+        const double angle = test_uniform_in(&rng, PI + 1e-6, 2.0 * PI - 1e-6);
         double phi[3], q[4], back[3];
         random_axis_angle(&rng, angle, phi);
         pgem_so3_exp(phi, q);
@@ -691,22 +658,23 @@ static void test_so3_exp_log(void **state) {
         const double norm = sqrt(back[0] * back[0] + back[1] * back[1] + back[2] * back[2]);
         assert_true(norm <= PI);
         for (int i = 0; i < 3; ++i) {
-            assert_near(back[i], phi[i] * (1.0 - 2.0 * PI / angle), 1e-12, "so3 log wraps");
+            assert_near_labelled(back[i], phi[i] * (1.0 - 2.0 * PI / angle), 1e-12,
+                                 "so3 log wraps");
         }
     }
     /* Exactly pi: the axis may come back either way, but the angle is pi. */
     const double half_turn[4] = {0.0, 1.0, 0.0, 0.0};
     double phi[3];
     pgem_so3_log(half_turn, phi);
-    assert_near(fabs(phi[1]), PI, 1e-15, "so3 log at pi");
+    assert_near_labelled(fabs(phi[1]), PI, 1e-15, "so3 log at pi");
 }
 
 /* exp(phi) rotates a vector perpendicular to phi by |phi| and keeps phi fixed. */
 static void test_so3_exp_geometry(void **state) {
-    rng_t rng = {101};
+    test_rng_t rng = {101};
     (void)state;
     for (int n = 0; n < 2000; ++n) {
-        const double angle = rng_uniform(&rng, 0.0, PI);
+        const double angle = test_uniform_in(&rng, 0.0, PI);
         double axis[3], phi[3], q[4], fixed[3], perp[3], turned[3], helper[3] = {1.0, 0.0, 0.0};
         random_unit_vector(&rng, axis);
         for (int k = 0; k < 3; ++k) {
@@ -730,14 +698,14 @@ static void test_so3_exp_geometry(void **state) {
                                axis[1] * (perp[2] * turned[0] - perp[0] * turned[2]) +
                                axis[2] * (perp[0] * turned[1] - perp[1] * turned[0])) /
                               perp_sq;
-        assert_near(atan2(handed, cosine), angle, 1e-12, "rotation angle (right-handed)");
+        assert_near_labelled(atan2(handed, cosine), angle, 1e-12, "rotation angle (right-handed)");
     }
 }
 
 /* ---- SE(3) ------------------------------------------------------------------------------ */
 
 static void test_se3_group_identities(void **state) {
-    rng_t rng = {111};
+    test_rng_t rng = {111};
     (void)state;
     check_group_identities(&se3_group, &rng, 2000);
     /* compose applies b in a's frame: a translation of 1 along x turned a quarter about z. */
@@ -750,7 +718,7 @@ static void test_se3_group_identities(void **state) {
 }
 
 static void test_se3_exp_log(void **state) {
-    rng_t rng = {121};
+    test_rng_t rng = {121};
     (void)state;
     const double angles[] = {0.0, 1e-12, 1e-8, 1e-4, 1e-3 * (1.0 - 1e-9), 1e-3 * (1.0 + 1e-9),
                              0.1, 1.0,   3.0,  PI - 1e-6, PI - 1e-9};
@@ -762,15 +730,15 @@ static void test_se3_exp_log(void **state) {
 }
 
 static void test_se3_exp_subgroup_and_planar(void **state) {
-    rng_t rng = {131};
+    test_rng_t rng = {131};
     (void)state;
     for (int n = 0; n < 2000; ++n) {
         double t[6];
-        const double s = rng_uniform(&rng, -1.0, 1.0), r = rng_uniform(&rng, -1.0, 1.0);
+        const double s = test_uniform_in(&rng, -1.0, 1.0), r = test_uniform_in(&rng, -1.0, 1.0);
         for (int i = 0; i < 3; ++i) {
-            t[i] = rng_uniform(&rng, -5.0, 5.0);
+            t[i] = test_uniform_in(&rng, -5.0, 5.0);
         }
-        random_axis_angle(&rng, rng_uniform(&rng, 0.0, 1.5), t + 3);
+        random_axis_angle(&rng, test_uniform_in(&rng, 0.0, 1.5), t + 3);
         check_exp_subgroup(&se3_group, t, s, r);
         /* A planar twist moves exactly like the SE(2) exponential. */
         const double planar[6] = {t[0], t[1], 0.0, 0.0, 0.0, t[5]};
@@ -778,15 +746,15 @@ static void test_se3_exp_subgroup_and_planar(void **state) {
         double pose3[7], pose2[3];
         pgem_se3_exp(planar, pose3);
         pgem_se2_exp(planar2, pose2);
-        assert_near(pose3[0], pose2[0], 1e-13, "planar x");
-        assert_near(pose3[1], pose2[1], 1e-13, "planar y");
-        assert_near(pose3[2], 0.0, 0.0, "planar z");
+        assert_near_labelled(pose3[0], pose2[0], 1e-13, "planar x");
+        assert_near_labelled(pose3[1], pose2[1], 1e-13, "planar y");
+        assert_near_labelled(pose3[2], 0.0, 0.0, "planar z");
         assert_angle_near(2.0 * atan2(pose3[5], pose3[6]), pose2[2], 1e-13, "planar angle");
     }
 }
 
 static void test_se3_boxplus(void **state) {
-    rng_t rng = {141};
+    test_rng_t rng = {141};
     (void)state;
     const double zero[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
     for (int n = 0; n < 1000; ++n) {
@@ -796,9 +764,9 @@ static void test_se3_boxplus(void **state) {
         assert_vec_near(out, x, 7, 1e-15, "se3 boxplus zero");
         /* Decoupled: translation moves by R rho, rotation by R Exp(phi). */
         for (int i = 0; i < 3; ++i) {
-            delta[i] = rng_uniform(&rng, -1.0, 1.0);
+            delta[i] = test_uniform_in(&rng, -1.0, 1.0);
         }
-        random_axis_angle(&rng, rng_uniform(&rng, 0.0, 2.0), delta + 3);
+        random_axis_angle(&rng, test_uniform_in(&rng, 0.0, 2.0), delta + 3);
         pgem_se3_boxplus(x, delta, out);
         step[0] = delta[0];
         step[1] = delta[1];
@@ -806,8 +774,9 @@ static void test_se3_boxplus(void **state) {
         pgem_so3_exp(delta + 3, step + 3);
         pgem_se3_compose(x, step, expected);
         assert_se3_near(out, expected, 1e-14, "se3 boxplus = x * (rho, Exp(phi))");
-        assert_near(out[3] * out[3] + out[4] * out[4] + out[5] * out[5] + out[6] * out[6], 1.0,
-                    1e-15, "se3 boxplus keeps unit quaternion");
+        assert_near_labelled(out[3] * out[3] + out[4] * out[4] + out[5] * out[5] +
+                                 out[6] * out[6],
+                             1.0, 1e-15, "se3 boxplus keeps unit quaternion");
     }
 }
 
@@ -829,12 +798,12 @@ static void test_se3_error_values(void **state) {
     pgem_se3_error(se3_identity, xk, se3_identity, e, NULL, NULL);
     const double rotation_error[6] = {0.0, 0.0, 0.0, 0.0, sin(0.15), 0.0};
     assert_vec_near(e, rotation_error, 6, 1e-15, "se3 rotation error");
-    rng_t rng = {151};
+    test_rng_t rng = {151};
     check_exact_measurements(&se3_group, &rng, 1000, NULL, jj);
 }
 
 static void test_se3_jacobians(void **state) {
-    rng_t rng = {161};
+    test_rng_t rng = {161};
     (void)state;
     check_jacobians(&se3_group, &rng);
 }
@@ -846,11 +815,11 @@ static void test_se3_jacobian_at_identity(void **state) {
     double e[6], ji[36], jj[36];
     pgem_se3_error(pose, pose, se3_identity, e, ji, jj);
     for (int r = 0; r < 6; ++r) {
-        assert_near(e[r], 0.0, 1e-15, "zero error");
+        assert_near_labelled(e[r], 0.0, 1e-15, "zero error");
         for (int c = 0; c < 6; ++c) {
             const double expected = r != c ? 0.0 : (r < 3 ? 1.0 : 0.5);
-            assert_near(jj[r * 6 + c], expected, 1e-15, "jacobian_j at identity");
-            assert_near(ji[r * 6 + c], -expected, 1e-15, "jacobian_i at identity");
+            assert_near_labelled(jj[r * 6 + c], expected, 1e-15, "jacobian_j at identity");
+            assert_near_labelled(ji[r * 6 + c], -expected, 1e-15, "jacobian_i at identity");
         }
     }
 }
@@ -858,7 +827,7 @@ static void test_se3_jacobian_at_identity(void **state) {
 /* ---- aliasing ----------------------------------------------------------------------------- */
 
 static void test_aliasing(void **state) {
-    rng_t rng = {171};
+    test_rng_t rng = {171};
     (void)state;
     for (int n = 0; n < 200; ++n) {
         double a2[3], b2[3], qa[4], qb[4], v[3], a3[7], b3[7], d3[6];
@@ -870,7 +839,7 @@ static void test_aliasing(void **state) {
         random_se3(&rng, a3);
         random_se3(&rng, b3);
         for (int k = 0; k < 6; ++k) {
-            d3[k] = rng_uniform(&rng, -1.0, 1.0);
+            d3[k] = test_uniform_in(&rng, -1.0, 1.0);
         }
         check_group_aliasing(&se2_group, a2, b2, b2);
         check_binary_aliasing(pgem_quat_multiply, qa, qb, 4, 4, 4, "quat_multiply aliasing");

@@ -6,34 +6,20 @@
 #include <Eigen/Geometry>
 #include <unsupported/Eigen/MatrixFunctions>
 
-#include <pgem/geometry.h>
-
-// cmocka comes last: its fail() macro would clash with std::ios::fail in the C++ headers.
-// cmocka 1.1.5's header has no extern "C" guards of its own, so it alone is wrapped.
-#include <stdarg.h>
-#include <stddef.h>
-#include <stdint.h>
-#include <setjmp.h>
-extern "C" {
-#include <cmocka.h>
-}
+// cmocka (through test_util.h) comes last: its fail() macro would clash with std::ios::fail in
+// the C++ headers.
+#include "test_util.h"
 
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kSamples = 5000;
 
-// Deterministic splitmix64 generator.
+// Random samples from test_util.h's splitmix64 generator.
 class Rng {
   public:
-    explicit Rng(std::uint64_t seed) : state_(seed) {}
-    double uniform(double lo, double hi) {
-        std::uint64_t z = (state_ += 0x9E3779B97F4A7C15ULL);
-        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-        z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-        z ^= z >> 31;
-        return lo + (hi - lo) * static_cast<double>(z >> 11) * (1.0 / 9007199254740992.0);
-    }
+    explicit Rng(std::uint64_t seed) : state_{seed} {}
+    double uniform(double lo, double hi) { return test_uniform_in(&state_, lo, hi); }
     Eigen::Vector3d unit_vector() {
         const double z = uniform(-1.0, 1.0), azimuth = uniform(-kPi, kPi);
         const double r = std::sqrt(1.0 - z * z);
@@ -44,7 +30,7 @@ class Rng {
     }
 
   private:
-    std::uint64_t state_;
+    test_rng_t state_;
 };
 
 // ---- conversions between pgem arrays and Eigen types ----------------------------------------
@@ -88,27 +74,21 @@ double wrap(double angle) {
     return std::atan2(std::sin(angle), std::cos(angle));
 }
 
-void expect_near(double actual, double expected, double tolerance, const char *what) {
-    if (!(std::fabs(actual - expected) <= tolerance)) {
-        fail_msg("%s: got %.17g, expected %.17g", what, actual, expected);
-    }
-}
-
 void expect_se2_matches(const double p[3], const Eigen::Isometry2d &t, double tolerance,
                         const char *what) {
-    expect_near(p[0], t.translation().x(), tolerance, what);
-    expect_near(p[1], t.translation().y(), tolerance, what);
+    assert_near_labelled(p[0], t.translation().x(), tolerance, what);
+    assert_near_labelled(p[1], t.translation().y(), tolerance, what);
     const double angle = std::atan2(t.linear()(1, 0), t.linear()(0, 0));
-    expect_near(wrap(p[2] - angle), 0.0, tolerance, what);
+    assert_near_labelled(wrap(p[2] - angle), 0.0, tolerance, what);
 }
 
 void expect_se3_matches(const double p[7], const Eigen::Isometry3d &t, double tolerance,
                         const char *what) {
     for (int k = 0; k < 3; ++k) {
-        expect_near(p[k], t.translation()(k), tolerance, what);
+        assert_near_labelled(p[k], t.translation()(k), tolerance, what);
     }
     const Eigen::Matrix3d rotation = to_quaternion(p + 3).toRotationMatrix();
-    expect_near((rotation - t.linear()).cwiseAbs().maxCoeff(), 0.0, tolerance, what);
+    assert_near_labelled((rotation - t.linear()).cwiseAbs().maxCoeff(), 0.0, tolerance, what);
 }
 
 // ---- the reference g2o errors ------------------------------------------------------------
@@ -146,9 +126,9 @@ void test_se2_error_matches_eigen(void **) {
         double e[3];
         pgem_se2_error(xi.v, xj.v, z.v, e, nullptr, nullptr);
         const Eigen::Vector3d reference = reference_se2_error(xi.v, xj.v, z.v);
-        expect_near(e[0], reference(0), 1e-11, "se2 error x");
-        expect_near(e[1], reference(1), 1e-11, "se2 error y");
-        expect_near(wrap(e[2] - reference(2)), 0.0, 1e-12, "se2 error angle");
+        assert_near_labelled(e[0], reference(0), 1e-11, "se2 error x");
+        assert_near_labelled(e[1], reference(1), 1e-11, "se2 error y");
+        assert_near_labelled(wrap(e[2] - reference(2)), 0.0, 1e-12, "se2 error angle");
         assert_true(e[2] > -kPi && e[2] <= kPi);
         ++checked;
     }
@@ -167,7 +147,7 @@ void test_se3_error_matches_eigen(void **) {
             continue; // the sign of w is not well determined this close to zero
         }
         for (int k = 0; k < 6; ++k) {
-            expect_near(e[k], reference(k), 1e-11, "se3 error");
+            assert_near_labelled(e[k], reference(k), 1e-11, "se3 error");
         }
         ++checked;
     }
@@ -214,16 +194,16 @@ void test_quaternions_match_eigen(void **) {
         double product[4], rotated[3], matrix[9];
         pgem_quat_multiply(a, b, product);
         const Eigen::Quaterniond expected = qa * qb;
-        expect_near((to_quaternion(product).coeffs() - expected.coeffs()).norm(), 0.0, 1e-15,
-                    "quat multiply");
+        assert_near_labelled((to_quaternion(product).coeffs() - expected.coeffs()).norm(), 0.0,
+                             1e-15, "quat multiply");
         pgem_quat_rotate(a, v.data(), rotated);
-        expect_near((Eigen::Vector3d(rotated[0], rotated[1], rotated[2]) - qa * v).norm(), 0.0,
-                    1e-14, "quat rotate");
+        assert_near_labelled((Eigen::Vector3d(rotated[0], rotated[1], rotated[2]) - qa * v).norm(),
+                             0.0, 1e-14, "quat rotate");
         pgem_quat_to_matrix(a, matrix);
         const Eigen::Matrix3d reference = qa.toRotationMatrix();
         for (int r = 0; r < 3; ++r) {
             for (int c = 0; c < 3; ++c) {
-                expect_near(matrix[r * 3 + c], reference(r, c), 1e-15, "quat to matrix");
+                assert_near_labelled(matrix[r * 3 + c], reference(r, c), 1e-15, "quat to matrix");
             }
         }
     }
@@ -239,13 +219,13 @@ void test_so3_matches_angle_axis(void **) {
         double q[4], back[3];
         pgem_so3_exp(phi.data(), q);
         const Eigen::Quaterniond expected(Eigen::AngleAxisd(angle, axis));
-        expect_near((to_quaternion(q).coeffs() - expected.coeffs()).norm(), 0.0, 1e-15,
-                    "so3 exp vs AngleAxisd");
+        assert_near_labelled((to_quaternion(q).coeffs() - expected.coeffs()).norm(), 0.0, 1e-15,
+                             "so3 exp vs AngleAxisd");
         pgem_so3_log(q, back);
         const Eigen::AngleAxisd recovered(expected);
         const Eigen::Vector3d reference = recovered.angle() * recovered.axis();
-        expect_near((Eigen::Vector3d(back[0], back[1], back[2]) - reference).norm(), 0.0, 1e-13,
-                    "so3 log vs AngleAxisd");
+        assert_near_labelled((Eigen::Vector3d(back[0], back[1], back[2]) - reference).norm(), 0.0,
+                             1e-13, "so3 log vs AngleAxisd");
     }
 }
 

@@ -40,6 +40,23 @@ static void add_false_loops(pgem_t *graph, int count, uint64_t seed, uint32_t *i
     }
 }
 
+/* A ring of RING poses (a loop closure every 6) with the test rings' noise. */
+static pgem_t *ring(uint64_t seed, double *truth)
+{
+    pgem_t *graph = test_create(2, RING, 3 * RING);
+    test_ring_2d(graph, RING, 6, SIGMA, HEADING_SIGMA, seed, truth);
+    return graph;
+}
+
+/* ring(), then FALSE_LOOPS false loop closures (their edge indices into false_loops). */
+static pgem_t *corrupted_ring(uint64_t seed, uint64_t false_seed, double *truth,
+                              uint32_t *false_loops)
+{
+    pgem_t *graph = ring(seed, truth);
+    add_false_loops(graph, FALSE_LOOPS, false_seed, false_loops);
+    return graph;
+}
+
 static pgem_robust_options_t em_options(void)
 {
     pgem_robust_options_t options = {0};
@@ -50,10 +67,8 @@ static pgem_robust_options_t em_options(void)
 static void test_inliers_only_nothing_pruned_plain_optimum(void **state)
 {
     (void)state;
-    double truth[3 * RING];
-    pgem_t *robust = test_create(2, RING, 3 * RING), *plain = test_create(2, RING, 3 * RING);
-    test_ring_2d(robust, RING, 6, SIGMA, HEADING_SIGMA, 21, truth);
-    test_ring_2d(plain, RING, 6, SIGMA, HEADING_SIGMA, 21, truth);
+    double truth[3 * RING], a[3 * RING], b[3 * RING];
+    pgem_t *robust = ring(21, truth), *plain = ring(21, truth);
     pgem_robust_options_t options = em_options();
     pgem_robust_summary_t summary;
     pgem_summary_t plain_summary;
@@ -63,13 +78,10 @@ static void test_inliers_only_nothing_pruned_plain_optimum(void **state)
     assert_int_equal(summary.pruned, 0);
     assert_true(summary.loops > 0);
     assert_near(summary.final_chi2, plain_summary.final_chi2, 1e-8 * plain_summary.final_chi2);
-    for (uint32_t k = 0; k < RING; k++) {
-        double a[3], b[3];
-        assert_int_equal(pgem_pose_at(robust, k, NULL, a, NULL), PGEM_OK);
-        assert_int_equal(pgem_pose_at(plain, k, NULL, b, NULL), PGEM_OK);
-        for (int d = 0; d < 3; d++) {
-            assert_near(a[d], b[d], 1e-7);
-        }
+    test_snapshot(robust, a);
+    test_snapshot(plain, b);
+    for (int k = 0; k < 3 * RING; k++) {
+        assert_near(a[k], b[k], 1e-7);
     }
     pgem_destroy(robust);
     pgem_destroy(plain);
@@ -79,9 +91,7 @@ static void check_outliers_found(pgem_kernel_t kernel, int literal)
 {
     double truth[3 * RING];
     uint32_t false_loops[FALSE_LOOPS];
-    pgem_t *graph = test_create(2, RING, 3 * RING);
-    test_ring_2d(graph, RING, 6, SIGMA, HEADING_SIGMA, 33, truth);
-    add_false_loops(graph, FALSE_LOOPS, 77, false_loops);
+    pgem_t *graph = corrupted_ring(33, 77, truth, false_loops);
     pgem_robust_options_t options = em_options();
     options.kernel = kernel;
     options.literal = literal;
@@ -153,9 +163,7 @@ static void test_em_weights_are_cauchy_weights(void **state)
     (void)state;
     double truth[3 * RING];
     uint32_t false_loops[FALSE_LOOPS];
-    pgem_t *graph = test_create(2, RING, 3 * RING);
-    test_ring_2d(graph, RING, 6, SIGMA, HEADING_SIGMA, 44, truth);
-    add_false_loops(graph, FALSE_LOOPS, 55, false_loops);
+    pgem_t *graph = corrupted_ring(44, 55, truth, false_loops);
     pgem_robust_options_t options = em_options();
     options.scale = 2.0;
     options.literal = 1;
@@ -199,14 +207,10 @@ static void test_deterministic_and_resettable(void **state)
     double weights[2][3 * RING + FALSE_LOOPS];
     memset(weights, 0, sizeof weights);
     for (int run = 0; run < 2; run++) {
-        pgem_t *graph = test_create(2, RING, 3 * RING);
-        test_ring_2d(graph, RING, 6, SIGMA, HEADING_SIGMA, 66, truth);
-        add_false_loops(graph, FALSE_LOOPS, 88, false_loops);
+        pgem_t *graph = corrupted_ring(66, 88, truth, false_loops);
         pgem_robust_options_t options = em_options();
         assert_int_equal(pgem_robust_optimize(graph, &options, NULL, NULL), PGEM_OK);
-        for (uint32_t k = 0; k < RING; k++) {
-            pgem_pose_at(graph, k, NULL, (run == 0 ? first : second) + 3 * k, NULL);
-        }
+        test_snapshot(graph, run == 0 ? first : second);
         for (uint32_t k = 0; k < pgem_edge_count(graph); k++) {
             pgem_edge_view_t edge;
             pgem_edge_at(graph, k, &edge);
@@ -231,8 +235,7 @@ static void test_pruned_loops_leave_the_structure(void **state)
     (void)state;
     double truth[3 * RING];
     uint32_t false_loops[FALSE_LOOPS];
-    pgem_t *graph = test_create(2, RING, 3 * RING);
-    test_ring_2d(graph, RING, 6, SIGMA, HEADING_SIGMA, 33, truth);
+    pgem_t *graph = ring(33, truth);
     pgem_memory_stats_t clean, corrupted, after, reset;
     assert_int_equal(pgem_analyze(graph), PGEM_OK);
     pgem_get_memory_stats(graph, &clean);
@@ -262,8 +265,7 @@ static void test_consistency_gate_prunes_what_em_keeps(void **state)
     (void)state;
     for (int literal = 0; literal <= 1; literal++) {
         double truth[3 * RING];
-        pgem_t *graph = test_create(2, RING, 3 * RING);
-        test_ring_2d(graph, RING, 6, SIGMA, HEADING_SIGMA, 12, truth);
+        pgem_t *graph = ring(12, truth);
         double z[3], information[9];
         pgem_se2_between(truth + 3 * 30, truth + 3 * 60, z);
         z[0] += 1.5;

@@ -6,14 +6,6 @@
 
 #define RING 60
 
-static void snapshot(const pgem_t *graph, double *poses)
-{
-    int size = PGEM_POSE_SIZE(pgem_dimension(graph));
-    for (uint32_t k = 0; k < pgem_pose_count(graph); k++) {
-        assert_int_equal(pgem_pose_at(graph, k, NULL, poses + (size_t)k * (size_t)size, NULL), PGEM_OK);
-    }
-}
-
 static void test_exact_ring_recovers_truth(void **state)
 {
     (void)state;
@@ -31,7 +23,7 @@ static void test_exact_ring_recovers_truth(void **state)
     assert_true(summary.initial_chi2 > 1.0);
     assert_true(summary.final_chi2 < 1e-12);
     assert_int_equal(summary.variables, 3 * (RING - 1));
-    snapshot(graph, result);
+    test_snapshot(graph, result);
     for (int k = 0; k < 3 * RING; k++) {
         assert_near(result[k], truth[k], 1e-7);
     }
@@ -98,7 +90,7 @@ static void test_3d_recovers_truth(void **state)
     pgem_summary_t summary;
     assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_OK);
     assert_true(summary.final_chi2 < 1e-12);
-    snapshot(graph, result);
+    test_snapshot(graph, result);
     for (int k = 0; k < N; k++) {
         double delta[7], log_delta[6];
         pgem_se3_between(truth + 7 * k, result + 7 * k, delta);
@@ -122,14 +114,14 @@ static void test_singular_restores_estimate(void **state)
     assert_int_equal(pgem_add_pose(graph, 100, p), PGEM_OK);
     assert_int_equal(pgem_add_pose(graph, 101, q), PGEM_OK);
     assert_int_equal(pgem_add_edge(graph, 100, 101, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
-    snapshot(graph, before);
+    test_snapshot(graph, before);
     pgem_summary_t summary;
     assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_ERR_NOT_POSITIVE_DEFINITE);
     assert_int_equal(summary.usable, 0);
     assert_int_equal(summary.estimate_changed, 0);
     assert_int_equal(summary.termination, PGEM_TERM_NOT_POSITIVE_DEFINITE);
     assert_non_null(strstr(pgem_last_error(graph), "fixed pose"));
-    snapshot(graph, after);
+    test_snapshot(graph, after);
     assert_memory_equal(before, after, sizeof before);
     /* holding the second component too makes it solvable */
     assert_int_equal(pgem_fix_pose(graph, 0, 1), PGEM_OK);
@@ -168,7 +160,7 @@ static void test_fill_budget_reports_need(void **state)
     pgem_t *graph = NULL;
     assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
     test_ring_2d(graph, RING, 5, 0.01, 0.01, 5, truth);
-    snapshot(graph, before);
+    test_snapshot(graph, before);
     pgem_summary_t summary;
     assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_ERR_FILL_BUDGET);
     assert_int_equal(summary.termination, PGEM_TERM_FILL_BUDGET);
@@ -176,7 +168,7 @@ static void test_fill_budget_reports_need(void **state)
     pgem_memory_stats_t stats;
     pgem_get_memory_stats(graph, &stats);
     assert_true(stats.factor_nonzeros > 50);
-    snapshot(graph, after);
+    test_snapshot(graph, after);
     assert_memory_equal(before, after, sizeof before);
     pgem_destroy(graph);
     /* exactly the reported need is enough */

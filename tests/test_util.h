@@ -1,4 +1,6 @@
-/* Small helpers shared by the core tests: cmocka includes, instances, synthetic graphs. */
+/* Small helpers shared by the tests, C and C++: cmocka includes, assertions, a deterministic
+ * generator, instances, synthetic graphs, the datasets folder. A C++ test includes this header
+ * last: cmocka's fail() macro would clash with names in the C++ headers. */
 #ifndef PGEM_TEST_UTIL_H
 #define PGEM_TEST_UTIL_H
 
@@ -7,10 +9,18 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+/* cmocka 1.1 has no C++ guards of its own. */
+#ifdef __cplusplus
+extern "C" {
+#endif
 #include <cmocka.h>
+#ifdef __cplusplus
+}
+#endif
 
 #include "pgem/pgem.h"
 
@@ -24,18 +34,49 @@
         }                                                                                          \
     } while (0)
 
+/* assert_near for helpers that check many values: the message carries the caller's label. */
+#define assert_near_labelled(actual, expected, tolerance, label)                                   \
+    do {                                                                                           \
+        double assert_near_a = (actual), assert_near_e = (expected);                               \
+        if (!(fabs(assert_near_a - assert_near_e) <= (tolerance))) {                               \
+            fail_msg("%s: got %.17g, expected %.17g (tolerance %g)", (label), assert_near_a,       \
+                     assert_near_e, (double)(tolerance));                                          \
+        }                                                                                          \
+    } while (0)
+
+/* Fails unless the text holds the fragment. */
+#define assert_contains(text, fragment)                                                            \
+    do {                                                                                           \
+        const char *assert_contains_t = (text), *assert_contains_f = (fragment);                   \
+        if (strstr(assert_contains_t, assert_contains_f) == NULL) {                                \
+            fail_msg("\"%s\" does not contain \"%s\"", assert_contains_t, assert_contains_f);      \
+        }                                                                                          \
+    } while (0)
+
 /* Deterministic generator (splitmix64) so every run sees the same numbers. */
 typedef struct test_rng {
     uint64_t state;  /* advances by the golden-ratio increment */
 } test_rng_t;
 
-static inline double test_uniform(test_rng_t *rng)
+/* The next 64 random bits. */
+static inline uint64_t test_next(test_rng_t *rng)
 {
     uint64_t z = (rng->state += UINT64_C(0x9e3779b97f4a7c15));
     z = (z ^ (z >> 30)) * UINT64_C(0xbf58476d1ce4e5b9);
     z = (z ^ (z >> 27)) * UINT64_C(0x94d049bb133111eb);
-    z ^= z >> 31;
-    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
+    return z ^ (z >> 31);
+}
+
+/* Uniform in [0, 1): the top 53 bits. */
+static inline double test_uniform(test_rng_t *rng)
+{
+    return (double)(test_next(rng) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+/* Uniform in [lo, hi). */
+static inline double test_uniform_in(test_rng_t *rng, double lo, double hi)
+{
+    return lo + (hi - lo) * test_uniform(rng);
 }
 
 static inline double test_gaussian(test_rng_t *rng)
@@ -59,6 +100,16 @@ static inline pgem_t *test_create(int dimension, uint32_t poses, uint32_t edges)
     pgem_t *graph = NULL;
     assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
     return graph;
+}
+
+/* Every pose's estimate, in insertion order, into poses (pose count x pose size doubles). */
+static inline void test_snapshot(const pgem_t *graph, double *poses)
+{
+    int size = PGEM_POSE_SIZE(pgem_dimension(graph));
+    for (uint32_t k = 0; k < pgem_pose_count(graph); k++) {
+        double *pose = poses + (size_t)k * (size_t)size;
+        assert_int_equal(pgem_pose_at(graph, k, NULL, pose, NULL), PGEM_OK);
+    }
 }
 
 /* A 2D ring of n poses (radius 10) with odometry and loop closures every `stride` poses;
@@ -98,6 +149,26 @@ static inline void test_ring_2d(pgem_t *graph, int n, int stride, double sigma,
         assert_int_equal(pgem_add_edge(graph, (pgem_id_t)k, (pgem_id_t)other, z, information,
                                        PGEM_EDGE_LOOP, NULL), PGEM_OK);
     }
+}
+
+/* The shared datasets folder (PGEM_DATASETS) when it holds probe (a file below it), else NULL
+ * after saying why: the dataset tests then skip. */
+static inline const char *test_datasets_dir(const char *probe)
+{
+    const char *dir = getenv("PGEM_DATASETS");
+    if (dir == NULL || dir[0] == '\0') {
+        print_message("PGEM_DATASETS is not set: dataset tests skipped\n");
+        return NULL;
+    }
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", dir, probe);
+    FILE *file = fopen(path, "rb");
+    if (file == NULL) {
+        print_message("PGEM_DATASETS=%s has no %s: dataset tests skipped\n", dir, probe);
+        return NULL;
+    }
+    fclose(file);
+    return dir;
 }
 
 #endif /* PGEM_TEST_UTIL_H */

@@ -294,6 +294,21 @@ def progress(message: str) -> None:
     print(message, file=sys.stderr, flush=True)
 
 
+def check_pgem_binary(pgem: Path) -> None:
+    """Raises BenchError, saying how to build it, unless pgem is an executable file."""
+    if not (pgem.is_file() and os.access(pgem, os.X_OK)):
+        raise BenchError(f"pgem not found at {pgem}; build it with "
+                         "`cmake --preset release && cmake --build --preset release` or pass --pgem")
+
+
+def pgem_solve_status(summary: Any) -> tuple[bool, bool]:
+    """(status is PGEM_OK, estimate usable) of a `pgem optimize --json` summary; output that is
+    not a JSON object is neither."""
+    if not isinstance(summary, dict):
+        return False, False
+    return summary.get("status") == "PGEM_OK", summary.get("usable") is True
+
+
 def run_pgem(pgem: Path, dataset: Dataset) -> dict[str, Any]:
     """Runs pgem Gauss-Newton once and returns its JSON summary."""
     command = [str(pgem), "optimize", str(dataset.path), "--json", "--quiet",
@@ -303,10 +318,11 @@ def run_pgem(pgem: Path, dataset: Dataset) -> dict[str, Any]:
         summary = json.loads(proc.stdout)
     except json.JSONDecodeError:
         summary = None
-    if proc.returncode != 0 or not summary or summary.get("status") != "PGEM_OK":
+    solved, usable = pgem_solve_status(summary)
+    if proc.returncode != 0 or not solved:
         raise BenchError(f"pgem failed on {dataset.path} (exit {proc.returncode}): "
                          f"{proc.stderr.strip() or proc.stdout.strip()}")
-    if not summary.get("usable", False):
+    if not usable:
         raise BenchError(f"pgem returned an unusable estimate on {dataset.path}: {proc.stdout.strip()}")
     return summary
 
@@ -385,13 +401,27 @@ def binary_fingerprint(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()[:12]
 
 
-def header_line(pgem: Path, runs: int) -> str:
-    """Machine, versions, run count and date."""
+def rebuilt_note(pgem: Path, fingerprint: str, what: str) -> str | None:
+    """The report's note when the pgem binary no longer has the fingerprint taken before the
+    run (what: the results that may mix two builds), else None."""
+    if binary_fingerprint(pgem) == fingerprint:
+        return None
+    return f"the pgem binary changed during the run (rebuilt?); {what} may mix two builds."
+
+
+def machine_line(pgem: Path, *details: str) -> str:
+    """'Machine: CPUs (model); pgem version (binary sha256); GTSAM and Python versions; details;
+    date' (the report's first line)."""
     nproc = len(os.sched_getaffinity(0))
     date = datetime.datetime.now().astimezone().isoformat(timespec="seconds")
-    return (f"Machine: {nproc} CPUs ({read_cpu_model()}); {pgem_version(pgem)} "
-            f"(binary sha256 {binary_fingerprint(pgem)}); GTSAM {gtsam_version()} "
-            f"(Python {sys.version.split()[0]}); {runs} run(s) per solver per dataset, interleaved; {date}")
+    return "; ".join([f"Machine: {nproc} CPUs ({read_cpu_model()})",
+                      f"{pgem_version(pgem)} (binary sha256 {binary_fingerprint(pgem)})",
+                      f"GTSAM {gtsam_version()} (Python {sys.version.split()[0]})", *details, date])
+
+
+def header_line(pgem: Path, runs: int) -> str:
+    """Machine, versions, run count and date."""
+    return machine_line(pgem, f"{runs} run(s) per solver per dataset, interleaved")
 
 
 def mib(n_bytes: float) -> str:
@@ -533,9 +563,7 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
 
 def run_benchmark(args: argparse.Namespace) -> None:
     """Checks the inputs, runs every dataset and writes the report."""
-    if not (args.pgem.is_file() and os.access(args.pgem, os.X_OK)):
-        raise BenchError(f"pgem not found at {args.pgem}; build it with "
-                         "`cmake --preset release && cmake --build --preset release` or pass --pgem")
+    check_pgem_binary(args.pgem)
     datasets, missing = resolve_datasets(args.datasets, args.names)
     for name in missing:
         progress(f"note: dataset {name} not found under {args.datasets}, skipping it")
@@ -546,9 +574,10 @@ def run_benchmark(args: argparse.Namespace) -> None:
     progress(header)
     results = [bench_dataset(args.pgem, dataset, args.runs) for dataset in datasets]
     notes = [f"{name}: dataset not found, skipped." for name in missing]
-    if binary_fingerprint(args.pgem) != fingerprint:
-        notes.append("the pgem binary changed during the run (rebuilt?); its rows may mix two builds.")
-        progress(f"warning: {notes[-1]}")
+    rebuilt = rebuilt_note(args.pgem, fingerprint, "its rows")
+    if rebuilt:
+        notes.append(rebuilt)
+        progress(f"warning: {rebuilt}")
     report = render_report(results, header, notes, args.runs)
     print(report)
     args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -29,10 +29,8 @@ from __future__ import annotations
 
 import argparse
 import csv
-import datetime
 import json
 import math
-import os
 import statistics
 import subprocess
 import sys
@@ -44,7 +42,7 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import bench_gn  # noqa: E402  (shared helpers: g2o parsing, gauge priors, machine header)
+import bench_gn  # noqa: E402  (shared helpers: g2o parsing, gauge priors, machine header, pgem checks)
 
 BenchError = bench_gn.BenchError
 progress = bench_gn.progress
@@ -349,7 +347,7 @@ def solve_pgem(pgem: Path, method: str, corrupted: Path, outdir: Path) -> tuple[
     command = [str(pgem), "optimize", str(corrupted), *PGEM_METHODS[method], "--json", "--quiet",
                "-o", str(outdir / RESULT_FILE), "--weights", str(outdir / WEIGHTS_FILE)]
     summary = parse_json(run_command(command, f"pgem optimize {' '.join(PGEM_METHODS[method])}"), "pgem optimize")
-    if summary.get("status") != "PGEM_OK" or summary.get("usable") is False:
+    if not all(bench_gn.pgem_solve_status(summary)):
         raise RunFailure(f"pgem optimize: status {summary.get('status')}, usable {summary.get('usable')}")
     return float(summary["solve_seconds"]), summary
 
@@ -696,12 +694,8 @@ def failure_lines(runs: Sequence[Run]) -> list[str]:
 
 def header_lines(args: argparse.Namespace, datasets: Sequence[bench_gn.Dataset]) -> list[str]:
     """Machine, versions and the grid."""
-    nproc = len(os.sched_getaffinity(0))
-    date = datetime.datetime.now().astimezone().isoformat(timespec="seconds")
     return [
-        f"Machine: {nproc} CPUs ({bench_gn.read_cpu_model()}); {bench_gn.pgem_version(args.pgem)} "
-        f"(binary sha256 {bench_gn.binary_fingerprint(args.pgem)}); GTSAM {bench_gn.gtsam_version()} "
-        f"(Python {sys.version.split()[0]}); {date}.",
+        bench_gn.machine_line(args.pgem) + ".",
         "",
         f"Grid: datasets {', '.join(d.name for d in datasets) or '(none)'}; policies {', '.join(args.policies)}; "
         f"counts {', '.join(map(str, args.counts))}; seeds {', '.join(map(str, args.seeds))}"
@@ -821,9 +815,7 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
 
 def check_pgem(pgem: Path) -> None:
     """pgem must exist and have the eval verb."""
-    if not (pgem.is_file() and os.access(pgem, os.X_OK)):
-        raise BenchError(f"pgem not found at {pgem}; build it with "
-                         "`cmake --preset release && cmake --build --preset release` or pass --pgem")
+    bench_gn.check_pgem_binary(pgem)
     proc = subprocess.run([str(pgem), "eval", "--help"], capture_output=True, text=True, check=False)
     if proc.returncode != 0:
         raise BenchError(f"{pgem} has no working 'eval' command ({first_line(proc.stderr)}); rebuild pgem")
@@ -848,8 +840,9 @@ def run_benchmark(args: argparse.Namespace) -> None:
     runs: list[Run] = []
     for dataset in datasets:
         runs += bench_dataset(args, dataset, eta, notes)
-    if bench_gn.binary_fingerprint(args.pgem) != fingerprint:
-        notes.append("the pgem binary changed during the run (rebuilt?); results may mix two builds.")
+    rebuilt = bench_gn.rebuilt_note(args.pgem, fingerprint, "results")
+    if rebuilt:
+        notes.append(rebuilt)
     report = render_report(args, datasets, runs, notes, time.perf_counter() - start)
     print(report)
     args.out.parent.mkdir(parents=True, exist_ok=True)
