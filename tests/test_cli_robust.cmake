@@ -78,3 +78,31 @@ pgem_fails(2 refused "not positive definite" corrupt sim.g2o -o refused.g2o --po
 if(EXISTS "${WORK}/refused.g2o" OR EXISTS "${WORK}/refused.g2o.outliers")
   fail("--information not positive definite: files were written")
 endif()
+
+# corrupt: an unreadable input is exit 3 (as in every verb); a group of 0 is refused with a
+# message; a graph too small for false loops leaves no files behind.
+pgem_fails(3 unreadable "cannot open" corrupt missing.g2o -o never.g2o --policy random
+           --count 1 --seed 1)
+pgem_fails(2 empty_group "--group-size needs at least 1 loop, got 0" corrupt sim.g2o -o never.g2o
+           --policy random-grouped --count 1 --group-size 0 --seed 1)
+file(WRITE "${WORK}/tiny.g2o" "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n")
+pgem_fails(1 tiny "too few poses" corrupt tiny.g2o -o never.g2o --policy random --count 1 --seed 1)
+if(EXISTS "${WORK}/never.g2o" OR EXISTS "${WORK}/never.g2o.outliers")
+  fail("corrupt: a refused run wrote files")
+endif()
+
+# optimize: --weights without --robust lists every loop (weight 1, accepted); --max-iterations
+# limits the robust solve's final solve too.
+pgem_ok(plain_weights optimize sim.g2o --weights plain_w.txt --quiet)
+file(STRINGS "${WORK}/plain_w.txt" plain_lines REGEX " 1 accepted$")
+list(LENGTH plain_lines plain_count)
+if(plain_count EQUAL 0)
+  fail("optimize --weights without --robust: no loop lines written")
+endif()
+pgem_ok(limited optimize sim_random_bad.g2o --robust em --max-iterations 1 --json --quiet)
+pgem_ok(unlimited optimize sim_random_bad.g2o --robust em --json --quiet)
+json_value("${limited_out}" gn_iterations limited_iterations)
+json_value("${unlimited_out}" gn_iterations unlimited_iterations)
+if(NOT limited_iterations LESS unlimited_iterations)
+  fail("--max-iterations ignored by --robust em: ${limited_iterations} vs ${unlimited_iterations}")
+endif()

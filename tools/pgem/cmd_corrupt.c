@@ -83,7 +83,7 @@ static int corrupt_parse(int argc, char **argv, corrupt_args_t *args)
         } else if (ok && strcmp(arg, "--count") == 0) {
             ok = have_count = pgem_cli_parse_u32(arg, value, &args->count);
         } else if (ok && strcmp(arg, "--group-size") == 0) {
-            ok = pgem_cli_parse_u32(arg, value, &args->group_size) && args->group_size >= 1u;
+            ok = pgem_cli_parse_at_least("pgem corrupt", arg, value, 1u, "loop", &args->group_size);
         } else if (ok && strcmp(arg, "--information") == 0) {
             args->information = value;
         } else if (ok && strcmp(arg, "--seed") == 0) {
@@ -200,18 +200,28 @@ static const pgem_io_edge_t *corrupt_template(const pgem_io_graph_t *graph)
     return graph->edge_count > 0 ? &graph->edges[0] : NULL;
 }
 
+static size_t corrupt_group(const corrupt_args_t *args)
+{
+    int grouped = args->policy == CORRUPT_RANDOM_GROUPED || args->policy == CORRUPT_LOCAL_GROUPED;
+    return grouped ? args->group_size : 1u;
+}
+
+/* 1 if the graph can take false loops: enough poses for a group, an edge to copy from. */
+static int corrupt_possible(const corrupt_args_t *args, const pgem_io_graph_t *graph)
+{
+    if (corrupt_template(graph) == NULL || graph->pose_count < corrupt_group(args) + 3u) {
+        fprintf(stderr, "pgem corrupt: %s has too few poses or no edge to copy information from\n", args->input);
+        return 0;
+    }
+    return 1;
+}
+
 /* Appends the false loops to the graph's edge array and writes their pairs to `outliers`. */
 static int corrupt_apply(const corrupt_args_t *args, const double *information,
                          pgem_io_graph_t *graph, FILE *outliers)
 {
-    const pgem_io_edge_t *template_edge = corrupt_template(graph);
-    int grouped = args->policy == CORRUPT_RANDOM_GROUPED || args->policy == CORRUPT_LOCAL_GROUPED;
-    size_t group = grouped ? args->group_size : 1u;
-    if (template_edge == NULL || graph->pose_count < group + 3u) {
-        fprintf(stderr, "pgem corrupt: %s has too few poses or no edge to copy information from\n", args->input);
-        return PGEM_EXIT_FAILURE;
-    }
-    pgem_io_edge_t model = *template_edge;
+    const size_t group = corrupt_group(args);
+    pgem_io_edge_t model = *corrupt_template(graph);
     if (information != NULL) {
         memcpy(model.information, information, sizeof model.information);
     }
@@ -252,7 +262,11 @@ int pgem_cmd_corrupt(int argc, char **argv)
     status = pgem_cli_read_graph("pgem", args.input, 0u, &graph);
     if (status != PGEM_EXIT_OK) {
         pgem_io_graph_free(&graph);
-        return PGEM_EXIT_FAILURE; /* every read failure exits 1 here, PGEM_EXIT_IO included */
+        return status;
+    }
+    if (!corrupt_possible(&args, &graph)) {
+        pgem_io_graph_free(&graph);
+        return PGEM_EXIT_FAILURE;
     }
     double information[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     if (args.information != NULL && !corrupt_parse_information(args.information, graph.dimension, information)) {
@@ -271,7 +285,9 @@ int pgem_cmd_corrupt(int argc, char **argv)
     if (status == PGEM_EXIT_OK) {
         status = pgem_cli_write_graph("pgem corrupt", &graph, args.output);
     }
-    if (status == PGEM_EXIT_OK) {
+    if (status != PGEM_EXIT_OK) {
+        remove(outliers_path); /* a failed run leaves no list of loops that were never written */
+    } else {
         printf("%s: added %u false loop closures (%s, seed %u) -> %s, %s\n", args.input, args.count,
                corrupt_policy_names[args.policy], args.seed, args.output, outliers_path);
     }

@@ -39,7 +39,8 @@ static void pgem_optimize_help(FILE *out)
             "\n"
             "  -o OUT.g2o          write the optimized graph (g2o)\n"
             "  --solver gn|lm      Gauss-Newton (default) or Levenberg-Marquardt\n"
-            "  --max-iterations N  iteration limit (default 100)\n"
+            "  --max-iterations N  iteration limit (default 100; with --robust, of the final\n"
+            "                      solve at weight 1)\n"
             "  --robust KERNEL     weight loop closures: em (Lee et al. EM with pruning),\n"
             "                      cauchy, huber, dcs (IRLS), none (default)\n"
             "  --robust-scale C    kernel scale: Cauchy c, Huber k, DCS phi (default 1)\n"
@@ -277,8 +278,8 @@ static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph)
     solve.method = args->method;
     robust_options.on_round = pgem_round_line;
     robust_options.user = &progress;
-    if (!robust) { /* --max-iterations is not passed to the robust solve */
-        solve.max_iterations = args->max_iterations;
+    solve.max_iterations = args->max_iterations; /* robust: the final solve's limit */
+    if (!robust) {
         solve.on_iteration = pgem_progress_line;
         solve.user = &progress;
         if (!args->quiet) {
@@ -297,8 +298,7 @@ static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph)
     if (status != PGEM_OK) {
         return PGEM_EXIT_FAILURE;
     }
-    /* --weights is written after a robust solve only */
-    if (robust && args->weights != NULL && pgem_cli_write_weights(graph, args->weights) != 0) {
+    if (args->weights != NULL && pgem_cli_write_weights(graph, args->weights) != 0) {
         return PGEM_EXIT_IO;
     }
     return args->output != NULL ? pgem_cli_write(graph, args->output) : PGEM_EXIT_OK;
