@@ -26,6 +26,9 @@ typedef enum pgem_edge_kind {
 #define PGEM_POSE_SIZE_MAX 7
 #define PGEM_TANGENT_SIZE_MAX 6
 
+/** A 3D quaternion whose norm is off 1 by more than this is refused; others are normalised. */
+#define PGEM_QUAT_NORM_TOLERANCE 0.01
+
 /** Adds a pose with its initial estimate: 2D [x, y, theta], 3D [x, y, z, qx, qy, qz, qw].
  * A 3D quaternion is normalised; one whose norm is off 1 by more than 1% is rejected.
  * Errors: CAPACITY, DUPLICATE_ID, NOT_FINITE, ROTATION. */

@@ -18,9 +18,8 @@
 /* Monotonic seconds. */
 double pgem_cli_now(void);
 
-/* The core refuses a 3D quaternion whose norm is off 1 by more than this (and normalises the
- * others); the tools apply the same rule. */
-#define PGEM_CLI_QUAT_TOLERANCE 0.01
+/* The tools apply the core's rule for 3D quaternions. */
+#define PGEM_CLI_QUAT_TOLERANCE PGEM_QUAT_NORM_TOLERANCE
 
 /* Parses a non-negative integer option value; prints an error and returns 0 on failure. */
 int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value);

@@ -26,7 +26,7 @@ int pgem_check_pose(pgem_t *graph, const double *pose, double *normalised, const
         return PGEM_OK;
     }
     double norm = pgem_quat_normalize(normalised + 3);
-    if (!(fabs(norm - 1.0) <= 0.01)) {
+    if (!(fabs(norm - 1.0) <= PGEM_QUAT_NORM_TOLERANCE)) {
         pgem_message_clear(graph);
         pgem_message_text(graph, what);
         pgem_message_text(graph, ": quaternion (qx qy qz qw) norm is not within 1% of 1");
