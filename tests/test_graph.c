@@ -68,6 +68,14 @@ static void test_pose_ids_64bit(void **state)
     pgem_id_t id;
     assert_int_equal(pgem_pose_at(graph, 1, &id, NULL, NULL), PGEM_OK);
     assert_true(id == top);
+    uint32_t index = 99;
+    assert_int_equal(pgem_pose_index(graph, 0, &index), PGEM_OK);
+    assert_int_equal(index, 2);
+    assert_int_equal(pgem_pose_index(graph, top, &index), PGEM_OK);
+    assert_int_equal(index, 1);
+    assert_int_equal(pgem_pose_index(graph, big + 1u, &index), PGEM_ERR_UNKNOWN_ID);
+    assert_int_equal(index, 1);
+    assert_int_equal(pgem_pose_index(graph, big, NULL), PGEM_ERR_INVALID_ARGUMENT);
     pgem_destroy(graph);
 }
 

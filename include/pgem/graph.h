@@ -70,6 +70,8 @@ uint32_t pgem_edge_count(const pgem_t *graph);
 /** The pose at index (0 .. pose_count-1): its id, estimate (may be NULL) and fixed flag (may be
  * NULL). Errors: INVALID_ARGUMENT. */
 int pgem_pose_at(const pgem_t *graph, uint32_t index, pgem_id_t *id, double *pose, int *fixed);
+/** The index (insertion order) of the pose with this id. Errors: UNKNOWN_ID, INVALID_ARGUMENT. */
+int pgem_pose_index(const pgem_t *graph, pgem_id_t id, uint32_t *index);
 
 /** A read-only view of one edge. */
 typedef struct pgem_edge_view {

@@ -104,6 +104,11 @@ int pgem_io_write(const char *path, pgem_format_t format, const pgem_io_graph_t 
                   char *message, size_t message_size);
 int pgem_io_write_stream(FILE *stream, pgem_format_t format, const pgem_io_graph_t *graph);
 
+/** Writes the loop closures of an instance, one line each in edge order: "from to weight
+ * state" (state "accepted" or "pruned"), after a "#" header line. The format `pgem optimize
+ * --weights` writes and `pgem eval --weights` reads. PGEM_ERR_IO if a write failed. */
+int pgem_io_write_weights(FILE *stream, const pgem_t *instance);
+
 #ifdef __cplusplus
 }
 #endif

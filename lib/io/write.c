@@ -164,3 +164,20 @@ int pgem_io_write(const char *path, pgem_format_t format, const pgem_io_graph_t 
     }
     return status == PGEM_OK ? PGEM_OK : io_write_failed(path, status, message, message_size);
 }
+
+int pgem_io_write_weights(FILE *stream, const pgem_t *instance)
+{
+    if (stream == NULL || instance == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    fprintf(stream, "# from to weight state (one line per loop closure)\n");
+    for (uint32_t k = 0; k < pgem_edge_count(instance); k++) {
+        pgem_edge_view_t edge;
+        pgem_edge_at(instance, k, &edge);
+        if (edge.kind == PGEM_EDGE_LOOP) {
+            fprintf(stream, "%llu %llu %.9g %s\n", (unsigned long long)edge.from,
+                    (unsigned long long)edge.to, edge.weight, edge.active ? "accepted" : "pruned");
+        }
+    }
+    return ferror(stream) ? PGEM_ERR_IO : PGEM_OK;
+}

@@ -113,6 +113,9 @@ const char *pgem_cli_plural(size_t count);
 /* Writes text to stdout as a JSON string: quoted, with '"', '\\' and control bytes escaped. */
 void pgem_cli_json_string(const char *text);
 
+/* As pgem_cli_json_string, to a stream. */
+void pgem_cli_json_string_to(FILE *out, const char *text);
+
 int pgem_cmd_optimize(int argc, char **argv);
 int pgem_cmd_simulate(int argc, char **argv);
 int pgem_cmd_corrupt(int argc, char **argv);

@@ -195,16 +195,8 @@ int pgem_cli_write_weights(const pgem_t *instance, const char *path)
     if (file == NULL) {
         return -1;
     }
-    fprintf(file, "# from to weight state (one line per loop closure)\n");
-    for (uint32_t k = 0; k < pgem_edge_count(instance); k++) {
-        pgem_edge_view_t edge;
-        pgem_edge_at(instance, k, &edge);
-        if (edge.kind == PGEM_EDGE_LOOP) {
-            fprintf(file, "%llu %llu %.9g %s\n", (unsigned long long)edge.from,
-                    (unsigned long long)edge.to, edge.weight, edge.active ? "accepted" : "pruned");
-        }
-    }
-    return pgem_cli_finish("pgem", path, file, 0) == PGEM_EXIT_OK ? 0 : -1;
+    int failed = pgem_io_write_weights(file, instance) != PGEM_OK;
+    return pgem_cli_finish("pgem", path, file, failed) == PGEM_EXIT_OK ? 0 : -1;
 }
 
 double pgem_cli_uniform(uint64_t *state)
@@ -222,19 +214,24 @@ double pgem_cli_gaussian(uint64_t *state)
     return sqrt(-2.0 * log(u + 1e-300)) * cos(6.283185307179586 * v);
 }
 
-void pgem_cli_json_string(const char *text)
+void pgem_cli_json_string_to(FILE *out, const char *text)
 {
-    putchar('"');
+    fputc('"', out);
     for (const unsigned char *c = (const unsigned char *)text; *c != '\0'; c++) {
         if (*c == '"' || *c == '\\') {
-            printf("\\%c", *c);
+            fprintf(out, "\\%c", *c);
         } else if (*c < 0x20u) {
-            printf("\\u%04x", (unsigned)*c);
+            fprintf(out, "\\u%04x", (unsigned)*c);
         } else {
-            putchar(*c);
+            fputc(*c, out);
         }
     }
-    putchar('"');
+    fputc('"', out);
+}
+
+void pgem_cli_json_string(const char *text)
+{
+    pgem_cli_json_string_to(stdout, text);
 }
 
 static int pgem_cli_compare_ids(const void *a, const void *b)

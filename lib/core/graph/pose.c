@@ -103,6 +103,19 @@ int pgem_fix_pose(pgem_t *graph, pgem_id_t id, int fixed)
     return PGEM_OK;
 }
 
+int pgem_pose_index(const pgem_t *graph, pgem_id_t id, uint32_t *index)
+{
+    if (graph == NULL || index == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    int64_t found = pgem_map_find(graph, id);
+    if (found < 0) {
+        return PGEM_ERR_UNKNOWN_ID;
+    }
+    *index = (uint32_t)found;
+    return PGEM_OK;
+}
+
 int pgem_get_pose(const pgem_t *graph, pgem_id_t id, double *pose)
 {
     if (graph == NULL || pose == NULL) {

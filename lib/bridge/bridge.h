@@ -1,0 +1,54 @@
+/* The LCM bridge: receives poses and edges from front-ends, keeps them in a core instance,
+ * runs EM when new loop closures arrive (debounced, rate-limited) or on command, and publishes
+ * the optimized graph and its status.
+ *
+ * Two threads. The reception thread only decodes, validates, journals and queues (through the
+ * ingest state machine), so it never waits for a solve. The solver thread owns the core: it
+ * drains the queue into the graph and solves. Memory is allocated at start from the
+ * capacities; a solve allocates nothing but what the core documents (CSparse's symbolic
+ * analysis when the topology changed). */
+#ifndef PGEM_BRIDGE_BRIDGE_H
+#define PGEM_BRIDGE_BRIDGE_H
+
+#include <signal.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "channels.h"
+#include "pgem/robust.h"
+
+typedef void (*pgem_bridge_log_fn)(void *user, const char *line);
+
+typedef struct pgem_bridge_options {
+    const char *url;           /* LCM URL; NULL means LCM_DEFAULT_URL (or LCM's default) */
+    pgem_channels_t channels;  /* see channels.h */
+    int dimension;             /* 2 or 3 */
+    uint32_t max_poses;        /* capacities (0: 20000 poses, 4 edges per pose) */
+    uint32_t max_edges;
+    uint32_t fill_budget;      /* 0: the core's default */
+    uint32_t max_pending;      /* edges that may wait for their poses (0: 4096) */
+    uint32_t max_sources;      /* front-ends (0: 64) */
+    double debounce;           /* s to wait after a new loop closure for more (default 0.01) */
+    double max_rate;           /* solves per second at most (default 20) */
+    double max_delay;          /* s a loop closure may wait for its solve while more keep
+                                  arriving (default 0.1) */
+    double status_period;      /* s between status messages (default 0.5) */
+    const char *journal;       /* journal path; NULL for none */
+    int journal_sync;          /* fdatasync every record */
+    pgem_robust_options_t robust;  /* kernel 0 means EM with its defaults */
+    pgem_bridge_log_fn log;    /* progress lines (NULL: silent) */
+    void *log_user;
+} pgem_bridge_options_t;
+
+/* Fills the defaults above into a zeroed options struct (channels from the default prefix for
+ * the dimension; dimension 2 if unset). */
+void pgem_bridge_defaults(pgem_bridge_options_t *options);
+
+/* Runs until *stop becomes non-zero (set it from a SIGINT/SIGTERM handler), then finishes
+ * cleanly: the solve in progress is interrupted, a last status is published, the journal is
+ * closed. Returns 0, or -1 with message when the bridge could not start (LCM URL, journal,
+ * memory). */
+int pgem_bridge_run(const pgem_bridge_options_t *options, volatile sig_atomic_t *stop,
+                    char *message, size_t message_size);
+
+#endif /* PGEM_BRIDGE_BRIDGE_H */

@@ -1,0 +1,111 @@
+/* Shared state of a running bridge (bridge.c: reception, scheduling; graph.c: the solver's
+ * graph, solves and publication; status.c: status messages). */
+#ifndef PGEM_BRIDGE_INTERNAL_H
+#define PGEM_BRIDGE_INTERNAL_H
+
+#include <lcm/lcm.h>
+#include <pthread.h>
+#include <signal.h>
+
+#include "bridge.h"
+#include "ingest.h"
+#include "journal.h"
+#include "pgem/pgem.h"
+#include "pgem_graph_t.h"
+
+typedef struct bridge {
+    pgem_bridge_options_t options;
+    lcm_t *lcm;
+    pthread_mutex_t lock;   /* guards everything marked (L) */
+    pthread_cond_t wake;    /* (L) the solver waits on it */
+    volatile sig_atomic_t stopping;
+
+    /* Reception side (reception thread; the ingest is (L) because the solver reads sources
+     * and counters). */
+    pgem_ingest_t *ingest;
+    pgem_journal_t *journal;
+    int64_t journal_failures;
+    int64_t recovered;
+
+    /* Queue of admitted items (L): [head, visible) may be taken by the solver; [visible,
+     * tail) are being journaled. Indices grow forever; slot = index % capacity. */
+    pgem_item_t *queue;
+    uint64_t queue_capacity;
+    uint64_t head;
+    uint64_t visible;
+    uint64_t tail;
+    int64_t queue_overflows;
+
+    /* Requests for the solver (L). */
+    int optimize_requested;
+    int snapshot_requested;
+    char snapshot_path[PGEM_PATH_MAX];
+    int recovery_pending;
+
+    /* What the solver last did, for the status (L). */
+    int32_t graph_poses;
+    int32_t graph_edges;
+    int32_t graph_loops;
+    int32_t graph_pruned;
+    int64_t solves;
+    int solving;
+    int64_t core_rejections;
+    char last_message[384];
+    int64_t rejections_logged;
+
+    /* Solver thread only. */
+    pgem_config_t core_config;
+    void *core_block;
+    size_t core_block_size;
+    pgem_t *core;
+    uint16_t *edge_source;      /* per core edge: source index */
+    int64_t *edge_sequence;     /* per core edge: the front-end's sequence number */
+    int64_t *source_last;       /* per source: highest sequence in the graph, -1 none */
+    uint8_t *anchored;          /* per core pose: initial estimate re-anchored */
+    uint32_t solved_poses;      /* poses that took part in the last successful solve */
+    int64_t solve_id;
+    /* Publication buffers for graph_t, sized for the capacities. */
+    int64_t *out_ids;
+    double *out_values;
+    double **out_rows;
+    pgem_loop_t *out_loops;
+    char **out_sources;
+    int64_t *out_last;
+    unsigned char *out_buffer;
+    size_t out_buffer_size;
+} bridge_t;
+
+/* Monotonic seconds and wall-clock microseconds. */
+double bridge_now(void);
+int64_t bridge_utime(void);
+
+/* Formats a line and hands it to the log callback. */
+void bridge_log(bridge_t *bridge, const char *format, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+/* graph.c (solver thread). */
+int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size);
+void bridge_graph_free(bridge_t *bridge);
+/* Adds one item to the graph; returns 1 if it was a new loop closure. */
+int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item);
+/* Solves and publishes; trigger names why ("loops", "command", "recovery"). */
+void bridge_graph_solve(bridge_t *bridge, const char *trigger);
+/* Publishes the graph as it is, without solving (after a reset). */
+void bridge_graph_publish(bridge_t *bridge, const char *trigger,
+                          const pgem_robust_summary_t *summary, int usable, const char *why,
+                          int64_t solve_time_us);
+void bridge_graph_snapshot(bridge_t *bridge, const char *path);
+
+/* status.c (either thread). */
+void bridge_publish_status(bridge_t *bridge);
+/* Sets the status's message (L must NOT be held) and logs it. */
+void bridge_note(bridge_t *bridge, const char *format, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+#endif /* PGEM_BRIDGE_INTERNAL_H */

@@ -1,0 +1,401 @@
+/* The solver thread's graph: items into the core, robust solves, graph_t publication and
+ * snapshots. Only the solver thread calls these. */
+#define _POSIX_C_SOURCE 200809L
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bridge_internal.h"
+#include "pgem/io.h"
+
+int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
+{
+    const pgem_bridge_options_t *o = &bridge->options;
+    memset(&bridge->core_config, 0, sizeof bridge->core_config);
+    bridge->core_config.dimension = o->dimension;
+    bridge->core_config.max_poses = o->max_poses;
+    bridge->core_config.max_edges = o->max_edges;
+    bridge->core_config.fill_budget = o->fill_budget;
+    bridge->core_block_size = pgem_memory_size(&bridge->core_config);
+    if (bridge->core_block_size == 0) {
+        snprintf(message, message_size, "invalid capacities (%u poses, %u edges, fill %u)",
+                 (unsigned)o->max_poses, (unsigned)o->max_edges, (unsigned)o->fill_budget);
+        return -1;
+    }
+    bridge->core_block = malloc(bridge->core_block_size);
+    size_t poses = o->max_poses;
+    size_t edges = o->max_edges;
+    size_t sources = o->max_sources;
+    size_t pose_size = (size_t)PGEM_POSE_SIZE(o->dimension);
+    bridge->edge_source = calloc(edges, sizeof *bridge->edge_source);
+    bridge->edge_sequence = calloc(edges, sizeof *bridge->edge_sequence);
+    bridge->source_last = calloc(sources, sizeof *bridge->source_last);
+    bridge->anchored = calloc(poses, 1);
+    bridge->out_ids = calloc(poses, sizeof *bridge->out_ids);
+    bridge->out_values = calloc(poses * pose_size, sizeof *bridge->out_values);
+    bridge->out_rows = calloc(poses, sizeof *bridge->out_rows);
+    bridge->out_loops = calloc(edges, sizeof *bridge->out_loops);
+    bridge->out_sources = calloc(sources, sizeof *bridge->out_sources);
+    bridge->out_last = calloc(sources, sizeof *bridge->out_last);
+    if (bridge->core_block == NULL || bridge->edge_source == NULL ||
+        bridge->edge_sequence == NULL || bridge->source_last == NULL ||
+        bridge->anchored == NULL || bridge->out_ids == NULL || bridge->out_values == NULL ||
+        bridge->out_rows == NULL || bridge->out_loops == NULL || bridge->out_sources == NULL ||
+        bridge->out_last == NULL) {
+        snprintf(message, message_size, "out of memory for %u poses and %u edges",
+                 (unsigned)o->max_poses, (unsigned)o->max_edges);
+        return -1;
+    }
+    for (size_t i = 0; i < poses; ++i) {
+        bridge->out_rows[i] = bridge->out_values + i * pose_size;
+    }
+    for (size_t s = 0; s < sources; ++s) {
+        bridge->source_last[s] = -1;
+    }
+    int status = pgem_init(&bridge->core, &bridge->core_config, bridge->core_block,
+                           bridge->core_block_size);
+    if (status != PGEM_OK) {
+        snprintf(message, message_size, "cannot initialise the core: %s",
+                 pgem_error_name(status));
+        return -1;
+    }
+    return 0;
+}
+
+void bridge_graph_free(bridge_t *bridge)
+{
+    free(bridge->core_block);
+    free(bridge->edge_source);
+    free(bridge->edge_sequence);
+    free(bridge->source_last);
+    free(bridge->anchored);
+    free(bridge->out_ids);
+    free(bridge->out_values);
+    free(bridge->out_rows);
+    free(bridge->out_loops);
+    free(bridge->out_sources);
+    free(bridge->out_last);
+    free(bridge->out_buffer);
+}
+
+static void update_counts(bridge_t *bridge, uint32_t pruned)
+{
+    uint32_t loops = 0;
+    uint32_t edges = pgem_edge_count(bridge->core);
+    for (uint32_t k = 0; k < edges; ++k) {
+        pgem_edge_view_t view;
+        pgem_edge_at(bridge->core, k, &view);
+        loops += view.kind == PGEM_EDGE_LOOP;
+    }
+    pthread_mutex_lock(&bridge->lock);
+    bridge->graph_poses = (int32_t)pgem_pose_count(bridge->core);
+    bridge->graph_edges = (int32_t)edges;
+    bridge->graph_loops = (int32_t)loops;
+    bridge->graph_pruned = (int32_t)pruned;
+    pthread_mutex_unlock(&bridge->lock);
+}
+
+static void core_refused(bridge_t *bridge, const char *what, int status)
+{
+    pthread_mutex_lock(&bridge->lock);
+    bridge->core_rejections++;
+    pthread_mutex_unlock(&bridge->lock);
+    bridge_note(bridge, "the core refused %s: %s (%s)", what, pgem_error_name(status),
+                pgem_last_error(bridge->core));
+}
+
+static int pose_settled(const bridge_t *bridge, uint32_t index)
+{
+    return index < bridge->solved_poses || bridge->anchored[index];
+}
+
+/* A pose that arrived after the last solve carries the front-end's estimate, in the front-end's
+ * drifting frame; the solved poses have moved since. When an odometry edge joins a settled pose
+ * to such a new one, the new pose is placed by the measurement from the settled one, so the
+ * next solve starts near its optimum and the E-step judges new loop closures fairly. */
+static void anchor(bridge_t *bridge, const pgem_item_t *item)
+{
+    uint32_t from = 0;
+    uint32_t to = 0;
+    if (bridge->solved_poses == 0 || pgem_pose_index(bridge->core, item->from, &from) != PGEM_OK ||
+        pgem_pose_index(bridge->core, item->to, &to) != PGEM_OK) {
+        return;
+    }
+    int dimension = bridge->options.dimension;
+    double base[PGEM_POSE_SIZE_MAX];
+    double step[PGEM_POSE_SIZE_MAX];
+    double placed[PGEM_POSE_SIZE_MAX];
+    uint32_t target = 0;    /* index of the pose to place */
+    pgem_id_t target_id = 0;
+    if (pose_settled(bridge, from) && !pose_settled(bridge, to)) {
+        target = to;
+        target_id = item->to;
+        pgem_get_pose(bridge->core, item->from, base);
+        memcpy(step, item->value, sizeof step);
+    } else if (pose_settled(bridge, to) && !pose_settled(bridge, from)) {
+        target = from;
+        target_id = item->from;
+        pgem_get_pose(bridge->core, item->to, base);
+        if (dimension == 3) {
+            pgem_se3_inverse(item->value, step);
+        } else {
+            pgem_se2_inverse(item->value, step);
+        }
+    } else {
+        return;
+    }
+    int fixed = 0;
+    pgem_pose_at(bridge->core, target, NULL, NULL, &fixed);
+    if (fixed) {
+        return;
+    }
+    if (dimension == 3) {
+        pgem_se3_compose(base, step, placed);
+    } else {
+        pgem_se2_compose(base, step, placed);
+    }
+    if (pgem_set_pose(bridge->core, target_id, placed) == PGEM_OK) {
+        bridge->anchored[target] = 1;
+    }
+}
+
+static void reset_graph(bridge_t *bridge)
+{
+    pgem_init(&bridge->core, &bridge->core_config, bridge->core_block, bridge->core_block_size);
+    memset(bridge->anchored, 0, bridge->options.max_poses);
+    for (uint32_t s = 0; s < bridge->options.max_sources; ++s) {
+        bridge->source_last[s] = -1;
+    }
+    bridge->solved_poses = 0;
+    update_counts(bridge, 0);
+}
+
+int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
+{
+    char what[160];
+    if (item->type == PGEM_ITEM_RESET) {
+        reset_graph(bridge);
+        bridge_graph_publish(bridge, "reset", NULL, 0, "the graph was reset", 0);
+        bridge_note(bridge, "reset: the graph is empty");
+        return 0;
+    }
+    if (item->type == PGEM_ITEM_POSE) {
+        int status = pgem_add_pose(bridge->core, item->from, item->value);
+        if (status == PGEM_OK && item->kind) {
+            status = pgem_fix_pose(bridge->core, item->from, 1);
+        }
+        if (status != PGEM_OK) {
+            snprintf(what, sizeof what, "pose %llu", (unsigned long long)item->from);
+            core_refused(bridge, what, status);
+        }
+        return 0;
+    }
+    int n = PGEM_TANGENT_SIZE(bridge->options.dimension);
+    double information[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    pgem_upper_to_full(item->information, n, information);
+    uint32_t index = 0;
+    int status = pgem_add_edge(bridge->core, item->from, item->to, item->value, information,
+                               (pgem_edge_kind_t)item->kind, &index);
+    if (status != PGEM_OK) {
+        snprintf(what, sizeof what, "edge %llu -> %llu (sequence %lld)",
+                 (unsigned long long)item->from, (unsigned long long)item->to,
+                 (long long)item->sequence);
+        core_refused(bridge, what, status);
+        return 0;
+    }
+    bridge->edge_source[index] = item->source;
+    bridge->edge_sequence[index] = item->sequence;
+    if (item->source < bridge->options.max_sources &&
+        item->sequence > bridge->source_last[item->source]) {
+        bridge->source_last[item->source] = item->sequence;
+    }
+    if (item->kind == PGEM_EDGE_ODOMETRY) {
+        anchor(bridge, item);
+    }
+    return item->kind == PGEM_EDGE_LOOP;
+}
+
+/* Stops a robust solve when the bridge is stopping. */
+static int keep_going(const pgem_robust_progress_t *progress, void *user)
+{
+    (void)progress;
+    const bridge_t *bridge = user;
+    return bridge->stopping ? 1 : 0;
+}
+
+void bridge_graph_solve(bridge_t *bridge, const char *trigger)
+{
+    pthread_mutex_lock(&bridge->lock);
+    bridge->solving = 1;
+    pthread_mutex_unlock(&bridge->lock);
+    pgem_robust_options_t robust = bridge->options.robust;
+    robust.on_round = keep_going;
+    robust.user = bridge;
+    pgem_robust_summary_t summary;
+    memset(&summary, 0, sizeof summary);
+    double start = bridge_now();
+    int status = pgem_robust_optimize(bridge->core, &robust, NULL, &summary);
+    int64_t micros = (int64_t)((bridge_now() - start) * 1e6);
+    char why[256] = "";
+    if (status == PGEM_OK) {
+        bridge->solved_poses = pgem_pose_count(bridge->core);
+        memset(bridge->anchored, 0, bridge->solved_poses);
+    } else {
+        snprintf(why, sizeof why, "%s: %s", pgem_error_name(status),
+                 pgem_last_error(bridge->core));
+    }
+    update_counts(bridge, summary.pruned);
+    bridge_graph_publish(bridge, trigger, &summary, status == PGEM_OK, why, micros);
+    pthread_mutex_lock(&bridge->lock);
+    bridge->solving = 0;
+    bridge->solves++;
+    pthread_mutex_unlock(&bridge->lock);
+    if (status == PGEM_OK) {
+        bridge_log(bridge,
+                   "solve %lld (%s): %u poses, %u loops, %u pruned, chi2 %.6g, %u rounds, "
+                   "%.1f ms",
+                   (long long)bridge->solve_id, trigger, pgem_pose_count(bridge->core),
+                   summary.loops, summary.pruned, summary.final_chi2, summary.rounds,
+                   1e-3 * (double)micros);
+    } else {
+        bridge_note(bridge, "solve %lld (%s) failed: %s", (long long)bridge->solve_id, trigger,
+                    why);
+    }
+    bridge_publish_status(bridge);
+}
+
+static int ensure_buffer(bridge_t *bridge, size_t size)
+{
+    if (size <= bridge->out_buffer_size) {
+        return 0;
+    }
+    unsigned char *grown = realloc(bridge->out_buffer, size);
+    if (grown == NULL) {
+        return -1;
+    }
+    bridge->out_buffer = grown;
+    bridge->out_buffer_size = size;
+    return 0;
+}
+
+void bridge_graph_publish(bridge_t *bridge, const char *trigger,
+                          const pgem_robust_summary_t *summary, int usable, const char *why,
+                          int64_t solve_time_us)
+{
+    pgem_t *core = bridge->core;
+    int dimension = bridge->options.dimension;
+    pgem_graph_t msg;
+    memset(&msg, 0, sizeof msg);
+    msg.utime = bridge_utime();
+    msg.dimension = (int8_t)dimension;
+    msg.num_poses = (int32_t)pgem_pose_count(core);
+    msg.pose_size = PGEM_POSE_SIZE(dimension);
+    for (uint32_t i = 0; i < (uint32_t)msg.num_poses; ++i) {
+        pgem_id_t id = 0;
+        pgem_pose_at(core, i, &id, bridge->out_rows[i], NULL);
+        bridge->out_ids[i] = (int64_t)id;
+    }
+    msg.ids = bridge->out_ids;
+    msg.poses = bridge->out_rows;
+    uint32_t loops = 0;
+    for (uint32_t k = 0; k < pgem_edge_count(core); ++k) {
+        pgem_edge_view_t view;
+        pgem_edge_at(core, k, &view);
+        if (view.kind != PGEM_EDGE_LOOP) {
+            continue;
+        }
+        pgem_loop_t *loop = &bridge->out_loops[loops++];
+        loop->source_index = bridge->edge_source[k];
+        loop->sequence = bridge->edge_sequence[k];
+        loop->from = (int64_t)view.from;
+        loop->to = (int64_t)view.to;
+        loop->weight = view.weight;
+        loop->state = view.active ? PGEM_LOOP_T_ACCEPTED : PGEM_LOOP_T_PRUNED;
+    }
+    msg.num_loops = (int32_t)loops;
+    msg.loops = bridge->out_loops;
+    /* Source names are append-only inside the ingest: entries below the count never change. */
+    pthread_mutex_lock(&bridge->lock);
+    uint32_t sources = pgem_ingest_source_count(bridge->ingest);
+    for (uint32_t s = 0; s < sources; ++s) {
+        bridge->out_sources[s] = (char *)(uintptr_t)pgem_ingest_source_name(bridge->ingest, s);
+        bridge->out_last[s] = bridge->source_last[s];
+    }
+    pthread_mutex_unlock(&bridge->lock);
+    msg.num_sources = (int32_t)sources;
+    msg.sources = bridge->out_sources;
+    msg.last_sequence = bridge->out_last;
+    msg.edges_included = pgem_edge_count(core);
+    char trigger_text[32];
+    char why_text[256];
+    snprintf(trigger_text, sizeof trigger_text, "%s", trigger);
+    snprintf(why_text, sizeof why_text, "%s", why != NULL ? why : "");
+    msg.stats.solve_id = ++bridge->solve_id;
+    msg.stats.trigger = trigger_text;
+    msg.stats.usable = (int8_t)usable;
+    msg.stats.message = why_text;
+    if (summary != NULL) {
+        msg.stats.initial_chi2 = summary->initial_chi2;
+        msg.stats.chi2 = summary->final_chi2;
+        msg.stats.em_rounds = (int32_t)summary->rounds;
+        msg.stats.em_iterations = (int32_t)summary->em_iterations;
+        msg.stats.gn_iterations = (int32_t)summary->gn_iterations;
+        msg.stats.pruned = (int32_t)summary->pruned;
+    }
+    msg.stats.solve_time_us = solve_time_us;
+    msg.stats.poses = msg.num_poses;
+    msg.stats.edges = (int32_t)msg.edges_included;
+    msg.stats.loops = msg.num_loops;
+    int size = pgem_graph_t_encoded_size(&msg);
+    if (size <= 0 || ensure_buffer(bridge, (size_t)size) != 0 ||
+        pgem_graph_t_encode(bridge->out_buffer, 0, size, &msg) != size) {
+        bridge_note(bridge, "cannot encode the graph (%d bytes)", size);
+        return;
+    }
+    if (lcm_publish(bridge->lcm, bridge->options.channels.graph, bridge->out_buffer,
+                    (unsigned)size) != 0) {
+        bridge_note(bridge, "LCM refused to publish the graph (%d bytes) on %s", size,
+                    bridge->options.channels.graph);
+    }
+}
+
+void bridge_graph_snapshot(bridge_t *bridge, const char *path)
+{
+    char message[PGEM_PATH_MAX + 512] = "";
+    char temporary[PGEM_PATH_MAX + 16];
+    char weights[PGEM_PATH_MAX + 16];
+    snprintf(temporary, sizeof temporary, "%s.tmp", path);
+    snprintf(weights, sizeof weights, "%s.weights", path);
+    pgem_io_graph_t graph;
+    int status = pgem_io_from_instance(bridge->core, &graph);
+    if (status == PGEM_OK) {
+        status = pgem_io_write(temporary, PGEM_FORMAT_G2O, &graph, message, sizeof message);
+        pgem_io_graph_free(&graph);
+    } else {
+        snprintf(message, sizeof message, "out of memory");
+    }
+    if (status == PGEM_OK && rename(temporary, path) != 0) {
+        snprintf(message, sizeof message, "%s: cannot rename into place: %s", path,
+                 strerror(errno));
+        status = PGEM_ERR_IO;
+    }
+    if (status == PGEM_OK) {
+        FILE *file = fopen(weights, "w");
+        int failed = file == NULL || pgem_io_write_weights(file, bridge->core) != PGEM_OK;
+        if (file != NULL && fclose(file) != 0) {
+            failed = 1;
+        }
+        if (failed) {
+            snprintf(message, sizeof message, "%s: cannot write: %s", weights, strerror(errno));
+            status = PGEM_ERR_IO;
+        }
+    }
+    if (status == PGEM_OK) {
+        bridge_note(bridge, "snapshot: %s (%u poses, %u edges) and %s", path,
+                    pgem_pose_count(bridge->core), pgem_edge_count(bridge->core), weights);
+    } else {
+        remove(temporary);
+        bridge_note(bridge, "snapshot failed: %s", message);
+    }
+}

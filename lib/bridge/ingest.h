@@ -1,0 +1,132 @@
+/* The bridge's reception side, as a deterministic state machine with no LCM runtime, threads,
+ * clocks or I/O: raw message bytes in, verdicts and graph items out.
+ *
+ * Every message is decoded and checked before anything changes (finite numbers, information
+ * positive definite, unit quaternion, not a self-loop, known kind, the bridge's dimension).
+ * Poses are keyed by id and edges by (source, sequence): an exact repeat is a replay and is
+ * ignored; the same key with other content is a conflict and is rejected. An edge whose poses
+ * have not arrived waits in a bounded pending list and is released, in arrival order, when
+ * they have. Capacity is reserved when a message is admitted, so an admitted item always fits
+ * the core. Admitted items leave through the emit callback in the order the solver must add
+ * them; feeding the same accepted messages in the same order (the journal) rebuilds exactly
+ * the same sequence of items. All memory is allocated once, in pgem_ingest_create. */
+#ifndef PGEM_BRIDGE_INGEST_H
+#define PGEM_BRIDGE_INGEST_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "pgem/graph.h"
+
+/* Why a message was rejected. The names (pgem_reject_name) appear in status_t. */
+typedef enum pgem_reject {
+    PGEM_REJECT_DECODE = 0,    /* not the channel's message type, or truncated/garbled */
+    PGEM_REJECT_DIMENSION,     /* a 2D message to a 3D bridge, or the reverse */
+    PGEM_REJECT_NOT_FINITE,    /* NaN or Inf in a pose, measurement or information */
+    PGEM_REJECT_INFORMATION,   /* information matrix not positive definite */
+    PGEM_REJECT_ROTATION,      /* quaternion norm off 1 by more than 1% */
+    PGEM_REJECT_SELF_LOOP,     /* from == to */
+    PGEM_REJECT_KIND,          /* kind neither ODOMETRY nor LOOP */
+    PGEM_REJECT_SOURCE,        /* source name empty or too long, or too many sources */
+    PGEM_REJECT_CONFLICT,      /* pose id or (source, sequence) seen with other content */
+    PGEM_REJECT_CAPACITY,      /* pose or edge capacity of the bridge reached */
+    PGEM_REJECT_PENDING_FULL,  /* the edge waits for a pose and the pending list is full */
+    PGEM_REJECT_COMMAND,       /* unknown command, or a snapshot without a path */
+    PGEM_REJECT_CORE,          /* the core refused an admitted item (a bug if ever seen) */
+    PGEM_REJECT_COUNT
+} pgem_reject_t;
+
+const char *pgem_reject_name(pgem_reject_t reason);
+
+/* What a message is expected to be (the channel it came on). ANY dispatches by the LCM type
+ * fingerprint, for replaying a journal. */
+typedef enum pgem_role {
+    PGEM_ROLE_POSE = 0,
+    PGEM_ROLE_EDGE = 1,
+    PGEM_ROLE_COMMAND = 2,
+    PGEM_ROLE_ANY = 3
+} pgem_role_t;
+
+/* One unit of work for the solver, in order. */
+typedef enum pgem_item_type {
+    PGEM_ITEM_POSE = 0,
+    PGEM_ITEM_EDGE = 1,
+    PGEM_ITEM_RESET = 2     /* forget the graph */
+} pgem_item_type_t;
+
+#define PGEM_SOURCE_MAX 64  /* bytes of a source name, NUL included */
+#define PGEM_INFO_UPPER_MAX 21
+
+typedef struct pgem_item {
+    uint8_t type;            /* pgem_item_type_t */
+    uint8_t kind;            /* edges: pgem_edge_kind_t; poses: fixed flag */
+    uint16_t source;         /* index into the source table */
+    int64_t sequence;        /* edges: the front-end's sequence number */
+    pgem_id_t from;          /* poses: the id */
+    pgem_id_t to;
+    double value[PGEM_POSE_SIZE_MAX];          /* pose estimate or measurement */
+    double information[PGEM_INFO_UPPER_MAX];   /* upper triangle, row by row */
+} pgem_item_t;
+
+/* What happened to one message. */
+typedef enum pgem_verdict {
+    PGEM_VERDICT_ACCEPTED = 0,  /* admitted: items emitted (or, an edge, pending) */
+    PGEM_VERDICT_REPLAY = 1,    /* an exact repeat of an admitted message: ignored */
+    PGEM_VERDICT_REJECTED = 2,  /* see reason and message */
+    PGEM_VERDICT_COMMAND = 3    /* a command for the bridge (command, path); RESET is already
+                                   applied here and emitted */
+} pgem_verdict_t;
+
+#define PGEM_PATH_MAX 1024
+
+typedef struct pgem_ingest_result {
+    pgem_verdict_t verdict;
+    pgem_reject_t reason;      /* when rejected */
+    int pending;               /* accepted edge that waits for a pose */
+    int command;               /* when a command: pgem_command_t's constant */
+    char path[PGEM_PATH_MAX];  /* SNAPSHOT path */
+    char message[384];         /* rejected: what was wrong, naming ids, source and sequence */
+} pgem_ingest_result_t;
+
+typedef void (*pgem_emit_fn)(void *user, const pgem_item_t *item);
+
+typedef struct pgem_ingest_config {
+    int dimension;           /* 2 or 3 */
+    uint32_t max_poses;      /* as the core's config */
+    uint32_t max_edges;
+    uint32_t max_pending;    /* edges allowed to wait for poses; 0 means 4096 */
+    uint32_t max_sources;    /* front-ends; 0 means 64 */
+} pgem_ingest_config_t;
+
+/* Counters (status_t's fields). */
+typedef struct pgem_ingest_counts {
+    int64_t received;          /* pose and edge messages */
+    int64_t accepted_poses;
+    int64_t accepted_edges;
+    int64_t replays;
+    int64_t commands;
+    int64_t rejected[PGEM_REJECT_COUNT];
+    uint32_t pending;          /* edges waiting now */
+} pgem_ingest_counts_t;
+
+typedef struct pgem_ingest pgem_ingest_t;
+
+/* NULL when out of memory or the config is invalid. */
+pgem_ingest_t *pgem_ingest_create(const pgem_ingest_config_t *config, pgem_emit_fn emit,
+                                  void *user);
+void pgem_ingest_destroy(pgem_ingest_t *ingest);
+
+/* Handles one message. Never fails as a call: every outcome is in *result. */
+void pgem_ingest_message(pgem_ingest_t *ingest, pgem_role_t role, const void *data, size_t size,
+                         pgem_ingest_result_t *result);
+
+void pgem_ingest_counts(const pgem_ingest_t *ingest, pgem_ingest_counts_t *counts);
+
+/* The source table (names in order of first appearance); index from pgem_item_t.source. */
+uint32_t pgem_ingest_source_count(const pgem_ingest_t *ingest);
+const char *pgem_ingest_source_name(const pgem_ingest_t *ingest, uint32_t index);
+
+/* Expands an upper triangle (row by row) into a full row-major n x n matrix. */
+void pgem_upper_to_full(const double *upper, int n, double *full);
+
+#endif /* PGEM_BRIDGE_INGEST_H */
