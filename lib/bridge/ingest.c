@@ -615,6 +615,10 @@ void pgem_ingest_message(pgem_ingest_t *ingest, pgem_role_t role, const void *da
     memset(result, 0, sizeof *result);
     if (role == PGEM_ROLE_ANY) {
         role = role_of(data, size);
+        if (role == PGEM_ROLE_ANY) {
+            result->verdict = PGEM_VERDICT_IGNORED;
+            return;
+        }
     }
     if (role == PGEM_ROLE_COMMAND) {
         handle_command(ingest, data, size, result);
@@ -623,11 +627,7 @@ void pgem_ingest_message(pgem_ingest_t *ingest, pgem_role_t role, const void *da
     ingest->counts.received++;
     if (role == PGEM_ROLE_POSE) {
         handle_pose(ingest, data, size, result);
-    } else if (role == PGEM_ROLE_EDGE) {
-        handle_edge(ingest, data, size, result);
     } else {
-        snprintf(result->message, sizeof result->message,
-                 "a %zu-byte message is not a pgem pose, edge or command", size);
-        reject(ingest, result, PGEM_REJECT_DECODE);
+        handle_edge(ingest, data, size, result);
     }
 }

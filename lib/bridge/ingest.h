@@ -73,8 +73,10 @@ typedef enum pgem_verdict {
     PGEM_VERDICT_ACCEPTED = 0,  /* admitted: items emitted (or, an edge, pending) */
     PGEM_VERDICT_REPLAY = 1,    /* an exact repeat of an admitted message: ignored */
     PGEM_VERDICT_REJECTED = 2,  /* see reason and message */
-    PGEM_VERDICT_COMMAND = 3    /* a command for the bridge (command, path); RESET is already
+    PGEM_VERDICT_COMMAND = 3,   /* a command for the bridge (command, path); RESET is already
                                    applied here and emitted */
+    PGEM_VERDICT_IGNORED = 4    /* ROLE_ANY only: a message of another type (a graph or status
+                                   in a recorded log, say), passed over and not counted */
 } pgem_verdict_t;
 
 #define PGEM_PATH_MAX 1024

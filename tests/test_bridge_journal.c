@@ -1,0 +1,249 @@
+/* The bridge's journal: round trip, torn tails, damage, and compatibility both ways with
+ * LCM's own log reader and writer (lcm-logger / lcm-logplayer's format). */
+#define _POSIX_C_SOURCE 200809L
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+#include <lcm/eventlog.h>
+
+#include "journal.h"
+
+#define RECORDS 50
+
+typedef struct seen {
+    int count;
+    char channel[RECORDS * 2][64];
+    unsigned char data[RECORDS * 2][64];
+    size_t size[RECORDS * 2];
+    int64_t utime[RECORDS * 2];
+} seen_t;
+
+static void collect(void *user, const char *channel, const void *data, size_t size,
+                    int64_t utime)
+{
+    seen_t *seen = user;
+    assert_true(seen->count < RECORDS * 2 && size <= 64);
+    snprintf(seen->channel[seen->count], 64, "%s", channel);
+    memcpy(seen->data[seen->count], data, size);
+    seen->size[seen->count] = size;
+    seen->utime[seen->count] = utime;
+    seen->count++;
+}
+
+static void path_for(char *path, size_t size, const char *name)
+{
+    const char *dir = getenv("PGEM_TEST_TMP");
+    snprintf(path, size, "%s/%s", dir != NULL ? dir : "/tmp", name);
+    remove(path);
+}
+
+/* Record i: channel "CH<i%3>", i+1 bytes of value i, utime 1000 + i. */
+static void append_records(pgem_journal_t *journal, int first, int count)
+{
+    char message[256];
+    for (int i = first; i < first + count; ++i) {
+        unsigned char data[64];
+        memset(data, i, sizeof data);
+        char channel[16];
+        snprintf(channel, sizeof channel, "CH%d", i % 3);
+        assert_int_equal(pgem_journal_append(journal, channel, data, (size_t)(i % 60) + 1,
+                                             1000 + i, message, sizeof message),
+                         0);
+    }
+}
+
+static void expect_records(const seen_t *seen, int count)
+{
+    assert_int_equal(seen->count, count);
+    for (int i = 0; i < count; ++i) {
+        char channel[16];
+        snprintf(channel, sizeof channel, "CH%d", i % 3);
+        assert_string_equal(seen->channel[i], channel);
+        assert_int_equal(seen->size[i], (size_t)(i % 60) + 1);
+        assert_int_equal(seen->data[i][0], (unsigned char)i);
+        assert_int_equal(seen->utime[i], 1000 + i);
+    }
+}
+
+static pgem_journal_t *reopen(const char *path, seen_t *seen, pgem_journal_info_t *info)
+{
+    char message[256];
+    memset(seen, 0, sizeof *seen);
+    pgem_journal_t *journal = pgem_journal_open(path, 0, collect, seen, info, message,
+                                                sizeof message);
+    assert_non_null(journal);
+    return journal;
+}
+
+static void test_round_trip(void **state)
+{
+    (void)state;
+    char path[512];
+    path_for(path, sizeof path, "journal_round_trip.lcmlog");
+    seen_t seen;
+    pgem_journal_info_t info;
+    pgem_journal_t *journal = reopen(path, &seen, &info);
+    assert_int_equal(info.records, 0);
+    append_records(journal, 0, RECORDS);
+    pgem_journal_close(journal);
+    journal = reopen(path, &seen, &info);
+    expect_records(&seen, RECORDS);
+    assert_int_equal(info.torn_bytes, 0);
+    /* appends continue after a reopen */
+    append_records(journal, RECORDS, 10);
+    assert_int_equal(pgem_journal_records(journal), RECORDS + 10);
+    pgem_journal_close(journal);
+    journal = reopen(path, &seen, &info);
+    expect_records(&seen, RECORDS + 10);
+    pgem_journal_close(journal);
+}
+
+static void test_torn_tail_is_cut(void **state)
+{
+    (void)state;
+    char path[512];
+    path_for(path, sizeof path, "journal_torn.lcmlog");
+    seen_t seen;
+    pgem_journal_info_t info;
+    pgem_journal_t *journal = reopen(path, &seen, &info);
+    append_records(journal, 0, RECORDS);
+    pgem_journal_close(journal);
+    struct stat st;
+    assert_int_equal(stat(path, &st), 0);
+    /* every cut inside the last record loses only that record */
+    off_t last_size = 28 + 3 + (off_t)((RECORDS - 1) % 60) + 1; /* header, "CHn", data */
+    for (off_t cut = 1; cut < last_size; cut += 7) {
+        char copy[512];
+        path_for(copy, sizeof copy, "journal_torn_copy.lcmlog");
+        FILE *in = fopen(path, "rb");
+        FILE *out = fopen(copy, "wb");
+        assert_non_null(in);
+        assert_non_null(out);
+        for (off_t k = 0; k < st.st_size - cut; ++k) {
+            fputc(fgetc(in), out);
+        }
+        fclose(in);
+        fclose(out);
+        journal = reopen(copy, &seen, &info);
+        expect_records(&seen, RECORDS - 1);
+        assert_int_equal(info.torn_bytes, last_size - cut);
+        /* the next record lands where the torn one was */
+        append_records(journal, RECORDS - 1, 1);
+        pgem_journal_close(journal);
+        journal = reopen(copy, &seen, &info);
+        expect_records(&seen, RECORDS);
+        assert_int_equal(info.torn_bytes, 0);
+        pgem_journal_close(journal);
+    }
+}
+
+static void test_damage_is_skipped_and_reported(void **state)
+{
+    (void)state;
+    char path[512];
+    path_for(path, sizeof path, "journal_damage.lcmlog");
+    seen_t seen;
+    pgem_journal_info_t info;
+    pgem_journal_t *journal = reopen(path, &seen, &info);
+    append_records(journal, 0, 3);
+    pgem_journal_close(journal);
+    FILE *file = fopen(path, "r+b");
+    assert_non_null(file);
+    fseek(file, 0, SEEK_SET);
+    fputc(0x00, file); /* break the first record's sync word */
+    fclose(file);
+    journal = reopen(path, &seen, &info);
+    assert_int_equal(seen.count, 2);
+    assert_int_equal(seen.utime[0], 1001);
+    assert_true(info.skipped_bytes > 0);
+    pgem_journal_close(journal);
+}
+
+static void test_lcm_reads_the_journal(void **state)
+{
+    (void)state;
+    char path[512];
+    path_for(path, sizeof path, "journal_for_lcm.lcmlog");
+    seen_t seen;
+    pgem_journal_t *journal = reopen(path, &seen, NULL);
+    append_records(journal, 0, RECORDS);
+    pgem_journal_close(journal);
+    lcm_eventlog_t *log = lcm_eventlog_create(path, "r");
+    assert_non_null(log);
+    int count = 0;
+    lcm_eventlog_event_t *event;
+    while ((event = lcm_eventlog_read_next_event(log)) != NULL) {
+        char channel[16];
+        snprintf(channel, sizeof channel, "CH%d", count % 3);
+        assert_int_equal(event->eventnum, count);
+        assert_int_equal(event->timestamp, 1000 + count);
+        assert_int_equal(event->channellen, (int32_t)strlen(channel));
+        assert_memory_equal(event->channel, channel, strlen(channel));
+        assert_int_equal(event->datalen, count % 60 + 1);
+        assert_int_equal(((unsigned char *)event->data)[0], (unsigned char)count);
+        lcm_eventlog_free_event(event);
+        count++;
+    }
+    lcm_eventlog_destroy(log);
+    assert_int_equal(count, RECORDS);
+}
+
+static void test_journal_reads_lcm_logs(void **state)
+{
+    (void)state;
+    char path[512];
+    path_for(path, sizeof path, "lcm_written.lcmlog");
+    lcm_eventlog_t *log = lcm_eventlog_create(path, "w");
+    assert_non_null(log);
+    for (int i = 0; i < RECORDS; ++i) {
+        unsigned char data[64];
+        memset(data, i, sizeof data);
+        char channel[16];
+        snprintf(channel, sizeof channel, "CH%d", i % 3);
+        lcm_eventlog_event_t event;
+        event.eventnum = i;
+        event.timestamp = 1000 + i;
+        event.channellen = (int32_t)strlen(channel);
+        event.datalen = i % 60 + 1;
+        event.channel = channel;
+        event.data = data;
+        assert_int_equal(lcm_eventlog_write_event(log, &event), 0);
+    }
+    lcm_eventlog_destroy(log);
+    seen_t seen;
+    pgem_journal_info_t info;
+    pgem_journal_t *journal = reopen(path, &seen, &info);
+    expect_records(&seen, RECORDS);
+    pgem_journal_close(journal);
+}
+
+static void test_open_errors(void **state)
+{
+    (void)state;
+    char message[256] = "";
+    pgem_journal_t *journal = pgem_journal_open("/nonexistent-dir/j.lcmlog", 0, NULL, NULL,
+                                                NULL, message, sizeof message);
+    assert_null(journal);
+    assert_non_null(strstr(message, "/nonexistent-dir/j.lcmlog"));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_round_trip),
+        cmocka_unit_test(test_torn_tail_is_cut),
+        cmocka_unit_test(test_damage_is_skipped_and_reported),
+        cmocka_unit_test(test_lcm_reads_the_journal),
+        cmocka_unit_test(test_journal_reads_lcm_logs),
+        cmocka_unit_test(test_open_errors),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
