@@ -62,6 +62,13 @@ typedef struct bridge {
     int64_t *edge_sequence;     /* per core edge: the front-end's sequence number */
     int64_t *source_last;       /* per source: highest sequence in the graph, -1 none */
     uint8_t *anchored;          /* per core pose: initial estimate re-anchored */
+    uint8_t *user_fixed;        /* per core pose: fixed by the front-end */
+    uint8_t *gauge_fixed;       /* per core pose: fixed by the bridge to hold its component */
+    uint32_t *component;        /* per core pose: union-find parent, then component root */
+    uint32_t *component_anchor; /* per root: index of the component's smallest pose id */
+    double *raw;                /* per core pose: the front-end's estimate, as received */
+    int restart_pending;        /* the last solve saw a split graph or failed: the next one
+                                   on a whole graph starts afresh from the raw estimates */
     uint32_t solved_poses;      /* poses that took part in the last successful solve */
     int64_t solve_id;
     /* Publication buffers for graph_t, sized for the capacities. */

@@ -32,6 +32,11 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
     bridge->edge_sequence = calloc(edges, sizeof *bridge->edge_sequence);
     bridge->source_last = calloc(sources, sizeof *bridge->source_last);
     bridge->anchored = calloc(poses, 1);
+    bridge->user_fixed = calloc(poses, 1);
+    bridge->gauge_fixed = calloc(poses, 1);
+    bridge->component = calloc(poses, sizeof *bridge->component);
+    bridge->component_anchor = calloc(poses, sizeof *bridge->component_anchor);
+    bridge->raw = calloc(poses * pose_size, sizeof *bridge->raw);
     bridge->out_ids = calloc(poses, sizeof *bridge->out_ids);
     bridge->out_values = calloc(poses * pose_size, sizeof *bridge->out_values);
     bridge->out_rows = calloc(poses, sizeof *bridge->out_rows);
@@ -40,7 +45,9 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
     bridge->out_last = calloc(sources, sizeof *bridge->out_last);
     if (bridge->core_block == NULL || bridge->edge_source == NULL ||
         bridge->edge_sequence == NULL || bridge->source_last == NULL ||
-        bridge->anchored == NULL || bridge->out_ids == NULL || bridge->out_values == NULL ||
+        bridge->anchored == NULL || bridge->user_fixed == NULL || bridge->gauge_fixed == NULL ||
+        bridge->component == NULL || bridge->component_anchor == NULL || bridge->raw == NULL ||
+        bridge->out_ids == NULL || bridge->out_values == NULL ||
         bridge->out_rows == NULL || bridge->out_loops == NULL || bridge->out_sources == NULL ||
         bridge->out_last == NULL) {
         snprintf(message, message_size, "out of memory for %u poses and %u edges",
@@ -70,6 +77,11 @@ void bridge_graph_free(bridge_t *bridge)
     free(bridge->edge_sequence);
     free(bridge->source_last);
     free(bridge->anchored);
+    free(bridge->user_fixed);
+    free(bridge->gauge_fixed);
+    free(bridge->component);
+    free(bridge->component_anchor);
+    free(bridge->raw);
     free(bridge->out_ids);
     free(bridge->out_values);
     free(bridge->out_rows);
@@ -107,7 +119,7 @@ static void core_refused(bridge_t *bridge, const char *what, int status)
 
 static int pose_settled(const bridge_t *bridge, uint32_t index)
 {
-    return index < bridge->solved_poses || bridge->anchored[index];
+    return index < bridge->solved_poses || bridge->anchored[index] || bridge->gauge_fixed[index];
 }
 
 /* A pose that arrived after the last solve carries the front-end's estimate, in the front-end's
@@ -164,10 +176,13 @@ static void reset_graph(bridge_t *bridge)
 {
     pgem_init(&bridge->core, &bridge->core_config, bridge->core_block, bridge->core_block_size);
     memset(bridge->anchored, 0, bridge->options.max_poses);
+    memset(bridge->user_fixed, 0, bridge->options.max_poses);
+    memset(bridge->gauge_fixed, 0, bridge->options.max_poses);
     for (uint32_t s = 0; s < bridge->options.max_sources; ++s) {
         bridge->source_last[s] = -1;
     }
     bridge->solved_poses = 0;
+    bridge->restart_pending = 0;
     update_counts(bridge, 0);
 }
 
@@ -182,8 +197,14 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
     }
     if (item->type == PGEM_ITEM_POSE) {
         int status = pgem_add_pose(bridge->core, item->from, item->value);
+        if (status == PGEM_OK) {
+            size_t pose_size = (size_t)PGEM_POSE_SIZE(bridge->options.dimension);
+            memcpy(bridge->raw + (pgem_pose_count(bridge->core) - 1) * pose_size, item->value,
+                   pose_size * sizeof(double));
+        }
         if (status == PGEM_OK && item->kind) {
             status = pgem_fix_pose(bridge->core, item->from, 1);
+            bridge->user_fixed[pgem_pose_count(bridge->core) - 1] = 1;
         }
         if (status != PGEM_OK) {
             snprintf(what, sizeof what, "pose %llu", (unsigned long long)item->from);
@@ -216,6 +237,94 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
     return item->kind == PGEM_EDGE_LOOP;
 }
 
+static uint32_t find_root(uint32_t *parent, uint32_t i)
+{
+    while (parent[i] != i) {
+        parent[i] = parent[parent[i]];
+        i = parent[i];
+    }
+    return i;
+}
+
+/* Holds every part of the graph joined by odometry: a part without a pose the front-end fixed
+ * gets its smallest pose id fixed (for one part that is the gauge the offline tools use,
+ * whatever order the poses arrived in). Parts appear while edges wait for their poses or when
+ * messages were lost; joined only by loop closures, which EM may prune, they would leave the
+ * normal equations singular. Flags change only when the parts do, so an unchanged graph keeps
+ * its analysis. Returns the number of parts. */
+static uint32_t hold_components(bridge_t *bridge)
+{
+    pgem_t *core = bridge->core;
+    uint32_t poses = pgem_pose_count(core);
+    uint32_t *parent = bridge->component;
+    for (uint32_t i = 0; i < poses; ++i) {
+        parent[i] = i;
+    }
+    for (uint32_t k = 0; k < pgem_edge_count(core); ++k) {
+        pgem_edge_view_t view;
+        uint32_t a = 0;
+        uint32_t b = 0;
+        if (pgem_edge_at(core, k, &view) == PGEM_OK && view.kind == PGEM_EDGE_ODOMETRY &&
+            pgem_pose_index(core, view.from, &a) == PGEM_OK &&
+            pgem_pose_index(core, view.to, &b) == PGEM_OK) {
+            a = find_root(parent, a);
+            b = find_root(parent, b);
+            if (a != b) {
+                parent[a < b ? b : a] = a < b ? a : b;
+            }
+        }
+    }
+    /* component_anchor[root]: the part's smallest id, or UINT32_MAX if the front-end fixed a
+     * pose in it. */
+    uint32_t *anchor_of = bridge->component_anchor;
+    for (uint32_t i = 0; i < poses; ++i) {
+        anchor_of[i] = i;
+    }
+    for (uint32_t i = 0; i < poses; ++i) {
+        uint32_t root = find_root(parent, i);
+        if (anchor_of[root] == UINT32_MAX) {
+            continue;
+        }
+        pgem_id_t id = 0;
+        pgem_id_t best = 0;
+        pgem_pose_at(core, i, &id, NULL, NULL);
+        pgem_pose_at(core, anchor_of[root], &best, NULL, NULL);
+        if (bridge->user_fixed[i]) {
+            anchor_of[root] = UINT32_MAX;
+        } else if (id < best) {
+            anchor_of[root] = i;
+        }
+    }
+    uint32_t parts = 0;
+    for (uint32_t i = 0; i < poses; ++i) {
+        uint32_t root = find_root(parent, i);
+        parts += root == i;
+        uint8_t want = anchor_of[root] == i;
+        if (want != bridge->gauge_fixed[i]) {
+            pgem_id_t id = 0;
+            pgem_pose_at(core, i, &id, NULL, NULL);
+            pgem_fix_pose(core, id, want);
+            bridge->gauge_fixed[i] = want;
+        }
+    }
+    return parts;
+}
+
+/* Every pose back to the front-end's estimate and every loop closure back in: the solve that
+ * follows is the one an offline tool would run on the same graph. */
+static void restart_from_raw(bridge_t *bridge)
+{
+    size_t pose_size = (size_t)PGEM_POSE_SIZE(bridge->options.dimension);
+    for (uint32_t i = 0; i < pgem_pose_count(bridge->core); ++i) {
+        pgem_id_t id = 0;
+        pgem_pose_at(bridge->core, i, &id, NULL, NULL);
+        pgem_set_pose(bridge->core, id, bridge->raw + i * pose_size);
+    }
+    pgem_robust_reset(bridge->core);
+    memset(bridge->anchored, 0, bridge->options.max_poses);
+    bridge->solved_poses = 0;
+}
+
 /* Stops a robust solve when the bridge is stopping. */
 static int keep_going(const pgem_robust_progress_t *progress, void *user)
 {
@@ -235,7 +344,16 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     pgem_robust_summary_t summary;
     memset(&summary, 0, sizeof summary);
     double start = bridge_now();
+    uint32_t parts = hold_components(bridge);
+    int restarted = bridge->restart_pending && parts == 1;
+    if (restarted) {
+        restart_from_raw(bridge);
+        bridge->restart_pending = 0;
+    }
     int status = pgem_robust_optimize(bridge->core, &robust, NULL, &summary);
+    if (status != PGEM_OK || parts > 1) {
+        bridge->restart_pending = 1;
+    }
     int64_t micros = (int64_t)((bridge_now() - start) * 1e6);
     char why[256] = "";
     if (status == PGEM_OK) {
@@ -253,11 +371,13 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     pthread_mutex_unlock(&bridge->lock);
     if (status == PGEM_OK) {
         bridge_log(bridge,
-                   "solve %lld (%s): %u poses, %u loops, %u pruned, chi2 %.6g, %u rounds, "
-                   "%.1f ms",
-                   (long long)bridge->solve_id, trigger, pgem_pose_count(bridge->core),
-                   summary.loops, summary.pruned, summary.final_chi2, summary.rounds,
-                   1e-3 * (double)micros);
+                   "solve %lld (%s%s): %u poses, %u loops, %u pruned, chi2 %.6g, %u rounds, "
+                   "%.1f ms%s",
+                   (long long)bridge->solve_id, trigger,
+                   restarted ? ", restarted from the front-end's estimates" : "",
+                   pgem_pose_count(bridge->core), summary.loops, summary.pruned,
+                   summary.final_chi2, summary.rounds, 1e-3 * (double)micros,
+                   parts > 1 ? " (graph in several parts: each held at its smallest id)" : "");
     } else {
         bridge_note(bridge, "solve %lld (%s) failed: %s", (long long)bridge->solve_id, trigger,
                     why);
