@@ -54,6 +54,9 @@ void pgem_bridge_defaults(pgem_bridge_options_t *options)
     if (!(options->status_period > 0.0)) {
         options->status_period = 0.5;
     }
+    if (!(options->idle_solve > 0.0)) {
+        options->idle_solve = 0.5;
+    }
     if (options->robust.kernel == PGEM_KERNEL_NONE) {
         options->robust.kernel = PGEM_KERNEL_EM;
     }
@@ -171,6 +174,8 @@ static void on_journal_record(void *user, const char *channel, const void *data,
 /* ---- solver thread ------------------------------------------------------------------------ */
 
 typedef struct schedule {
+    int unsolved;         /* items added since the last solve */
+    double last_item;     /* when the latest item was added */
     int dirty;            /* loop closures arrived since the last solve */
     double first_loop;    /* arrival of the first of them */
     double last_loop;     /* and of the latest */
@@ -184,7 +189,8 @@ typedef struct schedule {
 static double solve_due(const bridge_t *bridge, const schedule_t *s)
 {
     const pgem_bridge_options_t *o = &bridge->options;
-    double due = fmin(s->last_loop + o->debounce, s->first_loop + o->max_delay);
+    double due = s->dirty ? fmin(s->last_loop + o->debounce, s->first_loop + o->max_delay)
+                          : s->last_item + o->idle_solve;
     return fmax(due, s->last_start + 1.0 / o->max_rate);
 }
 
@@ -211,7 +217,7 @@ static void wait_for_work(bridge_t *bridge, const schedule_t *s)
 {
     while (!bridge->stopping && bridge->visible == bridge->head && !bridge->optimize_requested &&
            !bridge->snapshot_requested) {
-        if (s->dirty) {
+        if (s->dirty || s->unsolved) {
             double due = solve_due(bridge, s);
             if (bridge_now() >= due) {
                 return;
@@ -258,9 +264,14 @@ static void *solver_main(void *user)
         pthread_mutex_unlock(&bridge->lock);
 
         double now = bridge_now();
+        if (count > 0) {
+            s.unsolved = 1;
+            s.last_item = now;
+        }
         for (int i = 0; i < count; ++i) {
             if (batch[i].type == PGEM_ITEM_RESET) {
                 s.dirty = 0;
+                s.unsolved = 0;
             }
             if (bridge_graph_apply(bridge, &batch[i])) {
                 if (!s.dirty) {
@@ -278,10 +289,17 @@ static void *solver_main(void *user)
             pthread_mutex_unlock(&bridge->lock);
         }
         now = bridge_now();
-        if (optimize || recovery || (s.dirty && now >= solve_due(bridge, &s))) {
+        int due = (s.dirty || s.unsolved) && now >= solve_due(bridge, &s);
+        if ((optimize || recovery || due) && pgem_edge_count(bridge->core) > 0) {
             s.last_start = now;
-            bridge_graph_solve(bridge, optimize ? "command" : recovery ? "recovery" : s.trigger);
+            bridge_graph_solve(bridge, optimize ? "command"
+                                       : recovery ? "recovery"
+                                       : s.dirty  ? s.trigger
+                                                  : "idle");
             s.dirty = 0;
+            s.unsolved = 0;
+        } else if (due) {
+            s.unsolved = 0; /* poses without edges: nothing to solve */
         }
         if (snapshot) {
             bridge_graph_snapshot(bridge, path);
@@ -329,7 +347,7 @@ static int start(bridge_t *bridge, char *message, size_t message_size)
                         (long long)info.skipped_bytes);
         }
     }
-    bridge->lcm = lcm_create(o->url);
+    bridge->lcm = o->lcm != NULL ? o->lcm : lcm_create(o->url);
     if (bridge->lcm == NULL) {
         const char *url = o->url != NULL ? o->url : getenv("LCM_DEFAULT_URL");
         snprintf(message, message_size, "cannot open LCM at %s", url != NULL ? url : "LCM's default URL");
@@ -350,7 +368,7 @@ static int start(bridge_t *bridge, char *message, size_t message_size)
 
 static void finish(bridge_t *bridge)
 {
-    if (bridge->lcm != NULL) {
+    if (bridge->lcm != NULL && bridge->lcm != bridge->options.lcm) {
         lcm_destroy(bridge->lcm);
     }
     pgem_journal_close(bridge->journal);
@@ -361,8 +379,8 @@ static void finish(bridge_t *bridge)
     pthread_mutex_destroy(&bridge->lock);
 }
 
-int pgem_bridge_run(const pgem_bridge_options_t *options, volatile sig_atomic_t *stop,
-                    char *message, size_t message_size)
+int pgem_bridge_run(const pgem_bridge_options_t *options, int (*stop)(void), char *message,
+                    size_t message_size)
 {
     bridge_t *bridge = calloc(1, sizeof *bridge);
     if (bridge == NULL) {
@@ -397,7 +415,7 @@ int pgem_bridge_run(const pgem_bridge_options_t *options, volatile sig_atomic_t 
                o->channels.status, o->dimension, (unsigned)o->max_poses,
                (unsigned)o->max_edges, (double)bridge->core_block_size / 1048576.0);
     double next_status = bridge_now();
-    while (!*stop) {
+    while (!stop()) {
         double now = bridge_now();
         if (now >= next_status) {
             bridge_publish_status(bridge);
@@ -407,7 +425,7 @@ int pgem_bridge_run(const pgem_bridge_options_t *options, volatile sig_atomic_t 
         if (wait_ms > 100) {
             wait_ms = 100; /* notice the stop flag soon */
         }
-        if (lcm_handle_timeout(bridge->lcm, wait_ms < 1 ? 1 : wait_ms) < 0 && !*stop) {
+        if (lcm_handle_timeout(bridge->lcm, wait_ms < 1 ? 1 : wait_ms) < 0 && !stop()) {
             bridge_note(bridge, "LCM reception failed; retrying");
             struct timespec pause = {0, 100000000L};
             nanosleep(&pause, NULL);

@@ -10,9 +10,10 @@
 #ifndef PGEM_BRIDGE_BRIDGE_H
 #define PGEM_BRIDGE_BRIDGE_H
 
-#include <signal.h>
 #include <stddef.h>
 #include <stdint.h>
+
+#include <lcm/lcm.h>
 
 #include "channels.h"
 #include "pgem/robust.h"
@@ -20,6 +21,8 @@
 typedef void (*pgem_bridge_log_fn)(void *user, const char *line);
 
 typedef struct pgem_bridge_options {
+    lcm_t *lcm;                /* an LCM instance to use (the caller's; not destroyed); NULL:
+                                  the bridge opens `url` itself */
     const char *url;           /* LCM URL; NULL means LCM_DEFAULT_URL (or LCM's default) */
     pgem_channels_t channels;  /* see channels.h */
     int dimension;             /* 2 or 3 */
@@ -33,6 +36,8 @@ typedef struct pgem_bridge_options {
     double max_delay;          /* s a loop closure may wait for its solve while more keep
                                   arriving (default 0.1) */
     double status_period;      /* s between status messages (default 0.5) */
+    double idle_solve;         /* s without new items after which edges not yet in a solve
+                                  (odometry alone, say) get one (default 0.5) */
     const char *journal;       /* journal path; NULL for none */
     int journal_sync;          /* fdatasync every record */
     pgem_robust_options_t robust;  /* kernel 0 means EM with its defaults */
@@ -44,11 +49,11 @@ typedef struct pgem_bridge_options {
  * the dimension; dimension 2 if unset). */
 void pgem_bridge_defaults(pgem_bridge_options_t *options);
 
-/* Runs until *stop becomes non-zero (set it from a SIGINT/SIGTERM handler), then finishes
+/* Runs until stop() returns non-zero (polled at least every 100 ms), then finishes
  * cleanly: the solve in progress is interrupted, a last status is published, the journal is
  * closed. Returns 0, or -1 with message when the bridge could not start (LCM URL, journal,
  * memory). */
-int pgem_bridge_run(const pgem_bridge_options_t *options, volatile sig_atomic_t *stop,
-                    char *message, size_t message_size);
+int pgem_bridge_run(const pgem_bridge_options_t *options, int (*stop)(void), char *message,
+                    size_t message_size);
 
 #endif /* PGEM_BRIDGE_BRIDGE_H */

@@ -7,16 +7,11 @@
 
 #include "bridge.h"
 #include "cli.h"
+#include "lcm_tool.h"
 
-static volatile sig_atomic_t stop_requested = 0;
+#define TOOL "pgem-lcm-bridge"
 
-static void on_signal(int signal_number)
-{
-    (void)signal_number;
-    stop_requested = 1;
-}
-
-static void usage(FILE *out)
+static void usage(FILE *out, const pgem_lcm_options_t *lcm)
 {
     fprintf(out,
             "usage: pgem-lcm-bridge [options]\n"
@@ -24,7 +19,6 @@ static void usage(FILE *out)
             "closures arrive (or on command) and publishes the optimized graph and a status.\n"
             "Stops cleanly on SIGINT or SIGTERM.\n"
             "\n"
-            "  --url URL              LCM URL (default: $LCM_DEFAULT_URL, else LCM's default)\n"
             "  --dimension 2|3        pose dimension (default 2)\n"
             "  --max-poses N          pose capacity (default 20000)\n"
             "  --max-edges N          edge capacity (default 4 per pose)\n"
@@ -38,30 +32,28 @@ static void usage(FILE *out)
             "  --max-delay S          longest a loop closure waits while more arrive (0.1)\n"
             "  --max-rate HZ          solves per second at most (20)\n"
             "  --status-period S      seconds between status messages (0.5)\n"
-            "  --channel-prefix P     channel names P + POSE2|EDGE2|POSE3|EDGE3|GRAPH|STATUS|\n"
-            "                         COMMAND (default PGEM_)\n"
-            "  --pose-channel C, --edge-channel C, --graph-channel C, --status-channel C,\n"
-            "  --command-channel C    set one channel name\n"
+            "  --idle-solve S         solve edges not yet solved (odometry only, say) after S\n"
+            "                         seconds without new messages (0.5)\n"
             "  --robust-scale C       EM Cauchy scale (default 1)\n"
             "  --prune-threshold T    prune loop closures with weight below T (default 0.01)\n"
             "  --m-step-iterations N  Gauss-Newton iterations per M-step (default 1)\n"
             "  --max-em-iterations N  E/M iterations per round (default 5)\n"
             "  --gate G               consistency-test chi2 threshold (default 99.9%% quantile)\n"
             "  --literal              the paper's EM as published (no polish or gate)\n"
-            "  --quiet                no progress lines on stderr\n"
-            "Exit status: 0 after a clean stop, 1 if the bridge could not start, 2 usage.\n");
+            "  --quiet                no progress lines on stderr\n");
+    pgem_lcm_options_help(out, lcm);
+    fprintf(out, "Exit status: 0 after a clean stop, 1 if the bridge could not start, 2 usage.\n");
 }
 
 static void log_line(void *user, const char *line)
 {
     (void)user;
-    fprintf(stderr, "pgem-lcm-bridge: %s\n", line);
+    fprintf(stderr, TOOL ": %s\n", line);
 }
 
 typedef struct parsed {
     pgem_bridge_options_t options;
-    const char *prefix;
-    const char *channel[5]; /* pose, edge, graph, status, command */
+    pgem_lcm_options_t lcm;
     int quiet;
 } parsed_t;
 
@@ -72,28 +64,17 @@ static int parse_u32_option(const char *name, const char *value, uint32_t *out)
 
 static int parse_number_option(const char *name, const char *value, int strict, double *out)
 {
-    return pgem_cli_parse_number("pgem-lcm-bridge", name, value, strict, out) ? 0 : -1;
+    return pgem_cli_parse_number(TOOL, name, value, strict, out) ? 0 : -1;
 }
 
 /* One option with a value; returns 0, or -1 after printing why. */
 static int parse_valued(parsed_t *p, const char *name, const char *value)
 {
-    static const char *const channel_names[5] = {"--pose-channel", "--edge-channel",
-                                                 "--graph-channel", "--status-channel",
-                                                 "--command-channel"};
     pgem_bridge_options_t *o = &p->options;
     uint32_t dimension = 0;
-    for (int c = 0; c < 5; ++c) {
-        if (strcmp(name, channel_names[c]) == 0) {
-            p->channel[c] = value;
-            return 0;
-        }
-    }
-    if (strcmp(name, "--url") == 0) {
-        o->url = value;
-    } else if (strcmp(name, "--dimension") == 0) {
+    if (strcmp(name, "--dimension") == 0) {
         if (parse_u32_option(name, value, &dimension) != 0 || (dimension != 2 && dimension != 3)) {
-            fprintf(stderr, "pgem-lcm-bridge: --dimension takes 2 or 3, got '%s'\n", value);
+            fprintf(stderr, TOOL ": --dimension takes 2 or 3, got '%s'\n", value);
             return -1;
         }
         o->dimension = (int)dimension;
@@ -117,22 +98,22 @@ static int parse_valued(parsed_t *p, const char *name, const char *value)
         return parse_number_option(name, value, 1, &o->max_rate);
     } else if (strcmp(name, "--status-period") == 0) {
         return parse_number_option(name, value, 1, &o->status_period);
-    } else if (strcmp(name, "--channel-prefix") == 0) {
-        p->prefix = value;
+    } else if (strcmp(name, "--idle-solve") == 0) {
+        return parse_number_option(name, value, 1, &o->idle_solve);
     } else if (strcmp(name, "--robust-scale") == 0) {
         return parse_number_option(name, value, 1, &o->robust.scale);
     } else if (strcmp(name, "--prune-threshold") == 0) {
         return parse_number_option(name, value, 1, &o->robust.prune_threshold);
     } else if (strcmp(name, "--m-step-iterations") == 0) {
-        return pgem_cli_parse_at_least("pgem-lcm-bridge", name, value, 1, "iteration",
+        return pgem_cli_parse_at_least(TOOL, name, value, 1, "iteration",
                                        &o->robust.m_step_iterations) ? 0 : -1;
     } else if (strcmp(name, "--max-em-iterations") == 0) {
-        return pgem_cli_parse_at_least("pgem-lcm-bridge", name, value, 1, "iteration",
+        return pgem_cli_parse_at_least(TOOL, name, value, 1, "iteration",
                                        &o->robust.max_em_iterations) ? 0 : -1;
     } else if (strcmp(name, "--gate") == 0) {
         return parse_number_option(name, value, 1, &o->robust.gate);
     } else {
-        fprintf(stderr, "pgem-lcm-bridge: unknown option '%s' (see --help)\n", name);
+        fprintf(stderr, TOOL ": unknown option '%s' (see --help)\n", name);
         return -1;
     }
     return 0;
@@ -140,10 +121,18 @@ static int parse_valued(parsed_t *p, const char *name, const char *value)
 
 static int parse(int argc, char **argv, parsed_t *p)
 {
+    pgem_lcm_options_init(&p->lcm, TOOL, PGEM_LCM_ALL_CHANNELS);
     for (int i = 1; i < argc; ++i) {
         const char *arg = argv[i];
+        int common = pgem_lcm_parse_option(&p->lcm, argc, argv, &i);
+        if (common != 0) {
+            if (common < 0) {
+                return -1;
+            }
+            continue;
+        }
         if (strcmp(arg, "--help") == 0 || strcmp(arg, "-h") == 0) {
-            usage(stdout);
+            usage(stdout, &p->lcm);
             exit(PGEM_EXIT_OK);
         } else if (strcmp(arg, "--quiet") == 0) {
             p->quiet = 1;
@@ -156,7 +145,7 @@ static int parse(int argc, char **argv, parsed_t *p)
                 return -1;
             }
         } else {
-            fprintf(stderr, "pgem-lcm-bridge: %s '%s' (see --help)\n",
+            fprintf(stderr, TOOL ": %s '%s' (see --help)\n",
                     strncmp(arg, "--", 2) == 0 ? "missing value for" : "unexpected argument",
                     arg);
             return -1;
@@ -166,21 +155,8 @@ static int parse(int argc, char **argv, parsed_t *p)
     if (o->dimension == 0) {
         o->dimension = 2;
     }
-    if (pgem_channels_init(&o->channels, p->prefix, o->dimension) != 0) {
-        fprintf(stderr, "pgem-lcm-bridge: --channel-prefix '%s' makes channel names longer "
-                        "than 63 characters\n", p->prefix);
-        return -1;
-    }
-    char *targets[5] = {o->channels.pose, o->channels.edge, o->channels.graph,
-                        o->channels.status, o->channels.command};
-    for (int c = 0; c < 5; ++c) {
-        if (p->channel[c] != NULL && pgem_channel_set(targets[c], p->channel[c]) != 0) {
-            fprintf(stderr, "pgem-lcm-bridge: channel name '%s' must have 1 to 63 characters\n",
-                    p->channel[c]);
-            return -1;
-        }
-    }
-    return 0;
+    o->url = p->lcm.url;
+    return pgem_lcm_channels(&p->lcm, o->dimension, &o->channels);
 }
 
 int main(int argc, char **argv)
@@ -193,15 +169,18 @@ int main(int argc, char **argv)
     if (!parsed.quiet) {
         parsed.options.log = log_line;
     }
-    struct sigaction action;
-    memset(&action, 0, sizeof action);
-    action.sa_handler = on_signal;
-    sigemptyset(&action.sa_mask);
-    sigaction(SIGINT, &action, NULL);
-    sigaction(SIGTERM, &action, NULL);
+    if (pgem_lcm_catch_signals(TOOL) != 0) {
+        return PGEM_EXIT_FAILURE;
+    }
+    parsed.options.lcm = pgem_lcm_open(TOOL, parsed.lcm.url, PGEM_LCM_RECEIVE_BUFFER);
+    if (parsed.options.lcm == NULL) {
+        return PGEM_EXIT_FAILURE;
+    }
     char message[1024];
-    if (pgem_bridge_run(&parsed.options, &stop_requested, message, sizeof message) != 0) {
-        fprintf(stderr, "pgem-lcm-bridge: %s\n", message);
+    int status = pgem_bridge_run(&parsed.options, pgem_lcm_stop_signal, message, sizeof message);
+    lcm_destroy(parsed.options.lcm);
+    if (status != 0) {
+        fprintf(stderr, TOOL ": %s\n", message);
         return PGEM_EXIT_FAILURE;
     }
     return PGEM_EXIT_OK;

@@ -1,2 +1,666 @@
-/* placeholder */
-int main(void) { return 0; }
+/* pgem-lcm-send: publishes a graph file over LCM the way a front-end would, pose by pose with
+ * the edges that each new pose completes, for pgem-lcm-bridge. Options shuffle the order,
+ * repeat messages, pace them, send a slice of the edges, wait for the bridge's status and ask
+ * the bridge to solve. */
+#define _POSIX_C_SOURCE 200809L
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+#include "lcm_tool.h"
+#include "pgem_command_t.h"
+#include "pgem_edge2_t.h"
+#include "pgem_edge3_t.h"
+#include "pgem_pose2_t.h"
+#include "pgem_pose3_t.h"
+#include "pgem_status_t.h"
+
+#define SEND_TOOL "pgem-lcm-send"
+#define SEND_SOURCE_DEFAULT "pgem-lcm-send"
+#define SEND_SOURCE_MAX 63          /* bytes of a source name (edge2_t.lcm) */
+#define SEND_PROGRESS_SECONDS 2.0   /* between progress lines */
+#define SEND_WAIT_SLICE 0.25        /* longest single wait, so a signal is seen soon */
+#define SEND_STATUS_QUEUE 1000      /* statuses LCM may hold for us before dropping */
+
+/* The command line. */
+typedef struct send_args {
+    pgem_lcm_options_t lcm;
+    const char *input;       /* graph file */
+    const char *source;      /* --source NAME */
+    double rate;             /* --rate HZ: edge messages per second; 0: as fast as possible */
+    int shuffle;             /* --shuffle given */
+    uint64_t seed;           /* its seed */
+    uint64_t repeat;         /* --repeat N: copies of every message, at least 1 */
+    uint64_t first;          /* --first K: first edge sequence sent */
+    uint64_t count;          /* --count N: edges sent from K on (UINT64_MAX: to the end) */
+    int select;              /* --first or --count given: only the poses the edges need */
+    double wait;             /* --wait SECONDS; negative: do not wait */
+    int optimize;            /* --optimize: ask the bridge to solve at the end */
+    int quiet;               /* --quiet: no progress lines */
+} send_args_t;
+
+/* One message of the plan: a pose or an edge of the file graph, by index. */
+typedef struct send_item {
+    size_t index;
+    int edge;
+} send_item_t;
+
+/* What is sent, in order (copies included). */
+typedef struct send_plan {
+    send_item_t *items;
+    size_t count;             /* messages, copies included */
+    size_t poses;             /* distinct poses sent */
+    size_t edges;             /* distinct edges sent */
+    size_t edge_messages;     /* edge messages, copies included */
+    unsigned char *fixed;     /* per pose of the file: named by a FIX line */
+} send_plan_t;
+
+/* What publishing needs. */
+typedef struct send_context {
+    lcm_t *lcm;
+    const pgem_io_graph_t *graph;
+    const send_plan_t *plan;
+    pgem_channels_t channels;
+    char source[SEND_SOURCE_MAX + 1];
+} send_context_t;
+
+/* --wait: the bridge's latest status and whether it shows every edge taken. */
+typedef struct send_wait {
+    pgem_status_t *latest;    /* a copy of the latest status (NULL: none yet) */
+    uint64_t statuses;        /* statuses received */
+    int armed;                /* all sent: statuses from now on are judged */
+    int satisfied;            /* a judged status showed every edge taken */
+    int64_t edges;            /* accepted_edges needed */
+} send_wait_t;
+
+static void send_usage(FILE *out)
+{
+    fprintf(out,
+            "usage: pgem-lcm-send FILE [--rate HZ] [--source NAME] [--shuffle SEED] [--repeat N]\n"
+            "                     [--first K] [--count N] [--wait SECONDS] [--optimize] [--quiet]\n"
+            "                     [--url URL] [--channel-prefix P] [--pose-channel C]\n"
+            "                     [--edge-channel C] [--status-channel C] [--command-channel C]\n");
+}
+
+static void send_help(FILE *out, const pgem_lcm_options_t *lcm)
+{
+    send_usage(out);
+    fprintf(out,
+            "\n"
+            "Publishes a g2o or TORO graph file over LCM as a front-end would, for\n"
+            "pgem-lcm-bridge: the poses (pgem.pose2_t or pose3_t, by the file's dimension)\n"
+            "in file order, each followed at once by the edges (pgem.edge2_t or edge3_t)\n"
+            "whose later-sent pose it is, so odometry k-1 -> k and the loop closures ending\n"
+            "at k follow pose k; edges ready at the same pose keep file order. An edge's\n"
+            "sequence is its index in the file (0-based), its kind odometry when\n"
+            "|from - to| == 1, else loop; poses named by FIX lines are sent fixed; utime is\n"
+            "the wall clock when sent.\n"
+            "\n"
+            "  --rate HZ              edges per second, paced to absolute deadlines (poses go\n"
+            "                         with their edges); default 0: as fast as possible,\n"
+            "                         which can overrun a receiver's UDP buffer\n"
+            "  --source NAME          the front-end's name in every message (default\n"
+            "                         pgem-lcm-send; 1 to 63 bytes)\n"
+            "  --shuffle SEED         every message (poses and edges) in a random order, the same\n"
+            "                         for the same seed: out-of-order arrival\n"
+            "  --repeat N             every message N times in a row (default 1): replays, which\n"
+            "                         the bridge must recognise; with --shuffle the copies are\n"
+            "                         shuffled too\n"
+            "  --first K              only the edges with sequence K, K+1, ... and the poses they\n"
+            "                         need (default 0)\n"
+            "  --count N              only N edges from --first on (default: all)\n"
+            "  --wait SECONDS         then wait until a status (pgem.status_t) received after the\n"
+            "                         last message shows accepted_edges >= the edges sent,\n"
+            "                         pending 0 and queued 0, and print it; exit 1 when none\n"
+            "                         does within SECONDS (the counters are the bridge's totals\n"
+            "                         since it started)\n"
+            "  --optimize             at the end (with --wait, once the status shows every\n"
+            "                         edge taken) ask the bridge to solve now (pgem.command_t\n"
+            "                         OPTIMIZE): the bridge solves on new loop closures, so\n"
+            "                         without it no graph may include the last odometry edges\n"
+            "  --quiet                no progress lines on stderr\n");
+    pgem_lcm_options_help(out, lcm);
+    fprintf(out,
+            "\n"
+            "Progress goes to stderr about every 2 s, the summary to stdout. Exit codes: 0 sent\n"
+            "(and with --wait, taken), 1 nothing to send, a failed publish, --wait timed out or\n"
+            "a signal stopped it, 2 bad command line, 3 FILE could not be read.\n");
+}
+
+/* A value option of the sender; returns 1 when parsed, 0 after printing an error. */
+static int send_parse_value(send_args_t *args, const char *arg, const char *value)
+{
+    if (strcmp(arg, "--rate") == 0) {
+        return pgem_cli_parse_number(SEND_TOOL, arg, value, 0, &args->rate);
+    }
+    if (strcmp(arg, "--wait") == 0) {
+        return pgem_cli_parse_number(SEND_TOOL, arg, value, 0, &args->wait);
+    }
+    if (strcmp(arg, "--shuffle") == 0) {
+        args->shuffle = 1;
+        return pgem_lcm_parse_u64(SEND_TOOL, arg, value, &args->seed);
+    }
+    if (strcmp(arg, "--first") == 0) {
+        args->select = 1;
+        return pgem_lcm_parse_u64(SEND_TOOL, arg, value, &args->first);
+    }
+    if (strcmp(arg, "--count") == 0 || strcmp(arg, "--repeat") == 0) {
+        int count = strcmp(arg, "--count") == 0;
+        uint64_t *target = count ? &args->count : &args->repeat;
+        args->select |= count;
+        if (!pgem_lcm_parse_u64(SEND_TOOL, arg, value, target)) {
+            return 0;
+        }
+        if (*target == 0) {
+            fprintf(stderr, "%s: %s needs at least 1\n", SEND_TOOL, arg);
+            return 0;
+        }
+        return 1;
+    }
+    /* --source */
+    if (value == NULL || value[0] == '\0' || strlen(value) > SEND_SOURCE_MAX) {
+        fprintf(stderr, "%s: --source needs a name of 1 to %d bytes\n", SEND_TOOL,
+                SEND_SOURCE_MAX);
+        return 0;
+    }
+    args->source = value;
+    return 1;
+}
+
+/* Returns PGEM_EXIT_OK, PGEM_EXIT_USAGE, or -1 after --help. */
+static int send_parse(int argc, char **argv, send_args_t *args)
+{
+    static const char *const valued[] = {"--rate", "--wait", "--shuffle", "--first",
+                                         "--count", "--repeat", "--source"};
+    memset(args, 0, sizeof *args);
+    pgem_lcm_options_init(&args->lcm, SEND_TOOL,
+                          PGEM_LCM_POSE_CHANNEL | PGEM_LCM_EDGE_CHANNEL |
+                              PGEM_LCM_STATUS_CHANNEL | PGEM_LCM_COMMAND_CHANNEL);
+    args->source = SEND_SOURCE_DEFAULT;
+    args->repeat = 1;
+    args->count = UINT64_MAX;
+    args->wait = -1.0;
+    for (int k = 1; k < argc; k++) {
+        const char *arg = argv[k];
+        int common = pgem_lcm_parse_option(&args->lcm, argc, argv, &k);
+        size_t v = 0;
+        while (v < sizeof valued / sizeof valued[0] && strcmp(arg, valued[v]) != 0) {
+            v++;
+        }
+        if (common < 0) {
+            return PGEM_EXIT_USAGE;
+        } else if (common > 0) {
+            continue;
+        } else if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
+            send_help(stdout, &args->lcm);
+            return -1;
+        } else if (strcmp(arg, "--quiet") == 0) {
+            args->quiet = 1;
+        } else if (strcmp(arg, "--optimize") == 0) {
+            args->optimize = 1;
+        } else if (v < sizeof valued / sizeof valued[0]) {
+            if (!send_parse_value(args, arg, k + 1 < argc ? argv[k + 1] : NULL)) {
+                return PGEM_EXIT_USAGE;
+            }
+            k++;
+        } else if (arg[0] == '-' && arg[1] != '\0') {
+            fprintf(stderr, "%s: unknown option '%s' (see %s --help)\n", SEND_TOOL, arg,
+                    SEND_TOOL);
+            return PGEM_EXIT_USAGE;
+        } else if (args->input == NULL) {
+            args->input = arg;
+        } else {
+            fprintf(stderr, "%s: more than one input file ('%s')\n", SEND_TOOL, arg);
+            return PGEM_EXIT_USAGE;
+        }
+    }
+    if (args->input == NULL) {
+        fprintf(stderr, "%s: no input file (see %s --help)\n", SEND_TOOL, SEND_TOOL);
+        return PGEM_EXIT_USAGE;
+    }
+    return PGEM_EXIT_OK;
+}
+
+/* ---- The plan --------------------------------------------------------------------------- */
+
+static void send_plan_free(send_plan_t *plan)
+{
+    free(plan->items);
+    free(plan->fixed);
+    memset(plan, 0, sizeof *plan);
+}
+
+/* Whether the edge with this sequence is selected by --first / --count. */
+static int send_selected(const send_args_t *args, size_t sequence)
+{
+    return (uint64_t)sequence >= args->first && (uint64_t)sequence - args->first < args->count;
+}
+
+/* Appends `repeat` copies of one message. */
+static void send_plan_add(send_plan_t *plan, size_t index, int edge, uint64_t repeat)
+{
+    for (uint64_t copy = 0; copy < repeat; copy++) {
+        plan->items[plan->count++] = (send_item_t){index, edge};
+    }
+}
+
+/* Fisher-Yates with the tools' splitmix64 generator: the same permutation for a seed. */
+static void send_shuffle(send_plan_t *plan, uint64_t seed)
+{
+    uint64_t state = seed;
+    for (size_t k = plan->count; k > 1u; k--) {
+        size_t j = (size_t)(pgem_cli_uniform(&state) * (double)k);
+        if (j >= k) {
+            j = k - 1u;
+        }
+        send_item_t swap = plan->items[k - 1u];
+        plan->items[k - 1u] = plan->items[j];
+        plan->items[j] = swap;
+    }
+}
+
+/* For every selected edge, the file index of its later pose (poses are sent in file order),
+ * the poses needed, and the selected edges ordered by that pose, stably (file order within
+ * one pose): `order` gets the edge indices, `needed` marks poses. Returns the edges chosen. */
+static size_t send_order_edges(const pgem_io_graph_t *graph, const send_args_t *args,
+                               const pgem_cli_id_t *ids, size_t *ready, size_t *start,
+                               size_t *order, unsigned char *needed)
+{
+    size_t chosen = 0;
+    for (size_t e = 0; e < graph->edge_count; e++) {
+        ready[e] = PGEM_CLI_NO_POSE;
+        if (!send_selected(args, e)) {
+            continue;
+        }
+        size_t from = pgem_cli_find_pose(ids, graph->pose_count, graph->edges[e].from);
+        size_t to = pgem_cli_find_pose(ids, graph->pose_count, graph->edges[e].to);
+        if (from == PGEM_CLI_NO_POSE || to == PGEM_CLI_NO_POSE) {
+            continue; /* the reader refuses such files; kept safe anyway */
+        }
+        needed[from] = needed[to] = 1;
+        ready[e] = from > to ? from : to;
+        start[ready[e] + 1u]++;
+        chosen++;
+    }
+    for (size_t p = 0; p < graph->pose_count; p++) {
+        start[p + 1u] += start[p]; /* counting sort: start[p] is pose p's first slot */
+    }
+    for (size_t e = 0; e < graph->edge_count; e++) {
+        if (ready[e] != PGEM_CLI_NO_POSE) {
+            order[start[ready[e]]++] = e; /* afterwards start[p] is the end of pose p's run */
+        }
+    }
+    return chosen;
+}
+
+/* Fills plan->items: poses in file order, each followed by the edges it completes. */
+static void send_plan_stream(const pgem_io_graph_t *graph, const send_args_t *args,
+                             const size_t *end, const size_t *order,
+                             const unsigned char *needed, send_plan_t *plan)
+{
+    size_t next = 0;
+    for (size_t p = 0; p < graph->pose_count; p++) {
+        if (needed[p] || !args->select) {
+            send_plan_add(plan, p, 0, args->repeat);
+            plan->poses++;
+        }
+        for (; next < end[p]; next++) {
+            send_plan_add(plan, order[next], 1, args->repeat);
+        }
+    }
+}
+
+/* Marks the poses named by FIX lines. */
+static void send_mark_fixed(const pgem_io_graph_t *graph, const pgem_cli_id_t *ids,
+                            unsigned char *fixed)
+{
+    for (size_t f = 0; f < graph->fixed_count; f++) {
+        size_t pose = pgem_cli_find_pose(ids, graph->pose_count, graph->fixed[f]);
+        if (pose != PGEM_CLI_NO_POSE) {
+            fixed[pose] = 1;
+        }
+    }
+}
+
+/* Builds the plan. Returns PGEM_EXIT_OK or PGEM_EXIT_FAILURE (printed). */
+static int send_plan_build(const pgem_io_graph_t *graph, const send_args_t *args,
+                           send_plan_t *plan)
+{
+    size_t poses = graph->pose_count, edges = graph->edge_count;
+    memset(plan, 0, sizeof *plan);
+    pgem_cli_id_t *ids = pgem_cli_index_poses(graph);
+    size_t *ready = malloc((edges + 1u) * sizeof *ready);
+    size_t *start = calloc(poses + 1u, sizeof *start);
+    size_t *order = malloc((edges + 1u) * sizeof *order);
+    unsigned char *needed = calloc(poses, 1);
+    plan->fixed = calloc(poses, 1);
+    int status = PGEM_EXIT_FAILURE;
+    if (ids == NULL || ready == NULL || start == NULL || order == NULL || needed == NULL ||
+        plan->fixed == NULL) {
+        fprintf(stderr, "%s: out of memory\n", SEND_TOOL);
+        goto done;
+    }
+    send_mark_fixed(graph, ids, plan->fixed);
+    plan->edges = send_order_edges(graph, args, ids, ready, start, order, needed);
+    if (args->select && plan->edges == 0) {
+        fprintf(stderr, "%s: no edges with sequence from %llu (%s has %zu edges, 0 to %zu)\n",
+                SEND_TOOL, (unsigned long long)args->first, args->input, edges,
+                edges > 0 ? edges - 1u : 0u);
+        goto done;
+    }
+    size_t messages = poses + plan->edges;
+    if (args->repeat > (uint64_t)(SIZE_MAX / sizeof *plan->items / (messages + 1u))) {
+        fprintf(stderr, "%s: --repeat %llu is too many copies\n", SEND_TOOL,
+                (unsigned long long)args->repeat);
+        goto done;
+    }
+    plan->items = malloc((size_t)args->repeat * messages * sizeof *plan->items + 1u);
+    if (plan->items == NULL) {
+        fprintf(stderr, "%s: out of memory for %llu copies of %zu messages\n", SEND_TOOL,
+                (unsigned long long)args->repeat, messages);
+        goto done;
+    }
+    send_plan_stream(graph, args, start, order, needed, plan);
+    plan->edge_messages = plan->edges * (size_t)args->repeat;
+    if (args->shuffle) {
+        send_shuffle(plan, args->seed);
+    }
+    status = PGEM_EXIT_OK;
+done:
+    free(ids);
+    free(ready);
+    free(start);
+    free(order);
+    free(needed);
+    if (status != PGEM_EXIT_OK) {
+        send_plan_free(plan);
+    }
+    return status;
+}
+
+/* ---- Publishing ------------------------------------------------------------------------- */
+
+/* The upper triangle, row by row, of an n x n row-major matrix. */
+static void send_upper_triangle(const double *full, int n, double *upper)
+{
+    int k = 0;
+    for (int row = 0; row < n; row++) {
+        for (int col = row; col < n; col++) {
+            upper[k++] = full[row * n + col];
+        }
+    }
+}
+
+static int send_pose(send_context_t *context, size_t index)
+{
+    const pgem_io_pose_t *pose = &context->graph->poses[index];
+    int8_t fixed = (int8_t)context->plan->fixed[index];
+    if (context->graph->dimension == 3) {
+        pgem_pose3_t message = {pgem_lcm_utime(), context->source, (int64_t)pose->id, {0},
+                                fixed};
+        memcpy(message.pose, pose->pose, sizeof message.pose);
+        return pgem_pose3_t_publish(context->lcm, context->channels.pose, &message);
+    }
+    pgem_pose2_t message = {pgem_lcm_utime(), context->source, (int64_t)pose->id, {0}, fixed};
+    memcpy(message.pose, pose->pose, sizeof message.pose);
+    return pgem_pose2_t_publish(context->lcm, context->channels.pose, &message);
+}
+
+static int send_edge(send_context_t *context, size_t index)
+{
+    const pgem_io_edge_t *edge = &context->graph->edges[index];
+    int8_t kind = edge->kind == PGEM_EDGE_LOOP ? PGEM_EDGE2_T_LOOP : PGEM_EDGE2_T_ODOMETRY;
+    if (context->graph->dimension == 3) {
+        pgem_edge3_t message = {pgem_lcm_utime(), context->source, (int64_t)index,
+                                (int64_t)edge->from, (int64_t)edge->to, {0}, {0}, kind};
+        memcpy(message.measurement, edge->measurement, sizeof message.measurement);
+        send_upper_triangle(edge->information, 6, message.information);
+        return pgem_edge3_t_publish(context->lcm, context->channels.edge, &message);
+    }
+    pgem_edge2_t message = {pgem_lcm_utime(), context->source, (int64_t)index,
+                            (int64_t)edge->from, (int64_t)edge->to, {0}, {0}, kind};
+    memcpy(message.measurement, edge->measurement, sizeof message.measurement);
+    send_upper_triangle(edge->information, 3, message.information);
+    return pgem_edge2_t_publish(context->lcm, context->channels.edge, &message);
+}
+
+/* Counts of one run, for progress lines and the summary. */
+typedef struct send_progress {
+    double start;            /* clock when sending began */
+    double last_line;        /* clock of the last progress line */
+    size_t poses;            /* pose messages sent */
+    size_t edges;            /* edge messages sent */
+} send_progress_t;
+
+static void send_progress_line(const send_args_t *args, const send_plan_t *plan,
+                               send_progress_t *progress, double now)
+{
+    if (args->quiet || now - progress->last_line < SEND_PROGRESS_SECONDS) {
+        return;
+    }
+    double elapsed = now - progress->start;
+    fprintf(stderr, "sent %zu/%zu edges, %.1f edges/s\n", progress->edges, plan->edge_messages,
+            elapsed > 0.0 ? (double)progress->edges / elapsed : 0.0);
+    progress->last_line = now;
+}
+
+/* Publishes the plan, paced by --rate. With --wait, statuses that arrive meanwhile are
+ * dispatched (not judged). Returns PGEM_EXIT_OK or PGEM_EXIT_FAILURE (printed). */
+static int send_all(send_context_t *context, const send_args_t *args, send_progress_t *progress)
+{
+    const send_plan_t *plan = context->plan;
+    progress->start = progress->last_line = pgem_cli_now();
+    for (size_t k = 0; k < plan->count; k++) {
+        const send_item_t *item = &plan->items[k];
+        /* A message is due when the next edge is: poses travel with the edges after them. */
+        if (args->rate > 0.0 &&
+            !pgem_lcm_sleep_until(progress->start + (double)progress->edges / args->rate)) {
+            break;
+        }
+        if (pgem_lcm_stop_signal() != 0) {
+            break;
+        }
+        int status = item->edge ? send_edge(context, item->index)
+                                : send_pose(context, item->index);
+        if (status != 0) {
+            fprintf(stderr, "%s: publishing on %s failed (LCM at %s)\n", SEND_TOOL,
+                    item->edge ? context->channels.edge : context->channels.pose,
+                    pgem_lcm_url_name(args->lcm.url));
+            return PGEM_EXIT_FAILURE;
+        }
+        progress->edges += item->edge != 0;
+        progress->poses += item->edge == 0;
+        if (args->wait >= 0.0 && pgem_lcm_drain(SEND_TOOL, context->lcm) < 0) {
+            return PGEM_EXIT_FAILURE;
+        }
+        send_progress_line(args, plan, progress, pgem_cli_now());
+    }
+    if (pgem_lcm_stop_signal() != 0) {
+        fprintf(stderr, "%s: stopped by signal %d after %zu of %zu edge messages\n", SEND_TOOL,
+                pgem_lcm_stop_signal(), progress->edges, plan->edge_messages);
+        return PGEM_EXIT_FAILURE;
+    }
+    return PGEM_EXIT_OK;
+}
+
+static void send_summary(const send_args_t *args, const send_plan_t *plan,
+                         const send_progress_t *progress)
+{
+    double seconds = pgem_cli_now() - progress->start;
+    printf("sent %zu poses and %zu edges in %.3f s (%.1f edges/s)", plan->poses, plan->edges,
+           seconds, seconds > 0.0 ? (double)progress->edges / seconds : 0.0);
+    if (args->repeat > 1u) {
+        printf(", every message %llu times (%zu pose and %zu edge messages)",
+               (unsigned long long)args->repeat, progress->poses, progress->edges);
+    }
+    printf("\n");
+    fflush(stdout);
+}
+
+/* ---- --wait ----------------------------------------------------------------------------- */
+
+static void send_on_status(const lcm_recv_buf_t *buffer, const char *channel,
+                           const pgem_status_t *status, void *user)
+{
+    send_wait_t *wait = user;
+    (void)buffer;
+    (void)channel;
+    pgem_status_t *copy = pgem_status_t_copy(status);
+    if (copy == NULL) {
+        return;
+    }
+    if (wait->latest != NULL) {
+        pgem_status_t_destroy(wait->latest);
+    }
+    wait->latest = copy;
+    wait->statuses++;
+    if (wait->armed && status->accepted_edges >= wait->edges && status->pending == 0 &&
+        status->queued == 0) {
+        wait->satisfied = 1;
+    }
+}
+
+/* Waits for a status that shows every edge taken. Returns a PGEM_EXIT_* code. */
+static int send_wait_for_bridge(const send_args_t *args, send_context_t *context,
+                                send_wait_t *wait)
+{
+    double deadline = pgem_cli_now() + args->wait;
+    wait->armed = 1;
+    for (;;) {
+        if (pgem_lcm_handle(SEND_TOOL, context->lcm, 0.0) < 0) {
+            return PGEM_EXIT_FAILURE;
+        }
+        double left = deadline - pgem_cli_now();
+        if (wait->satisfied || left <= 0.0 || pgem_lcm_stop_signal() != 0) {
+            break;
+        }
+        if (pgem_lcm_handle(SEND_TOOL, context->lcm,
+                            left < SEND_WAIT_SLICE ? left : SEND_WAIT_SLICE) < 0) {
+            return PGEM_EXIT_FAILURE;
+        }
+    }
+    if (wait->latest != NULL) {
+        printf("bridge%s: ", wait->satisfied ? "" : " (latest status)");
+        pgem_lcm_print_status(stdout, wait->latest);
+    }
+    if (wait->satisfied) {
+        return PGEM_EXIT_OK;
+    }
+    const char *why = pgem_lcm_stop_signal() != 0 ? "stopped by a signal" : "timed out";
+    if (wait->latest == NULL) {
+        fprintf(stderr, "%s: %s after %g s: no status on %s (is pgem-lcm-bridge running at %s "
+                        "with the same channel prefix?)\n",
+                SEND_TOOL, why, args->wait, context->channels.status,
+                pgem_lcm_url_name(args->lcm.url));
+    } else {
+        fprintf(stderr, "%s: %s after %g s waiting for the bridge to take %zu edges (accepted "
+                        "edges %lld, pending %d, queued %d)%s\n",
+                SEND_TOOL, why, args->wait, context->plan->edges,
+                (long long)wait->latest->accepted_edges, (int)wait->latest->pending,
+                (int)wait->latest->queued,
+                wait->latest->dimension != context->graph->dimension
+                    ? "; the bridge's dimension differs from the file's"
+                    : "");
+    }
+    return PGEM_EXIT_FAILURE;
+}
+
+/* ---- --optimize ------------------------------------------------------------------------- */
+
+/* Asks the bridge to solve now. Returns a PGEM_EXIT_* code. */
+static int send_optimize(const send_args_t *args, send_context_t *context)
+{
+    pgem_command_t command;
+    char empty[1] = "";
+    memset(&command, 0, sizeof command);
+    command.utime = pgem_lcm_utime();
+    command.command = PGEM_COMMAND_T_OPTIMIZE;
+    command.path = empty;
+    if (pgem_command_t_publish(context->lcm, context->channels.command, &command) != 0) {
+        fprintf(stderr, "%s: publishing on %s failed (LCM at %s)\n", SEND_TOOL,
+                context->channels.command, pgem_lcm_url_name(args->lcm.url));
+        return PGEM_EXIT_FAILURE;
+    }
+    printf("asked the bridge to solve (OPTIMIZE on %s)\n", context->channels.command);
+    return PGEM_EXIT_OK;
+}
+
+/* ---- main ------------------------------------------------------------------------------- */
+
+/* Opens LCM, subscribes for --wait, sends, waits. Returns a PGEM_EXIT_* code. */
+static int send_run(const send_args_t *args, send_context_t *context)
+{
+    send_wait_t wait = {NULL, 0, 0, 0, (int64_t)context->plan->edges};
+    send_progress_t progress = {0.0, 0.0, 0, 0};
+    pgem_status_t_subscription_t *subscription = NULL;
+    if (pgem_lcm_catch_signals(SEND_TOOL) != 0) {
+        return PGEM_EXIT_FAILURE;
+    }
+    context->lcm = pgem_lcm_open(SEND_TOOL, args->lcm.url, 0);
+    if (context->lcm == NULL) {
+        return PGEM_EXIT_FAILURE;
+    }
+    if (args->wait >= 0.0) {
+        /* Before sending, so that no status is missed. */
+        subscription = pgem_status_t_subscribe(context->lcm, context->channels.status,
+                                               send_on_status, &wait);
+        if (subscription == NULL) {
+            fprintf(stderr, "%s: cannot subscribe to %s\n", SEND_TOOL, context->channels.status);
+            lcm_destroy(context->lcm);
+            return PGEM_EXIT_FAILURE;
+        }
+        pgem_status_t_subscription_set_queue_capacity(subscription, SEND_STATUS_QUEUE);
+    }
+    int status = send_all(context, args, &progress);
+    if (status == PGEM_EXIT_OK) {
+        send_summary(args, context->plan, &progress);
+        if (args->wait >= 0.0) {
+            status = send_wait_for_bridge(args, context, &wait);
+        }
+        if (status == PGEM_EXIT_OK && args->optimize) {
+            status = send_optimize(args, context);
+        }
+    }
+    if (subscription != NULL) {
+        pgem_status_t_unsubscribe(context->lcm, subscription);
+    }
+    if (wait.latest != NULL) {
+        pgem_status_t_destroy(wait.latest);
+    }
+    lcm_destroy(context->lcm);
+    return status;
+}
+
+int main(int argc, char **argv)
+{
+    send_args_t args;
+    int status = send_parse(argc, argv, &args);
+    if (status != PGEM_EXIT_OK) {
+        if (status == PGEM_EXIT_USAGE) {
+            send_usage(stderr);
+        }
+        return status < 0 ? PGEM_EXIT_OK : status;
+    }
+    pgem_io_graph_t graph = {0};
+    send_plan_t plan = {0};
+    send_context_t context;
+    memset(&context, 0, sizeof context);
+    status = pgem_cli_read_graph(SEND_TOOL, args.input,
+                                 PGEM_CLI_NEED_POSES | PGEM_CLI_WARN_CHAINED, &graph);
+    if (status == PGEM_EXIT_OK) {
+        status = pgem_lcm_channels(&args.lcm, graph.dimension, &context.channels) == 0
+                     ? send_plan_build(&graph, &args, &plan)
+                     : PGEM_EXIT_USAGE;
+    }
+    if (status == PGEM_EXIT_OK) {
+        context.graph = &graph;
+        context.plan = &plan;
+        snprintf(context.source, sizeof context.source, "%s", args.source);
+        status = send_run(&args, &context);
+    }
+    send_plan_free(&plan);
+    pgem_io_graph_free(&graph);
+    return status;
+}

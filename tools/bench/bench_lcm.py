@@ -1,0 +1,295 @@
+#!/usr/bin/env python3
+"""Benchmark of the LCM bridge: latency, sustained ingest rate, and SIGKILL recovery.
+
+Everything runs over real UDP multicast between separate processes (pgem-lcm-bridge,
+pgem-lcm-send, pgem-lcm-dump) inside a network namespace of its own (``unshare -n``,
+loopback only, ttl=0), so no packet leaves the machine. Needs root (or CAP_SYS_ADMIN).
+
+1. Latency: each dataset, with false loop closures added by ``pgem corrupt``, is streamed
+   by ``pgem-lcm-send --rate HZ --latency`` as a front-end would (poses in order, each
+   followed by its odometry and loop closures). For every loop closure the sender notes when
+   it was sent and when the first published graph containing it arrived; the report gives
+   the median, p90, p99 and maximum over all loop closures, and the bridge's solve times.
+2. Sustained ingest: the file is sent at increasing rates (no pacing other than --rate) to
+   a fresh bridge each time; a rate passes when the bridge's status shows every edge
+   accepted. The highest passing rate is the sustained zero-loss rate.
+3. Recovery: the stream runs while the bridge is killed with SIGKILL at random moments and
+   restarted on its journal; each restart's replayed records are reported; at the end the
+   front-end resends the whole file (replays are recognised and ignored) and the dumped
+   graph is compared with the offline ``pgem optimize --robust em`` solve.
+
+The report is printed as Markdown and written to --out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import random
+import re
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+BUILD = REPO_ROOT / "build" / "release"
+DEFAULT_DATASETS = REPO_ROOT.parent / "shared" / "datasets"
+DEFAULT_OUT = REPO_ROOT / "build" / "bench" / "bench_lcm.md"
+URL = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304"
+
+
+class BenchError(Exception):
+    """Ends the benchmark with a message."""
+
+
+def tool(name: str) -> Path:
+    path = BUILD / ("tools/pgem/pgem" if name == "pgem" else f"tools/lcm/{name}")
+    if name == "lcm_compare":
+        path = BUILD / "tests" / "lcm_compare"
+    if not path.exists():
+        raise BenchError(f"{path} is missing: build first (cmake --build --preset release)")
+    return path
+
+
+def enter_namespace() -> None:
+    """Re-runs this script inside a fresh network namespace with multicast on loopback."""
+    if os.environ.get("PGEM_BENCH_NETNS") == "1":
+        for command in (["ip", "link", "set", "lo", "up"],
+                        ["ip", "link", "set", "lo", "multicast", "on"],
+                        ["ip", "route", "add", "224.0.0.0/4", "dev", "lo"]):
+            subprocess.run(command, check=True)
+        os.environ["LCM_DEFAULT_URL"] = URL
+        return
+    if shutil.which("unshare") is None:
+        raise BenchError("unshare(1) is needed for a private network namespace")
+    env = dict(os.environ, PGEM_BENCH_NETNS="1")
+    result = subprocess.run(["unshare", "-n", sys.executable, *sys.argv], env=env)
+    sys.exit(result.returncode)
+
+
+def dataset(datasets: Path, name: str) -> Path:
+    for sub in ("2d", "3d"):
+        candidate = datasets / sub / f"{name}.g2o"
+        if candidate.exists():
+            return candidate
+    raise BenchError(f"dataset {name}.g2o not found under {datasets}")
+
+
+def count_edges(path: Path) -> int:
+    with path.open() as handle:
+        return sum(1 for line in handle if line.startswith(("EDGE", "EDGE2", "EDGE3")))
+
+
+class Bridge:
+    """A pgem-lcm-bridge process with its log."""
+
+    def __init__(self, log: Path, journal: Path | None = None, extra: list[str] | None = None):
+        args = [str(tool("pgem-lcm-bridge")), "--max-poses", "20000"]
+        if journal is not None:
+            args += ["--journal", str(journal)]
+        args += extra or []
+        self.log_path = log
+        self.log = log.open("a")
+        self.process = subprocess.Popen(args, stderr=self.log, stdout=self.log)
+        time.sleep(0.5)
+
+    def stop(self) -> None:
+        self.process.send_signal(2)
+        try:
+            self.process.wait(timeout=30)
+        except subprocess.TimeoutExpired as error:
+            self.process.kill()
+            raise BenchError("the bridge did not stop on SIGINT within 30 s") from error
+        self.log.close()
+
+    def kill(self) -> None:
+        self.process.kill()
+        self.process.wait()
+        self.log.close()
+
+    def solve_times(self) -> list[float]:
+        text = self.log_path.read_text()
+        return [float(m) for m in re.findall(r"solve \d+ \([^)]*\):.*?([0-9.]+) ms", text)]
+
+
+def send(path: Path, *args: str, timeout: float = 600) -> subprocess.CompletedProcess:
+    command = [str(tool("pgem-lcm-send")), str(path), "--quiet", *args]
+    return subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+
+
+def percentile(values: list[float], q: float) -> float:
+    ordered = sorted(values)
+    index = min(len(ordered) - 1, max(0, round(q / 100.0 * (len(ordered) - 1))))
+    return ordered[index]
+
+
+def latency_run(work: Path, name: str, corrupted: Path, rate: float) -> dict:
+    bridge = Bridge(work / f"{name}.latency.bridge.log")
+    csv = work / f"{name}.latency.csv"
+    result = send(corrupted, "--rate", str(rate), "--latency", str(csv), "--wait", "120")
+    bridge.stop()
+    if result.returncode != 0:
+        raise BenchError(f"{name}: latency run failed:\n{result.stdout}{result.stderr}")
+    samples = []
+    for line in csv.read_text().splitlines()[1:]:
+        fields = line.split(",")
+        if len(fields) >= 4 and fields[3] != "":
+            samples.append(float(fields[3]))
+    if not samples:
+        raise BenchError(f"{name}: no latency samples in {csv}")
+    solves = bridge.solve_times()
+    return {
+        "rate": rate,
+        "loops": len(samples),
+        "median": statistics.median(samples),
+        "p90": percentile(samples, 90),
+        "p99": percentile(samples, 99),
+        "max": max(samples),
+        "solves": len(solves),
+        "solve_median": statistics.median(solves) if solves else float("nan"),
+        "solve_max": max(solves) if solves else float("nan"),
+    }
+
+
+def accepted_edges(output: str) -> int:
+    match = re.search(r"accepted \d+ poses, (\d+) edges", output)
+    return int(match.group(1)) if match else -1
+
+
+def ingest_run(work: Path, name: str, corrupted: Path, rates: list[float]) -> list[dict]:
+    edges = count_edges(corrupted)
+    rows = []
+    for rate in rates:
+        bridge = Bridge(work / f"{name}.ingest.{int(rate)}.bridge.log")
+        started = time.monotonic()
+        result = send(corrupted, "--rate", str(rate), "--wait", "30")
+        elapsed = time.monotonic() - started
+        bridge.stop()
+        got = accepted_edges(result.stdout + result.stderr)
+        rows.append({"rate": rate, "sent": edges, "accepted": got, "ok": got == edges,
+                     "seconds": elapsed})
+    return rows
+
+
+def recovery_run(work: Path, name: str, corrupted: Path, kills: int, rate: float,
+                 seed: int) -> dict:
+    offline_g2o = work / f"{name}.offline.g2o"
+    offline_weights = work / f"{name}.offline.weights"
+    subprocess.run([str(tool("pgem")), "optimize", str(corrupted), "--robust", "em", "--weights",
+                    str(offline_weights), "-o", str(offline_g2o), "--quiet"], check=True)
+    journal = work / f"{name}.journal.lcmlog"
+    if journal.exists():
+        journal.unlink()
+    log = work / f"{name}.recovery.bridge.log"
+    if log.exists():
+        log.unlink()
+    edges = count_edges(corrupted)
+    stream_seconds = edges / rate
+    rng = random.Random(seed)
+    moments = sorted(rng.uniform(0.1, 0.9) * stream_seconds for _ in range(kills))
+    bridge = Bridge(log, journal)
+    sender = subprocess.Popen([str(tool("pgem-lcm-send")), str(corrupted), "--quiet", "--rate",
+                               str(rate)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True)
+    started = time.monotonic()
+    replayed = []
+    for moment in moments:
+        time.sleep(max(0.0, moment - (time.monotonic() - started)))
+        bridge.kill()
+        bridge = Bridge(log, journal)
+        text = log.read_text()
+        found = re.findall(r"(\d+) records replayed \((\d+) poses, (\d+) edges\)", text)
+        replayed.append(tuple(int(x) for x in found[-1]) if found else (0, 0, 0))
+    sender.communicate(timeout=600)
+    dump_g2o = work / f"{name}.recovered.g2o"
+    dump_weights = work / f"{name}.recovered.weights"
+    dump = subprocess.Popen([str(tool("pgem-lcm-dump")), "-o", str(dump_g2o), "--weights",
+                             str(dump_weights), "--edges", str(edges), "--timeout", "180",
+                             "--quiet"])
+    time.sleep(0.3)
+    resend = send(corrupted, "--rate", str(rate * 4), "--wait", "120")
+    dump.wait(timeout=200)
+    bridge.stop()
+    compare = subprocess.run([str(tool("lcm_compare")), str(dump_g2o), str(offline_g2o), "1e-6",
+                              str(dump_weights), str(offline_weights)], capture_output=True,
+                             text=True)
+    return {"kills": kills, "edges": edges, "replayed": replayed,
+            "resend": resend.stdout.strip().splitlines()[-1:] if resend.stdout else [],
+            "agree": compare.returncode == 0, "compare": compare.stdout.strip()}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--datasets", type=Path, default=DEFAULT_DATASETS)
+    parser.add_argument("--files", default="input_M3500_g2o:100,city10000:200",
+                        help="NAME:RATE,... datasets and their streaming rate in edges/s")
+    parser.add_argument("--outliers", type=int, default=100, help="false loops added")
+    parser.add_argument("--ingest-rates", default="2000,5000,10000,20000,50000")
+    parser.add_argument("--kills", type=int, default=5)
+    parser.add_argument("--kill-rate", type=float, default=1000.0)
+    parser.add_argument("--quick", action="store_true",
+                        help="M3500 only, streamed at 500 edges/s, 3 kills")
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    args = parser.parse_args()
+    try:
+        enter_namespace()
+        work = args.out.parent / "lcm_work"
+        work.mkdir(parents=True, exist_ok=True)
+        files = [entry.split(":") for entry in args.files.split(",")]
+        if args.quick:
+            files = [["input_M3500_g2o", "500"]]
+            args.kills = 3
+        lines = ["# LCM bridge benchmark", "",
+                 f"{time.strftime('%Y-%m-%d %H:%M')}, {os.cpu_count()} cores, URL `{URL}`, "
+                 f"{args.outliers} random false loop closures (seed 1).", ""]
+        for name, rate in files:
+            source = dataset(args.datasets, name)
+            corrupted = work / f"{name}.corrupted.g2o"
+            subprocess.run([str(tool("pgem")), "corrupt", str(source), "-o", str(corrupted),
+                            "--policy", "random", "--count", str(args.outliers), "--seed", "1"],
+                           check=True, capture_output=True)
+            print(f"== {name}: latency at {rate} edges/s", flush=True)
+            lat = latency_run(work, name, corrupted, float(rate))
+            print(f"== {name}: sustained ingest", flush=True)
+            ingest = ingest_run(work, name, corrupted,
+                                [float(r) for r in args.ingest_rates.split(",")])
+            print(f"== {name}: {args.kills} SIGKILLs and restarts", flush=True)
+            rec = recovery_run(work, name, corrupted, args.kills, args.kill_rate, 1)
+            lines += [f"## {name}", "",
+                      f"Latency, last loop closure's send to the first graph including it, over "
+                      f"{lat['loops']} loop closures streamed at {lat['rate']:g} edges/s:", "",
+                      "| median | p90 | p99 | max | solves | solve median | solve max |",
+                      "|---|---|---|---|---|---|---|",
+                      f"| {lat['median']:.1f} ms | {lat['p90']:.1f} ms | {lat['p99']:.1f} ms | "
+                      f"{lat['max']:.1f} ms | {lat['solves']} | {lat['solve_median']:.1f} ms | "
+                      f"{lat['solve_max']:.1f} ms |", "",
+                      "Sustained ingest (every edge accepted?):", "",
+                      "| rate (edges/s) | sent | accepted | zero loss |", "|---|---|---|---|"]
+            lines += [f"| {row['rate']:g} | {row['sent']} | {row['accepted']} | "
+                      f"{'yes' if row['ok'] else 'no'} |" for row in ingest]
+            passing = [row["rate"] for row in ingest if row["ok"]]
+            lines += ["", f"Highest zero-loss rate tried: "
+                      f"{max(passing) if passing else 'none':g} edges/s." if passing else
+                      "No rate passed.", "",
+                      f"Recovery: {rec['kills']} SIGKILLs while streaming at "
+                      f"{args.kill_rate:g} edges/s, each followed by a restart on the journal "
+                      "(records, poses, edges replayed): " +
+                      ", ".join(f"{r[0]}/{r[1]}/{r[2]}" for r in rec["replayed"]) +
+                      f". After a full resend the dumped graph "
+                      f"{'agrees with' if rec['agree'] else 'DIFFERS from'} the offline solve:",
+                      "", "```", rec["compare"], "```", ""]
+        report = "\n".join(lines)
+        print(report)
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(report + "\n")
+        return 0
+    except (BenchError, subprocess.CalledProcessError, subprocess.TimeoutExpired) as error:
+        print(f"bench_lcm: {error}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
