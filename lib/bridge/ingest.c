@@ -238,6 +238,62 @@ static int source_index(pgem_ingest_t *ingest, const char *name, pgem_ingest_res
     return (int)ingest->source_count++;
 }
 
+/* A pose estimate or a measurement: finite, and in 3D a unit quaternion. Returns 1, or 0 with
+ * the message and the rejection filled. */
+static int values_ok(pgem_ingest_t *ingest, const double *values, const char *what,
+                     const char *noun, pgem_ingest_result_t *result)
+{
+    int dimension = ingest->config.dimension;
+    if (!all_finite(values, PGEM_POSE_SIZE(dimension))) {
+        snprintf(result->message, sizeof result->message, "%s: NaN or Inf in the %s", what, noun);
+        reject(ingest, result, PGEM_REJECT_NOT_FINITE);
+        return 0;
+    }
+    if (dimension == 3 && !quaternion_ok(values)) {
+        snprintf(result->message, sizeof result->message,
+                 "%s: quaternion norm off 1 by more than %g", what, PGEM_QUAT_NORM_TOLERANCE);
+        reject(ingest, result, PGEM_REJECT_ROTATION);
+        return 0;
+    }
+    return 1;
+}
+
+/* The slot a new key (a, b) with this content will take. A replay (same key, same content), a
+ * conflict (same key, other content) or a full capacity (admitted == limit) ends here: NULL,
+ * with the result filled. */
+static slot_t *claim(pgem_ingest_t *ingest, table_t *table, uint64_t a, uint64_t b,
+                     uint64_t content, uint32_t admitted, uint32_t limit, const char *what,
+                     const char *conflict, const char *items, pgem_ingest_result_t *result)
+{
+    slot_t *slot = table_find(table, a, b);
+    if (slot->used) {
+        if (slot->content == content) {
+            result->verdict = PGEM_VERDICT_REPLAY;
+            ingest->counts.replays++;
+            return NULL;
+        }
+        snprintf(result->message, sizeof result->message, "%s: %s", what, conflict);
+        reject(ingest, result, PGEM_REJECT_CONFLICT);
+        return NULL;
+    }
+    if (admitted >= limit) {
+        snprintf(result->message, sizeof result->message,
+                 "%s: the bridge holds its maximum of %u %s (--max-%s)", what, (unsigned)limit,
+                 items, items);
+        reject(ingest, result, PGEM_REJECT_CAPACITY);
+        return NULL;
+    }
+    return slot;
+}
+
+static void take(slot_t *slot, uint64_t a, uint64_t b, uint64_t content)
+{
+    slot->used = 1;
+    slot->key_a = a;
+    slot->key_b = b;
+    slot->content = content;
+}
+
 static int pose_known(const pgem_ingest_t *ingest, pgem_id_t id)
 {
     return table_find(&ingest->poses, id, 0)->used;
@@ -263,42 +319,17 @@ static void release_pending(pgem_ingest_t *ingest)
 static void admit_pose(pgem_ingest_t *ingest, const pgem_item_t *item, const char *what,
                        pgem_ingest_result_t *result)
 {
-    int dimension = ingest->config.dimension;
-    if (!all_finite(item->value, PGEM_POSE_SIZE(dimension))) {
-        snprintf(result->message, sizeof result->message, "%s: NaN or Inf in the estimate", what);
-        reject(ingest, result, PGEM_REJECT_NOT_FINITE);
+    if (!values_ok(ingest, item->value, what, "estimate", result)) {
         return;
     }
-    if (dimension == 3 && !quaternion_ok(item->value)) {
-        snprintf(result->message, sizeof result->message,
-                 "%s: quaternion norm off 1 by more than %g", what, PGEM_QUAT_NORM_TOLERANCE);
-        reject(ingest, result, PGEM_REJECT_ROTATION);
+    uint64_t content = item_content(item, ingest->config.dimension);
+    slot_t *slot = claim(ingest, &ingest->poses, item->from, 0, content, ingest->admitted_poses,
+                         ingest->config.max_poses, what,
+                         "the pose already exists with another estimate", "poses", result);
+    if (slot == NULL) {
         return;
     }
-    uint64_t content = item_content(item, dimension);
-    slot_t *slot = table_find(&ingest->poses, item->from, 0);
-    if (slot->used) {
-        if (slot->content == content) {
-            result->verdict = PGEM_VERDICT_REPLAY;
-            ingest->counts.replays++;
-            return;
-        }
-        snprintf(result->message, sizeof result->message,
-                 "%s: the pose already exists with another estimate", what);
-        reject(ingest, result, PGEM_REJECT_CONFLICT);
-        return;
-    }
-    if (ingest->admitted_poses >= ingest->config.max_poses) {
-        snprintf(result->message, sizeof result->message,
-                 "%s: the bridge holds its maximum of %u poses (--max-poses)", what,
-                 (unsigned)ingest->config.max_poses);
-        reject(ingest, result, PGEM_REJECT_CAPACITY);
-        return;
-    }
-    slot->used = 1;
-    slot->key_a = item->from;
-    slot->key_b = 0;
-    slot->content = content;
+    take(slot, item->from, 0, content);
     ingest->admitted_poses++;
     ingest->counts.accepted_poses++;
     ingest->emit(ingest->user, item);
@@ -333,16 +364,7 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
         reject(ingest, result, PGEM_REJECT_KIND);
         return;
     }
-    if (!all_finite(item->value, PGEM_POSE_SIZE(dimension))) {
-        snprintf(result->message, sizeof result->message, "%s: NaN or Inf in the measurement",
-                 what);
-        reject(ingest, result, PGEM_REJECT_NOT_FINITE);
-        return;
-    }
-    if (dimension == 3 && !quaternion_ok(item->value)) {
-        snprintf(result->message, sizeof result->message,
-                 "%s: quaternion norm off 1 by more than %g", what, PGEM_QUAT_NORM_TOLERANCE);
-        reject(ingest, result, PGEM_REJECT_ROTATION);
+    if (!values_ok(ingest, item->value, what, "measurement", result)) {
         return;
     }
     double full[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
@@ -358,23 +380,11 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
         return;
     }
     uint64_t content = item_content(item, dimension);
-    slot_t *slot = table_find(&ingest->edges, item->source, (uint64_t)item->sequence);
-    if (slot->used) {
-        if (slot->content == content) {
-            result->verdict = PGEM_VERDICT_REPLAY;
-            ingest->counts.replays++;
-            return;
-        }
-        snprintf(result->message, sizeof result->message,
-                 "%s: this source already sent this sequence number with other content", what);
-        reject(ingest, result, PGEM_REJECT_CONFLICT);
-        return;
-    }
-    if (ingest->admitted_edges >= ingest->config.max_edges) {
-        snprintf(result->message, sizeof result->message,
-                 "%s: the bridge holds its maximum of %u edges (--max-edges)", what,
-                 (unsigned)ingest->config.max_edges);
-        reject(ingest, result, PGEM_REJECT_CAPACITY);
+    slot_t *slot = claim(ingest, &ingest->edges, item->source, (uint64_t)item->sequence, content,
+                         ingest->admitted_edges, ingest->config.max_edges, what,
+                         "this source already sent this sequence number with other content",
+                         "edges", result);
+    if (slot == NULL) {
         return;
     }
     int ready = pose_known(ingest, item->from) && pose_known(ingest, item->to);
@@ -385,10 +395,7 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
         reject(ingest, result, PGEM_REJECT_PENDING_FULL);
         return;
     }
-    slot->used = 1;
-    slot->key_a = item->source;
-    slot->key_b = (uint64_t)item->sequence;
-    slot->content = content;
+    take(slot, item->source, (uint64_t)item->sequence, content);
     ingest->admitted_edges++;
     ingest->counts.accepted_edges++;
     if (ready) {
@@ -494,6 +501,36 @@ static void handle_command(pgem_ingest_t *ingest, const void *data, size_t size,
     pgem_command_t_decode_cleanup(&command);
 }
 
+/* A message on the pose or edge channel that did not decode: of the other dimension, or not
+ * the channel's type at all. */
+static void reject_undecoded(pgem_ingest_t *ingest, const void *data, size_t size,
+                             int64_t other_dimension, const char *noun,
+                             pgem_ingest_result_t *result)
+{
+    int dimension = ingest->config.dimension;
+    if (fingerprint(data, size) == other_dimension) {
+        snprintf(result->message, sizeof result->message, "a %dD %s reached a %dD bridge",
+                 5 - dimension, noun, dimension);
+        reject(ingest, result, PGEM_REJECT_DIMENSION);
+    } else {
+        snprintf(result->message, sizeof result->message,
+                 "a %zu-byte message on the %s channel is not a pgem.%s%d_t", size, noun, noun,
+                 dimension);
+        reject(ingest, result, PGEM_REJECT_DECODE);
+    }
+}
+
+/* The fields an edge2_t and an edge3_t share, into an item. */
+#define EDGE_INTO_ITEM(edge, item)                                              \
+    do {                                                                        \
+        (item).from = (pgem_id_t)(edge).from;                                   \
+        (item).to = (pgem_id_t)(edge).to;                                       \
+        (item).sequence = (edge).sequence;                                      \
+        (item).kind = (uint8_t)(edge).kind;                                     \
+        memcpy((item).value, (edge).measurement, sizeof (edge).measurement);    \
+        memcpy((item).information, (edge).information, sizeof (edge).information); \
+    } while (0)
+
 static void pose_what(char *what, size_t size, pgem_id_t id, int dimension)
 {
     snprintf(what, size, "%dD pose %llu", dimension, (unsigned long long)id);
@@ -506,7 +543,6 @@ static void handle_pose(pgem_ingest_t *ingest, const void *data, size_t size,
     memset(&item, 0, sizeof item);
     item.type = PGEM_ITEM_POSE;
     char what[64];
-    int64_t type = fingerprint(data, size);
     if (ingest->config.dimension == 2) {
         pgem_pose2_t pose;
         if (DECODE(pgem_pose2_t, data, size, STRING_AFTER_UTIME, POSE2_TAIL, &pose)) {
@@ -530,19 +566,10 @@ static void handle_pose(pgem_ingest_t *ingest, const void *data, size_t size,
             return;
         }
     }
-    int other = ingest->config.dimension == 2 ? type == __pgem_pose3_t_get_hash()
-                                              : type == __pgem_pose2_t_get_hash();
-    if (other) {
-        snprintf(result->message, sizeof result->message,
-                 "a %dD pose reached a %dD bridge", 5 - ingest->config.dimension,
-                 ingest->config.dimension);
-        reject(ingest, result, PGEM_REJECT_DIMENSION);
-    } else {
-        snprintf(result->message, sizeof result->message,
-                 "a %zu-byte message on the pose channel is not a pgem.pose%d_t", size,
-                 ingest->config.dimension);
-        reject(ingest, result, PGEM_REJECT_DECODE);
-    }
+    reject_undecoded(ingest, data, size,
+                     ingest->config.dimension == 2 ? __pgem_pose3_t_get_hash()
+                                                   : __pgem_pose2_t_get_hash(),
+                     "pose", result);
 }
 
 static void handle_edge(pgem_ingest_t *ingest, const void *data, size_t size,
@@ -551,16 +578,10 @@ static void handle_edge(pgem_ingest_t *ingest, const void *data, size_t size,
     pgem_item_t item;
     memset(&item, 0, sizeof item);
     item.type = PGEM_ITEM_EDGE;
-    int64_t type = fingerprint(data, size);
     if (ingest->config.dimension == 2) {
         pgem_edge2_t edge;
         if (DECODE(pgem_edge2_t, data, size, STRING_AFTER_UTIME, EDGE2_TAIL, &edge)) {
-            item.from = (pgem_id_t)edge.from;
-            item.to = (pgem_id_t)edge.to;
-            item.sequence = edge.sequence;
-            item.kind = (uint8_t)edge.kind;
-            memcpy(item.value, edge.measurement, sizeof edge.measurement);
-            memcpy(item.information, edge.information, sizeof edge.information);
+            EDGE_INTO_ITEM(edge, item);
             admit_edge(ingest, &item, edge.source, result);
             pgem_edge2_t_decode_cleanup(&edge);
             return;
@@ -568,30 +589,16 @@ static void handle_edge(pgem_ingest_t *ingest, const void *data, size_t size,
     } else {
         pgem_edge3_t edge;
         if (DECODE(pgem_edge3_t, data, size, STRING_AFTER_UTIME, EDGE3_TAIL, &edge)) {
-            item.from = (pgem_id_t)edge.from;
-            item.to = (pgem_id_t)edge.to;
-            item.sequence = edge.sequence;
-            item.kind = (uint8_t)edge.kind;
-            memcpy(item.value, edge.measurement, sizeof edge.measurement);
-            memcpy(item.information, edge.information, sizeof edge.information);
+            EDGE_INTO_ITEM(edge, item);
             admit_edge(ingest, &item, edge.source, result);
             pgem_edge3_t_decode_cleanup(&edge);
             return;
         }
     }
-    int other = ingest->config.dimension == 2 ? type == __pgem_edge3_t_get_hash()
-                                              : type == __pgem_edge2_t_get_hash();
-    if (other) {
-        snprintf(result->message, sizeof result->message,
-                 "a %dD edge reached a %dD bridge", 5 - ingest->config.dimension,
-                 ingest->config.dimension);
-        reject(ingest, result, PGEM_REJECT_DIMENSION);
-    } else {
-        snprintf(result->message, sizeof result->message,
-                 "a %zu-byte message on the edge channel is not a pgem.edge%d_t", size,
-                 ingest->config.dimension);
-        reject(ingest, result, PGEM_REJECT_DECODE);
-    }
+    reject_undecoded(ingest, data, size,
+                     ingest->config.dimension == 2 ? __pgem_edge3_t_get_hash()
+                                                   : __pgem_edge2_t_get_hash(),
+                     "edge", result);
 }
 
 static pgem_role_t role_of(const void *data, size_t size)
