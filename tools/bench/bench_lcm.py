@@ -6,10 +6,11 @@ pgem-lcm-send, pgem-lcm-dump) inside a network namespace of its own (``unshare -
 loopback only, ttl=0), so no packet leaves the machine. Needs root (or CAP_SYS_ADMIN).
 
 1. Latency: each dataset, with false loop closures added by ``pgem corrupt``, is streamed
-   by ``pgem-lcm-send --rate HZ --latency`` as a front-end would (poses in order, each
+   by ``pgem-lcm-send --rate HZ --latency CSV`` as a front-end would (poses in order, each
    followed by its odometry and loop closures). For every loop closure the sender notes when
    it was sent and when the first published graph containing it arrived; the report gives
-   the median, p90, p99 and maximum over all loop closures, and the bridge's solve times.
+   the median, p90, p99 (nearest rank, as the sender prints them) and maximum over all loop
+   closures, the slowest one with its solve, and the bridge's solve times.
 2. Sustained ingest: the file is sent at increasing rates (no pacing other than --rate) to
    a fresh bridge each time; a rate passes when the bridge's status shows every edge
    accepted. The highest passing rate is the sustained zero-loss rate.
@@ -24,6 +25,7 @@ The report is printed as Markdown and written to --out.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import random
 import re
@@ -35,7 +37,8 @@ import time
 from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
-BUILD = REPO_ROOT / "build" / "release"
+DEFAULT_BUILD = Path("build") / "release"
+BUILD = REPO_ROOT / DEFAULT_BUILD  # replaced by --build
 DEFAULT_DATASETS = REPO_ROOT.parent / "shared" / "datasets"
 DEFAULT_OUT = REPO_ROOT / "build" / "bench" / "bench_lcm.md"
 URL = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304"
@@ -45,12 +48,21 @@ class BenchError(Exception):
     """Ends the benchmark with a message."""
 
 
+def build_dir(given: Path) -> Path:
+    """--build: absolute as given; relative to the current directory, else to the repository."""
+    if given.is_absolute():
+        return given
+    here = Path.cwd() / given
+    return (here if here.exists() else REPO_ROOT / given).resolve()
+
+
 def tool(name: str) -> Path:
     path = BUILD / ("tools/pgem/pgem" if name == "pgem" else f"tools/lcm/{name}")
     if name == "lcm_compare":
         path = BUILD / "tests" / "lcm_compare"
     if not path.exists():
-        raise BenchError(f"{path} is missing: build first (cmake --build --preset release)")
+        raise BenchError(f"{path} is missing: build first (cmake --build --preset release, "
+                         "or point --build at your build directory)")
     return path
 
 
@@ -83,8 +95,11 @@ def count_edges(path: Path) -> int:
         return sum(1 for line in handle if line.startswith(("EDGE", "EDGE2", "EDGE3")))
 
 
+REPLAYED = re.compile(r"(\d+) records replayed \((\d+) poses, (\d+) edges\)")
+
+
 class Bridge:
-    """A pgem-lcm-bridge process with its log."""
+    """A pgem-lcm-bridge process with its log (appended to: restarts share one log)."""
 
     def __init__(self, log: Path, journal: Path | None = None, extra: list[str] | None = None):
         args = [str(tool("pgem-lcm-bridge")), "--max-poses", "20000"]
@@ -92,9 +107,26 @@ class Bridge:
             args += ["--journal", str(journal)]
         args += extra or []
         self.log_path = log
+        before = len(REPLAYED.findall(log.read_text())) if log.exists() else 0
         self.log = log.open("a")
         self.process = subprocess.Popen(args, stderr=self.log, stdout=self.log)
+        self.replayed = (0, 0, 0)
         time.sleep(0.5)
+        if journal is not None:
+            self.replayed = self.wait_replay(before)
+
+    def wait_replay(self, before: int, timeout: float = 60.0) -> tuple[int, int, int]:
+        """(records, poses, edges) of this start's journal line, once it is in the log."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            found = REPLAYED.findall(self.log_path.read_text())
+            if len(found) > before:
+                return tuple(int(x) for x in found[-1])
+            if self.process.poll() is not None:
+                raise BenchError(f"the bridge exited ({self.process.returncode}) while "
+                                 f"replaying its journal; see {self.log_path}")
+            time.sleep(0.05)
+        raise BenchError(f"the bridge did not replay its journal within {timeout:g} s")
 
     def stop(self) -> None:
         self.process.send_signal(2)
@@ -121,33 +153,50 @@ def send(path: Path, *args: str, timeout: float = 600) -> subprocess.CompletedPr
 
 
 def percentile(values: list[float], q: float) -> float:
+    """Nearest rank: the smallest value with at least q % of the values at or below it."""
     ordered = sorted(values)
-    index = min(len(ordered) - 1, max(0, round(q / 100.0 * (len(ordered) - 1))))
-    return ordered[index]
+    rank = math.ceil(q / 100.0 * len(ordered))
+    return ordered[min(len(ordered), max(1, rank)) - 1]
+
+
+def fresh_log(path: Path) -> Path:
+    if path.exists():
+        path.unlink()
+    return path
 
 
 def latency_run(work: Path, name: str, corrupted: Path, rate: float) -> dict:
-    bridge = Bridge(work / f"{name}.latency.bridge.log")
+    bridge = Bridge(fresh_log(work / f"{name}.latency.bridge.log"))
     csv = work / f"{name}.latency.csv"
-    result = send(corrupted, "--rate", str(rate), "--latency", str(csv), "--wait", "120")
+    edges = count_edges(corrupted)
+    result = send(corrupted, "--rate", str(rate), "--latency", str(csv), "--wait", "120",
+                  timeout=edges / rate + 300)
     bridge.stop()
     if result.returncode != 0:
         raise BenchError(f"{name}: latency run failed:\n{result.stdout}{result.stderr}")
-    samples = []
+    samples = []  # (latency ms, sequence, from, to, solve id)
+    sent = 0
     for line in csv.read_text().splitlines()[1:]:
         fields = line.split(",")
-        if len(fields) >= 4 and fields[3] != "":
-            samples.append(float(fields[3]))
+        sent += 1
+        if len(fields) >= 5 and fields[3] != "":
+            samples.append((float(fields[3]), int(fields[0]), int(fields[1]), int(fields[2]),
+                            int(fields[4])))
     if not samples:
         raise BenchError(f"{name}: no latency samples in {csv}")
+    summary = re.search(r"^latency: .*$", result.stdout, re.MULTILINE)
+    values = [sample[0] for sample in samples]
     solves = bridge.solve_times()
     return {
         "rate": rate,
         "loops": len(samples),
-        "median": statistics.median(samples),
-        "p90": percentile(samples, 90),
-        "p99": percentile(samples, 99),
-        "max": max(samples),
+        "sent": sent,
+        "sender": summary.group(0) if summary else "(no latency line from the sender)",
+        "median": percentile(values, 50),
+        "p90": percentile(values, 90),
+        "p99": percentile(values, 99),
+        "max": max(values),
+        "worst": max(samples),
         "solves": len(solves),
         "solve_median": statistics.median(solves) if solves else float("nan"),
         "solve_max": max(solves) if solves else float("nan"),
@@ -163,7 +212,7 @@ def ingest_run(work: Path, name: str, corrupted: Path, rates: list[float]) -> li
     edges = count_edges(corrupted)
     rows = []
     for rate in rates:
-        bridge = Bridge(work / f"{name}.ingest.{int(rate)}.bridge.log")
+        bridge = Bridge(fresh_log(work / f"{name}.ingest.{int(rate)}.bridge.log"))
         started = time.monotonic()
         result = send(corrupted, "--rate", str(rate), "--wait", "30")
         elapsed = time.monotonic() - started
@@ -179,7 +228,8 @@ def recovery_run(work: Path, name: str, corrupted: Path, kills: int, rate: float
     offline_g2o = work / f"{name}.offline.g2o"
     offline_weights = work / f"{name}.offline.weights"
     subprocess.run([str(tool("pgem")), "optimize", str(corrupted), "--robust", "em", "--weights",
-                    str(offline_weights), "-o", str(offline_g2o), "--quiet"], check=True)
+                    str(offline_weights), "-o", str(offline_g2o), "--quiet"], check=True,
+                   capture_output=True)
     journal = work / f"{name}.journal.lcmlog"
     if journal.exists():
         journal.unlink()
@@ -191,6 +241,8 @@ def recovery_run(work: Path, name: str, corrupted: Path, kills: int, rate: float
     rng = random.Random(seed)
     moments = sorted(rng.uniform(0.1, 0.9) * stream_seconds for _ in range(kills))
     bridge = Bridge(log, journal)
+    if bridge.replayed[0] != 0:
+        raise BenchError(f"{journal} was not empty at the start")
     sender = subprocess.Popen([str(tool("pgem-lcm-send")), str(corrupted), "--quiet", "--rate",
                                str(rate)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                               text=True)
@@ -200,19 +252,21 @@ def recovery_run(work: Path, name: str, corrupted: Path, kills: int, rate: float
         time.sleep(max(0.0, moment - (time.monotonic() - started)))
         bridge.kill()
         bridge = Bridge(log, journal)
-        text = log.read_text()
-        found = re.findall(r"(\d+) records replayed \((\d+) poses, (\d+) edges\)", text)
-        replayed.append(tuple(int(x) for x in found[-1]) if found else (0, 0, 0))
+        replayed.append(bridge.replayed)
     sender.communicate(timeout=600)
     dump_g2o = work / f"{name}.recovered.g2o"
     dump_weights = work / f"{name}.recovered.weights"
     dump = subprocess.Popen([str(tool("pgem-lcm-dump")), "-o", str(dump_g2o), "--weights",
                              str(dump_weights), "--edges", str(edges), "--timeout", "180",
-                             "--quiet"])
+                             "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
     time.sleep(0.3)
     resend = send(corrupted, "--rate", str(rate * 4), "--wait", "120")
-    dump.wait(timeout=200)
+    dumped, _ = dump.communicate(timeout=200)
     bridge.stop()
+    if dump.returncode != 0:
+        raise BenchError(f"{name}: pgem-lcm-dump failed after the resend:\n{dumped}"
+                         f"{resend.stdout}{resend.stderr}")
     compare = subprocess.run([str(tool("lcm_compare")), str(dump_g2o), str(offline_g2o), "1e-6",
                               str(dump_weights), str(offline_weights)], capture_output=True,
                              text=True)
@@ -233,7 +287,11 @@ def main() -> int:
     parser.add_argument("--quick", action="store_true",
                         help="M3500 only, streamed at 500 edges/s, 3 kills")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    parser.add_argument("--build", type=Path, default=DEFAULT_BUILD,
+                        help="build directory with the tools (default build/release)")
     args = parser.parse_args()
+    global BUILD
+    BUILD = build_dir(args.build)
     try:
         enter_namespace()
         work = args.out.parent / "lcm_work"
@@ -259,21 +317,24 @@ def main() -> int:
             print(f"== {name}: {args.kills} SIGKILLs and restarts", flush=True)
             rec = recovery_run(work, name, corrupted, args.kills, args.kill_rate, 1)
             lines += [f"## {name}", "",
-                      f"Latency, last loop closure's send to the first graph including it, over "
-                      f"{lat['loops']} loop closures streamed at {lat['rate']:g} edges/s:", "",
+                      f"Latency, each loop closure's send to the first graph including it, over "
+                      f"{lat['loops']} of {lat['sent']} loop closures (seen of sent) streamed at "
+                      f"{lat['rate']:g} edges/s:", "",
                       "| median | p90 | p99 | max | solves | solve median | solve max |",
                       "|---|---|---|---|---|---|---|",
                       f"| {lat['median']:.1f} ms | {lat['p90']:.1f} ms | {lat['p99']:.1f} ms | "
                       f"{lat['max']:.1f} ms | {lat['solves']} | {lat['solve_median']:.1f} ms | "
                       f"{lat['solve_max']:.1f} ms |", "",
+                      f"Slowest: sequence {lat['worst'][1]} ({lat['worst'][2]} -> "
+                      f"{lat['worst'][3]}), {lat['worst'][0]:.1f} ms, in solve "
+                      f"{lat['worst'][4]}. The sender's line: `{lat['sender']}`", "",
                       "Sustained ingest (every edge accepted?):", "",
                       "| rate (edges/s) | sent | accepted | zero loss |", "|---|---|---|---|"]
             lines += [f"| {row['rate']:g} | {row['sent']} | {row['accepted']} | "
                       f"{'yes' if row['ok'] else 'no'} |" for row in ingest]
             passing = [row["rate"] for row in ingest if row["ok"]]
-            lines += ["", f"Highest zero-loss rate tried: "
-                      f"{max(passing) if passing else 'none':g} edges/s." if passing else
-                      "No rate passed.", "",
+            lines += ["", f"Highest zero-loss rate tried: {max(passing):g} edges/s."
+                      if passing else "No rate passed.", "",
                       f"Recovery: {rec['kills']} SIGKILLs while streaming at "
                       f"{args.kill_rate:g} edges/s, each followed by a restart on the journal "
                       "(records, poses, edges replayed): " +

@@ -1,7 +1,8 @@
 /* pgem-lcm-send: publishes a graph file over LCM the way a front-end would, pose by pose with
  * the edges that each new pose completes, for pgem-lcm-bridge. Options shuffle the order,
- * repeat messages, pace them, send a slice of the edges, wait for the bridge's status and ask
- * the bridge to solve. */
+ * repeat messages, pace them, send a slice of the edges, wait for the bridge's status, measure
+ * how long each loop closure takes to appear in a published graph and ask the bridge to
+ * solve. */
 #define _POSIX_C_SOURCE 200809L
 #include <stdint.h>
 #include <stdio.h>
@@ -13,6 +14,7 @@
 #include "pgem_command_t.h"
 #include "pgem_edge2_t.h"
 #include "pgem_edge3_t.h"
+#include "pgem_graph_t.h"
 #include "pgem_pose2_t.h"
 #include "pgem_pose3_t.h"
 #include "pgem_status_t.h"
@@ -23,6 +25,10 @@
 #define SEND_PROGRESS_SECONDS 2.0   /* between progress lines */
 #define SEND_WAIT_SLICE 0.25        /* longest single wait, so a signal is seen soon */
 #define SEND_STATUS_QUEUE 1000      /* statuses LCM may hold for us before dropping */
+#define SEND_GRAPH_QUEUE 64         /* graphs LCM may hold for us (about 700 KB each at 10000
+                                       poses) before dropping */
+#define SEND_LATENCY_WAIT 10.0      /* --latency without --wait: seconds to wait for graphs */
+#define SEND_POLL_STEP 0.001        /* LCM waits in whole milliseconds: the last one is slept */
 
 /* The command line. */
 typedef struct send_args {
@@ -37,6 +43,7 @@ typedef struct send_args {
     uint64_t count;          /* --count N: edges sent from K on (UINT64_MAX: to the end) */
     int select;              /* --first or --count given: only the poses the edges need */
     double wait;             /* --wait SECONDS; negative: do not wait */
+    const char *latency;     /* --latency FILE.csv; NULL: not measured */
     int optimize;            /* --optimize: ask the bridge to solve at the end */
     int quiet;               /* --quiet: no progress lines */
 } send_args_t;
@@ -57,6 +64,25 @@ typedef struct send_plan {
     unsigned char *fixed;     /* per pose of the file: named by a FIX line */
 } send_plan_t;
 
+/* --latency: one file edge, when it was first sent and first seen in a published graph. */
+typedef struct send_mark {
+    double sent;              /* clock (pgem_cli_now) of its first send; negative: not sent or
+                                 not a loop closure */
+    double seen;              /* clock when the first graph including it arrived; negative:
+                                 none yet */
+    int64_t solve_id;         /* that graph's solve */
+} send_mark_t;
+
+/* --latency: the marks of every file edge, indexed by sequence (= file index). */
+typedef struct send_latency {
+    send_mark_t *marks;       /* edge_count entries; NULL: no --latency */
+    size_t edges;             /* entries */
+    const char *source;       /* this run's source name: loops of other sources are skipped */
+    size_t sent;              /* loop closures sent */
+    size_t seen;              /* of those, seen in a graph */
+    uint64_t graphs;          /* graphs received */
+} send_latency_t;
+
 /* What publishing needs. */
 typedef struct send_context {
     lcm_t *lcm;
@@ -64,6 +90,8 @@ typedef struct send_context {
     const send_plan_t *plan;
     pgem_channels_t channels;
     char source[SEND_SOURCE_MAX + 1];
+    int receiving;            /* subscribed (--wait, --latency): dispatch while sending */
+    send_latency_t latency;
 } send_context_t;
 
 /* --wait: the bridge's latest status and whether it shows every edge taken. */
@@ -79,9 +107,10 @@ static void send_usage(FILE *out)
 {
     fprintf(out,
             "usage: pgem-lcm-send FILE [--rate HZ] [--source NAME] [--shuffle SEED] [--repeat N]\n"
-            "                     [--first K] [--count N] [--wait SECONDS] [--optimize] [--quiet]\n"
-            "                     [--url URL] [--channel-prefix P] [--pose-channel C]\n"
-            "                     [--edge-channel C] [--status-channel C] [--command-channel C]\n");
+            "                     [--first K] [--count N] [--wait SECONDS] [--latency FILE.csv]\n"
+            "                     [--optimize] [--quiet] [--url URL] [--channel-prefix P]\n"
+            "                     [--pose-channel C] [--edge-channel C] [--graph-channel C]\n"
+            "                     [--status-channel C] [--command-channel C]\n");
 }
 
 static void send_help(FILE *out, const pgem_lcm_options_t *lcm)
@@ -116,6 +145,17 @@ static void send_help(FILE *out, const pgem_lcm_options_t *lcm)
             "                         pending 0 and queued 0, and print it; exit 1 when none\n"
             "                         does within SECONDS (the counters are the bridge's totals\n"
             "                         since it started)\n"
+            "  --latency FILE.csv     measure every loop closure sent: from its first publish\n"
+            "                         to the arrival of the first graph (pgem.graph_t) whose\n"
+            "                         loops include it (same source name and sequence); after\n"
+            "                         the last message keep receiving until every one was seen\n"
+            "                         or --wait SECONDS (default 10) pass. FILE.csv gets\n"
+            "                         'sequence,from,to,latency_ms,solve_id', one line per loop\n"
+            "                         closure sent in sequence order (the last two empty when\n"
+            "                         never seen); stdout a line with the median, p90, p99 and\n"
+            "                         maximum (nearest rank). Monotonic clock; a loop closure\n"
+            "                         the bridge already had from an earlier run counts from\n"
+            "                         this run's send\n"
             "  --optimize             at the end (with --wait, once the status shows every\n"
             "                         edge taken) ask the bridge to solve now (pgem.command_t\n"
             "                         OPTIMIZE): the bridge solves on new loop closures, so\n"
@@ -126,7 +166,9 @@ static void send_help(FILE *out, const pgem_lcm_options_t *lcm)
             "\n"
             "Progress goes to stderr about every 2 s, the summary to stdout. Exit codes: 0 sent\n"
             "(and with --wait, taken), 1 nothing to send, a failed publish, --wait timed out or\n"
-            "a signal stopped it, 2 bad command line, 3 FILE could not be read.\n");
+            "a signal stopped it, 2 bad command line, 3 FILE could not be read or the --latency\n"
+            "file not written. Loop closures never seen in a graph are not an error by\n"
+            "themselves.\n");
 }
 
 /* A value option of the sender; returns 1 when parsed, 0 after printing an error. */
@@ -137,6 +179,14 @@ static int send_parse_value(send_args_t *args, const char *arg, const char *valu
     }
     if (strcmp(arg, "--wait") == 0) {
         return pgem_cli_parse_number(SEND_TOOL, arg, value, 0, &args->wait);
+    }
+    if (strcmp(arg, "--latency") == 0) {
+        if (value == NULL || value[0] == '\0') {
+            fprintf(stderr, "%s: --latency needs a file name\n", SEND_TOOL);
+            return 0;
+        }
+        args->latency = value;
+        return 1;
     }
     if (strcmp(arg, "--shuffle") == 0) {
         args->shuffle = 1;
@@ -173,11 +223,12 @@ static int send_parse_value(send_args_t *args, const char *arg, const char *valu
 static int send_parse(int argc, char **argv, send_args_t *args)
 {
     static const char *const valued[] = {"--rate", "--wait", "--shuffle", "--first",
-                                         "--count", "--repeat", "--source"};
+                                         "--count", "--repeat", "--source", "--latency"};
     memset(args, 0, sizeof *args);
     pgem_lcm_options_init(&args->lcm, SEND_TOOL,
                           PGEM_LCM_POSE_CHANNEL | PGEM_LCM_EDGE_CHANNEL |
-                              PGEM_LCM_STATUS_CHANNEL | PGEM_LCM_COMMAND_CHANNEL);
+                              PGEM_LCM_GRAPH_CHANNEL | PGEM_LCM_STATUS_CHANNEL |
+                              PGEM_LCM_COMMAND_CHANNEL);
     args->source = SEND_SOURCE_DEFAULT;
     args->repeat = 1;
     args->count = UINT64_MAX;
@@ -446,8 +497,47 @@ static void send_progress_line(const send_args_t *args, const send_plan_t *plan,
     progress->last_line = now;
 }
 
-/* Publishes the plan, paced by --rate. With --wait, statuses that arrive meanwhile are
- * dispatched (not judged). Returns PGEM_EXIT_OK or PGEM_EXIT_FAILURE (printed). */
+/* Waits until the clock reaches `deadline`. While subscribed, the messages that arrive
+ * meanwhile are dispatched at once (LCM is polled in whole milliseconds that end before the
+ * deadline, the rest is slept), so their arrival times are taken promptly. Returns 1 at the
+ * deadline, 0 when a stop was requested, -1 when receiving failed (printed). */
+static int send_pause(send_context_t *context, double deadline)
+{
+    for (;;) {
+        if (pgem_lcm_stop_signal() != 0) {
+            return 0;
+        }
+        double left = deadline - pgem_cli_now();
+        if (left <= 0.0) {
+            return 1;
+        }
+        if (!context->receiving || left <= SEND_POLL_STEP) {
+            return pgem_lcm_sleep_until(deadline);
+        }
+        /* pgem_lcm_handle rounds up to a millisecond: one less ends before the deadline. */
+        if (pgem_lcm_handle(SEND_TOOL, context->lcm, left - SEND_POLL_STEP) < 0) {
+            return -1;
+        }
+    }
+}
+
+/* --latency: notes the first send of a loop closure. */
+static void send_mark_sent(send_context_t *context, size_t index, double now)
+{
+    send_latency_t *latency = &context->latency;
+    if (latency->marks == NULL || context->graph->edges[index].kind != PGEM_EDGE_LOOP ||
+        latency->marks[index].sent >= 0.0) {
+        return;
+    }
+    latency->marks[index].sent = now;
+    latency->sent++;
+}
+
+/* Publishes the plan, paced by --rate. While subscribed (--wait, --latency), messages that
+ * arrive meanwhile are dispatched (statuses are not judged yet): while pacing waits, and
+ * without --rate before every pose, never between a pose and the edges sent with it (a large
+ * graph takes milliseconds to decode, and the bridge may solve while a new pose has no edge
+ * yet). Returns PGEM_EXIT_OK or PGEM_EXIT_FAILURE (printed). */
 static int send_all(send_context_t *context, const send_args_t *args, send_progress_t *progress)
 {
     const send_plan_t *plan = context->plan;
@@ -455,12 +545,18 @@ static int send_all(send_context_t *context, const send_args_t *args, send_progr
     for (size_t k = 0; k < plan->count; k++) {
         const send_item_t *item = &plan->items[k];
         /* A message is due when the next edge is: poses travel with the edges after them. */
-        if (args->rate > 0.0 &&
-            !pgem_lcm_sleep_until(progress->start + (double)progress->edges / args->rate)) {
+        int due = args->rate > 0.0
+                      ? send_pause(context, progress->start + (double)progress->edges / args->rate)
+                      : 1;
+        if (due < 0) {
+            return PGEM_EXIT_FAILURE;
+        }
+        if (due == 0 || pgem_lcm_stop_signal() != 0) {
             break;
         }
-        if (pgem_lcm_stop_signal() != 0) {
-            break;
+        if (context->receiving && args->rate <= 0.0 && !item->edge &&
+            pgem_lcm_drain(SEND_TOOL, context->lcm) < 0) {
+            return PGEM_EXIT_FAILURE;
         }
         int status = item->edge ? send_edge(context, item->index)
                                 : send_pose(context, item->index);
@@ -470,12 +566,13 @@ static int send_all(send_context_t *context, const send_args_t *args, send_progr
                     pgem_lcm_url_name(args->lcm.url));
             return PGEM_EXIT_FAILURE;
         }
+        double now = pgem_cli_now();
+        if (item->edge) {
+            send_mark_sent(context, item->index, now);
+        }
         progress->edges += item->edge != 0;
         progress->poses += item->edge == 0;
-        if (args->wait >= 0.0 && pgem_lcm_drain(SEND_TOOL, context->lcm) < 0) {
-            return PGEM_EXIT_FAILURE;
-        }
-        send_progress_line(args, plan, progress, pgem_cli_now());
+        send_progress_line(args, plan, progress, now);
     }
     if (pgem_lcm_stop_signal() != 0) {
         fprintf(stderr, "%s: stopped by signal %d after %zu of %zu edge messages\n", SEND_TOOL,
@@ -522,25 +619,41 @@ static void send_on_status(const lcm_recv_buf_t *buffer, const char *channel,
     }
 }
 
-/* Waits for a status that shows every edge taken. Returns a PGEM_EXIT_* code. */
-static int send_wait_for_bridge(const send_args_t *args, send_context_t *context,
-                                send_wait_t *wait)
+/* Whether the waiting after the last message is over: a status showed every edge taken (or
+ * no --wait), and every loop closure sent was seen in a graph (or no --latency). */
+static int send_waited(const send_args_t *args, const send_context_t *context,
+                       const send_wait_t *wait)
 {
-    double deadline = pgem_cli_now() + args->wait;
+    const send_latency_t *latency = &context->latency;
+    return (args->wait < 0.0 || wait->satisfied) &&
+           (latency->marks == NULL || latency->seen == latency->sent);
+}
+
+/* After the last message: receives until send_waited, --wait SECONDS (with --latency alone,
+ * SEND_LATENCY_WAIT) or a stop signal. Returns 0, or -1 when receiving failed (printed). */
+static int send_linger(const send_args_t *args, send_context_t *context, send_wait_t *wait)
+{
+    double deadline = pgem_cli_now() + (args->wait >= 0.0 ? args->wait : SEND_LATENCY_WAIT);
     wait->armed = 1;
     for (;;) {
         if (pgem_lcm_handle(SEND_TOOL, context->lcm, 0.0) < 0) {
-            return PGEM_EXIT_FAILURE;
+            return -1;
         }
         double left = deadline - pgem_cli_now();
-        if (wait->satisfied || left <= 0.0 || pgem_lcm_stop_signal() != 0) {
-            break;
+        if (send_waited(args, context, wait) || left <= 0.0 || pgem_lcm_stop_signal() != 0) {
+            return 0;
         }
         if (pgem_lcm_handle(SEND_TOOL, context->lcm,
                             left < SEND_WAIT_SLICE ? left : SEND_WAIT_SLICE) < 0) {
-            return PGEM_EXIT_FAILURE;
+            return -1;
         }
     }
+}
+
+/* Prints the outcome of --wait. Returns a PGEM_EXIT_* code. */
+static int send_wait_report(const send_args_t *args, const send_context_t *context,
+                            const send_wait_t *wait)
+{
     if (wait->latest != NULL) {
         printf("bridge%s: ", wait->satisfied ? "" : " (latest status)");
         pgem_lcm_print_status(stdout, wait->latest);
@@ -567,6 +680,147 @@ static int send_wait_for_bridge(const send_args_t *args, send_context_t *context
     return PGEM_EXIT_FAILURE;
 }
 
+/* ---- --latency ------------------------------------------------------------------------- */
+
+/* Marks the loop closures of this source in a graph as seen, with the graph's arrival time. */
+static void send_on_graph(const lcm_recv_buf_t *buffer, const char *channel,
+                          const pgem_graph_t *graph, void *user)
+{
+    send_latency_t *latency = user;
+    double now = pgem_cli_now();
+    (void)buffer;
+    (void)channel;
+    latency->graphs++;
+    int32_t source = 0;
+    while (source < graph->num_sources && strcmp(graph->sources[source], latency->source) != 0) {
+        source++;
+    }
+    if (source == graph->num_sources) {
+        return;
+    }
+    for (int32_t k = 0; k < graph->num_loops; k++) {
+        const pgem_loop_t *loop = &graph->loops[k];
+        if (loop->source_index != source || loop->sequence < 0 ||
+            (uint64_t)loop->sequence >= (uint64_t)latency->edges) {
+            continue;
+        }
+        send_mark_t *mark = &latency->marks[loop->sequence];
+        if (mark->sent < 0.0 || mark->seen >= 0.0) {
+            continue; /* not sent by this run (yet), or seen before */
+        }
+        mark->seen = now;
+        mark->solve_id = graph->stats.solve_id;
+        latency->seen++;
+    }
+}
+
+/* Allocates the marks, none sent or seen. Returns 0, or -1 after printing. */
+static int send_latency_init(send_latency_t *latency, const pgem_io_graph_t *graph,
+                             const char *source)
+{
+    memset(latency, 0, sizeof *latency);
+    latency->marks = malloc((graph->edge_count + 1u) * sizeof *latency->marks);
+    if (latency->marks == NULL) {
+        fprintf(stderr, "%s: out of memory for --latency\n", SEND_TOOL);
+        return -1;
+    }
+    for (size_t e = 0; e < graph->edge_count; e++) {
+        latency->marks[e] = (send_mark_t){-1.0, -1.0, 0};
+    }
+    latency->edges = graph->edge_count;
+    latency->source = source;
+    return 0;
+}
+
+static int send_compare_doubles(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* The nearest-rank percentile (1 to 100) of count > 0 sorted values. */
+static double send_nearest_rank(const double *sorted, size_t count, unsigned percent)
+{
+    size_t rank = (percent * count + 99u) / 100u; /* ceil(percent / 100 * count) */
+    return sorted[rank > 0u ? rank - 1u : 0u];
+}
+
+/* Writes FILE.csv, one line per loop closure sent, in sequence order. Returns 0 or -1. */
+static int send_latency_csv(const send_args_t *args, const send_context_t *context)
+{
+    const send_latency_t *latency = &context->latency;
+    pgem_lcm_file_t file;
+    if (pgem_lcm_file_open(&file, SEND_TOOL, args->latency) != 0) {
+        return -1;
+    }
+    int failed = fprintf(file.stream, "sequence,from,to,latency_ms,solve_id\n") < 0;
+    for (size_t e = 0; e < latency->edges && !failed; e++) {
+        const send_mark_t *mark = &latency->marks[e];
+        const pgem_io_edge_t *edge = &context->graph->edges[e];
+        if (mark->sent < 0.0) {
+            continue;
+        }
+        failed = fprintf(file.stream, "%zu,%llu,%llu,", e, (unsigned long long)edge->from,
+                         (unsigned long long)edge->to) < 0;
+        if (mark->seen >= 0.0) {
+            failed |= fprintf(file.stream, "%.3f,%lld\n", 1e3 * (mark->seen - mark->sent),
+                              (long long)mark->solve_id) < 0;
+        } else {
+            failed |= fputs(",\n", file.stream) < 0;
+        }
+    }
+    return pgem_lcm_file_commit(&file, failed);
+}
+
+/* Prints "latency: N loop closures seen of M, median ..." (the latencies in ms, nearest
+ * rank). Returns 0, or -1 when out of memory (printed). */
+static int send_latency_summary(const send_latency_t *latency)
+{
+    double *values = malloc((latency->seen + 1u) * sizeof *values);
+    if (values == NULL) {
+        fprintf(stderr, "%s: out of memory for the latency summary\n", SEND_TOOL);
+        return -1;
+    }
+    size_t count = 0;
+    for (size_t e = 0; e < latency->edges; e++) {
+        const send_mark_t *mark = &latency->marks[e];
+        if (mark->sent >= 0.0 && mark->seen >= 0.0 && count < latency->seen) {
+            values[count++] = 1e3 * (mark->seen - mark->sent);
+        }
+    }
+    printf("latency: %zu loop closures seen of %zu", count, latency->sent);
+    if (count > 0u) {
+        qsort(values, count, sizeof *values, send_compare_doubles);
+        printf(", median %.1f ms, p90 %.1f ms, p99 %.1f ms, max %.1f ms",
+               send_nearest_rank(values, count, 50u), send_nearest_rank(values, count, 90u),
+               send_nearest_rank(values, count, 99u), values[count - 1u]);
+    }
+    printf("\n");
+    fflush(stdout);
+    free(values);
+    return 0;
+}
+
+/* Writes the CSV and prints the summary (and, on stderr, how many were never seen). Returns
+ * a PGEM_EXIT_* code. */
+static int send_latency_report(const send_args_t *args, const send_context_t *context)
+{
+    const send_latency_t *latency = &context->latency;
+    if (send_latency_csv(args, context) != 0) {
+        return PGEM_EXIT_IO;
+    }
+    if (send_latency_summary(latency) != 0) {
+        return PGEM_EXIT_FAILURE;
+    }
+    if (latency->seen < latency->sent) {
+        fprintf(stderr, "%s: %zu of %zu loop closures never seen in a graph on %s (%llu "
+                        "graphs received)\n",
+                SEND_TOOL, latency->sent - latency->seen, latency->sent,
+                context->channels.graph, (unsigned long long)latency->graphs);
+    }
+    return PGEM_EXIT_OK;
+}
+
 /* ---- --optimize ------------------------------------------------------------------------- */
 
 /* Asks the bridge to solve now. Returns a PGEM_EXIT_* code. */
@@ -589,47 +843,102 @@ static int send_optimize(const send_args_t *args, send_context_t *context)
 
 /* ---- main ------------------------------------------------------------------------------- */
 
-/* Opens LCM, subscribes for --wait, sends, waits. Returns a PGEM_EXIT_* code. */
-static int send_run(const send_args_t *args, send_context_t *context)
+/* The subscriptions of a run (NULL: not subscribed). */
+typedef struct send_subscriptions {
+    pgem_status_t_subscription_t *status;   /* --wait */
+    pgem_graph_t_subscription_t *graph;     /* --latency */
+} send_subscriptions_t;
+
+/* Subscribes before anything is sent, so that no status or graph is missed. Returns 0, or -1
+ * after printing. */
+static int send_subscribe(const send_args_t *args, send_context_t *context, send_wait_t *wait,
+                          send_subscriptions_t *subscriptions)
 {
-    send_wait_t wait = {NULL, 0, 0, 0, (int64_t)context->plan->edges};
-    send_progress_t progress = {0.0, 0.0, 0, 0};
-    pgem_status_t_subscription_t *subscription = NULL;
-    if (pgem_lcm_catch_signals(SEND_TOOL) != 0) {
-        return PGEM_EXIT_FAILURE;
-    }
-    context->lcm = pgem_lcm_open(SEND_TOOL, args->lcm.url, 0);
-    if (context->lcm == NULL) {
-        return PGEM_EXIT_FAILURE;
-    }
     if (args->wait >= 0.0) {
-        /* Before sending, so that no status is missed. */
-        subscription = pgem_status_t_subscribe(context->lcm, context->channels.status,
-                                               send_on_status, &wait);
-        if (subscription == NULL) {
+        subscriptions->status = pgem_status_t_subscribe(context->lcm, context->channels.status,
+                                                        send_on_status, wait);
+        if (subscriptions->status == NULL) {
             fprintf(stderr, "%s: cannot subscribe to %s\n", SEND_TOOL, context->channels.status);
-            lcm_destroy(context->lcm);
-            return PGEM_EXIT_FAILURE;
+            return -1;
         }
-        pgem_status_t_subscription_set_queue_capacity(subscription, SEND_STATUS_QUEUE);
+        pgem_status_t_subscription_set_queue_capacity(subscriptions->status, SEND_STATUS_QUEUE);
     }
+    if (args->latency != NULL) {
+        subscriptions->graph = pgem_graph_t_subscribe(context->lcm, context->channels.graph,
+                                                      send_on_graph, &context->latency);
+        if (subscriptions->graph == NULL) {
+            fprintf(stderr, "%s: cannot subscribe to %s\n", SEND_TOOL, context->channels.graph);
+            return -1;
+        }
+        pgem_graph_t_subscription_set_queue_capacity(subscriptions->graph, SEND_GRAPH_QUEUE);
+    }
+    context->receiving = args->wait >= 0.0 || args->latency != NULL;
+    return 0;
+}
+
+static void send_unsubscribe(send_context_t *context, send_subscriptions_t *subscriptions)
+{
+    if (subscriptions->status != NULL) {
+        pgem_status_t_unsubscribe(context->lcm, subscriptions->status);
+    }
+    if (subscriptions->graph != NULL) {
+        pgem_graph_t_unsubscribe(context->lcm, subscriptions->graph);
+    }
+}
+
+/* Sends, then waits for the bridge (--wait, --latency), reports and asks for a solve
+ * (--optimize). Returns a PGEM_EXIT_* code. */
+static int send_and_wait(const send_args_t *args, send_context_t *context, send_wait_t *wait)
+{
+    send_progress_t progress = {0.0, 0.0, 0, 0};
     int status = send_all(context, args, &progress);
     if (status == PGEM_EXIT_OK) {
         send_summary(args, context->plan, &progress);
-        if (args->wait >= 0.0) {
-            status = send_wait_for_bridge(args, context, &wait);
+        if (context->receiving && send_linger(args, context, wait) != 0) {
+            status = PGEM_EXIT_FAILURE;
         }
-        if (status == PGEM_EXIT_OK && args->optimize) {
-            status = send_optimize(args, context);
+        if (status == PGEM_EXIT_OK && args->wait >= 0.0) {
+            status = send_wait_report(args, context, wait);
         }
     }
-    if (subscription != NULL) {
-        pgem_status_t_unsubscribe(context->lcm, subscription);
+    if (args->latency != NULL) {
+        /* Also after a failure: the loop closures measured so far. */
+        int written = send_latency_report(args, context);
+        status = status == PGEM_EXIT_OK ? written : status;
+    }
+    if (status == PGEM_EXIT_OK && args->optimize) {
+        status = send_optimize(args, context);
+    }
+    return status;
+}
+
+/* Opens LCM, subscribes for --wait and --latency, sends, waits. Returns a PGEM_EXIT_* code. */
+static int send_run(const send_args_t *args, send_context_t *context)
+{
+    send_wait_t wait = {NULL, 0, 0, 0, (int64_t)context->plan->edges};
+    send_subscriptions_t subscriptions = {NULL, NULL};
+    if (pgem_lcm_catch_signals(SEND_TOOL) != 0) {
+        return PGEM_EXIT_FAILURE;
+    }
+    if (args->latency != NULL &&
+        send_latency_init(&context->latency, context->graph, context->source) != 0) {
+        return PGEM_EXIT_FAILURE;
+    }
+    /* Graphs are large (about 700 KB at 10000 poses): a receive buffer for bursts of them. */
+    context->lcm = pgem_lcm_open(SEND_TOOL, args->lcm.url,
+                                 args->latency != NULL ? PGEM_LCM_RECEIVE_BUFFER : 0);
+    int status = PGEM_EXIT_FAILURE;
+    if (context->lcm != NULL && send_subscribe(args, context, &wait, &subscriptions) == 0) {
+        status = send_and_wait(args, context, &wait);
+    }
+    if (context->lcm != NULL) {
+        send_unsubscribe(context, &subscriptions);
+        lcm_destroy(context->lcm);
     }
     if (wait.latest != NULL) {
         pgem_status_t_destroy(wait.latest);
     }
-    lcm_destroy(context->lcm);
+    free(context->latency.marks);
     return status;
 }
 
