@@ -154,8 +154,13 @@ if command -v lcm-logger >/dev/null 2>&1; then
     wait "$dump" || fail "recorded: no complete graph from the recorded log"
     grep -q "records replayed" replayed.log || fail "recorded: the log was not replayed"
     grep "records replayed" replayed.log
-    "$COMPARE" replayed.g2o live.g2o 1e-6 replayed.weights live.weights ||
-        fail "recorded: the graph rebuilt from the log differs from the live one"
+    # Rebuilt in one go, the graph is the offline solve of the same file. (The live bridge
+    # solved it piece by piece as it arrived; EM's path can settle an ambiguous loop closure
+    # differently, so the live result is not the reference here.)
+    "$PGEM" optimize small.g2o --robust em --weights small_offline.weights \
+        -o small_offline.g2o --quiet
+    "$COMPARE" replayed.g2o small_offline.g2o 1e-6 replayed.weights small_offline.weights ||
+        fail "recorded: the graph rebuilt from the log differs from the offline solve"
     stop_bridge
     edges=$edges_all
 else

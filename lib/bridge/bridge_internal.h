@@ -67,6 +67,8 @@ typedef struct bridge {
     uint32_t *component;        /* per core pose: union-find parent, then component root */
     uint32_t *component_anchor; /* per root: index of the component's smallest pose id */
     double *raw;                /* per core pose: the front-end's estimate, as received */
+    uint8_t *touched;           /* per core pose, scratch: 1 an edge touches it, 2 its part
+                                   has an edge */
     int restart_pending;        /* the last solve saw a split graph or failed: the next one
                                    on a whole graph starts afresh from the raw estimates */
     uint32_t solved_poses;      /* poses that took part in the last successful solve */

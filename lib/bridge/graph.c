@@ -37,6 +37,7 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
     bridge->component = calloc(poses, sizeof *bridge->component);
     bridge->component_anchor = calloc(poses, sizeof *bridge->component_anchor);
     bridge->raw = calloc(poses * pose_size, sizeof *bridge->raw);
+    bridge->touched = calloc(poses, 1);
     bridge->out_ids = calloc(poses, sizeof *bridge->out_ids);
     bridge->out_values = calloc(poses * pose_size, sizeof *bridge->out_values);
     bridge->out_rows = calloc(poses, sizeof *bridge->out_rows);
@@ -46,7 +47,7 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
     if (bridge->core_block == NULL || bridge->edge_source == NULL ||
         bridge->edge_sequence == NULL || bridge->source_last == NULL ||
         bridge->anchored == NULL || bridge->user_fixed == NULL || bridge->gauge_fixed == NULL ||
-        bridge->component == NULL || bridge->component_anchor == NULL || bridge->raw == NULL ||
+        bridge->component == NULL || bridge->component_anchor == NULL || bridge->raw == NULL || bridge->touched == NULL ||
         bridge->out_ids == NULL || bridge->out_values == NULL ||
         bridge->out_rows == NULL || bridge->out_loops == NULL || bridge->out_sources == NULL ||
         bridge->out_last == NULL) {
@@ -82,6 +83,7 @@ void bridge_graph_free(bridge_t *bridge)
     free(bridge->component);
     free(bridge->component_anchor);
     free(bridge->raw);
+    free(bridge->touched);
     free(bridge->out_ids);
     free(bridge->out_values);
     free(bridge->out_rows);
@@ -251,7 +253,7 @@ static uint32_t find_root(uint32_t *parent, uint32_t i)
  * whatever order the poses arrived in). Parts appear while edges wait for their poses or when
  * messages were lost; joined only by loop closures, which EM may prune, they would leave the
  * normal equations singular. Flags change only when the parts do, so an unchanged graph keeps
- * its analysis. Returns the number of parts. */
+ * its analysis. Returns the number of parts that have edges. */
 static uint32_t hold_components(bridge_t *bridge)
 {
     pgem_t *core = bridge->core;
@@ -295,10 +297,30 @@ static uint32_t hold_components(bridge_t *bridge)
             anchor_of[root] = i;
         }
     }
+    /* A pose no edge touches yet (its odometry is a few milliseconds behind it) is held too,
+     * but is not a part that makes the graph split: it changes no other pose. */
+    uint8_t *touched = bridge->touched;
+    memset(touched, 0, poses);
+    for (uint32_t k = 0; k < pgem_edge_count(core); ++k) {
+        pgem_edge_view_t view;
+        uint32_t a = 0;
+        uint32_t b = 0;
+        if (pgem_edge_at(core, k, &view) == PGEM_OK &&
+            pgem_pose_index(core, view.from, &a) == PGEM_OK &&
+            pgem_pose_index(core, view.to, &b) == PGEM_OK) {
+            touched[a] = 1;
+            touched[b] = 1;
+        }
+    }
+    for (uint32_t i = 0; i < poses; ++i) {
+        if (touched[i] & 1u) {
+            touched[find_root(parent, i)] |= 2u; /* the part has an edge */
+        }
+    }
     uint32_t parts = 0;
     for (uint32_t i = 0; i < poses; ++i) {
         uint32_t root = find_root(parent, i);
-        parts += root == i;
+        parts += root == i && (touched[i] & 2u) != 0;
         uint8_t want = anchor_of[root] == i;
         if (want != bridge->gauge_fixed[i]) {
             pgem_id_t id = 0;
