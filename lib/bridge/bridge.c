@@ -13,8 +13,6 @@
 
 #define DEFAULT_MAX_POSES 20000u
 #define DEFAULT_EDGES_PER_POSE 4u
-#define DEFAULT_MAX_PENDING 4096u
-#define DEFAULT_MAX_SOURCES 64u
 #define BATCH 256
 #define LCM_QUEUE_CAPACITY 100000 /* messages LCM may hold for a handler */
 #define REJECTIONS_LOGGED 20      /* then one line per 1000 */
@@ -33,15 +31,11 @@ void pgem_bridge_defaults(pgem_bridge_options_t *options)
     if (options->max_edges == 0) {
         options->max_edges = DEFAULT_EDGES_PER_POSE * options->max_poses;
     }
-    if (options->max_pending == 0) {
-        options->max_pending = DEFAULT_MAX_PENDING;
-    }
-    if (options->max_sources == 0) {
-        options->max_sources = DEFAULT_MAX_SOURCES;
-    }
-    if (options->max_sources > UINT16_MAX) {
-        options->max_sources = UINT16_MAX;
-    }
+    pgem_ingest_config_t ingest = {options->dimension, options->max_poses, options->max_edges,
+                                   options->max_pending, options->max_sources};
+    pgem_ingest_config_resolve(&ingest);
+    options->max_pending = ingest.max_pending;
+    options->max_sources = ingest.max_sources;
     if (!(options->debounce > 0.0)) {
         options->debounce = 0.01;
     }
@@ -110,9 +104,6 @@ static void journal_accepted(bridge_t *bridge, const char *channel, const void *
     char message[512];
     if (pgem_journal_append(bridge->journal, channel, data, size, utime, message,
                             sizeof message) != 0) {
-        pthread_mutex_lock(&bridge->lock);
-        bridge->journal_failures++;
-        pthread_mutex_unlock(&bridge->lock);
         bridge_note(bridge, "journal: %s", message);
     }
 }
@@ -283,10 +274,7 @@ static void *solver_main(void *user)
             }
         }
         if (count > 0) {
-            pthread_mutex_lock(&bridge->lock);
-            bridge->graph_poses = (int32_t)pgem_pose_count(bridge->core);
-            bridge->graph_edges = (int32_t)pgem_edge_count(bridge->core);
-            pthread_mutex_unlock(&bridge->lock);
+            bridge_graph_counts(bridge);
         }
         now = bridge_now();
         int due = (s.dirty || s.unsolved) && now >= solve_due(bridge, &s);

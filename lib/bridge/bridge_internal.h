@@ -24,7 +24,6 @@ typedef struct bridge {
      * and counters). */
     pgem_ingest_t *ingest;
     pgem_journal_t *journal;
-    int64_t journal_failures;
     int64_t recovered;
 
     /* Queue of admitted items (L): [head, visible) may be taken by the solver; [visible,
@@ -72,6 +71,8 @@ typedef struct bridge {
     int restart_pending;        /* the last solve saw a split graph or failed: the next one
                                    on a whole graph starts afresh from the raw estimates */
     uint32_t solved_poses;      /* poses that took part in the last successful solve */
+    uint32_t loop_count;        /* loop closures in the core */
+    uint32_t pruned_count;      /* of them pruned by the last solve */
     int64_t solve_id;
     /* Publication buffers for graph_t, sized for the capacities. */
     int64_t *out_ids;
@@ -98,6 +99,8 @@ void bridge_log(bridge_t *bridge, const char *format, ...)
 /* graph.c (solver thread). */
 int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size);
 void bridge_graph_free(bridge_t *bridge);
+/* Copies the graph's counts for the status (takes L). */
+void bridge_graph_counts(bridge_t *bridge);
 /* Adds one item to the graph; returns 1 if it was a new loop closure. */
 int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item);
 /* Solves and publishes; trigger names why ("loops", "command", "recovery"). */

@@ -93,20 +93,13 @@ void bridge_graph_free(bridge_t *bridge)
     free(bridge->out_buffer);
 }
 
-static void update_counts(bridge_t *bridge, uint32_t pruned)
+void bridge_graph_counts(bridge_t *bridge)
 {
-    uint32_t loops = 0;
-    uint32_t edges = pgem_edge_count(bridge->core);
-    for (uint32_t k = 0; k < edges; ++k) {
-        pgem_edge_view_t view;
-        pgem_edge_at(bridge->core, k, &view);
-        loops += view.kind == PGEM_EDGE_LOOP;
-    }
     pthread_mutex_lock(&bridge->lock);
     bridge->graph_poses = (int32_t)pgem_pose_count(bridge->core);
-    bridge->graph_edges = (int32_t)edges;
-    bridge->graph_loops = (int32_t)loops;
-    bridge->graph_pruned = (int32_t)pruned;
+    bridge->graph_edges = (int32_t)pgem_edge_count(bridge->core);
+    bridge->graph_loops = (int32_t)bridge->loop_count;
+    bridge->graph_pruned = (int32_t)bridge->pruned_count;
     pthread_mutex_unlock(&bridge->lock);
 }
 
@@ -185,7 +178,9 @@ static void reset_graph(bridge_t *bridge)
     }
     bridge->solved_poses = 0;
     bridge->restart_pending = 0;
-    update_counts(bridge, 0);
+    bridge->loop_count = 0;
+    bridge->pruned_count = 0;
+    bridge_graph_counts(bridge);
 }
 
 int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
@@ -235,8 +230,10 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
     }
     if (item->kind == PGEM_EDGE_ODOMETRY) {
         anchor(bridge, item);
+        return 0;
     }
-    return item->kind == PGEM_EDGE_LOOP;
+    bridge->loop_count++;
+    return 1;
 }
 
 static uint32_t find_root(uint32_t *parent, uint32_t i)
@@ -262,13 +259,23 @@ static uint32_t hold_components(bridge_t *bridge)
     for (uint32_t i = 0; i < poses; ++i) {
         parent[i] = i;
     }
+    /* One pass over the edges: odometry joins parts; any edge marks its poses (a pose no edge
+     * touches yet, its odometry a few milliseconds behind it, is held too but does not make
+     * the graph split: it changes no other pose). */
+    uint8_t *touched = bridge->touched;
+    memset(touched, 0, poses);
     for (uint32_t k = 0; k < pgem_edge_count(core); ++k) {
         pgem_edge_view_t view;
         uint32_t a = 0;
         uint32_t b = 0;
-        if (pgem_edge_at(core, k, &view) == PGEM_OK && view.kind == PGEM_EDGE_ODOMETRY &&
-            pgem_pose_index(core, view.from, &a) == PGEM_OK &&
-            pgem_pose_index(core, view.to, &b) == PGEM_OK) {
+        if (pgem_edge_at(core, k, &view) != PGEM_OK ||
+            pgem_pose_index(core, view.from, &a) != PGEM_OK ||
+            pgem_pose_index(core, view.to, &b) != PGEM_OK) {
+            continue;
+        }
+        touched[a] = 1;
+        touched[b] = 1;
+        if (view.kind == PGEM_EDGE_ODOMETRY) {
             a = find_root(parent, a);
             b = find_root(parent, b);
             if (a != b) {
@@ -295,21 +302,6 @@ static uint32_t hold_components(bridge_t *bridge)
             anchor_of[root] = UINT32_MAX;
         } else if (id < best) {
             anchor_of[root] = i;
-        }
-    }
-    /* A pose no edge touches yet (its odometry is a few milliseconds behind it) is held too,
-     * but is not a part that makes the graph split: it changes no other pose. */
-    uint8_t *touched = bridge->touched;
-    memset(touched, 0, poses);
-    for (uint32_t k = 0; k < pgem_edge_count(core); ++k) {
-        pgem_edge_view_t view;
-        uint32_t a = 0;
-        uint32_t b = 0;
-        if (pgem_edge_at(core, k, &view) == PGEM_OK &&
-            pgem_pose_index(core, view.from, &a) == PGEM_OK &&
-            pgem_pose_index(core, view.to, &b) == PGEM_OK) {
-            touched[a] = 1;
-            touched[b] = 1;
         }
     }
     for (uint32_t i = 0; i < poses; ++i) {
@@ -385,7 +377,8 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
         snprintf(why, sizeof why, "%s: %s", pgem_error_name(status),
                  pgem_last_error(bridge->core));
     }
-    update_counts(bridge, summary.pruned);
+    bridge->pruned_count = summary.pruned;
+    bridge_graph_counts(bridge);
     bridge_graph_publish(bridge, trigger, &summary, status == PGEM_OK, why, micros);
     pthread_mutex_lock(&bridge->lock);
     bridge->solving = 0;

@@ -115,6 +115,19 @@ static uint64_t item_content(const pgem_item_t *item, int dimension)
     return hash;
 }
 
+void pgem_ingest_config_resolve(pgem_ingest_config_t *config)
+{
+    if (config->max_pending == 0) {
+        config->max_pending = DEFAULT_MAX_PENDING;
+    }
+    if (config->max_sources == 0) {
+        config->max_sources = DEFAULT_MAX_SOURCES;
+    }
+    if (config->max_sources > UINT16_MAX) {
+        config->max_sources = UINT16_MAX;
+    }
+}
+
 pgem_ingest_t *pgem_ingest_create(const pgem_ingest_config_t *config, pgem_emit_fn emit,
                                   void *user)
 {
@@ -127,15 +140,7 @@ pgem_ingest_t *pgem_ingest_create(const pgem_ingest_config_t *config, pgem_emit_
         return NULL;
     }
     ingest->config = *config;
-    if (ingest->config.max_pending == 0) {
-        ingest->config.max_pending = DEFAULT_MAX_PENDING;
-    }
-    if (ingest->config.max_sources == 0) {
-        ingest->config.max_sources = DEFAULT_MAX_SOURCES;
-    }
-    if (ingest->config.max_sources > UINT16_MAX) {
-        ingest->config.max_sources = UINT16_MAX;
-    }
+    pgem_ingest_config_resolve(&ingest->config);
     ingest->emit = emit;
     ingest->user = user;
     ingest->pending = calloc(ingest->config.max_pending, sizeof *ingest->pending);

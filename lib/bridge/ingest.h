@@ -113,6 +113,10 @@ typedef struct pgem_ingest_counts {
 
 typedef struct pgem_ingest pgem_ingest_t;
 
+/* Fills the defaults of max_pending and max_sources (0 means 4096 and 64) and caps
+ * max_sources at 65535 (an item carries a 16-bit source index). */
+void pgem_ingest_config_resolve(pgem_ingest_config_t *config);
+
 /* NULL when out of memory or the config is invalid. */
 pgem_ingest_t *pgem_ingest_create(const pgem_ingest_config_t *config, pgem_emit_fn emit,
                                   void *user);

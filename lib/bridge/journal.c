@@ -168,10 +168,6 @@ static off_t replay(pgem_journal_t *journal, off_t file_size, pgem_journal_recor
         good_end = offset;
     }
     info->records = journal->records;
-    info->torn_bytes = file_size - good_end - 0;
-    if (info->torn_bytes < 0) {
-        info->torn_bytes = 0;
-    }
     return good_end;
 }
 

@@ -1,6 +1,7 @@
 /* Status messages and the bridge's log. */
 #define _POSIX_C_SOURCE 200809L
 #include <stdarg.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <string.h>
 #include <time.h>
@@ -54,7 +55,6 @@ void bridge_note(bridge_t *bridge, const char *format, ...)
 
 void bridge_publish_status(bridge_t *bridge)
 {
-    char reason_text[PGEM_REJECT_COUNT][16];
     char *reasons[PGEM_REJECT_COUNT];
     int64_t rejected[PGEM_REJECT_COUNT];
     char message[sizeof bridge->last_message];
@@ -78,8 +78,8 @@ void bridge_publish_status(bridge_t *bridge)
     pthread_mutex_unlock(&bridge->lock);
 
     for (int r = 0; r < PGEM_REJECT_COUNT; ++r) {
-        snprintf(reason_text[r], sizeof reason_text[r], "%s", pgem_reject_name((pgem_reject_t)r));
-        reasons[r] = reason_text[r];
+        /* lcm-gen's struct wants char *; the encoder only reads the names */
+        reasons[r] = (char *)(uintptr_t)pgem_reject_name((pgem_reject_t)r);
         rejected[r] = counts.rejected[r];
     }
     status.utime = bridge_utime();

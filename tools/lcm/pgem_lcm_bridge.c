@@ -1,6 +1,6 @@
 /* pgem-lcm-bridge: the robust back-end as an LCM service. */
 #define _POSIX_C_SOURCE 200809L
-#include <signal.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -57,114 +57,126 @@ typedef struct parsed {
     int quiet;
 } parsed_t;
 
-static int parse_u32_option(const char *name, const char *value, uint32_t *out)
-{
-    return pgem_cli_parse_u32(name, value, out) ? 0 : -1;
-}
+/* How an option's value is read. */
+typedef enum value_kind {
+    COUNT,       /* a non-negative integer */
+    ITERATIONS,  /* an integer, at least 1 */
+    POSITIVE,    /* a positive number */
+    PATH,        /* a file name */
+    DIMENSION    /* 2 or 3 */
+} value_kind_t;
 
-static int parse_number_option(const char *name, const char *value, int strict, double *out)
-{
-    return pgem_cli_parse_number(TOOL, name, value, strict, out) ? 0 : -1;
-}
+typedef struct valued_option {
+    const char *name;
+    value_kind_t kind;
+    size_t offset; /* of the field in pgem_bridge_options_t */
+} valued_option_t;
 
-/* One option with a value; returns 0, or -1 after printing why. */
-static int parse_valued(parsed_t *p, const char *name, const char *value)
+#define FIELD(member) offsetof(pgem_bridge_options_t, member)
+
+static const valued_option_t valued_options[] = {
+    {"--dimension", DIMENSION, FIELD(dimension)},
+    {"--max-poses", COUNT, FIELD(max_poses)},
+    {"--max-edges", COUNT, FIELD(max_edges)},
+    {"--fill-budget", COUNT, FIELD(fill_budget)},
+    {"--max-pending", COUNT, FIELD(max_pending)},
+    {"--max-sources", COUNT, FIELD(max_sources)},
+    {"--journal", PATH, FIELD(journal)},
+    {"--debounce", POSITIVE, FIELD(debounce)},
+    {"--max-delay", POSITIVE, FIELD(max_delay)},
+    {"--max-rate", POSITIVE, FIELD(max_rate)},
+    {"--status-period", POSITIVE, FIELD(status_period)},
+    {"--idle-solve", POSITIVE, FIELD(idle_solve)},
+    {"--robust-scale", POSITIVE, FIELD(robust.scale)},
+    {"--prune-threshold", POSITIVE, FIELD(robust.prune_threshold)},
+    {"--m-step-iterations", ITERATIONS, FIELD(robust.m_step_iterations)},
+    {"--max-em-iterations", ITERATIONS, FIELD(robust.max_em_iterations)},
+    {"--gate", POSITIVE, FIELD(robust.gate)},
+};
+
+#define VALUED_COUNT (sizeof valued_options / sizeof valued_options[0])
+
+/* One option with a value; 1, or 0 after printing why. */
+static int parse_value(void *user, const char *name, const char *value)
 {
-    pgem_bridge_options_t *o = &p->options;
-    uint32_t dimension = 0;
-    if (strcmp(name, "--dimension") == 0) {
-        if (parse_u32_option(name, value, &dimension) != 0 || (dimension != 2 && dimension != 3)) {
-            fprintf(stderr, TOOL ": --dimension takes 2 or 3, got '%s'\n", value);
-            return -1;
+    parsed_t *p = user;
+    const valued_option_t *option = valued_options;
+    while (strcmp(option->name, name) != 0) {
+        option++; /* the parser only passes names from the table */
+    }
+    char *field = (char *)&p->options + option->offset;
+    uint32_t number = 0;
+    switch (option->kind) {
+    case COUNT:
+        return pgem_cli_parse_u32(name, value, (uint32_t *)(void *)field);
+    case ITERATIONS:
+        return pgem_cli_parse_at_least(TOOL, name, value, 1, "iteration",
+                                       (uint32_t *)(void *)field);
+    case POSITIVE:
+        return pgem_cli_parse_number(TOOL, name, value, 1, (double *)(void *)field);
+    case PATH:
+        if (value == NULL || value[0] == '\0') {
+            fprintf(stderr, TOOL ": %s needs a file name\n", name);
+            return 0;
         }
-        o->dimension = (int)dimension;
-    } else if (strcmp(name, "--max-poses") == 0) {
-        return parse_u32_option(name, value, &o->max_poses);
-    } else if (strcmp(name, "--max-edges") == 0) {
-        return parse_u32_option(name, value, &o->max_edges);
-    } else if (strcmp(name, "--fill-budget") == 0) {
-        return parse_u32_option(name, value, &o->fill_budget);
-    } else if (strcmp(name, "--max-pending") == 0) {
-        return parse_u32_option(name, value, &o->max_pending);
-    } else if (strcmp(name, "--max-sources") == 0) {
-        return parse_u32_option(name, value, &o->max_sources);
-    } else if (strcmp(name, "--journal") == 0) {
-        o->journal = value;
-    } else if (strcmp(name, "--debounce") == 0) {
-        return parse_number_option(name, value, 1, &o->debounce);
-    } else if (strcmp(name, "--max-delay") == 0) {
-        return parse_number_option(name, value, 1, &o->max_delay);
-    } else if (strcmp(name, "--max-rate") == 0) {
-        return parse_number_option(name, value, 1, &o->max_rate);
-    } else if (strcmp(name, "--status-period") == 0) {
-        return parse_number_option(name, value, 1, &o->status_period);
-    } else if (strcmp(name, "--idle-solve") == 0) {
-        return parse_number_option(name, value, 1, &o->idle_solve);
-    } else if (strcmp(name, "--robust-scale") == 0) {
-        return parse_number_option(name, value, 1, &o->robust.scale);
-    } else if (strcmp(name, "--prune-threshold") == 0) {
-        return parse_number_option(name, value, 1, &o->robust.prune_threshold);
-    } else if (strcmp(name, "--m-step-iterations") == 0) {
-        return pgem_cli_parse_at_least(TOOL, name, value, 1, "iteration",
-                                       &o->robust.m_step_iterations) ? 0 : -1;
-    } else if (strcmp(name, "--max-em-iterations") == 0) {
-        return pgem_cli_parse_at_least(TOOL, name, value, 1, "iteration",
-                                       &o->robust.max_em_iterations) ? 0 : -1;
-    } else if (strcmp(name, "--gate") == 0) {
-        return parse_number_option(name, value, 1, &o->robust.gate);
-    } else {
-        fprintf(stderr, TOOL ": unknown option '%s' (see --help)\n", name);
-        return -1;
+        *(const char **)(void *)field = value;
+        return 1;
+    case DIMENSION:
+        if (value == NULL || !pgem_cli_parse_u32(name, value, &number) ||
+            (number != 2 && number != 3)) {
+            fprintf(stderr, TOOL ": --dimension takes 2 or 3, got '%s'\n",
+                    value != NULL ? value : "");
+            return 0;
+        }
+        p->options.dimension = (int)number;
+        return 1;
     }
     return 0;
 }
 
+static int parse_flag(void *user, const char *name)
+{
+    parsed_t *p = user;
+    if (strcmp(name, "--quiet") == 0) {
+        p->quiet = 1;
+    } else if (strcmp(name, "--journal-sync") == 0) {
+        p->options.journal_sync = 1;
+    } else if (strcmp(name, "--literal") == 0) {
+        p->options.robust.literal = 1;
+    } else {
+        return 0;
+    }
+    return 1;
+}
+
+/* Returns 0, -1 after --help, or PGEM_EXIT_USAGE. */
 static int parse(int argc, char **argv, parsed_t *p)
 {
+    static const char *names[VALUED_COUNT];
+    for (size_t v = 0; v < VALUED_COUNT; ++v) {
+        names[v] = valued_options[v].name;
+    }
+    const pgem_lcm_parser_t parser = {names, VALUED_COUNT, parse_value, parse_flag, NULL, usage};
     pgem_lcm_options_init(&p->lcm, TOOL, PGEM_LCM_ALL_CHANNELS);
-    for (int i = 1; i < argc; ++i) {
-        const char *arg = argv[i];
-        int common = pgem_lcm_parse_option(&p->lcm, argc, argv, &i);
-        if (common != 0) {
-            if (common < 0) {
-                return -1;
-            }
-            continue;
-        }
-        if (strcmp(arg, "--help") == 0 || strcmp(arg, "-h") == 0) {
-            usage(stdout, &p->lcm);
-            exit(PGEM_EXIT_OK);
-        } else if (strcmp(arg, "--quiet") == 0) {
-            p->quiet = 1;
-        } else if (strcmp(arg, "--journal-sync") == 0) {
-            p->options.journal_sync = 1;
-        } else if (strcmp(arg, "--literal") == 0) {
-            p->options.robust.literal = 1;
-        } else if (strncmp(arg, "--", 2) == 0 && i + 1 < argc) {
-            if (parse_valued(p, arg, argv[++i]) != 0) {
-                return -1;
-            }
-        } else {
-            fprintf(stderr, TOOL ": %s '%s' (see --help)\n",
-                    strncmp(arg, "--", 2) == 0 ? "missing value for" : "unexpected argument",
-                    arg);
-            return -1;
-        }
+    int status = pgem_lcm_parse_args(&p->lcm, &parser, p, argc, argv);
+    if (status != 0) {
+        return status;
     }
     pgem_bridge_options_t *o = &p->options;
     if (o->dimension == 0) {
         o->dimension = 2;
     }
     o->url = p->lcm.url;
-    return pgem_lcm_channels(&p->lcm, o->dimension, &o->channels);
+    return pgem_lcm_channels(&p->lcm, o->dimension, &o->channels) == 0 ? 0 : PGEM_EXIT_USAGE;
 }
 
 int main(int argc, char **argv)
 {
     parsed_t parsed;
     memset(&parsed, 0, sizeof parsed);
-    if (parse(argc, argv, &parsed) != 0) {
-        return PGEM_EXIT_USAGE;
+    int parsed_status = parse(argc, argv, &parsed);
+    if (parsed_status != 0) {
+        return parsed_status < 0 ? PGEM_EXIT_OK : PGEM_EXIT_USAGE;
     }
     if (!parsed.quiet) {
         parsed.options.log = log_line;

@@ -105,8 +105,9 @@ static int dump_parse_file(const char *arg, const char *value, const char **targ
 }
 
 /* A value option of the dumper; returns 1 when parsed, 0 after printing an error. */
-static int dump_parse_value(dump_args_t *args, const char *arg, const char *value)
+static int dump_parse_value(void *user, const char *arg, const char *value)
 {
+    dump_args_t *args = user;
     if (strcmp(arg, "-o") == 0 || strcmp(arg, "--output") == 0) {
         return dump_parse_file(arg, value, &args->output);
     }
@@ -137,41 +138,30 @@ static int dump_parse_value(dump_args_t *args, const char *arg, const char *valu
                                  strcmp(arg, "--idle") == 0 ? &args->idle : &args->timeout);
 }
 
+static int dump_flag(void *user, const char *name)
+{
+    dump_args_t *args = user;
+    if (strcmp(name, "--quiet") != 0) {
+        return 0;
+    }
+    args->quiet = 1;
+    return 1;
+}
+
 /* Returns PGEM_EXIT_OK, PGEM_EXIT_USAGE, or -1 after --help. */
 static int dump_parse(int argc, char **argv, dump_args_t *args)
 {
     static const char *const valued[] = {"-o", "--output", "--weights", "--json", "--status",
                                          "--count", "--edges", "--idle", "--timeout"};
+    static const pgem_lcm_parser_t parser = {valued, sizeof valued / sizeof valued[0],
+                                             dump_parse_value, dump_flag, NULL, dump_help};
     memset(args, 0, sizeof *args);
     pgem_lcm_options_init(&args->lcm, DUMP_TOOL, PGEM_LCM_GRAPH_CHANNEL | PGEM_LCM_STATUS_CHANNEL);
     args->idle = -1.0;
     args->timeout = -1.0;
-    for (int k = 1; k < argc; k++) {
-        const char *arg = argv[k];
-        int common = pgem_lcm_parse_option(&args->lcm, argc, argv, &k);
-        size_t v = 0;
-        while (v < sizeof valued / sizeof valued[0] && strcmp(arg, valued[v]) != 0) {
-            v++;
-        }
-        if (common < 0) {
-            return PGEM_EXIT_USAGE;
-        } else if (common > 0) {
-            continue;
-        } else if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
-            dump_help(stdout, &args->lcm);
-            return -1;
-        } else if (strcmp(arg, "--quiet") == 0) {
-            args->quiet = 1;
-        } else if (v < sizeof valued / sizeof valued[0]) {
-            if (!dump_parse_value(args, arg, k + 1 < argc ? argv[k + 1] : NULL)) {
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else {
-            fprintf(stderr, "%s: unknown %s '%s' (see %s --help)\n", DUMP_TOOL,
-                    arg[0] == '-' ? "option" : "argument", arg, DUMP_TOOL);
-            return PGEM_EXIT_USAGE;
-        }
+    int status = pgem_lcm_parse_args(&args->lcm, &parser, args, argc, argv);
+    if (status != 0) {
+        return status;
     }
     if (args->output == NULL && args->weights == NULL && args->json == NULL &&
         args->status == NULL) {

@@ -172,8 +172,9 @@ static void send_help(FILE *out, const pgem_lcm_options_t *lcm)
 }
 
 /* A value option of the sender; returns 1 when parsed, 0 after printing an error. */
-static int send_parse_value(send_args_t *args, const char *arg, const char *value)
+static int send_parse_value(void *user, const char *arg, const char *value)
 {
+    send_args_t *args = user;
     if (strcmp(arg, "--rate") == 0) {
         return pgem_cli_parse_number(SEND_TOOL, arg, value, 0, &args->rate);
     }
@@ -219,11 +220,37 @@ static int send_parse_value(send_args_t *args, const char *arg, const char *valu
     return 1;
 }
 
+static int send_flag(void *user, const char *name)
+{
+    send_args_t *args = user;
+    if (strcmp(name, "--quiet") == 0) {
+        args->quiet = 1;
+    } else if (strcmp(name, "--optimize") == 0) {
+        args->optimize = 1;
+    } else {
+        return 0;
+    }
+    return 1;
+}
+
+static int send_input(void *user, const char *argument)
+{
+    send_args_t *args = user;
+    if (args->input != NULL) {
+        fprintf(stderr, "%s: more than one input file ('%s')\n", SEND_TOOL, argument);
+        return 0;
+    }
+    args->input = argument;
+    return 1;
+}
+
 /* Returns PGEM_EXIT_OK, PGEM_EXIT_USAGE, or -1 after --help. */
 static int send_parse(int argc, char **argv, send_args_t *args)
 {
     static const char *const valued[] = {"--rate", "--wait", "--shuffle", "--first",
                                          "--count", "--repeat", "--source", "--latency"};
+    static const pgem_lcm_parser_t parser = {valued, sizeof valued / sizeof valued[0],
+                                             send_parse_value, send_flag, send_input, send_help};
     memset(args, 0, sizeof *args);
     pgem_lcm_options_init(&args->lcm, SEND_TOOL,
                           PGEM_LCM_POSE_CHANNEL | PGEM_LCM_EDGE_CHANNEL |
@@ -233,39 +260,9 @@ static int send_parse(int argc, char **argv, send_args_t *args)
     args->repeat = 1;
     args->count = UINT64_MAX;
     args->wait = -1.0;
-    for (int k = 1; k < argc; k++) {
-        const char *arg = argv[k];
-        int common = pgem_lcm_parse_option(&args->lcm, argc, argv, &k);
-        size_t v = 0;
-        while (v < sizeof valued / sizeof valued[0] && strcmp(arg, valued[v]) != 0) {
-            v++;
-        }
-        if (common < 0) {
-            return PGEM_EXIT_USAGE;
-        } else if (common > 0) {
-            continue;
-        } else if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
-            send_help(stdout, &args->lcm);
-            return -1;
-        } else if (strcmp(arg, "--quiet") == 0) {
-            args->quiet = 1;
-        } else if (strcmp(arg, "--optimize") == 0) {
-            args->optimize = 1;
-        } else if (v < sizeof valued / sizeof valued[0]) {
-            if (!send_parse_value(args, arg, k + 1 < argc ? argv[k + 1] : NULL)) {
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else if (arg[0] == '-' && arg[1] != '\0') {
-            fprintf(stderr, "%s: unknown option '%s' (see %s --help)\n", SEND_TOOL, arg,
-                    SEND_TOOL);
-            return PGEM_EXIT_USAGE;
-        } else if (args->input == NULL) {
-            args->input = arg;
-        } else {
-            fprintf(stderr, "%s: more than one input file ('%s')\n", SEND_TOOL, arg);
-            return PGEM_EXIT_USAGE;
-        }
+    int status = pgem_lcm_parse_args(&args->lcm, &parser, args, argc, argv);
+    if (status != 0) {
+        return status;
     }
     if (args->input == NULL) {
         fprintf(stderr, "%s: no input file (see %s --help)\n", SEND_TOOL, SEND_TOOL);
