@@ -6,14 +6,15 @@
  * in BLOCK_BYTES; or use the estimate below, measured from the core's layout:
  *   2D: about 370 bytes per pose + 210 per edge + 12 per factor nonzero (fill_budget)
  *   3D: about 930 bytes per pose + 680 per edge + 12 per factor nonzero
+ *   with CSparse built from source (no malloc at all): + 56 per pose + 24 per edge
  * Either way pgem_init checks at run time: it refuses a block smaller than the configuration
  * needs (PGEM_ERR_BUFFER_TOO_SMALL), so a config change that outgrows the block is caught there.
  * How to size fill_budget: after a solve, pgem_get_memory_stats() reports the factor's nonzeros
  * (a solve that needs more fails with PGEM_ERR_FILL_BUDGET and the message gives the number).
  *
- * One caveat in hosted builds: CSparse's symbolic analysis (first solve after the graph
- * changes) mallocs and frees its own workspace; DESIGN.md explains it and how the firmware
- * build removes it. */
+ * One caveat with the system CSparse: its symbolic analysis (first solve after the graph
+ * changes) mallocs and frees its own workspace. Built from source (PGEM_CSPARSE_SOURCE_DIR, as
+ * the firmware build does) it draws from the block instead; DESIGN.md explains both. */
 #include <stdio.h>
 
 #include <pgem/pgem.h>
@@ -22,7 +23,7 @@
 #define MAX_POSES (SIDE * SIDE)
 #define MAX_EDGES (2 * MAX_POSES)
 #define FILL_BUDGET 4096                /* factor nonzeros (the default would be 32 * 9 * 64) */
-#define BLOCK_BYTES (370u * MAX_POSES + 210u * MAX_EDGES + 12u * FILL_BUDGET + 4096u)
+#define BLOCK_BYTES (426u * MAX_POSES + 234u * MAX_EDGES + 12u * FILL_BUDGET + 4096u)
 
 static unsigned char block[BLOCK_BYTES]; /* all the memory pgem will ever use */
 

@@ -74,6 +74,9 @@ typedef struct pgem_memory_stats {
     uint32_t factor_nonzeros;  /**< scalar nonzeros of L for the current structure (0 = none) */
     uint32_t factor_budget;    /**< config.fill_budget */
     uint32_t analyses;         /**< symbolic analyses run so far (one per topology change) */
+    size_t csparse_pool_bytes; /**< part of used_bytes reserved for CSparse's symbolic routines
+                                    (0 when CSparse is the system library and uses the heap) */
+    size_t csparse_pool_peak;  /**< most of that part in use at once so far */
 } pgem_memory_stats_t;
 
 void pgem_get_memory_stats(const pgem_t *instance, pgem_memory_stats_t *stats);

@@ -22,6 +22,23 @@ typedef struct pgem_arena {
  * (then used still grows, so a measuring pass yields the total). */
 void *pgem_arena_take(pgem_arena_t *arena, size_t count, size_t item);
 
+/* CSparse's workspace inside the block (source-built CSparse only; see linalg/cs_pool.c).
+ * With the system CSparse the region is empty and CSparse uses the C heap. */
+typedef struct pgem_cs_pool {
+    unsigned char *base;   /* start of the region */
+    size_t size;           /* bytes in the region */
+    size_t used;           /* bytes handed out (with headers) while open */
+    size_t top;            /* offset of the topmost slice's header */
+    size_t peak;           /* most bytes ever in use */
+    uint32_t failures;     /* requests the region could not meet */
+} pgem_cs_pool_t;
+
+/* Bytes of the region for the given capacities (0 with the system CSparse). */
+size_t pgem_cs_pool_bytes(uint32_t max_poses, uint32_t max_edges);
+/* Routes CSparse's allocations to pool until close (which gives everything back). */
+void pgem_cs_open(pgem_cs_pool_t *pool);
+void pgem_cs_close(pgem_cs_pool_t *pool);
+
 /* Sparse structure and numeric workspace of the normal equations H dx = -b. */
 typedef struct pgem_linear {
     int valid;                 /* 1 while the structure matches the graph's topology */
@@ -58,6 +75,7 @@ typedef struct pgem_linear {
     double *diagonal;          /* [max_poses * block] diagonal of H (LM damping) */
     double *gradient;          /* [max_poses * block] copy of -b kept across LM retries */
     uint32_t analyses;         /* symbolic analyses run so far */
+    pgem_cs_pool_t cs_pool;    /* CSparse's workspace during analyses */
 } pgem_linear_t;
 
 struct pgem {

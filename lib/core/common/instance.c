@@ -99,6 +99,8 @@ static void pgem_carve_linear(pgem_t *graph, pgem_arena_t *arena)
     linear->rhs = pgem_arena_take(arena, scalars, sizeof(double));
     linear->diagonal = pgem_arena_take(arena, scalars, sizeof(double));
     linear->gradient = pgem_arena_take(arena, scalars, sizeof(double));
+    linear->cs_pool.size = pgem_cs_pool_bytes(graph->config.max_poses, graph->config.max_edges);
+    linear->cs_pool.base = pgem_arena_take(arena, linear->cs_pool.size, 1);
 }
 
 void pgem_carve(pgem_t *graph, pgem_arena_t *arena)
@@ -187,4 +189,6 @@ void pgem_get_memory_stats(const pgem_t *instance, pgem_memory_stats_t *stats)
     stats->factor_nonzeros = (uint32_t)instance->linear.factor_nonzeros;
     stats->factor_budget = instance->config.fill_budget;
     stats->analyses = instance->linear.analyses;
+    stats->csparse_pool_bytes = instance->linear.cs_pool.size;
+    stats->csparse_pool_peak = instance->linear.cs_pool.peak;
 }

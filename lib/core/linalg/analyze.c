@@ -66,6 +66,7 @@ static int64_t pgem_analyze_factor(pgem_linear_t *linear)
     const int blocks = linear->block_count;
     cs_di pattern = {linear->block_colptr[blocks], blocks, blocks, linear->block_colptr,
                      linear->block_rows, NULL, -1};
+    pgem_cs_open(&linear->cs_pool);
     int *parent = cs_di_etree(&pattern, 0);
     int *post = parent != NULL ? cs_di_post(parent, blocks) : NULL;
     int *counts = post != NULL ? cs_di_counts(&pattern, parent, post, 0) : NULL;
@@ -81,6 +82,7 @@ static int64_t pgem_analyze_factor(pgem_linear_t *linear)
     cs_di_free(parent);
     cs_di_free(post);
     cs_di_free(counts);
+    pgem_cs_close(&linear->cs_pool);
     return nonzeros;
 }
 

@@ -84,7 +84,8 @@ void pgem_pattern_build(pgem_t *graph, int block_count, int *colptr, int *rows, 
 }
 
 /* Fill-reducing ordering of the free poses with CSparse AMD on the block graph; renumbers
- * linear->pose_block in the new order. CSparse allocates here (hosted builds). */
+ * linear->pose_block in the new order. CSparse allocates here: from the heap with the
+ * system CSparse, from the block's pool with the source-built one. */
 int pgem_pattern_order(pgem_t *graph, int block_count)
 {
     pgem_linear_t *linear = &graph->linear;
@@ -93,8 +94,10 @@ int pgem_pattern_order(pgem_t *graph, int block_count)
     int *work = rows + graph->edge_count;
     pgem_pattern_build(graph, block_count, colptr, rows, work);
     cs_di pattern = {colptr[block_count], block_count, block_count, colptr, rows, NULL, -1};
+    pgem_cs_open(&linear->cs_pool);
     int *order = cs_di_amd(1, &pattern);
     if (order == NULL) {
+        pgem_cs_close(&linear->cs_pool);
         return PGEM_ERR_OUT_OF_MEMORY;
     }
     int *position = work; /* free index -> position in the ordering */
@@ -102,6 +105,7 @@ int pgem_pattern_order(pgem_t *graph, int block_count)
         position[order[k]] = k;
     }
     cs_di_free(order);
+    pgem_cs_close(&linear->cs_pool);
     for (uint32_t p = 0; p < graph->pose_count; p++) {
         int free_index = linear->pose_block[p];
         linear->pose_block[p] = free_index >= 0 ? position[free_index] : -1;

@@ -1,0 +1,207 @@
+/* CSparse's allocator for the source-built CSparse (PGEM_CSPARSE_ARENA): cs_malloc, cs_calloc,
+ * cs_realloc and cs_free draw from a region of the pgem block instead of the C heap.
+ *
+ * CSparse's routines take no allocator argument, so the core opens the instance's pool around
+ * the calls that allocate (pgem_cs_open / pgem_cs_close, one thread at a time per pool; the
+ * pointer to the open pool is thread-local on hosted builds). The pool is a stack: each slice
+ * carries a header with its size and the previous top; freeing the top slice pops it (and any
+ * slices under it already freed), freeing another slice marks it, and close empties the pool.
+ * The symbolic routines free in nearly LIFO order, so the peak stays near their true need;
+ * pgem_cs_pool_bytes bounds it from above for the calls the core makes (see DESIGN.md). */
+#include <string.h>
+
+#include "internal.h"
+
+#ifdef PGEM_CSPARSE_ARENA
+
+#if defined(PGEM_SINGLE_THREAD) || !defined(__GNUC__)
+#define PGEM_THREAD_LOCAL
+#else
+#define PGEM_THREAD_LOCAL __thread
+#endif
+
+#define PGEM_POOL_ALIGN ((size_t)16)
+#define PGEM_POOL_FREED ((size_t)1)
+
+/* Sits in front of every slice; padded to the alignment. */
+typedef struct pgem_pool_header {
+    size_t bytes;     /* payload bytes asked for */
+    size_t previous;  /* offset of the slice below, or (size_t)-1; bit 0 set once freed */
+} pgem_pool_header_t;
+
+#define PGEM_POOL_HEADER \
+    ((sizeof(pgem_pool_header_t) + PGEM_POOL_ALIGN - 1u) & ~(PGEM_POOL_ALIGN - 1u))
+#define PGEM_POOL_NONE ((size_t)-1 & ~PGEM_POOL_FREED)
+
+static PGEM_THREAD_LOCAL pgem_cs_pool_t *pgem_pool_open;
+
+static size_t pgem_pool_round(size_t bytes)
+{
+    return (bytes + PGEM_POOL_ALIGN - 1u) & ~(PGEM_POOL_ALIGN - 1u);
+}
+
+size_t pgem_cs_pool_bytes(uint32_t max_poses, uint32_t max_edges)
+{
+    /* The largest call is cs_amd on n = max_poses blocks and z <= max_edges upper-triangle
+     * entries: A' (n+1+z), C = A+A' (n+1+2z) and C regrown to 1.2 cnz + 2n with cnz <= 2z,
+     * the result (n+1), 8(n+1) workspace and two n-sized calloc'ed workspaces: at most
+     * 14n + 6z + 12 ints even if nothing were ever given back, in under 16 slices.
+     * etree + post + counts together need 12n + z + 4. */
+    const size_t n = max_poses, z = max_edges;
+    const size_t ints = 14u * n + 6u * z + 32u;
+    return pgem_pool_round(ints * sizeof(int)) + 16u * (PGEM_POOL_HEADER + PGEM_POOL_ALIGN) +
+           4u * pgem_pool_round(sizeof(cs_di));
+}
+
+void pgem_cs_open(pgem_cs_pool_t *pool)
+{
+    pool->used = 0;
+    pool->top = PGEM_POOL_NONE;
+    pgem_pool_open = pool;
+}
+
+void pgem_cs_close(pgem_cs_pool_t *pool)
+{
+    pool->used = 0;
+    pool->top = PGEM_POOL_NONE;
+    pgem_pool_open = NULL;
+}
+
+static pgem_pool_header_t *pgem_pool_header(pgem_cs_pool_t *pool, size_t offset)
+{
+    return (pgem_pool_header_t *)(void *)(pool->base + offset);
+}
+
+static void *pgem_pool_take(size_t count, size_t item)
+{
+    pgem_cs_pool_t *pool = pgem_pool_open;
+    if (pool == NULL || pool->base == NULL) {
+        return NULL;
+    }
+    if (count == 0) {
+        count = 1; /* CSparse asks for max(n, 1) items */
+    }
+    if (item != 0 && count > ((size_t)-1 / 2u) / item) {
+        return NULL;
+    }
+    size_t bytes = count * item;
+    size_t start = pool->used; /* aligned, and never past pool->size */
+    if (PGEM_POOL_HEADER + pgem_pool_round(bytes) > pool->size - start) {
+        pool->failures++;
+        return NULL;
+    }
+    pgem_pool_header_t *header = pgem_pool_header(pool, start);
+    header->bytes = bytes;
+    header->previous = pool->top;
+    pool->top = start;
+    pool->used = start + PGEM_POOL_HEADER + pgem_pool_round(bytes);
+    if (pool->used > pool->peak) {
+        pool->peak = pool->used;
+    }
+    return pool->base + start + PGEM_POOL_HEADER;
+}
+
+/* Offset of the header of slice p (which the open pool handed out). */
+static size_t pgem_pool_offset(const pgem_cs_pool_t *pool, const void *p)
+{
+    return (size_t)((const unsigned char *)p - pool->base) - PGEM_POOL_HEADER;
+}
+
+void *cs_di_malloc(int n, size_t size)
+{
+    return pgem_pool_take(n > 0 ? (size_t)n : 1u, size);
+}
+
+void *cs_di_calloc(int n, size_t size)
+{
+    void *p = pgem_pool_take(n > 0 ? (size_t)n : 1u, size);
+    if (p != NULL) {
+        memset(p, 0, (n > 0 ? (size_t)n : 1u) * size);
+    }
+    return p;
+}
+
+void *cs_di_free(void *p)
+{
+    pgem_cs_pool_t *pool = pgem_pool_open;
+    if (p == NULL || pool == NULL) {
+        return NULL;
+    }
+    size_t offset = pgem_pool_offset(pool, p);
+    pgem_pool_header_t *header = pgem_pool_header(pool, offset);
+    header->previous |= PGEM_POOL_FREED;
+    /* pop every freed slice at the top */
+    while (pool->top != PGEM_POOL_NONE &&
+           (pgem_pool_header(pool, pool->top)->previous & PGEM_POOL_FREED) != 0) {
+        pool->used = pool->top;
+        pool->top = pgem_pool_header(pool, pool->top)->previous & ~PGEM_POOL_FREED;
+    }
+    return NULL;
+}
+
+void *cs_di_realloc(void *p, int n, size_t size, int *ok)
+{
+    pgem_cs_pool_t *pool = pgem_pool_open;
+    size_t count = n > 0 ? (size_t)n : 1u;
+    if (p == NULL) {
+        void *fresh = pgem_pool_take(count, size);
+        *ok = fresh != NULL;
+        return fresh;
+    }
+    if (pool == NULL || (size != 0 && count > ((size_t)-1 / 2u) / size)) {
+        *ok = 0;
+        return p;
+    }
+    size_t bytes = count * size;
+    size_t offset = pgem_pool_offset(pool, p);
+    pgem_pool_header_t *header = pgem_pool_header(pool, offset);
+    if (offset == pool->top) { /* the top slice grows or shrinks in place */
+        if (PGEM_POOL_HEADER + pgem_pool_round(bytes) > pool->size - offset) {
+            pool->failures++;
+            *ok = 0;
+            return p;
+        }
+        header->bytes = bytes;
+        pool->used = offset + PGEM_POOL_HEADER + pgem_pool_round(bytes);
+        if (pool->used > pool->peak) {
+            pool->peak = pool->used;
+        }
+        *ok = 1;
+        return p;
+    }
+    if (bytes <= header->bytes) { /* shrinking a slice below the top: keep it where it is */
+        header->bytes = bytes;
+        *ok = 1;
+        return p;
+    }
+    void *fresh = pgem_pool_take(count, size);
+    if (fresh == NULL) {
+        *ok = 0;
+        return p;
+    }
+    memcpy(fresh, p, header->bytes);
+    (void)cs_di_free(p);
+    *ok = 1;
+    return fresh;
+}
+
+#else /* CSparse from the system library: it uses the C heap, and the pool is empty. */
+
+size_t pgem_cs_pool_bytes(uint32_t max_poses, uint32_t max_edges)
+{
+    (void)max_poses;
+    (void)max_edges;
+    return 0;
+}
+
+void pgem_cs_open(pgem_cs_pool_t *pool)
+{
+    (void)pool;
+}
+
+void pgem_cs_close(pgem_cs_pool_t *pool)
+{
+    (void)pool;
+}
+
+#endif
