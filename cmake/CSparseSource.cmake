@@ -31,11 +31,11 @@ if(NOT _pgem_cs_config)
                       "SuiteSparse_config/SuiteSparse_config.h beside it")
 endif()
 
-# The routines the core calls (amd, etree, post, counts, ereach, lsolve, ltsolve) and what
+# The routines the core calls (amd, etree, post, counts, ereach) and what
 # they call in turn (cs_amd links cs_multiply for orderings the core does not use). cs_malloc.c
 # is replaced by the pool.
 set(PGEM_CSPARSE_SOURCES "")
-foreach(name amd etree post counts ereach lsolve ltsolve add transpose fkeep util tdfs leaf
+foreach(name amd etree post counts ereach add transpose fkeep util tdfs leaf
              cumsum scatter multiply)
   list(APPEND PGEM_CSPARSE_SOURCES "${_pgem_cs_dir}/Source/cs_${name}.c")
 endforeach()

@@ -60,9 +60,13 @@ typedef struct pgem_linear {
                                   pattern (see linalg/analyze.c), so only values are stored */
     double *upper_values;      /* [max_edges * b^2 + max_poses * b(b+1)/2] refilled every
                                   iteration */
-    cs_di factor;              /* L, scalar CSC with the fill budget as capacity */
-    int *factor_colptr;    /* [max_poses * block + 1] */
-    int *factor_rows;      /* [fill_budget] */
+    int *factor_colptr;    /* [max_poses * block + 1] L's scalar columns: in column J*b+c
+                                  the diagonal block's rows c..b-1, then b rows for each
+                                  off-diagonal block in factor_block_rows order */
+    int *factor_block_colptr; /* [max_poses + 1] block column J's off-diagonal blocks start
+                                  at factor_block_rows[factor_block_colptr[J]] */
+    int *factor_block_rows; /* [fill_budget / b^2 + 1] block row of each off-diagonal block
+                                  (one index per b x b block, not per scalar) */
     double *factor_values;     /* [fill_budget] */
     int factor_nonzeros;   /* nonzeros of L for the current structure */
     int *reach_stack;      /* [max_poses] cs_ereach output (block rows) */

@@ -90,7 +90,9 @@ static void pgem_carve_linear(pgem_t *graph, pgem_arena_t *arena)
     linear->upper_colptr = pgem_arena_take(arena, scalars + 1u, sizeof(int));
     linear->upper_values = pgem_arena_take(arena, upper, sizeof(double));
     linear->factor_colptr = pgem_arena_take(arena, scalars + 1u, sizeof(int));
-    linear->factor_rows = pgem_arena_take(arena, graph->config.fill_budget, sizeof(int));
+    linear->factor_block_colptr = pgem_arena_take(arena, poses + 1u, sizeof(int));
+    linear->factor_block_rows =
+        pgem_arena_take(arena, graph->config.fill_budget / (block * block) + 1u, sizeof(int));
     linear->factor_values = pgem_arena_take(arena, graph->config.fill_budget, sizeof(double));
     linear->reach_stack = pgem_arena_take(arena, poses, sizeof(int));
     linear->reach_mark = pgem_arena_take(arena, poses, sizeof(int));

@@ -71,8 +71,11 @@ static int64_t pgem_analyze_factor(pgem_linear_t *linear)
     int *post = parent != NULL ? cs_di_post(parent, blocks) : NULL;
     int *counts = post != NULL ? cs_di_counts(&pattern, parent, post, 0) : NULL;
     int64_t nonzeros = counts != NULL ? 0 : PGEM_ERR_OUT_OF_MEMORY;
+    int off_diagonal = 0; /* blocks; at most fill_budget / b^2 while nonzeros fits the budget */
     for (int column = 0; counts != NULL && column < blocks; column++) {
         linear->block_parent[column] = parent[column];
+        linear->factor_block_colptr[column] = off_diagonal;
+        off_diagonal += counts[column] - 1;
         for (int c = 0; c < b; c++) {
             int scalar = column * b + c;
             linear->factor_colptr[scalar] = nonzeros > INT32_MAX ? INT32_MAX : (int)nonzeros;
@@ -122,8 +125,9 @@ static int pgem_linear_analyze_once(pgem_t *graph)
         return pgem_fill_exceeded(graph, nonzeros);
     }
     linear->factor_colptr[linear->scalar_count] = (int)nonzeros;
-    linear->factor = (cs_di){(int)nonzeros, linear->scalar_count, linear->scalar_count,
-                             linear->factor_colptr, linear->factor_rows, linear->factor_values, -1};
+    linear->factor_block_colptr[blocks] =
+        (int)((nonzeros - (int64_t)blocks * (linear->block * (linear->block + 1) / 2)) /
+              (linear->block * linear->block));
     linear->analyses++;
     linear->valid = 1;
     return PGEM_OK;

@@ -1,8 +1,9 @@
-/* Numeric block up-looking Cholesky H = L L^T into the preallocated L; no allocation.
- * Block row K of L comes from CSparse's cs_ereach on the block elimination tree; every
- * operation is on dense b x b pose blocks, written into L's scalar CSC so CSparse's triangular
- * solves apply. In scalar column J*b+c of L the diagonal block's rows c..b-1 come first, then
- * b rows for each off-diagonal block, in increasing block row order. */
+/* Numeric block up-looking Cholesky H = L L^T into the preallocated L, and the triangular
+ * solves with it; no allocation. Block row K of L comes from CSparse's cs_ereach on the block
+ * elimination tree; every operation is on dense b x b pose blocks. L's values are stored by
+ * scalar column: in column J*b+c the diagonal block's rows c..b-1 come first, then b rows for
+ * each off-diagonal block, in increasing block row order. Row indices are kept per block
+ * (factor_block_rows), not per scalar: a third of the factor's memory. */
 #include <math.h>
 #include <string.h>
 
@@ -57,12 +58,13 @@ static inline void pgem_eliminate(pgem_linear_t *linear, int b, int i, int k, co
 {
     double *values = linear->factor_values;
     const int filled = linear->fill_next[i];
+    int *block_rows = linear->factor_block_rows + linear->factor_block_colptr[i];
     int base[PGEM_TANGENT_SIZE_MAX]; /* start of the off-diagonal rows in column i*b+c */
     for (int c = 0; c < b; c++) {
         base[c] = linear->factor_colptr[i * b + c] + (b - c);
     }
     for (int slot = 0; slot < filled; slot++) {
-        int row_block = linear->factor_rows[base[0] + slot * b] / b;
+        int row_block = block_rows[slot];
         double *target = linear->block_work + (size_t)row_block * (size_t)(b * b);
         for (int m = 0; m < b; m++) {
             const double *l_column = values + base[m] + slot * b;
@@ -78,9 +80,9 @@ static inline void pgem_eliminate(pgem_linear_t *linear, int b, int i, int k, co
         int first = base[c] + filled * b;
         for (int r = 0; r < b; r++) {
             values[first + r] = y[c * b + r];
-            linear->factor_rows[first + r] = k * b + r;
         }
     }
+    block_rows[filled] = k;
     linear->fill_next[i] = filled + 1;
 }
 
@@ -113,17 +115,13 @@ static int pgem_factor_diagonal(pgem_linear_t *linear, int k, const double *diag
             return c;
         }
         double root = sqrt(pivot);
-        int slot = pgem_l_diag(linear, k, c, c);
-        values[slot] = root;
-        linear->factor_rows[slot] = k * b + c;
+        values[pgem_l_diag(linear, k, c, c)] = root;
         for (int r = c + 1; r < b; r++) {
             double sum = diagonal[r * b + c];
             for (int m = 0; m < c; m++) {
                 sum -= values[pgem_l_diag(linear, k, r, m)] * values[pgem_l_diag(linear, k, c, m)];
             }
-            slot = pgem_l_diag(linear, k, r, c);
-            values[slot] = sum / root;
-            linear->factor_rows[slot] = k * b + r;
+            values[pgem_l_diag(linear, k, r, c)] = sum / root;
         }
     }
     return -1;
@@ -175,10 +173,63 @@ int pgem_linear_factor(pgem_t *graph)
     return graph->linear.block == 6 ? pgem_factor_blocks(graph, 6) : pgem_factor_blocks(graph, 3);
 }
 
+/* x = L^-1 x, column by column. */
+static inline void pgem_lower_solve(const pgem_linear_t *linear, int b, double *x)
+{
+    for (int column = 0; column < linear->block_count; column++) {
+        const int *rows = linear->factor_block_rows + linear->factor_block_colptr[column];
+        const int count = linear->factor_block_colptr[column + 1] - linear->factor_block_colptr[column];
+        for (int c = 0; c < b; c++) {
+            const double *l = linear->factor_values + linear->factor_colptr[column * b + c];
+            const double value = x[column * b + c] / l[0];
+            x[column * b + c] = value;
+            for (int r = c + 1; r < b; r++) {
+                x[column * b + r] -= l[r - c] * value;
+            }
+            const double *off = l + (b - c);
+            for (int q = 0; q < count; q++) {
+                double *target = x + (size_t)rows[q] * (size_t)b;
+                for (int r = 0; r < b; r++) {
+                    target[r] -= off[q * b + r] * value;
+                }
+            }
+        }
+    }
+}
+
+/* x = L^-T x, column by column from the last. */
+static inline void pgem_upper_solve(const pgem_linear_t *linear, int b, double *x)
+{
+    for (int column = linear->block_count - 1; column >= 0; column--) {
+        const int *rows = linear->factor_block_rows + linear->factor_block_colptr[column];
+        const int count = linear->factor_block_colptr[column + 1] - linear->factor_block_colptr[column];
+        for (int c = b - 1; c >= 0; c--) {
+            const double *l = linear->factor_values + linear->factor_colptr[column * b + c];
+            double sum = x[column * b + c];
+            for (int r = c + 1; r < b; r++) {
+                sum -= l[r - c] * x[column * b + r];
+            }
+            const double *off = l + (b - c);
+            for (int q = 0; q < count; q++) {
+                const double *source = x + (size_t)rows[q] * (size_t)b;
+                for (int r = 0; r < b; r++) {
+                    sum -= off[q * b + r] * source[r];
+                }
+            }
+            x[column * b + c] = sum / l[0];
+        }
+    }
+}
+
 /* Solves H step = rhs in place (permuted order): L y = rhs, then L^T step = y. */
 void pgem_linear_solve(pgem_t *graph, double *step)
 {
-    pgem_linear_t *linear = &graph->linear;
-    cs_di_lsolve(&linear->factor, step);
-    cs_di_ltsolve(&linear->factor, step);
+    const pgem_linear_t *linear = &graph->linear;
+    if (linear->block == 6) {
+        pgem_lower_solve(linear, 6, step);
+        pgem_upper_solve(linear, 6, step);
+    } else {
+        pgem_lower_solve(linear, 3, step);
+        pgem_upper_solve(linear, 3, step);
+    }
 }
