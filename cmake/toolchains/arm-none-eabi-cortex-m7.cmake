@@ -23,7 +23,11 @@ set(CMAKE_ASM_COMPILER arm-none-eabi-gcc)
 # file and a linker script.
 set(CMAKE_TRY_COMPILE_TARGET_TYPE STATIC_LIBRARY)
 
-# Host programs come from the host; libraries and headers only from the target's sysroot.
+# Host programs come from the host; libraries, headers and packages only from under
+# CMAKE_FIND_ROOT_PATH, which is left empty: find_library and find_path then find nothing (in
+# particular not the host's CSparse or libm), and newlib's libc and libm are linked by name
+# (-lm), so the compiler driver picks the multilib. Cross-built dependencies go in a
+# directory passed as -DCMAKE_FIND_ROOT_PATH=...
 set(CMAKE_FIND_ROOT_PATH_MODE_PROGRAM NEVER)
 set(CMAKE_FIND_ROOT_PATH_MODE_LIBRARY ONLY)
 set(CMAKE_FIND_ROOT_PATH_MODE_INCLUDE ONLY)
@@ -37,26 +41,30 @@ set(CMAKE_FIND_ROOT_PATH_MODE_PACKAGE ONLY)
 #   implementations, not glibc's, and need not round the same way as the host's.
 # -ffunction-sections -fdata-sections with --gc-sections: unused functions and data are dropped.
 set(PGEM_CM7_ARCH_FLAGS "-mcpu=cortex-m7 -mthumb -mfpu=fpv5-d16 -mfloat-abi=hard")
-set(PGEM_CM7_COMMON_FLAGS "${PGEM_CM7_ARCH_FLAGS} -ffunction-sections -fdata-sections -ffp-contract=off")
+set(PGEM_CM7_COMMON_FLAGS
+    "${PGEM_CM7_ARCH_FLAGS} -ffunction-sections -fdata-sections -ffp-contract=off")
 
 # C++ for firmware: no exceptions, no RTTI and no guarded local statics, so nothing references
-# the C++ runtime (__cxa_*, __gxx_personality_v0, _Unwind_*).
+# the C++ runtime (__cxa_*, __gxx_personality_v0, _Unwind_*). One way in remains: a class with a
+# virtual destructor has a deleting destructor that calls operator delete, hence free; unless
+# the optimiser removes it (at -O0 it does not) the link then fails on _sbrk (see below).
 set(CMAKE_C_FLAGS_INIT "${PGEM_CM7_COMMON_FLAGS}")
 set(CMAKE_CXX_FLAGS_INIT
     "${PGEM_CM7_COMMON_FLAGS} -fno-exceptions -fno-rtti -fno-threadsafe-statics")
 set(CMAKE_ASM_FLAGS_INIT "${PGEM_CM7_ARCH_FLAGS}")
 
 # The C library: newlib in full (libc.a), not newlib-nano (--specs=nano.specs).
-# Both were linked with a program calling sin, cos, atan2, sqrt, fabs, exp, log, memcpy, memset
-# and memmove, and neither pulled in malloc, free or _sbrk: libm reports errors through errno,
-# which is one int in newlib's static reentrancy struct (__errno() returns its address), never
-# allocated. So nano is not needed for the no-malloc guarantee, and what it saves (a smaller
-# printf, malloc and stdio) is code this project does not link. memcpy, memset and memmove are
-# the same optimised Thumb-2 routines in both libraries. Full newlib costs about 1 KiB more RAM
-# for its reentrancy struct; nano would also switch headers (nano.specs adds
-# -isystem .../newlib/nano at compile time), so it is all or nothing across a build.
+# Linked with a program calling sin, cos, atan2, sqrt, fabs, exp, log, memcpy, memset and
+# memmove, neither library pulls in malloc, free or _sbrk: libm reports errors through errno,
+# which is an int inside newlib's statically allocated reentrancy struct (__errno() returns its
+# address), and memcpy, memset and memmove are the same Thumb-2 routines in both. What nano
+# saves is code this project does not link (printf, stdio, malloc) and about 1 KiB of RAM (its
+# smaller reentrancy struct). But that smaller struct allocates some members on first use:
+# with nano, rand() or strtok() calls malloc, while full newlib keeps that state in the static
+# struct. Full newlib is the one that stays malloc-free for more of the C library. (nano.specs
+# would also have to be given when compiling: it switches newlib.h to /usr/include/newlib/nano.)
 #
-# No --specs=nosys.specs or rdimon.specs either: the system-call stubs stay undefined, so a
+# No --specs=nosys.specs or rdimon.specs either: the system-call stubs stay undefined, so any
 # change that pulls in malloc (which needs _sbrk) or stdio (which needs _write) fails to link
 # instead of silently growing the firmware.
 set(CMAKE_EXE_LINKER_FLAGS_INIT "${PGEM_CM7_ARCH_FLAGS} -Wl,--gc-sections")

@@ -54,7 +54,9 @@ static void console_open(void)
 
 /* SYS_WRITE with a length, so no terminator is needed and a single trap carries the whole
  * buffer. (SYS_WRITE0 needs a NUL-terminated string and SYS_WRITEC traps once per byte; the
- * latter is kept as the fallback should the host refuse to open ":tt".) */
+ * latter is kept as the fallback should the host refuse to open ":tt".) The handle must come
+ * from SYS_OPEN: QEMU has no pre-opened standard handles for ARM semihosting, and a SYS_WRITE
+ * to handle 1 without it writes nothing. */
 void board_write(const char *text, size_t length)
 {
   if (console_state == 0) {
@@ -102,9 +104,13 @@ void board_exit(int status)
  * total: exact across any number of wraps as long as reads are less than 2^32 ticks apart.
  *
  * Precision under -icount shift=0 (1 ns of virtual time per instruction, 40 instructions a
- * tick): each reading is truncated to a whole tick, so a measured interval is within one tick
- * (40 instructions) of the truth, plus the call overhead: board_counter_read costs about 15
- * instructions and start-then-read with nothing between reads as 0 or 1 tick. */
+ * tick), measured with loops of known length: the timer starts at the enabling write and each
+ * reading is truncated to a whole tick. Built at -O2, start, N instructions, read gives
+ * floor((N + 6) / 40) ticks (6: the return from start, the call to read and the instructions
+ * in it before the timer is sampled), so ticks * 40 is within -34 and +6 of N; between two
+ * reads the difference is within one tick (+-40 instructions). 2e6, 2e7 and 1e10 instructions
+ * (the last is 10 s of virtual time) read as 50000, 500000 and 250000001 ticks; a wrap of the
+ * 32-bit timer between two reads changes nothing. */
 #define TIMER0_BASE 0x40000000u
 #define TIMER_CTRL (*(volatile uint32_t *)(TIMER0_BASE + 0x00u))
 #define TIMER_VALUE (*(volatile uint32_t *)(TIMER0_BASE + 0x04u))

@@ -251,7 +251,7 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
         return PGEM_ERR_INVALID_ARGUMENT;
     }
     pgem_robust_options_t resolved = pgem_robust_resolve(options);
-    if (resolved.kernel < PGEM_KERNEL_NONE || resolved.kernel > PGEM_KERNEL_DCS) {
+    if ((unsigned)resolved.kernel > (unsigned)PGEM_KERNEL_DCS) { /* also catches negative values */
         return pgem_fail(graph, PGEM_ERR_INVALID_ARGUMENT, "unknown robust kernel");
     }
     memcpy(graph->pose_initial, graph->pose, pgem_pose_bytes(graph));
