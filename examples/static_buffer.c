@@ -1,12 +1,11 @@
 /* Static buffer: every byte pgem uses is one static array sized at compile time; nothing is
  * malloc'd by this program or by pgem_init, adding or solving. Links only pgem::core.
  *
- * How to size the block: pgem_memory_size(&config) gives the exact number of bytes for a
- * configuration. Print it once on the host (this program does) and put the number, rounded up,
- * in BLOCK_BYTES; or use the estimate below, measured from the core's layout:
- *   2D: about 370 bytes per pose + 210 per edge + 12 per factor nonzero (fill_budget)
- *   3D: about 930 bytes per pose + 680 per edge + 12 per factor nonzero
- *   with CSparse built from source (no malloc at all): + 56 per pose + 24 per edge
+ * How to size the block: PGEM_MEMORY_BOUND(dimension, poses, edges, fill_budget) is a
+ * compile-time upper bound (used below); pgem_memory_size(&config) gives the exact number of
+ * bytes at run time (this program prints both). Roughly:
+ *   2D: 437 bytes per pose + 231 per edge + 8.4 per factor nonzero (fill_budget)
+ *   3D: 997 bytes per pose + 695 per edge + 8.1 per factor nonzero
  * Either way pgem_init checks at run time: it refuses a block smaller than the configuration
  * needs (PGEM_ERR_BUFFER_TOO_SMALL), so a config change that outgrows the block is caught there.
  * How to size fill_budget: after a solve, pgem_get_memory_stats() reports the factor's nonzeros
@@ -23,7 +22,7 @@
 #define MAX_POSES (SIDE * SIDE)
 #define MAX_EDGES (2 * MAX_POSES)
 #define FILL_BUDGET 4096                /* factor nonzeros (the default would be 32 * 9 * 64) */
-#define BLOCK_BYTES (426u * MAX_POSES + 234u * MAX_EDGES + 12u * FILL_BUDGET + 4096u)
+#define BLOCK_BYTES PGEM_MEMORY_BOUND(2, MAX_POSES, MAX_EDGES, FILL_BUDGET)
 
 static unsigned char block[BLOCK_BYTES]; /* all the memory pgem will ever use */
 

@@ -214,10 +214,39 @@ static void test_information_check(void **state)
     pgem_destroy(graph);
 }
 
+/* PGEM_MEMORY_BOUND is an upper bound of pgem_memory_size, and not a loose one: within the id
+ * map's slack (8 bytes per pose), CSparse's pool when it is the system library (56 per pose, 24
+ * per edge) and a constant. */
+static void test_memory_bound(void **state)
+{
+    (void)state;
+    const uint32_t poses[] = {1, 2, 7, 8, 9, 31, 100, 250, 500, 512, 513, 1000, 1023, 1025, 4097,
+                              20000};
+    for (int dimension = 2; dimension <= 3; dimension++) {
+        for (size_t k = 0; k < sizeof poses / sizeof poses[0]; k++) {
+            const uint32_t n = poses[k];
+            const uint32_t edge_counts[] = {1, n, 3 * n + 7};
+            for (int e = 0; e < 3; e++) {
+                const uint32_t m = edge_counts[e];
+                const uint32_t fills[] = {1, 9, 36, 17 * n + 5, 40 * n};
+                for (int f = 0; f < 5; f++) {
+                    pgem_config_t config = {dimension, n, m, fills[f]};
+                    size_t exact = pgem_memory_size(&config);
+                    size_t bound = PGEM_MEMORY_BOUND(dimension, n, m, fills[f]);
+                    assert_true(exact > 0);
+                    assert_true(bound >= exact);
+                    assert_true(bound - exact <= 64u * n + 24u * m + 2400u);
+                }
+            }
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_config_defaults),
+        cmocka_unit_test(test_memory_bound),
         cmocka_unit_test(test_memory_grows_with_capacity),
         cmocka_unit_test(test_init_in_static_buffer),
         cmocka_unit_test(test_pose_ids_64bit),
