@@ -78,6 +78,17 @@ static void end_line(report_t *r)
     r->length = 0;
 }
 
+/* One line: texts[0] values[0] texts[1] ... values[count - 1] texts[count]. */
+static void put_series(report_t *r, const char *const *texts, const uint64_t *values, int count)
+{
+    for (int k = 0; k < count; k++) {
+        put_text(r, texts[k]);
+        put_u64(r, values[k]);
+    }
+    put_text(r, texts[count]);
+    end_line(r);
+}
+
 static int fail(report_t *r, const pgem_t *graph, const char *what, int status)
 {
     put_text(r, "error: ");
@@ -147,15 +158,10 @@ static void report_loops(report_t *r, const pgem_t *graph)
         on_line++;
     }
     end_line(r);
-    put_text(r, "false loop closures pruned: ");
-    put_u64(r, false_pruned);
-    put_text(r, " of ");
-    put_u64(r, FIRMWARE_FALSE_LOOPS);
-    put_text(r, ", true loop closures pruned: ");
-    put_u64(r, true_pruned);
-    put_text(r, " of ");
-    put_u64(r, true_loops);
-    end_line(r);
+    const char *const texts[] = {"false loop closures pruned: ", " of ",
+                                 ", true loop closures pruned: ", " of ", ""};
+    const uint64_t values[] = {false_pruned, FIRMWARE_FALSE_LOOPS, true_pruned, true_loops};
+    put_series(r, texts, values, 4);
 }
 
 int firmware_run(const firmware_io_t *io, void *block, size_t size)
@@ -163,12 +169,9 @@ int firmware_run(const firmware_io_t *io, void *block, size_t size)
     report_t report = {io, {0}, 0};
     report_t *r = &report;
     const pgem_config_t config = {2, FIRMWARE_POSES, FIRMWARE_EDGES, FIRMWARE_FILL};
-    put_text(r, "# block: ");
-    put_u64(r, pgem_memory_size(&config));
-    put_text(r, " bytes needed, ");
-    put_u64(r, size);
-    put_text(r, " reserved");
-    end_line(r);
+    const char *const block_texts[] = {"# block: ", " bytes needed, ", " reserved"};
+    const uint64_t block_values[] = {pgem_memory_size(&config), size};
+    put_series(r, block_texts, block_values, 2);
 
     pgem_t *graph = NULL;
     int status = pgem_init(&graph, &config, block, size);
@@ -178,14 +181,11 @@ int firmware_run(const firmware_io_t *io, void *block, size_t size)
     if (load(r, graph) != 0) {
         return 1;
     }
-    put_text(r, "graph: ");
-    put_u64(r, pgem_pose_count(graph));
-    put_text(r, " poses, ");
-    put_u64(r, pgem_edge_count(graph));
-    put_text(r, " edges, ");
-    put_u64(r, FIRMWARE_FALSE_LOOPS);
-    put_text(r, " false loop closures among them");
-    end_line(r);
+    const char *const graph_texts[] = {"graph: ", " poses, ", " edges, ",
+                                       " false loop closures among them"};
+    const uint64_t graph_values[] = {pgem_pose_count(graph), pgem_edge_count(graph),
+                                     FIRMWARE_FALSE_LOOPS};
+    put_series(r, graph_texts, graph_values, 3);
 
     pgem_robust_options_t options = {0};
     options.kernel = PGEM_KERNEL_EM;
@@ -207,30 +207,18 @@ int firmware_run(const firmware_io_t *io, void *block, size_t size)
     }
     pgem_memory_stats_t stats;
     pgem_get_memory_stats(graph, &stats);
-    put_text(r, "# factor nonzeros: ");
-    put_u64(r, stats.factor_nonzeros);
-    put_text(r, " of ");
-    put_u64(r, stats.factor_budget);
-    put_text(r, ", CSparse pool peak ");
-    put_u64(r, stats.csparse_pool_peak);
-    put_text(r, " of ");
-    put_u64(r, stats.csparse_pool_bytes);
-    put_text(r, " bytes, block used ");
-    put_u64(r, stats.used_bytes);
-    end_line(r);
-
-    put_text(r, "EM: ");
-    put_u64(r, summary.rounds);
-    put_text(r, " rounds, ");
-    put_u64(r, summary.em_iterations);
-    put_text(r, " E/M iterations, ");
-    put_u64(r, summary.gn_iterations);
-    put_text(r, " Gauss-Newton iterations, ");
-    put_u64(r, summary.pruned);
-    put_text(r, " of ");
-    put_u64(r, summary.loops);
-    put_text(r, " loop closures pruned");
-    end_line(r);
+    const char *const memory_texts[] = {"# factor nonzeros: ", " of ", ", CSparse pool peak ",
+                                        " of ", " bytes, block used ", ""};
+    const uint64_t memory_values[] = {stats.factor_nonzeros, stats.factor_budget,
+                                      stats.csparse_pool_peak, stats.csparse_pool_bytes,
+                                      stats.used_bytes};
+    put_series(r, memory_texts, memory_values, 5);
+    const char *const em_texts[] = {"EM: ", " rounds, ", " E/M iterations, ",
+                                    " Gauss-Newton iterations, ", " of ",
+                                    " loop closures pruned"};
+    const uint64_t em_values[] = {summary.rounds, summary.em_iterations, summary.gn_iterations,
+                                  summary.pruned, summary.loops};
+    put_series(r, em_texts, em_values, 5);
     report_loops(r, graph);
     put_text(r, "chi2: ");
     put_fixed(r, summary.initial_chi2, 3);

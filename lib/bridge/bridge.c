@@ -171,6 +171,8 @@ typedef struct schedule {
     double first_loop;    /* arrival of the first of them */
     double last_loop;     /* and of the latest */
     double last_start;    /* start of the last solve */
+    double last_end;      /* and its end */
+    int unsettled;        /* the last solve was incremental: a settle solve is owed */
     const char *trigger;
 } schedule_t;
 
@@ -180,9 +182,15 @@ typedef struct schedule {
 static double solve_due(const bridge_t *bridge, const schedule_t *s)
 {
     const pgem_bridge_options_t *o = &bridge->options;
-    double due = s->dirty ? fmin(s->last_loop + o->debounce, s->first_loop + o->max_delay)
-                          : s->last_item + o->idle_solve;
+    double due = s->dirty      ? fmin(s->last_loop + o->debounce, s->first_loop + o->max_delay)
+                 : s->unsolved ? s->last_item + o->idle_solve
+                               : fmax(s->last_item, s->last_end) + o->idle_solve; /* settle */
     return fmax(due, s->last_start + 1.0 / o->max_rate);
+}
+
+static int solve_owed(const schedule_t *s)
+{
+    return s->dirty || s->unsolved || s->unsettled;
 }
 
 static void wait_until(bridge_t *bridge, double when)
@@ -208,7 +216,7 @@ static void wait_for_work(bridge_t *bridge, const schedule_t *s)
 {
     while (!bridge->stopping && bridge->visible == bridge->head && !bridge->optimize_requested &&
            !bridge->snapshot_requested) {
-        if (s->dirty || s->unsolved) {
+        if (solve_owed(s)) {
             double due = solve_due(bridge, s);
             if (bridge_now() >= due) {
                 return;
@@ -263,6 +271,7 @@ static void *solver_main(void *user)
             if (batch[i].type == PGEM_ITEM_RESET) {
                 s.dirty = 0;
                 s.unsolved = 0;
+                s.unsettled = 0;
             }
             if (bridge_graph_apply(bridge, &batch[i])) {
                 if (!s.dirty) {
@@ -277,17 +286,27 @@ static void *solver_main(void *user)
             bridge_graph_counts(bridge);
         }
         now = bridge_now();
-        int due = (s.dirty || s.unsolved) && now >= solve_due(bridge, &s);
+        int due = solve_owed(&s) && now >= solve_due(bridge, &s);
         if ((optimize || recovery || due) && pgem_edge_count(bridge->core) > 0) {
+            /* Quiet for idle_solve after incremental solves: one solve of the whole graph from
+             * the front-end's estimates, which is what the offline tools compute. */
+            int settle = !optimize && !recovery && !s.dirty && !s.unsolved;
             s.last_start = now;
-            bridge_graph_solve(bridge, optimize ? "command"
-                                       : recovery ? "recovery"
-                                       : s.dirty  ? s.trigger
-                                                  : "idle");
+            if (settle) {
+                bridge_graph_settle(bridge);
+            } else {
+                bridge_graph_solve(bridge, optimize ? "command"
+                                           : recovery ? "recovery"
+                                           : s.dirty  ? s.trigger
+                                                      : "idle");
+            }
+            s.last_end = bridge_now();
+            s.unsettled = !settle; /* (after a recovery too: it may have been a split graph) */
             s.dirty = 0;
             s.unsolved = 0;
         } else if (due) {
             s.unsolved = 0; /* poses without edges: nothing to solve */
+            s.unsettled = 0;
         }
         if (snapshot) {
             bridge_graph_snapshot(bridge, path);

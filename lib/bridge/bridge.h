@@ -37,7 +37,8 @@ typedef struct pgem_bridge_options {
                                   arriving (default 0.1) */
     double status_period;      /* s between status messages (default 0.5) */
     double idle_solve;         /* s without new items after which edges not yet in a solve
-                                  (odometry alone, say) get one (default 0.5) */
+                                  (odometry alone, say) get one, and after that (or after
+                                  incremental loop solves) the settle solve (default 0.5) */
     const char *journal;       /* journal path; NULL for none */
     int journal_sync;          /* fdatasync every record */
     pgem_robust_options_t robust;  /* kernel 0 means EM with its defaults */

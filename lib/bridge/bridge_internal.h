@@ -105,6 +105,10 @@ void bridge_graph_counts(bridge_t *bridge);
 int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item);
 /* Solves and publishes; trigger names why ("loops", "command", "recovery"). */
 void bridge_graph_solve(bridge_t *bridge, const char *trigger);
+/* The settle solve: every pose back to the front-end's estimate, every loop closure back in,
+ * EM on the whole graph (trigger "settle"); run once the stream has been quiet for idle_solve
+ * after incremental solves, so a paused robot's map is the one the offline tools compute. */
+void bridge_graph_settle(bridge_t *bridge);
 /* Publishes the graph as it is, without solving (after a reset). */
 void bridge_graph_publish(bridge_t *bridge, const char *trigger,
                           const pgem_robust_summary_t *summary, int usable, const char *why,

@@ -339,6 +339,12 @@ static void restart_from_raw(bridge_t *bridge)
     bridge->solved_poses = 0;
 }
 
+void bridge_graph_settle(bridge_t *bridge)
+{
+    bridge->restart_pending = 1; /* honoured when the graph is whole (see bridge_graph_solve) */
+    bridge_graph_solve(bridge, "settle");
+}
+
 /* Stops a robust solve when the bridge is stopping. */
 static int keep_going(const pgem_robust_progress_t *progress, void *user)
 {

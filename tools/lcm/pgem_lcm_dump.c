@@ -30,6 +30,7 @@ typedef struct dump_args {
     double idle;              /* --idle S: stop S seconds after the latest graph */
     double timeout;           /* --timeout S: give up after S seconds */
     int quiet;                /* --quiet: no line per graph */
+    int settled;              /* --settled: stop at the first settle solve's graph */
 } dump_args_t;
 
 /* What the handlers keep: the latest messages and counts. */
@@ -48,7 +49,8 @@ static void dump_usage(FILE *out)
 {
     fprintf(out,
             "usage: pgem-lcm-dump [-o OUT.g2o] [--weights W] [--json J] [--status S]\n"
-            "                     [--count N] [--edges N] [--idle SECONDS] [--timeout SECONDS]\n"
+            "                     [--count N] [--edges N] [--idle SECONDS] [--settled]\n"
+            "                     [--timeout SECONDS]\n"
             "                     [--quiet] [--url URL] [--channel-prefix P] [--graph-channel C]\n"
             "                     [--status-channel C]\n");
 }
@@ -77,6 +79,9 @@ static void dump_help(FILE *out, const pgem_lcm_options_t *lcm)
             "  --count N              after N graphs\n"
             "  --edges N              at the first graph with edges_included >= N\n"
             "  --idle SECONDS         SECONDS after the latest graph, once one has arrived\n"
+            "  --settled              at the first graph of a settle solve (the bridge solves\n"
+            "                         the whole graph from the front-end's estimates once the\n"
+            "                         stream is quiet); with --edges N, the first with N edges\n"
             "  --timeout SECONDS      give up: write the latest graph, if any, and exit 1\n"
             "Without --count, --edges or --idle it runs until SIGINT or SIGTERM (or --timeout),\n"
             "rewriting the files at every new graph and status, and exits 0 once it has written\n"
@@ -141,10 +146,13 @@ static int dump_parse_value(void *user, const char *arg, const char *value)
 static int dump_flag(void *user, const char *name)
 {
     dump_args_t *args = user;
-    if (strcmp(name, "--quiet") != 0) {
+    int *flag = strcmp(name, "--quiet") == 0     ? &args->quiet
+                : strcmp(name, "--settled") == 0 ? &args->settled
+                                                 : NULL;
+    if (flag == NULL) {
         return 0;
     }
-    args->quiet = 1;
+    *flag = 1;
     return 1;
 }
 
@@ -175,7 +183,7 @@ static int dump_parse(int argc, char **argv, dump_args_t *args)
 /* Whether the run ends at a condition rather than at a signal or --timeout. */
 static int dump_has_condition(const dump_args_t *args)
 {
-    return args->count > 0 || args->has_edges || args->idle >= 0.0;
+    return args->count > 0 || args->has_edges || args->idle >= 0.0 || args->settled;
 }
 
 /* Whether a graph output (-o, --weights, --json) was asked for. */
@@ -393,6 +401,14 @@ typedef enum dump_end {
 /* Whether the graph just received meets --count or --edges. */
 static int dump_graph_meets(const dump_args_t *args, const dump_state_t *state)
 {
+    if (args->settled) { /* with --edges N: the first settled graph with N edges */
+        const char *trigger = state->graph->stats.trigger;
+        if (trigger == NULL || strcmp(trigger, "settle") != 0) {
+            return 0;
+        }
+        return !args->has_edges || (state->graph->edges_included >= 0 &&
+                                    (uint64_t)state->graph->edges_included >= args->edges);
+    }
     return (args->count > 0 && state->graphs >= args->count) ||
            (args->has_edges && state->graph->edges_included >= 0 &&
             (uint64_t)state->graph->edges_included >= args->edges);
