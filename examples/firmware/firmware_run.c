@@ -22,18 +22,14 @@ static void put_text(report_t *r, const char *text)
 
 static void put_u64(report_t *r, uint64_t value)
 {
-    char digits[24];
-    size_t n = 0;
+    char text[24]; /* filled from the end: 20 digits at most */
+    size_t first = sizeof text - 1u;
+    text[first] = '\0';
     do {
-        digits[n++] = (char)('0' + (int)(value % 10u));
+        text[--first] = (char)('0' + (int)(value % 10u));
         value /= 10u;
     } while (value != 0);
-    char text[24];
-    for (size_t k = 0; k < n; k++) {
-        text[k] = digits[n - 1u - k];
-    }
-    text[n] = '\0';
-    put_text(r, text);
+    put_text(r, text + first);
 }
 
 /* value with `decimals` digits after the point, rounded half away from zero. */

@@ -14,6 +14,7 @@ import random
 
 MIN_GAP = 12
 SIGMA = (0.05, 0.05, 0.01)  # odometry and loop noise: x, y (m), theta (rad)
+STEPS = ((1, 0), (0, 1), (-1, 0), (0, -1))  # one cell along heading 0, 1, 2, 3 (quarter turns)
 
 
 def compose(a, b):
@@ -50,12 +51,10 @@ def build(poses, edges, false_loops, seed):
             heading = (heading + 1) % 4
         elif turn < 0.30:
             heading = (heading + 3) % 4
-        step = ((1, 0), (0, 1), (-1, 0), (0, -1))[heading]
-        nxt = (cell[0] + step[0], cell[1] + step[1])
+        nxt = (cell[0] + STEPS[heading][0], cell[1] + STEPS[heading][1])
         if abs(nxt[0]) > 7 or abs(nxt[1]) > 7:  # stay inside a 15 x 15 block: turn around
             heading = (heading + 2) % 4
-            step = ((1, 0), (0, 1), (-1, 0), (0, -1))[heading]
-            nxt = (cell[0] + step[0], cell[1] + step[1])
+            nxt = (cell[0] + STEPS[heading][0], cell[1] + STEPS[heading][1])
         cell = nxt
         pose = (float(cell[0]), float(cell[1]), math.atan2(math.sin(heading * math.pi / 2),
                                                             math.cos(heading * math.pi / 2)))

@@ -30,12 +30,11 @@ typedef struct pgem_cs_pool {
     size_t used;           /* bytes handed out (with headers) while open */
     size_t top;            /* offset of the topmost slice's header */
     size_t peak;           /* most bytes ever in use */
-    uint32_t failures;     /* requests the region could not meet */
 } pgem_cs_pool_t;
 
 /* Bytes of the region for the given capacities (0 with the system CSparse). */
 size_t pgem_cs_pool_bytes(uint32_t max_poses, uint32_t max_edges);
-/* Routes CSparse's allocations to pool until close (which gives everything back). */
+/* Routes CSparse's allocations to pool, emptied, until close. */
 void pgem_cs_open(pgem_cs_pool_t *pool);
 void pgem_cs_close(pgem_cs_pool_t *pool);
 

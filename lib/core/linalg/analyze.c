@@ -58,6 +58,11 @@ static void pgem_analyze_upper(pgem_linear_t *linear)
     linear->upper_colptr[linear->scalar_count] = count;
 }
 
+static int pgem_clamp_int(int64_t value)
+{
+    return value > INT32_MAX ? INT32_MAX : (int)value;
+}
+
 /* Block elimination tree and block column counts of L with CSparse; expands the counts to
  * scalar column pointers. Returns nonzeros of L or a negative error. */
 static int64_t pgem_analyze_factor(pgem_linear_t *linear)
@@ -71,16 +76,20 @@ static int64_t pgem_analyze_factor(pgem_linear_t *linear)
     int *post = parent != NULL ? cs_di_post(parent, blocks) : NULL;
     int *counts = post != NULL ? cs_di_counts(&pattern, parent, post, 0) : NULL;
     int64_t nonzeros = counts != NULL ? 0 : PGEM_ERR_OUT_OF_MEMORY;
-    int off_diagonal = 0; /* blocks; at most fill_budget / b^2 while nonzeros fits the budget */
+    /* off-diagonal blocks of L: at most fill_budget / b^2 when nonzeros fits the budget (the
+     * caller refuses it otherwise, so clamped values are never used) */
+    int64_t off_diagonal = 0;
     for (int column = 0; counts != NULL && column < blocks; column++) {
         linear->block_parent[column] = parent[column];
-        linear->factor_block_colptr[column] = off_diagonal;
+        linear->factor_block_colptr[column] = pgem_clamp_int(off_diagonal);
         off_diagonal += counts[column] - 1;
         for (int c = 0; c < b; c++) {
-            int scalar = column * b + c;
-            linear->factor_colptr[scalar] = nonzeros > INT32_MAX ? INT32_MAX : (int)nonzeros;
+            linear->factor_colptr[column * b + c] = pgem_clamp_int(nonzeros);
             nonzeros += (int64_t)(counts[column] - 1) * b + (b - c);
         }
+    }
+    if (counts != NULL) {
+        linear->factor_block_colptr[blocks] = pgem_clamp_int(off_diagonal);
     }
     cs_di_free(parent);
     cs_di_free(post);
@@ -125,9 +134,6 @@ static int pgem_linear_analyze_once(pgem_t *graph)
         return pgem_fill_exceeded(graph, nonzeros);
     }
     linear->factor_colptr[linear->scalar_count] = (int)nonzeros;
-    linear->factor_block_colptr[blocks] =
-        (int)((nonzeros - (int64_t)blocks * (linear->block * (linear->block + 1) / 2)) /
-              (linear->block * linear->block));
     linear->analyses++;
     linear->valid = 1;
     return PGEM_OK;

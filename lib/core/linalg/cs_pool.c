@@ -5,7 +5,8 @@
  * the calls that allocate (pgem_cs_open / pgem_cs_close, one thread at a time per pool; the
  * pointer to the open pool is thread-local on hosted builds). The pool is a stack: each slice
  * carries a header with its size and the previous top; freeing the top slice pops it (and any
- * slices under it already freed), freeing another slice marks it, and close empties the pool.
+ * slices under it already freed), freeing another slice marks it, and the next open empties
+ * the pool.
  * The symbolic routines free in nearly LIFO order, so the peak stays near their true need;
  * pgem_cs_pool_bytes bounds it from above for the calls the core makes (see DESIGN.md). */
 #include <string.h>
@@ -55,15 +56,14 @@ size_t pgem_cs_pool_bytes(uint32_t max_poses, uint32_t max_edges)
 
 void pgem_cs_open(pgem_cs_pool_t *pool)
 {
-    pool->used = 0;
+    pool->used = 0; /* whatever the last analysis left is given back here */
     pool->top = PGEM_POOL_NONE;
     pgem_pool_open = pool;
 }
 
 void pgem_cs_close(pgem_cs_pool_t *pool)
 {
-    pool->used = 0;
-    pool->top = PGEM_POOL_NONE;
+    (void)pool;
     pgem_pool_open = NULL;
 }
 
@@ -72,51 +72,63 @@ static pgem_pool_header_t *pgem_pool_header(pgem_cs_pool_t *pool, size_t offset)
     return (pgem_pool_header_t *)(void *)(pool->base + offset);
 }
 
-static void *pgem_pool_take(size_t count, size_t item)
-{
-    pgem_cs_pool_t *pool = pgem_pool_open;
-    if (pool == NULL || pool->base == NULL) {
-        return NULL;
-    }
-    if (count == 0) {
-        count = 1; /* CSparse asks for max(n, 1) items */
-    }
-    if (item != 0 && count > ((size_t)-1 / 2u) / item) {
-        return NULL;
-    }
-    size_t bytes = count * item;
-    size_t start = pool->used; /* aligned, and never past pool->size */
-    if (PGEM_POOL_HEADER + pgem_pool_round(bytes) > pool->size - start) {
-        pool->failures++;
-        return NULL;
-    }
-    pgem_pool_header_t *header = pgem_pool_header(pool, start);
-    header->bytes = bytes;
-    header->previous = pool->top;
-    pool->top = start;
-    pool->used = start + PGEM_POOL_HEADER + pgem_pool_round(bytes);
-    if (pool->used > pool->peak) {
-        pool->peak = pool->used;
-    }
-    return pool->base + start + PGEM_POOL_HEADER;
-}
-
 /* Offset of the header of slice p (which the open pool handed out). */
 static size_t pgem_pool_offset(const pgem_cs_pool_t *pool, const void *p)
 {
     return (size_t)((const unsigned char *)p - pool->base) - PGEM_POOL_HEADER;
 }
 
+/* Payload bytes of n items of size bytes (CSparse asks for max(n, 1)); 0 if it overflows. */
+static int pgem_pool_request(int n, size_t size, size_t *bytes)
+{
+    const size_t count = n > 0 ? (size_t)n : 1u;
+    if (size != 0 && count > ((size_t)-1 / 2u) / size) {
+        return 0;
+    }
+    *bytes = count * size;
+    return 1;
+}
+
+/* Makes the slice whose header is at offset, the top one, hold bytes; 0 if the region cannot. */
+static int pgem_pool_fit(pgem_cs_pool_t *pool, size_t offset, size_t bytes)
+{
+    if (PGEM_POOL_HEADER + pgem_pool_round(bytes) > pool->size - offset) {
+        return 0;
+    }
+    pgem_pool_header(pool, offset)->bytes = bytes;
+    pool->used = offset + PGEM_POOL_HEADER + pgem_pool_round(bytes);
+    if (pool->used > pool->peak) {
+        pool->peak = pool->used;
+    }
+    return 1;
+}
+
+static void *pgem_pool_take(int n, size_t size)
+{
+    pgem_cs_pool_t *pool = pgem_pool_open;
+    size_t bytes;
+    if (pool == NULL || pool->base == NULL || !pgem_pool_request(n, size, &bytes)) {
+        return NULL;
+    }
+    const size_t start = pool->used; /* aligned, and never past pool->size */
+    if (!pgem_pool_fit(pool, start, bytes)) {
+        return NULL;
+    }
+    pgem_pool_header(pool, start)->previous = pool->top;
+    pool->top = start;
+    return pool->base + start + PGEM_POOL_HEADER;
+}
+
 void *cs_di_malloc(int n, size_t size)
 {
-    return pgem_pool_take(n > 0 ? (size_t)n : 1u, size);
+    return pgem_pool_take(n, size);
 }
 
 void *cs_di_calloc(int n, size_t size)
 {
-    void *p = pgem_pool_take(n > 0 ? (size_t)n : 1u, size);
+    void *p = pgem_pool_take(n, size);
     if (p != NULL) {
-        memset(p, 0, (n > 0 ? (size_t)n : 1u) * size);
+        memset(p, 0, pgem_pool_header(pgem_pool_open, pgem_pool_offset(pgem_pool_open, p))->bytes);
     }
     return p;
 }
@@ -127,9 +139,7 @@ void *cs_di_free(void *p)
     if (p == NULL || pool == NULL) {
         return NULL;
     }
-    size_t offset = pgem_pool_offset(pool, p);
-    pgem_pool_header_t *header = pgem_pool_header(pool, offset);
-    header->previous |= PGEM_POOL_FREED;
+    pgem_pool_header(pool, pgem_pool_offset(pool, p))->previous |= PGEM_POOL_FREED;
     /* pop every freed slice at the top */
     while (pool->top != PGEM_POOL_NONE &&
            (pgem_pool_header(pool, pool->top)->previous & PGEM_POOL_FREED) != 0) {
@@ -142,31 +152,20 @@ void *cs_di_free(void *p)
 void *cs_di_realloc(void *p, int n, size_t size, int *ok)
 {
     pgem_cs_pool_t *pool = pgem_pool_open;
-    size_t count = n > 0 ? (size_t)n : 1u;
+    size_t bytes;
     if (p == NULL) {
-        void *fresh = pgem_pool_take(count, size);
+        void *fresh = pgem_pool_take(n, size);
         *ok = fresh != NULL;
         return fresh;
     }
-    if (pool == NULL || (size != 0 && count > ((size_t)-1 / 2u) / size)) {
+    if (pool == NULL || !pgem_pool_request(n, size, &bytes)) {
         *ok = 0;
         return p;
     }
-    size_t bytes = count * size;
-    size_t offset = pgem_pool_offset(pool, p);
+    const size_t offset = pgem_pool_offset(pool, p);
     pgem_pool_header_t *header = pgem_pool_header(pool, offset);
     if (offset == pool->top) { /* the top slice grows or shrinks in place */
-        if (PGEM_POOL_HEADER + pgem_pool_round(bytes) > pool->size - offset) {
-            pool->failures++;
-            *ok = 0;
-            return p;
-        }
-        header->bytes = bytes;
-        pool->used = offset + PGEM_POOL_HEADER + pgem_pool_round(bytes);
-        if (pool->used > pool->peak) {
-            pool->peak = pool->used;
-        }
-        *ok = 1;
+        *ok = pgem_pool_fit(pool, offset, bytes);
         return p;
     }
     if (bytes <= header->bytes) { /* shrinking a slice below the top: keep it where it is */
@@ -174,7 +173,7 @@ void *cs_di_realloc(void *p, int n, size_t size, int *ok)
         *ok = 1;
         return p;
     }
-    void *fresh = pgem_pool_take(count, size);
+    void *fresh = pgem_pool_take(n, size);
     if (fresh == NULL) {
         *ok = 0;
         return p;
