@@ -256,6 +256,69 @@ static void test_pruned_loops_leave_the_structure(void **state)
     pgem_destroy(graph);
 }
 
+/* ring() and its false loops in an instance whose fill budget is fill_budget. */
+static pgem_t *corrupted_ring_budget(uint32_t fill_budget, double *truth, uint32_t *false_loops)
+{
+    pgem_config_t config = {2, RING, 3 * RING, fill_budget};
+    pgem_t *graph = NULL;
+    assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
+    test_ring_2d(graph, RING, 6, SIGMA, HEADING_SIGMA, 33, truth);
+    add_false_loops(graph, FALSE_LOOPS, 77, false_loops);
+    return graph;
+}
+
+/* Dormant loops (weight below the dormant threshold) get no place in H's structure, so EM
+ * solves a corrupted graph inside a fill budget that only the clean structure fits; with the
+ * exact Newton matrix (dormant_threshold < 0) the same solve needs the corrupted fill and fails
+ * cleanly in that budget. Both reach the same answer when the budget allows. */
+static void test_dormant_loops_keep_the_factor_sparse(void **state)
+{
+    (void)state;
+    double truth[3 * RING], dormant[3 * RING], exact[3 * RING], before[3 * RING], after[3 * RING];
+    uint32_t false_loops[FALSE_LOOPS];
+    pgem_memory_stats_t clean, corrupted;
+    pgem_t *probe = ring(33, truth);
+    assert_int_equal(pgem_analyze(probe), PGEM_OK);
+    pgem_get_memory_stats(probe, &clean);
+    add_false_loops(probe, FALSE_LOOPS, 77, false_loops);
+    assert_int_equal(pgem_analyze(probe), PGEM_OK);
+    pgem_get_memory_stats(probe, &corrupted);
+    pgem_destroy(probe);
+    assert_true(corrupted.factor_nonzeros > clean.factor_nonzeros + clean.factor_nonzeros / 5);
+    const uint32_t tight_budget = clean.factor_nonzeros + (corrupted.factor_nonzeros - clean.factor_nonzeros) / 4;
+
+    pgem_robust_options_t options = em_options();
+    pgem_robust_summary_t summary;
+    pgem_t *graph = corrupted_ring_budget(tight_budget, truth, false_loops);
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.pruned, FALSE_LOOPS);
+    for (int m = 0; m < FALSE_LOOPS; m++) {
+        pgem_edge_view_t edge;
+        assert_int_equal(pgem_edge_at(graph, false_loops[m], &edge), PGEM_OK);
+        assert_int_equal(edge.active, 0);
+    }
+    test_snapshot(graph, dormant);
+    pgem_destroy(graph);
+
+    options.dormant_threshold = -1.0; /* exact Newton matrix: needs the corrupted fill */
+    graph = corrupted_ring_budget(tight_budget, truth, false_loops);
+    test_snapshot(graph, before);
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_ERR_FILL_BUDGET);
+    assert_false(summary.usable);
+    test_snapshot(graph, after);
+    assert_memory_equal(before, after, sizeof before);
+    pgem_destroy(graph);
+
+    graph = corrupted_ring_budget(corrupted.factor_nonzeros, truth, false_loops);
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.pruned, FALSE_LOOPS);
+    test_snapshot(graph, exact);
+    pgem_destroy(graph);
+    for (int k = 0; k < 3 * RING; k++) {
+        assert_near(dormant[k], exact[k], 1e-7);
+    }
+}
+
 /* The final consistency test prunes a false loop EM alone keeps. The loop claims a loose
  * 0.2 m (so the chain, surer than that, barely bends to it) and is 1.5 m off: chi2 ~ 56 at the
  * truth, weight ~ 0.018 > tau, so it survives the rounds, but it still fails the 99.9%
@@ -296,6 +359,7 @@ int main(void)
         cmocka_unit_test(test_em_weights_are_cauchy_weights),
         cmocka_unit_test(test_deterministic_and_resettable),
         cmocka_unit_test(test_pruned_loops_leave_the_structure),
+        cmocka_unit_test(test_dormant_loops_keep_the_factor_sparse),
         cmocka_unit_test(test_consistency_gate_prunes_what_em_keeps),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -66,6 +66,13 @@ typedef struct pgem_robust_options {
     double gate;                     /**< EM consistency test (not literal): chi2 threshold;
                                         0 means the 99.9% chi-square quantile for the edge's
                                         degrees of freedom (16.27 in 2D, 22.46 in 3D) */
+    double dormant_threshold;        /**< EM (not literal): a loop whose weight is below it is
+                                        dormant: it keeps its weight and its exact gradient,
+                                        but the block coupling its two poses is left out of
+                                        the Newton matrix unless H's structure already holds
+                                        it, so false loops do not make the factor dense.
+                                        0 means prune_threshold / 100; negative: never
+                                        (the exact Newton matrix, as the literal method) */
     pgem_robust_fn on_round;         /**< may be NULL; return non-zero to stop */
     void *user;                      /**< passed to on_round */
 } pgem_robust_options_t;

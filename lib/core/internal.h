@@ -81,6 +81,16 @@ typedef struct pgem_linear {
     pgem_cs_pool_t cs_pool;    /* CSparse's workspace during analyses */
 } pgem_linear_t;
 
+/* States of an edge (edge_active). A dormant loop closure (EM weight below the prune
+ * threshold) stays in the problem with its weight, but H's structure is not built for it: its
+ * coupling block is left out of the Newton matrix unless the structure already has a place
+ * for it (linalg/assemble.c). Random false loops would otherwise make the factor dense. */
+typedef enum pgem_edge_state {
+    PGEM_EDGE_PRUNED = 0,  /* out of the problem until pgem_robust_reset or the gate */
+    PGEM_EDGE_ACTIVE = 1,  /* in the problem and in H's structure */
+    PGEM_EDGE_DORMANT = 2  /* in the problem; in the structure only if it already was */
+} pgem_edge_state_t;
+
 struct pgem {
     pgem_config_t config;      /* resolved configuration */
     int pose_size;             /* doubles per pose: 3 or 7 */
@@ -106,7 +116,7 @@ struct pgem {
     double *edge_measurement;  /* [max_edges * pose_size] */
     double *edge_information;  /* [max_edges * tangent * tangent] full, row-major */
     uint8_t *edge_kind;        /* [max_edges] pgem_edge_kind_t */
-    uint8_t *edge_active;      /* [max_edges] 0 once pruned by the robust layer */
+    uint8_t *edge_active;      /* [max_edges] pgem_edge_state_t: active, dormant or pruned */
     double *edge_weight;       /* [max_edges] robust weight, 1 for odometry */
 
     pgem_linear_t linear;      /* normal equations */
@@ -153,7 +163,16 @@ static inline int pgem_edge_blocks(const pgem_t *graph, uint32_t k, int *a, int 
 {
     *a = graph->linear.pose_block[graph->edge_from[k]];
     *b = graph->linear.pose_block[graph->edge_to[k]];
-    return *a >= 0 && *b >= 0 && (graph->linear.all_edges || graph->edge_active[k]);
+    return *a >= 0 && *b >= 0 &&
+           (graph->linear.all_edges || graph->edge_active[k] == PGEM_EDGE_ACTIVE);
+}
+/* 1 if edge k, made active, can be assembled into the current structure: it has a place
+ * there, or touches a held pose (no off-diagonal block), or there is no structure yet. */
+static inline int pgem_edge_in_structure(const pgem_t *graph, uint32_t k)
+{
+    const pgem_linear_t *linear = &graph->linear;
+    return !linear->valid || linear->all_edges || linear->edge_offset[k] >= 0 ||
+           linear->pose_block[graph->edge_from[k]] < 0 || linear->pose_block[graph->edge_to[k]] < 0;
 }
 int pgem_pattern_number_free(pgem_t *graph);
 int pgem_pattern_order(pgem_t *graph, int block_count);
@@ -167,7 +186,7 @@ int pgem_linear_factor(pgem_t *graph);
 void pgem_linear_solve(pgem_t *graph, double *step);
 void pgem_linear_invalidate(pgem_t *graph);
 
-/* Weighted chi2 (active edges, robust weights) under the current estimate. */
+/* Weighted chi2 (edges not pruned, robust weights) under the current estimate. */
 double pgem_weighted_chi2(const pgem_t *graph);
 
 /* Solver pieces shared by Gauss-Newton and Levenberg-Marquardt. */

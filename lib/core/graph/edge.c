@@ -77,7 +77,7 @@ int pgem_add_edge(pgem_t *graph, pgem_id_t from, pgem_id_t to, const double *mea
            (size_t)graph->pose_size * sizeof(double));
     memcpy(graph->edge_information + (size_t)k * info_size, information, info_size * sizeof(double));
     graph->edge_kind[k] = (uint8_t)kind;
-    graph->edge_active[k] = 1u;
+    graph->edge_active[k] = PGEM_EDGE_ACTIVE;
     graph->edge_weight[k] = 1.0;
     graph->edge_count++;
     pgem_linear_invalidate(graph);
@@ -108,6 +108,6 @@ int pgem_edge_at(const pgem_t *graph, uint32_t index, pgem_edge_view_t *view)
     memcpy(view->information, graph->edge_information + (size_t)index * info_size,
            info_size * sizeof(double));
     view->weight = graph->edge_weight[index];
-    view->active = graph->edge_active[index];
+    view->active = graph->edge_active[index] != PGEM_EDGE_PRUNED; /* dormant: not pruned */
     return PGEM_OK;
 }

@@ -57,7 +57,7 @@ double pgem_weighted_chi2(const pgem_t *graph)
 {
     double chi2 = 0.0;
     for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (graph->edge_active[k]) {
+        if (graph->edge_active[k] != PGEM_EDGE_PRUNED) {
             chi2 += graph->edge_weight[k] * pgem_edge_mahalanobis(graph, k);
         }
     }

@@ -149,7 +149,7 @@ int pgem_linear_analyze(pgem_t *graph)
     int status = pgem_linear_analyze_once(graph);
     if (status == PGEM_ERR_FILL_BUDGET) {
         uint32_t k = 0;
-        while (k < graph->edge_count && graph->edge_active[k]) {
+        while (k < graph->edge_count && graph->edge_active[k] == PGEM_EDGE_ACTIVE) {
             k++;
         }
         if (k < graph->edge_count) { /* some edge was left out: try the full structure */

@@ -1,5 +1,9 @@
-/* Linearisation: every active edge's blocks added straight into the permuted upper CSC of H
- * through the positions the analysis found, and its gradient into the right-hand side. */
+/* Linearisation: every edge's blocks added straight into the permuted upper CSC of H through
+ * the positions the analysis found, and its gradient into the right-hand side. Pruned edges are
+ * left out. A dormant loop closure (EM weight below the prune threshold) that has no place in
+ * the structure adds its gradient and its two diagonal blocks but not the off-diagonal block
+ * that couples its poses: the Newton matrix stays positive semi-definite and as sparse as the
+ * structure, and the gradient, hence the optimum an M-step converges to, is exact. */
 #include <string.h>
 
 #include "internal.h"
@@ -115,7 +119,7 @@ double pgem_linear_assemble(pgem_t *graph)
     memset(linear->rhs, 0, (size_t)linear->scalar_count * sizeof(double));
     double chi2 = 0.0;
     for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (!graph->edge_active[k]) {
+        if (graph->edge_active[k] == PGEM_EDGE_PRUNED) {
             continue;
         }
         const int from = linear->pose_block[graph->edge_from[k]];
@@ -127,7 +131,7 @@ double pgem_linear_assemble(pgem_t *graph)
         if (to >= 0) {
             pgem_add_diagonal(linear, to, blocks.to_to, blocks.gradient_to);
         }
-        if (from >= 0 && to >= 0) {
+        if (from >= 0 && to >= 0 && linear->edge_offset[k] >= 0) { /* see the header comment */
             pgem_add_off_diagonal(linear, graph, k, blocks.from_to);
         }
     }

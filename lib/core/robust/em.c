@@ -19,6 +19,11 @@ static pgem_robust_options_t pgem_robust_resolve(const pgem_robust_options_t *op
     out.max_em_iterations = out.max_em_iterations > 0u ? out.max_em_iterations
                                                        : (out.literal ? 100u : 5u);
     out.max_rounds = out.max_rounds > 0u ? out.max_rounds : 20u;
+    if (out.literal || out.kernel != PGEM_KERNEL_EM || out.dormant_threshold < 0.0) {
+        out.dormant_threshold = 0.0; /* no weight is below 0: never dormant */
+    } else if (out.dormant_threshold == 0.0) {
+        out.dormant_threshold = out.prune_threshold / 100.0;
+    }
     return out;
 }
 
@@ -29,45 +34,73 @@ void pgem_robust_reset(pgem_t *graph)
     }
     uint32_t returned = 0;
     for (uint32_t k = 0; k < graph->edge_count; k++) {
-        returned += !graph->edge_active[k];
+        returned += graph->edge_active[k] != PGEM_EDGE_ACTIVE;
         graph->edge_weight[k] = 1.0;
-        graph->edge_active[k] = 1u;
+        graph->edge_active[k] = PGEM_EDGE_ACTIVE;
     }
     if (returned > 0u) {
         pgem_linear_invalidate(graph); /* pruned loops were out of H's structure */
     }
 }
 
-/* E-step: every active loop closure's weight from its chi2 under the current estimate;
- * returns the largest change. */
+/* E-step: every loop closure not pruned gets its weight from its chi2 under the current
+ * estimate; it turns dormant when the weight is below the dormant threshold, active otherwise.
+ * Returns the largest weight change. */
 static double pgem_e_step(pgem_t *graph, const pgem_robust_options_t *options)
 {
     double largest = 0.0;
     for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (graph->edge_kind[k] != PGEM_EDGE_LOOP || !graph->edge_active[k]) {
+        if (graph->edge_kind[k] != PGEM_EDGE_LOOP || graph->edge_active[k] == PGEM_EDGE_PRUNED) {
             continue;
         }
         double weight = pgem_kernel_weight(options->kernel, pgem_edge_mahalanobis(graph, k),
                                            options->scale);
         largest = fmax(largest, fabs(weight - graph->edge_weight[k]));
         graph->edge_weight[k] = weight;
+        graph->edge_active[k] = weight < options->dormant_threshold ? PGEM_EDGE_DORMANT
+                                                                    : PGEM_EDGE_ACTIVE;
     }
     return largest;
 }
 
-/* Prunes active loops whose weight fell below the threshold; returns how many. */
+/* Keeps H's structure fit for the next M-step. It must grow when an active edge has no place
+ * in it (a loop woke up or was re-admitted). It may shrink: dormant and pruned loops still in
+ * it cost fill, so it is rebuilt without them once they are more than a sixteenth of the loops
+ * it holds (the full-structure fallback, which holds every edge by design, is kept). */
+static void pgem_review_structure(pgem_t *graph)
+{
+    const pgem_linear_t *linear = &graph->linear;
+    if (!linear->valid) {
+        return;
+    }
+    uint32_t held = 0, idle = 0;
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        const int active = graph->edge_active[k] == PGEM_EDGE_ACTIVE;
+        if (active && !pgem_edge_in_structure(graph, k)) {
+            pgem_linear_invalidate(graph);
+            return;
+        }
+        if (graph->edge_kind[k] == PGEM_EDGE_LOOP && linear->edge_offset[k] >= 0) {
+            held++;
+            idle += (uint32_t)!active;
+        }
+    }
+    if (!linear->all_edges && idle > 0u && idle * 16u > held) {
+        pgem_linear_invalidate(graph);
+    }
+}
+
+/* Prunes the loops (active or dormant) whose weight fell below the threshold; returns how many.
+ * The structure is reviewed before the next M-step. */
 static uint32_t pgem_prune(pgem_t *graph, double threshold)
 {
     uint32_t pruned = 0;
     for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (graph->edge_kind[k] == PGEM_EDGE_LOOP && graph->edge_active[k] &&
+        if (graph->edge_kind[k] == PGEM_EDGE_LOOP && graph->edge_active[k] != PGEM_EDGE_PRUNED &&
             graph->edge_weight[k] < threshold) {
-            graph->edge_active[k] = 0u;
+            graph->edge_active[k] = PGEM_EDGE_PRUNED;
             pruned++;
         }
-    }
-    if (pruned > 0u) {
-        pgem_linear_invalidate(graph); /* the next M-step factors without them */
     }
     return pruned;
 }
@@ -79,7 +112,7 @@ static void pgem_count_loops(const pgem_t *graph, pgem_robust_summary_t *summary
     for (uint32_t k = 0; k < graph->edge_count; k++) {
         if (graph->edge_kind[k] == PGEM_EDGE_LOOP) {
             summary->loops++;
-            summary->pruned += !graph->edge_active[k];
+            summary->pruned += graph->edge_active[k] == PGEM_EDGE_PRUNED;
         }
     }
 }
@@ -98,6 +131,7 @@ static int pgem_m_step(pgem_t *graph, const pgem_robust_options_t *options,
         inner = *solve;
     }
     inner.max_iterations = options->m_step_iterations;
+    pgem_review_structure(graph);
     int status = pgem_optimize(graph, &inner, &result);
     summary->gn_iterations += result.iterations;
     summary->em_iterations++;
@@ -192,8 +226,8 @@ static uint32_t pgem_gate(pgem_t *graph, double gate, pgem_robust_summary_t *sum
             continue;
         }
         int consistent = pgem_edge_mahalanobis(graph, k) < gate;
-        if (consistent != (int)graph->edge_active[k]) {
-            graph->edge_active[k] = (uint8_t)consistent;
+        if (consistent != (graph->edge_active[k] != PGEM_EDGE_PRUNED)) {
+            graph->edge_active[k] = consistent ? PGEM_EDGE_ACTIVE : PGEM_EDGE_PRUNED;
             summary->readmitted += (uint32_t)consistent;
             summary->gated += (uint32_t)!consistent;
             changed++;
@@ -210,8 +244,11 @@ static int pgem_polish(pgem_t *graph, const pgem_solve_options_t *solve, pgem_ro
 {
     pgem_summary_t result;
     for (uint32_t k = 0; k < graph->edge_count; k++) {
-        graph->edge_weight[k] = graph->edge_active[k] ? 1.0 : graph->edge_weight[k];
+        graph->edge_weight[k] = graph->edge_active[k] != PGEM_EDGE_PRUNED ? 1.0 : graph->edge_weight[k];
+        graph->edge_active[k] = graph->edge_active[k] != PGEM_EDGE_PRUNED ? PGEM_EDGE_ACTIVE
+                                                                          : PGEM_EDGE_PRUNED;
     }
+    pgem_review_structure(graph);
     int status = pgem_optimize(graph, solve, &result);
     summary->gn_iterations += result.iterations;
     return status;
@@ -263,6 +300,12 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
         status = pgem_em_with_gate(graph, &resolved, solve, out);
     } else {
         status = pgem_em_rounds(graph, &resolved, solve, out);
+    }
+    for (uint32_t k = 0; k < graph->edge_count; k++) { /* none stays dormant after the solve */
+        if (graph->edge_active[k] == PGEM_EDGE_DORMANT) {
+            graph->edge_active[k] = PGEM_EDGE_ACTIVE;
+            pgem_linear_invalidate(graph);
+        }
     }
     if (status != PGEM_OK) {
         pgem_restore_initial(graph);
