@@ -53,26 +53,45 @@ static inline void pgem_solve_diagonal(const pgem_linear_t *linear, int b, int i
 }
 
 /* X_R -= L_RI Y for every block row R already in column I, then stores L(K, I) = Y^T.
- * b is passed as a constant by the callers so the compiler specialises the loops. */
-static inline void pgem_eliminate(pgem_linear_t *linear, int b, int i, int k, const double *y)
+ * b is passed as a constant by the callers so the compiler specialises the loops. Y is copied
+ * to the stack and each row of X_R is accumulated in a local array: the compiler then knows
+ * they do not alias L or each other, keeps them in registers and vectorises the row update.
+ * Every element still subtracts its products in the order m = 0 .. b-1. */
+static inline void pgem_eliminate(pgem_linear_t *linear, int b, int i, int k, const double *y_in)
 {
     double *values = linear->factor_values;
     const int filled = linear->fill_next[i];
     int *block_rows = linear->factor_block_rows + linear->factor_block_colptr[i];
     int base[PGEM_TANGENT_SIZE_MAX]; /* start of the off-diagonal rows in column i*b+c */
+    double y[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     for (int c = 0; c < b; c++) {
         base[c] = linear->factor_colptr[i * b + c] + (b - c);
     }
+    for (int q = 0; q < b * b; q++) {
+        y[q] = y_in[q];
+    }
     for (int slot = 0; slot < filled; slot++) {
-        int row_block = block_rows[slot];
-        double *target = linear->block_work + (size_t)row_block * (size_t)(b * b);
+        double *target = linear->block_work + (size_t)block_rows[slot] * (size_t)(b * b);
+        double l[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX]; /* l[r * b + m] = L_RI(r, m) */
         for (int m = 0; m < b; m++) {
             const double *l_column = values + base[m] + slot * b;
             for (int r = 0; r < b; r++) {
-                const double l = l_column[r];
+                l[r * b + m] = l_column[r];
+            }
+        }
+        for (int r = 0; r < b; r++) {
+            double row[PGEM_TANGENT_SIZE_MAX];
+            for (int c = 0; c < b; c++) {
+                row[c] = target[r * b + c];
+            }
+            for (int m = 0; m < b; m++) {
+                const double factor = l[r * b + m];
                 for (int c = 0; c < b; c++) {
-                    target[r * b + c] -= l * y[m * b + c];
+                    row[c] -= factor * y[m * b + c];
                 }
+            }
+            for (int c = 0; c < b; c++) {
+                target[r * b + c] = row[c];
             }
         }
     }
