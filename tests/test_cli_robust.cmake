@@ -103,6 +103,7 @@ pgem_ok(limited optimize sim_random_bad.g2o --robust em --max-iterations 1 --jso
 pgem_ok(unlimited optimize sim_random_bad.g2o --robust em --json --quiet)
 json_value("${limited_out}" gn_iterations limited_iterations)
 json_value("${unlimited_out}" gn_iterations unlimited_iterations)
+block_adds_up(unlimited "${unlimited_out}")
 if(NOT limited_iterations LESS unlimited_iterations)
   fail("--max-iterations ignored by --robust em: ${limited_iterations} vs ${unlimited_iterations}")
 endif()

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import json
 import math
 import statistics
@@ -37,9 +38,12 @@ import sys
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any, Callable, Iterable, Sequence
 
-import numpy as np
+try:
+    import numpy as np
+except ImportError:  # only the GTSAM worker needs it (bench.py --peer none imports this module)
+    np = None
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_gn  # noqa: E402  (shared helpers: g2o parsing, gauge priors, machine header, pgem checks)
@@ -90,7 +94,9 @@ EVAL_KEYS = ("poses_matched", "ate_translation_rmse", "ate_rotation_rmse_deg", "
              "true_positives", "false_positives", "false_negatives", "precision", "recall",
              "inlier_precision", "inlier_recall")
 SOLVER_KEYS = ("iterations", "rounds", "em_iterations", "gn_iterations", "pruned", "readmitted",
-               "initial_chi2", "final_chi2")
+               "initial_chi2", "final_chi2", "termination", "poses", "edges", "analyses", "factor_nonzeros",
+               "block_bytes", "block_bytes_per_pose", "block_bytes_per_edge", "block_bytes_factor",
+               "peak_rss_growth", "peak_reset", "is_3d")
 
 
 def first_line(text: str) -> str:
@@ -146,6 +152,7 @@ class WorkerGraph:
     is_3d: bool
     known_inliers: list[int]  # factor indices: gauge priors and odometry
     loops: list[tuple[int, int, int, Any, Any]]  # (factor index, from, to, factor, Gaussian model)
+    parsed: bench_gn.G2oGraph  # the file's edges, for the g2o-convention chi2
 
 
 def build_worker_graph(gtsam: Any, path: Path, kernel: Any) -> WorkerGraph:
@@ -177,21 +184,7 @@ def build_worker_graph(gtsam: Any, path: Path, kernel: Any) -> WorkerGraph:
             loops.append((index, source, target, factor, gaussian))
         else:
             known_inliers.append(index)
-    return WorkerGraph(graph, initial, parsed.vertex_ids, parsed.is_3d, known_inliers, loops)
-
-
-def write_vertices(path: Path, values: Any, vertex_ids: Sequence[int], is_3d: bool) -> None:
-    """Writes the estimate as a vertices-only g2o file (unit quaternions, w last)."""
-    poses = bench_gn.gtsam_values_to_poses(values, vertex_ids, is_3d)
-    with open(path, "w", encoding="ascii") as handle:
-        for vertex in vertex_ids:
-            pose = poses[vertex]
-            if is_3d:
-                q = pose[3:7] / np.linalg.norm(pose[3:7])
-                numbers = list(pose[:3]) + list(q)
-                handle.write(f"VERTEX_SE3:QUAT {vertex} " + " ".join(f"{v:.17g}" for v in numbers) + "\n")
-            else:
-                handle.write(f"VERTEX_SE2 {vertex} " + " ".join(f"{v:.17g}" for v in pose) + "\n")
+    return WorkerGraph(graph, initial, parsed.vertex_ids, parsed.is_3d, known_inliers, loops, parsed)
 
 
 def write_weights(path: Path, loops: Sequence[tuple[int, int, int, Any, Any]], weights: Sequence[float]) -> None:
@@ -202,8 +195,23 @@ def write_weights(path: Path, loops: Sequence[tuple[int, int, int, Any, Any]], w
             handle.write(f"{source} {target} {weight:.9g} accepted\n")
 
 
+def kept_chi2(problem: WorkerGraph, values: Any, weights: Sequence[float]) -> float:
+    """g2o-convention chi2 at the estimate over the edges kept at weight 1: odometry and every
+    loop closure weighted at least DEFAULT_REJECT_BELOW (pgem's final chi2 after pruning)."""
+    parsed = problem.parsed
+    keep = np.abs(parsed.edge_from - parsed.edge_to) == 1
+    loop_edges = np.flatnonzero(~keep)  # in file order, as problem.loops and weights
+    keep[loop_edges] = np.asarray(weights, dtype=float) >= DEFAULT_REJECT_BELOW
+    kept = dataclasses.replace(parsed, edge_from=parsed.edge_from[keep], edge_to=parsed.edge_to[keep],
+                               measurements=parsed.measurements[keep], information=parsed.information[keep])
+    return bench_gn.g2o_chi2(kept, bench_gn.gtsam_values_to_poses(values, problem.vertex_ids, problem.is_3d))
+
+
 def gtsam_worker(method: str, path: Path, outdir: Path) -> dict[str, Any]:
-    """Solves one corrupted file with one GTSAM method; writes the result and the weights."""
+    """Solves one corrupted file with one GTSAM method; writes the result and the weights.
+
+    Besides the time, the summary has the peak resident-set growth during the solve (as
+    bench_gn measures it), LM's iteration count (not for GNC) and the kept edges' chi2."""
     import gtsam  # imported here so the parent process stays small
 
     mestimator = gtsam.noiseModel.mEstimator
@@ -215,6 +223,8 @@ def gtsam_worker(method: str, path: Path, outdir: Path) -> dict[str, Any]:
     problem = build_worker_graph(gtsam, path, kernel)
     summary: dict[str, Any] = {"method": method, "loops": len(problem.loops)}
 
+    summary["peak_reset"] = bench_gn.reset_peak_rss()
+    rss_before = bench_gn.proc_status_bytes("VmRSS")
     if method == "gtsam-gnc":
         params = gtsam.GncLMParams(lm_params(gtsam))
         params.setLossType(gtsam.GncLossType.TLS)
@@ -223,6 +233,7 @@ def gtsam_worker(method: str, path: Path, outdir: Path) -> dict[str, Any]:
         optimizer = gtsam.GncLMOptimizer(problem.graph, problem.initial, params)
         result = optimizer.optimize()
         seconds = time.perf_counter() - start
+        peak_after = bench_gn.proc_status_bytes("VmHWM")
         all_weights = np.asarray(optimizer.getWeights()).reshape(-1)
         weights = [float(all_weights[index]) for index, *_ in problem.loops]
     else:
@@ -230,6 +241,7 @@ def gtsam_worker(method: str, path: Path, outdir: Path) -> dict[str, Any]:
         optimizer = gtsam.LevenbergMarquardtOptimizer(problem.graph, problem.initial, lm_params(gtsam))
         result = optimizer.optimize()
         seconds = time.perf_counter() - start
+        peak_after = bench_gn.proc_status_bytes("VmHWM")
         summary["iterations"] = int(optimizer.iterations())
         # The weight GTSAM's iteratively reweighted solve gives a robust factor: the
         # m-estimator's weight of the norm of the Gaussian-whitened error (Block reweighting).
@@ -237,8 +249,10 @@ def gtsam_worker(method: str, path: Path, outdir: Path) -> dict[str, Any]:
                    for _, _, _, factor, gaussian in problem.loops]
 
     summary["solve_seconds"] = seconds
+    summary["peak_rss_growth"] = peak_after - rss_before
+    summary["final_chi2"] = kept_chi2(problem, result, weights)
     outdir.mkdir(parents=True, exist_ok=True)
-    write_vertices(outdir / RESULT_FILE, result, problem.vertex_ids, problem.is_3d)
+    bench_gn.write_vertices(outdir / RESULT_FILE, result, problem.vertex_ids, problem.is_3d)
     write_weights(outdir / WEIGHTS_FILE, problem.loops, weights)
     return summary
 
@@ -341,14 +355,21 @@ def make_corrupted(pgem: Path, clean: Path, celldir: Path, policy: str, count: i
     return corrupted
 
 
-def solve_pgem(pgem: Path, method: str, corrupted: Path, outdir: Path) -> tuple[float, dict[str, Any]]:
-    """One pgem robust solve; returns (solve seconds, its JSON summary)."""
+def pgem_optimize(pgem: Path, graph: Path, options: Sequence[str], outdir: Path) -> dict[str, Any]:
+    """`pgem optimize GRAPH OPTIONS --json --quiet`, writing RESULT_FILE and WEIGHTS_FILE into
+    outdir; returns its JSON summary, or raises RunFailure unless the estimate is usable."""
     outdir.mkdir(parents=True, exist_ok=True)
-    command = [str(pgem), "optimize", str(corrupted), *PGEM_METHODS[method], "--json", "--quiet",
+    command = [str(pgem), "optimize", str(graph), *options, "--json", "--quiet",
                "-o", str(outdir / RESULT_FILE), "--weights", str(outdir / WEIGHTS_FILE)]
-    summary = parse_json(run_command(command, f"pgem optimize {' '.join(PGEM_METHODS[method])}"), "pgem optimize")
+    summary = parse_json(run_command(command, f"pgem optimize {' '.join(options)}"), "pgem optimize")
     if not all(bench_gn.pgem_solve_status(summary)):
         raise RunFailure(f"pgem optimize: status {summary.get('status')}, usable {summary.get('usable')}")
+    return summary
+
+
+def solve_pgem(pgem: Path, method: str, corrupted: Path, outdir: Path) -> tuple[float, dict[str, Any]]:
+    """One pgem robust solve; returns (solve seconds, its JSON summary)."""
+    summary = pgem_optimize(pgem, corrupted, PGEM_METHODS[method], outdir)
     return float(summary["solve_seconds"]), summary
 
 
@@ -367,26 +388,37 @@ def evaluate(pgem: Path, outdir: Path, reference: Path, corrupted: Path, reject_
     return parse_json(run_command(command, "pgem eval"), "pgem eval")
 
 
-def run_method(args: argparse.Namespace, run: Run, corrupted: Path, reference: Path) -> None:
-    """Solves and scores one run in place; failures become the run's status."""
-    outdir = corrupted.parent / run.method
+def execute(run: Run, outdir: Path, solve: Callable[[], dict[str, Any]],
+            score: Callable[[], dict[str, Any]]) -> None:
+    """Solves (solve returns the solver's summary, with solve_seconds) and scores one run in
+    place, from outdir's RESULT_FILE and WEIGHTS_FILE; failures become the run's status."""
     for stale in (outdir / RESULT_FILE, outdir / WEIGHTS_FILE):
         stale.unlink(missing_ok=True)  # never score a previous run's files
     start = time.perf_counter()
     try:
-        if run.method in PGEM_METHODS:
-            run.solve_seconds, summary = solve_pgem(args.pgem, run.method, corrupted, outdir)
-        else:
-            run.solve_seconds, summary = solve_gtsam(run.method, corrupted, outdir, args.timeout)
+        summary = solve()
+        run.solve_seconds = float(summary["solve_seconds"])
         run.solver = {key: summary[key] for key in SOLVER_KEYS if key in summary}
         run.wall_seconds = time.perf_counter() - start
-        run.scores = evaluate(args.pgem, outdir, reference, corrupted, args.reject_below)
+        run.scores = score()
     except RunFailure as failure:
         run.status, run.error = failure.status, str(failure)
     except (KeyError, TypeError, ValueError, OSError) as error:  # malformed output: still just one run
         run.status, run.error = "failed", f"{type(error).__name__}: {error}"
     if run.status != "ok":
         run.wall_seconds = run.wall_seconds or time.perf_counter() - start
+
+
+def run_method(args: argparse.Namespace, run: Run, corrupted: Path, reference: Path) -> None:
+    """Solves and scores one run of the grid in place; failures become the run's status."""
+    outdir = corrupted.parent / run.method
+    if run.method in PGEM_METHODS:
+        def solve() -> dict[str, Any]:
+            return solve_pgem(args.pgem, run.method, corrupted, outdir)[1]
+    else:
+        def solve() -> dict[str, Any]:
+            return solve_gtsam(run.method, corrupted, outdir, args.timeout)[1]
+    execute(run, outdir, solve, lambda: evaluate(args.pgem, outdir, reference, corrupted, args.reject_below))
 
 
 # --------------------------------------------------------------------------------------

@@ -70,9 +70,11 @@ int pgem_cli_finish(const char *prefix, const char *path, FILE *file, int failed
 int pgem_cli_write_weights(const pgem_t *instance, const char *path);
 
 /* Creates an instance sized for a file graph and loads it, with the fill budget set to
- * exactly what the symbolic analysis asks for.
+ * exactly what the symbolic analysis asks for. *analysis_seconds (may be NULL) receives the
+ * time of the analysis the instance keeps (a solve that follows does not repeat it).
  * Prints errors to stderr. Returns PGEM_OK or an error code. */
-int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance);
+int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance,
+                  double *analysis_seconds);
 
 /* Writes an instance to a g2o file; prints errors. Returns a PGEM_EXIT_* code. */
 int pgem_cli_write(const pgem_t *instance, const char *path);

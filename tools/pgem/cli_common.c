@@ -127,19 +127,33 @@ static int pgem_cli_try_load(const pgem_io_graph_t *file, const pgem_config_t *c
     return status;
 }
 
+/* pgem_analyze, timed into *seconds. */
+static int pgem_cli_analyze(pgem_t *instance, double *seconds)
+{
+    double start = pgem_cli_now();
+    int status = pgem_analyze(instance);
+    *seconds = pgem_cli_now() - start;
+    return status;
+}
+
 /* Recreates *instance with a fill budget of exactly `fill` and re-analyses it. */
 static int pgem_cli_resize(const pgem_io_graph_t *file, pgem_config_t *config, uint32_t fill,
-                           pgem_t **instance)
+                           pgem_t **instance, double *seconds)
 {
     pgem_destroy(*instance);
     *instance = NULL;
     config->fill_budget = fill;
     int status = pgem_cli_try_load(file, config, instance);
-    return status == PGEM_OK ? pgem_analyze(*instance) : status;
+    return status == PGEM_OK ? pgem_cli_analyze(*instance, seconds) : status;
 }
 
-int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance)
+int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance,
+                  double *analysis_seconds)
 {
+    double seconds = 0.0;
+    if (analysis_seconds != NULL) {
+        *analysis_seconds = 0.0;
+    }
     pgem_config_t config;
     pgem_io_config(file, &config);
     int status = pgem_cli_try_load(file, &config, instance);
@@ -147,12 +161,15 @@ int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instan
         return status;
     }
     /* The factor's size is known only after the analysis: size the block to exactly it. */
-    status = pgem_analyze(*instance);
+    status = pgem_cli_analyze(*instance, &seconds);
     pgem_memory_stats_t stats;
     pgem_get_memory_stats(*instance, &stats);
     if (status == PGEM_ERR_FILL_BUDGET ||
         (status == PGEM_OK && stats.factor_nonzeros < stats.factor_budget - stats.factor_budget / 4u)) {
-        status = pgem_cli_resize(file, &config, stats.factor_nonzeros, instance);
+        status = pgem_cli_resize(file, &config, stats.factor_nonzeros, instance, &seconds);
+    }
+    if (analysis_seconds != NULL) {
+        *analysis_seconds = seconds;
     }
     if (status != PGEM_OK && *instance != NULL) {
         fprintf(stderr, "pgem: %s: %s\n", path, pgem_last_error(*instance));

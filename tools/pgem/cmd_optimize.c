@@ -15,6 +15,7 @@ typedef struct pgem_optimize_args {
     int json;                    /* summary as one JSON object on stdout */
     pgem_robust_options_t robust; /* --robust and its parameters */
     const char *weights;         /* per-loop weights file (NULL: none) */
+    double analysis_seconds;     /* the symbolic analysis run while loading (not in the solve) */
 } pgem_optimize_args_t;
 
 /* What the progress callback needs. */
@@ -31,6 +32,7 @@ static void pgem_optimize_help(FILE *out)
             "                        [--robust em|cauchy|huber|dcs|none] [--robust-scale C]\n"
             "                        [--prune-threshold T] [--m-step-iterations N] [--restart]\n"
             "                        [--max-em-iterations N] [--gate X] [--literal]\n"
+            "                        [--dormant-threshold D|off]\n"
             "                        [--weights FILE] [--quiet] [--json]\n"
             "\n"
             "Reads a g2o (VERTEX_SE2/EDGE_SE2, VERTEX_SE3:QUAT/EDGE_SE3:QUAT, FIX) or TORO 2D\n"
@@ -50,6 +52,10 @@ static void pgem_optimize_help(FILE *out)
             "  --gate X            EM: chi2 of the final consistency test (default: 99.9%%\n"
             "                      chi-square quantile, 16.27 in 2D, 22.46 in 3D)\n"
             "  --restart           EM: restart from the initial estimate after pruning\n"
+            "  --dormant-threshold D|off  EM: a loop weighing less than D keeps its weight\n"
+            "                      and gradient but gets no place in the factor (default\n"
+            "                      T/100; off: the exact Newton matrix, slower with many\n"
+            "                      false loops)\n"
             "  --literal           EM exactly as published: keep the EM weights at the end\n"
             "                      (default: re-solve with accepted loops at weight 1)\n"
             "  --weights FILE      write one line per loop closure: from to weight state\n"
@@ -111,6 +117,13 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
             k++;
         } else if (strcmp(arg, "--max-em-iterations") == 0) {
             if (!pgem_cli_parse_u32(arg, value, &args->robust.max_em_iterations)) {
+                return PGEM_EXIT_USAGE;
+            }
+            k++;
+        } else if (strcmp(arg, "--dormant-threshold") == 0) {
+            if (value != NULL && strcmp(value, "off") == 0) {
+                args->robust.dormant_threshold = -1.0;
+            } else if (!pgem_cli_parse_number("pgem", arg, value, 0, &args->robust.dormant_threshold)) {
                 return PGEM_EXIT_USAGE;
             }
             k++;
@@ -184,25 +197,88 @@ static void pgem_describe_input(FILE *out, const char *path, const pgem_io_graph
     }
 }
 
+/* How pgem's block is made up, from pgem_memory_size() on the instance's resolved config: bytes
+ * per pose and per edge of capacity, and the bytes that scale with the factor's budget (the
+ * factor's nonzeros when the budget was sized to them, as pgem_cli_load does). */
+typedef struct pgem_block_parts {
+    size_t per_pose;
+    size_t per_edge;
+    size_t factor;
+} pgem_block_parts_t;
+
+/* Capacities change by this much when measuring: every array then grows by a multiple of the
+ * arena's 16-byte alignment, so the difference has no padding in it. */
+#define PGEM_CAPACITY_STEP 16u
+
+/* Bytes one more pose (edges: 1) of capacity costs, averaged over PGEM_CAPACITY_STEP. Taken
+ * below and above the current capacity and the smaller kept, so that the id map doubling (its
+ * slot count is a power of two) on one side does not count. */
+static size_t pgem_capacity_cost(const pgem_config_t *config, size_t size, int edges)
+{
+    size_t cost = 0;
+    for (int side = 0; side < 2; side++) {
+        pgem_config_t probe = *config;
+        uint32_t *capacity = edges ? &probe.max_edges : &probe.max_poses;
+        if (side == 0 && *capacity <= PGEM_CAPACITY_STEP) {
+            continue; /* 0 would mean "default" */
+        }
+        *capacity = side == 0 ? *capacity - PGEM_CAPACITY_STEP : *capacity + PGEM_CAPACITY_STEP;
+        const size_t other = pgem_memory_size(&probe);
+        const size_t low = side == 0 ? other : size;
+        const size_t high = side == 0 ? size : other;
+        if (other == 0 || high < low) {
+            continue; /* beyond the limits */
+        }
+        const size_t each = (high - low) / PGEM_CAPACITY_STEP;
+        cost = cost == 0 || each < cost ? each : cost;
+    }
+    return cost;
+}
+
+static void pgem_block_parts(const pgem_t *graph, uint32_t fill_budget, pgem_block_parts_t *parts)
+{
+    const pgem_config_t config = *pgem_get_config(graph);
+    const size_t size = pgem_memory_size(&config);
+    parts->per_pose = pgem_capacity_cost(&config, size, 0);
+    parts->per_edge = pgem_capacity_cost(&config, size, 1);
+    /* A budget of 0 means "default", so there is no size without a factor: the cost of one
+     * nonzero is taken between two explicit budgets (whole b x b blocks apart) and multiplied by
+     * the instance's budget. A robust solve's budget covers the factor with every loop closure
+     * active, which is larger than the pruned graph's factor_nonzeros. */
+    const uint32_t block = (uint32_t)PGEM_TANGENT_SIZE(config.dimension);
+    const uint32_t step = block * block * PGEM_CAPACITY_STEP * 256u;
+    pgem_config_t probe = config;
+    probe.fill_budget = block * block;
+    const size_t low = pgem_memory_size(&probe);
+    probe.fill_budget += step;
+    const size_t high = pgem_memory_size(&probe);
+    const double per_nonzero = high > low ? (double)(high - low) / (double)step : 0.0;
+    parts->factor = (size_t)(per_nonzero * (double)fill_budget + 0.5);
+}
+
 static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, const pgem_t *graph,
                                const pgem_summary_t *summary, double seconds, int status)
 {
     pgem_memory_stats_t stats;
+    pgem_block_parts_t parts;
     pgem_get_memory_stats(graph, &stats);
+    pgem_block_parts(graph, stats.factor_budget, &parts);
     if (args->json) {
         printf("{\"input\":");
         pgem_cli_json_string(args->input);
         printf(",\"method\":\"%s\",\"status\":\"%s\",\"termination\":\"%s\","
                "\"iterations\":%u,\"initial_chi2\":%.10g,\"final_chi2\":%.10g,"
-               "\"solve_seconds\":%.6f,\"usable\":%s,\"estimate_changed\":%s,"
+               "\"solve_seconds\":%.6f,\"analysis_seconds\":%.6f,\"usable\":%s,\"estimate_changed\":%s,"
                "\"poses\":%u,\"edges\":%u,\"unknowns\":%u,\"factor_nonzeros\":%u,"
-               "\"block_bytes\":%zu}\n",
+               "\"block_bytes\":%zu,\"block_bytes_per_pose\":%zu,\"block_bytes_per_edge\":%zu,"
+               "\"block_bytes_factor\":%zu}\n",
                pgem_method_name(args->method), pgem_error_name(status),
                pgem_termination_name(summary->termination), summary->iterations,
-               summary->initial_chi2, summary->final_chi2, seconds,
+               summary->initial_chi2, summary->final_chi2, seconds, args->analysis_seconds,
                summary->usable ? "true" : "false", summary->estimate_changed ? "true" : "false",
                pgem_pose_count(graph), pgem_edge_count(graph), summary->variables,
-               stats.factor_nonzeros, stats.block_bytes);
+               stats.factor_nonzeros, stats.block_bytes, parts.per_pose, parts.per_edge,
+               parts.factor);
         return;
     }
     fprintf(out, "%s: %s after %u iterations; chi2 %.6f -> %.6f in %.4f s\n",
@@ -239,20 +315,25 @@ static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *arg
                                       double seconds, int status)
 {
     pgem_memory_stats_t stats;
+    pgem_block_parts_t parts;
     pgem_get_memory_stats(graph, &stats);
+    pgem_block_parts(graph, stats.factor_budget, &parts);
     if (args->json) {
         printf("{\"input\":");
         pgem_cli_json_string(args->input);
         printf(",\"robust\":\"%s\",\"status\":\"%s\",\"rounds\":%u,"
                "\"em_iterations\":%u,\"gn_iterations\":%u,\"loops\":%u,\"pruned\":%u,"
                "\"readmitted\":%u,\"gated\":%u,\"initial_chi2\":%.10g,\"final_chi2\":%.10g,"
-               "\"solve_seconds\":%.6f,\"usable\":%s,\"poses\":%u,\"edges\":%u,"
-               "\"analyses\":%u,\"block_bytes\":%zu}\n",
+               "\"solve_seconds\":%.6f,\"analysis_seconds\":%.6f,\"usable\":%s,\"poses\":%u,\"edges\":%u,"
+               "\"analyses\":%u,\"factor_nonzeros\":%u,\"block_bytes\":%zu,"
+               "\"block_bytes_per_pose\":%zu,\"block_bytes_per_edge\":%zu,"
+               "\"block_bytes_factor\":%zu}\n",
                pgem_kernel_name(args->robust.kernel), pgem_error_name(status), summary->rounds,
                summary->em_iterations, summary->gn_iterations, summary->loops, summary->pruned,
                summary->readmitted, summary->gated, summary->initial_chi2, summary->final_chi2,
-               seconds, summary->usable ? "true" : "false", pgem_pose_count(graph),
-               pgem_edge_count(graph), stats.analyses, stats.block_bytes);
+               seconds, args->analysis_seconds, summary->usable ? "true" : "false", pgem_pose_count(graph),
+               pgem_edge_count(graph), stats.analyses, stats.factor_nonzeros, stats.block_bytes,
+               parts.per_pose, parts.per_edge, parts.factor);
     } else {
         fprintf(out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures pruned (consistency test: %u re-admitted, %u pruned); chi2 %.6f -> %.6f in %.4f s\n",
                 pgem_kernel_name(args->robust.kernel), summary->rounds, summary->em_iterations,
@@ -319,7 +400,7 @@ int pgem_cmd_optimize(int argc, char **argv)
     }
     pgem_describe_input(pgem_progress_stream(&args), args.input, &file);
     pgem_t *graph = NULL;
-    status = pgem_cli_load(&file, args.input, &graph);
+    status = pgem_cli_load(&file, args.input, &graph, &args.analysis_seconds);
     pgem_io_graph_free(&file);
     if (status != PGEM_OK) {
         pgem_destroy(graph);
