@@ -99,7 +99,8 @@ void pgem_se2_boxplus(const double x[3], const double delta[3], double out[3]) {
     out[2] = pgem_wrap_angle(x[2] + delta[2]);
 }
 
-/* Row-major 3x3 Jacobians from the pieces of the error (see pgem_se2_error). */
+/* Row-major 3x3 Jacobians from the pieces of the error (see pgem_se2_error). linalg/assemble.c
+ * relies on their form (the rotation entries, the ones and the zeros): keep the two in step. */
 static void se2_error_jacobians(double theta_i, double theta_z, const double local[2],
                                 double jacobian_i[9], double jacobian_j[9]) {
     /* e_t = Rz^T Ri^T (tj - ti) - Rz^T tz, e_theta = theta_j - theta_i - theta_z. */

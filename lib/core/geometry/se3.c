@@ -174,6 +174,8 @@ static void half_quat_operator(const double q[4], double sign, double out[9]) {
     out[0] = out[4] = out[8] = 0.5 * q[3];
 }
 
+/* The Jacobians' zero blocks are relied on by linalg/assemble.c: keep the two in step. */
+
 /* d e / d (rho_j, phi_j): [R_E 0; 0 0.5 (w I + [v]x)]. */
 static void se3_jacobian_j(const double q_error[4], double jacobian[36]) {
     double rotation[9], dq[9];

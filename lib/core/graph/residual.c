@@ -15,12 +15,10 @@ void pgem_edge_error(const pgem_t *graph, uint32_t k, double *error, double *jac
     }
 }
 
-double pgem_edge_mahalanobis(const pgem_t *graph, uint32_t k)
+/* e^T Omega e for n x n Omega; n is a constant at each call, so the loops unroll. The chi2 of
+ * linalg/assemble.c sums in the same order, so both give the same value. */
+static inline double pgem_quadratic_form(const double *information, const double *error, int n)
 {
-    double error[PGEM_TANGENT_SIZE_MAX];
-    const int n = graph->tangent;
-    const double *information = graph->edge_information + (size_t)k * (size_t)(n * n);
-    pgem_edge_error(graph, k, error, NULL, NULL);
     double chi2 = 0.0;
     for (int i = 0; i < n; i++) {
         double row = 0.0;
@@ -30,6 +28,16 @@ double pgem_edge_mahalanobis(const pgem_t *graph, uint32_t k)
         chi2 += error[i] * row;
     }
     return chi2;
+}
+
+double pgem_edge_mahalanobis(const pgem_t *graph, uint32_t k)
+{
+    double error[PGEM_TANGENT_SIZE_MAX];
+    const int n = graph->tangent;
+    const double *information = graph->edge_information + (size_t)k * (size_t)(n * n);
+    pgem_edge_error(graph, k, error, NULL, NULL);
+    return n == 6 ? pgem_quadratic_form(information, error, 6)
+                  : pgem_quadratic_form(information, error, 3);
 }
 
 int pgem_edge_chi2(const pgem_t *graph, uint32_t index, double *chi2)
