@@ -155,6 +155,20 @@ void pgem_edge_error(const pgem_t *graph, uint32_t k, double *error, double *jac
                      double *jacobian_to);
 /* e^T Omega e for edge k. */
 double pgem_edge_mahalanobis(const pgem_t *graph, uint32_t k);
+/* e^T Omega e for an n x n Omega (n a constant at each call, so the loops unroll). The one sum
+ * behind every chi2: an assembly's and pgem_weighted_chi2's agree to the last bit. */
+static inline double pgem_quadratic_form(const double *information, const double *error, int n)
+{
+    double chi2 = 0.0;
+    for (int r = 0; r < n; r++) {
+        double row = 0.0;
+        for (int c = 0; c < n; c++) {
+            row += information[r * n + c] * error[c];
+        }
+        chi2 += error[r] * row;
+    }
+    return chi2;
+}
 
 /* Block pattern of H (linalg/pattern.c). */
 /* 1 if edge k has an off-diagonal block in H's structure: both poses free, and the edge
@@ -165,14 +179,6 @@ static inline int pgem_edge_blocks(const pgem_t *graph, uint32_t k, int *a, int 
     *b = graph->linear.pose_block[graph->edge_to[k]];
     return *a >= 0 && *b >= 0 &&
            (graph->linear.all_edges || graph->edge_active[k] == PGEM_EDGE_ACTIVE);
-}
-/* 1 if edge k, made active, can be assembled into the current structure: it has a place
- * there, or touches a held pose (no off-diagonal block), or there is no structure yet. */
-static inline int pgem_edge_in_structure(const pgem_t *graph, uint32_t k)
-{
-    const pgem_linear_t *linear = &graph->linear;
-    return !linear->valid || linear->all_edges || linear->edge_offset[k] >= 0 ||
-           linear->pose_block[graph->edge_from[k]] < 0 || linear->pose_block[graph->edge_to[k]] < 0;
 }
 int pgem_pattern_number_free(pgem_t *graph);
 int pgem_pattern_order(pgem_t *graph, int block_count);

@@ -318,11 +318,8 @@ def format_times_ratio(value: float | None) -> str:
 
 
 def format_length(value: Any) -> str:
-    """A length in metres with three significant digits; an exact zero as '0 m'."""
-    if value is None or not math.isfinite(float(value)):
-        return NO_NUMBER
-    value = float(value)
-    return "0 m" if value == 0.0 else f"{value:.3g} m"
+    """bench_robust's length format, with an exact zero as '0 m'."""
+    return "0 m" if value is not None and float(value) == 0.0 else bench_robust.format_length(value)
 
 
 def format_bytes(value: float | None) -> str:

@@ -15,21 +15,6 @@ void pgem_edge_error(const pgem_t *graph, uint32_t k, double *error, double *jac
     }
 }
 
-/* e^T Omega e for n x n Omega; n is a constant at each call, so the loops unroll. The chi2 of
- * linalg/assemble.c sums in the same order, so both give the same value. */
-static inline double pgem_quadratic_form(const double *information, const double *error, int n)
-{
-    double chi2 = 0.0;
-    for (int i = 0; i < n; i++) {
-        double row = 0.0;
-        for (int j = 0; j < n; j++) {
-            row += information[i * n + j] * error[j];
-        }
-        chi2 += error[i] * row;
-    }
-    return chi2;
-}
-
 double pgem_edge_mahalanobis(const pgem_t *graph, uint32_t k)
 {
     double error[PGEM_TANGENT_SIZE_MAX];

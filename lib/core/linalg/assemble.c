@@ -24,21 +24,6 @@ typedef struct pgem_edge_blocks {
     double gradient_to[PGEM_TANGENT_SIZE_MAX];                       /* Jt^T W e */
 } pgem_edge_blocks_t;
 
-/* e^T Omega e for an n x n information matrix, summed as pgem_edge_mahalanobis does, so the
- * chi2 of an assembly equals pgem_weighted_chi2 of the same estimate. */
-static inline double pgem_quadratic_form(const double *information, const double *error, int n)
-{
-    double chi2 = 0.0;
-    for (int r = 0; r < n; r++) {
-        double row = 0.0;
-        for (int c = 0; c < n; c++) {
-            row += information[r * n + c] * error[c];
-        }
-        chi2 += error[r] * row;
-    }
-    return chi2;
-}
-
 /* SE(2) edge k. pgem_se2_error's Jacobians have the form
  *   Jt = [ c -s  0 ]      Jf = [ -c  s  d0 ]
  *        [ s  c  0 ]           [ -s -c  d1 ]

@@ -63,6 +63,15 @@ static double pgem_e_step(pgem_t *graph, const pgem_robust_options_t *options)
     return largest;
 }
 
+/* 1 if edge k, made active, can be assembled into the current (valid) structure: it has a
+ * place there, or touches a held pose (no off-diagonal block). */
+static int pgem_edge_in_structure(const pgem_t *graph, uint32_t k)
+{
+    const pgem_linear_t *linear = &graph->linear;
+    return linear->all_edges || linear->edge_offset[k] >= 0 ||
+           linear->pose_block[graph->edge_from[k]] < 0 || linear->pose_block[graph->edge_to[k]] < 0;
+}
+
 /* Keeps H's structure fit for the next M-step. It must grow when an active edge has no place
  * in it (a loop woke up or was re-admitted). It may shrink: dormant and pruned loops still in
  * it cost fill, so it is rebuilt without them once they are more than a sixteenth of the loops
@@ -88,6 +97,18 @@ static void pgem_review_structure(pgem_t *graph)
     if (!linear->all_edges && idle > 0u && idle * 16u > held) {
         pgem_linear_invalidate(graph);
     }
+}
+
+/* Dormant loops back to active, for a solve at their weights' full Newton matrix (the polish)
+ * or for whatever the caller does after the robust solve; the structure is reviewed. */
+static void pgem_wake_dormant(pgem_t *graph)
+{
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        if (graph->edge_active[k] == PGEM_EDGE_DORMANT) {
+            graph->edge_active[k] = PGEM_EDGE_ACTIVE;
+        }
+    }
+    pgem_review_structure(graph);
 }
 
 /* Prunes the loops (active or dormant) whose weight fell below the threshold; returns how many.
@@ -243,12 +264,10 @@ static uint32_t pgem_gate(pgem_t *graph, double gate, pgem_robust_summary_t *sum
 static int pgem_polish(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
     pgem_summary_t result;
+    pgem_wake_dormant(graph);
     for (uint32_t k = 0; k < graph->edge_count; k++) {
-        graph->edge_weight[k] = graph->edge_active[k] != PGEM_EDGE_PRUNED ? 1.0 : graph->edge_weight[k];
-        graph->edge_active[k] = graph->edge_active[k] != PGEM_EDGE_PRUNED ? PGEM_EDGE_ACTIVE
-                                                                          : PGEM_EDGE_PRUNED;
+        graph->edge_weight[k] = graph->edge_active[k] == PGEM_EDGE_ACTIVE ? 1.0 : graph->edge_weight[k];
     }
-    pgem_review_structure(graph);
     int status = pgem_optimize(graph, solve, &result);
     summary->gn_iterations += result.iterations;
     return status;
@@ -301,12 +320,7 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     } else {
         status = pgem_em_rounds(graph, &resolved, solve, out);
     }
-    for (uint32_t k = 0; k < graph->edge_count; k++) { /* none stays dormant after the solve */
-        if (graph->edge_active[k] == PGEM_EDGE_DORMANT) {
-            graph->edge_active[k] = PGEM_EDGE_ACTIVE;
-            pgem_linear_invalidate(graph);
-        }
-    }
+    pgem_wake_dormant(graph); /* none stays dormant after the solve */
     if (status != PGEM_OK) {
         pgem_restore_initial(graph);
         return status;
