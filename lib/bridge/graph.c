@@ -460,7 +460,8 @@ void bridge_graph_publish(bridge_t *bridge, const char *trigger,
     pthread_mutex_lock(&bridge->lock);
     uint32_t sources = pgem_ingest_source_count(bridge->ingest);
     for (uint32_t s = 0; s < sources; ++s) {
-        bridge->out_sources[s] = (char *)(uintptr_t)pgem_ingest_source_name(bridge->ingest, s);
+        /* lcm-gen's struct wants char *; the encoder only reads the names */
+        bridge->out_sources[s] = (char *)(uintptr_t)pgem_ingest_source_name(bridge->ingest, s); // NOLINT(performance-no-int-to-ptr)
         bridge->out_last[s] = bridge->source_last[s];
     }
     pthread_mutex_unlock(&bridge->lock);

@@ -482,7 +482,7 @@ static void handle_command(pgem_ingest_t *ingest, const void *data, size_t size,
         return;
     }
     ingest->counts.commands++;
-    result->command = command.command;
+    result->command = (int)command.command; /* a signed 8-bit code on the wire */
     size_t length = command.path != NULL ? strlen(command.path) : 0;
     if (command.command == PGEM_COMMAND_T_SNAPSHOT && (length == 0 || length >= PGEM_PATH_MAX)) {
         snprintf(result->message, sizeof result->message,

@@ -238,7 +238,7 @@ int pgem_journal_append(pgem_journal_t *journal, const char *channel, const void
     put_u64(p + 12, (uint64_t)utime);
     put_u32(p + 20, (uint32_t)channel_length);
     put_u32(p + 24, (uint32_t)size);
-    memcpy(p + HEADER_BYTES, channel, channel_length);
+    memcpy(p + HEADER_BYTES, channel, channel_length); // NOLINT(bugprone-not-null-terminated-result): LCM logs store the channel without its NUL
     memcpy(p + HEADER_BYTES + channel_length, data, size);
     off_t start = lseek(journal->fd, 0, SEEK_CUR);
     size_t done = 0;

@@ -79,7 +79,7 @@ void bridge_publish_status(bridge_t *bridge)
 
     for (int r = 0; r < PGEM_REJECT_COUNT; ++r) {
         /* lcm-gen's struct wants char *; the encoder only reads the names */
-        reasons[r] = (char *)(uintptr_t)pgem_reject_name((pgem_reject_t)r);
+        reasons[r] = (char *)(uintptr_t)pgem_reject_name((pgem_reject_t)r); // NOLINT(performance-no-int-to-ptr)
         rejected[r] = counts.rejected[r];
     }
     status.utime = bridge_utime();

@@ -34,9 +34,9 @@ static int io_tree_allocate(io_tree_t *tree, size_t edge_count)
     tree->edge_from = (size_t *)malloc(edge_count * sizeof(size_t));
     tree->edge_to = (size_t *)malloc(edge_count * sizeof(size_t));
     tree->slot_start = (size_t *)calloc(nodes + 1, sizeof(size_t));
-    tree->slot_edge = (size_t *)malloc(2 * edge_count * sizeof(size_t));
+    tree->slot_edge = (size_t *)calloc(2 * edge_count, sizeof(size_t));
     tree->reached = (unsigned char *)calloc(nodes, 1);
-    tree->order = (size_t *)malloc(nodes * sizeof(size_t));
+    tree->order = (size_t *)calloc(nodes, sizeof(size_t));
     return tree->edge_from && tree->edge_to && tree->slot_start && tree->slot_edge &&
                    tree->reached && tree->order
                ? PGEM_OK

@@ -89,7 +89,7 @@ static int io_sorted_vertex_ids(const io_reader_t *reader, pgem_id_t **ids)
     io_vertex_id_t *sorted = (io_vertex_id_t *)malloc(count * sizeof *sorted);
     int status;
     size_t i;
-    *ids = (pgem_id_t *)malloc(count * sizeof **ids);
+    *ids = (pgem_id_t *)calloc(count, sizeof **ids);
     if (sorted == NULL || *ids == NULL) {
         free(sorted);
         return io_fail(reader, 0, PGEM_ERR_OUT_OF_MEMORY, "out of memory");

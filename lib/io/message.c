@@ -50,7 +50,10 @@ void io_copy_printable(char *out, size_t size, const char *text)
     }
     for (; i + 1 < size && text[i] != '\0'; ++i) {
         unsigned char c = (unsigned char)text[i];
-        out[i] = (c >= 0x20 && c < 0x7f) ? (char)c : '?';
+        out[i] = text[i];
+        if (c < 0x20 || c >= 0x7f) {
+            out[i] = '?';
+        }
     }
     out[i] = '\0';
 }

@@ -254,7 +254,7 @@ static int io_parse_fix(io_reader_t *reader, const io_tag_t *tag, char **fields,
 static int io_parse_pose_or_edge(io_reader_t *reader, const io_tag_t *tag, char **fields,
                                  size_t count)
 {
-    io_values_t values;
+    io_values_t values = {{0}, {0}}; /* zeroed: a tag with fewer fields leaves the rest defined */
     int status = io_check_field_count(reader, tag, count, fields);
     if (status == PGEM_OK) {
         status = io_check_dimension(reader, tag);

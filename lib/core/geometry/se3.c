@@ -2,6 +2,7 @@
 #include <pgem/geometry.h>
 
 #include <math.h>
+#include <stddef.h>
 
 /* Below this angle the V and V^-1 coefficients use Taylor series (truncation error < 1e-20). */
 #define SMALL_ANGLE 1e-3
@@ -146,7 +147,8 @@ static void skew(const double a[3], double out[9]) {
 static void matmul3(const double a[9], const double b[9], double out[9]) {
     for (int r = 0; r < 3; ++r) {
         for (int c = 0; c < 3; ++c) {
-            out[r * 3 + c] = a[r * 3] * b[c] + a[r * 3 + 1] * b[3 + c] + a[r * 3 + 2] * b[6 + c];
+            const double *row = a + (ptrdiff_t)r * 3;
+            out[r * 3 + c] = row[0] * b[c] + row[1] * b[3 + c] + row[2] * b[6 + c];
         }
     }
 }

@@ -31,7 +31,7 @@ static double pgem_largest_magnitude(const double *matrix, int n)
 /* Dense Cholesky on a copy; returns the first failing pivot or -1. */
 static int pgem_first_bad_pivot(const double *matrix, int n, double floor)
 {
-    double work[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    double work[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     for (int k = 0; k < n * n; k++) {
         work[k] = matrix[k];
     }
@@ -58,7 +58,7 @@ static int pgem_first_bad_pivot(const double *matrix, int n, double floor)
 
 int pgem_information_check(const double *information, int n, int *entry)
 {
-    int unused;
+    int unused = -1;
     int *where = entry != NULL ? entry : &unused;
     if (information == NULL || (n != 3 && n != 6)) {
         *where = -1;

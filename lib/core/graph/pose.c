@@ -4,12 +4,13 @@
 
 #include "internal.h"
 
-static const char *const pgem_pose_fields_2d[] = {"x", "y", "theta"};
-static const char *const pgem_pose_fields_3d[] = {"x", "y", "z", "qx", "qy", "qz", "qw"};
+/* Field names by dimension (row 0: 2D, row 1: 3D), both rows PGEM_POSE_SIZE_MAX long. */
+static const char *const pgem_pose_fields[2][PGEM_POSE_SIZE_MAX] = {
+    {"x", "y", "theta", "", "", "", ""}, {"x", "y", "z", "qx", "qy", "qz", "qw"}};
 
 int pgem_check_pose(pgem_t *graph, const double *pose, double *normalised, const char *what)
 {
-    const char *const *fields = graph->config.dimension == 3 ? pgem_pose_fields_3d : pgem_pose_fields_2d;
+    const char *const *fields = pgem_pose_fields[graph->config.dimension == 3];
     for (int k = 0; k < graph->pose_size; k++) {
         if (!isfinite(pose[k])) {
             pgem_message_clear(graph);

@@ -71,7 +71,8 @@ static double pgem_linearise_se2(const pgem_t *graph, uint32_t k, pgem_edge_bloc
     ft[7] = f2[0] * -s + f2[1] * c;
     ft[8] = f2[2];
     for (int r = 0; r < 2; r++) {
-        out->gradient_to[r] = a[3 * r] * e[0] + a[3 * r + 1] * e[1] + a[3 * r + 2] * e[2];
+        const double *row = a + (ptrdiff_t)r * 3;
+        out->gradient_to[r] = row[0] * e[0] + row[1] * e[1] + row[2] * e[2];
         out->gradient_from[r] = -out->gradient_to[r];
     }
     out->gradient_to[2] = a[6] * e[0] + a[7] * e[1] + a[8] * e[2];
@@ -171,8 +172,8 @@ static double pgem_linearise_se3(const pgem_t *graph, uint32_t k, pgem_edge_bloc
 static inline void pgem_add_diagonal(pgem_linear_t *linear, int n, int block, const double *values,
                                      const double *gradient)
 {
-    const int *colptr = linear->upper_colptr + block * n;
-    double *rhs = linear->rhs + block * n;
+    const int *colptr = linear->upper_colptr + (ptrdiff_t)block * n;
+    double *rhs = linear->rhs + (ptrdiff_t)block * n;
     for (int c = 0; c < n; c++) {
         double *top = linear->upper_values + colptr[c + 1] - (c + 1);
         for (int r = 0; r < n; r++) { /* r <= c, as a square loop the compiler unrolls */
@@ -189,7 +190,7 @@ static inline void pgem_add_diagonal(pgem_linear_t *linear, int n, int block, co
 static inline void pgem_add_off_diagonal(pgem_linear_t *linear, int n, int column_block,
                                          int offset, int transposed, const double *from_to)
 {
-    const int *colptr = linear->upper_colptr + column_block * n;
+    const int *colptr = linear->upper_colptr + (ptrdiff_t)column_block * n;
     double *values = linear->upper_values + offset;
     if (transposed) {
         for (int c = 0; c < n; c++) {

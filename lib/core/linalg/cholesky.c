@@ -74,7 +74,7 @@ static inline void pgem_eliminate(pgem_linear_t *linear, int b, int i, int k, co
         double *target = linear->block_work + (size_t)block_rows[slot] * (size_t)(b * b);
         double l[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX]; /* l[r * b + m] = L_RI(r, m) */
         for (int m = 0; m < b; m++) {
-            const double *l_column = values + base[m] + slot * b;
+            const double *l_column = values + base[m] + (ptrdiff_t)slot * b;
             for (int r = 0; r < b; r++) {
                 l[r * b + m] = l_column[r];
             }
@@ -87,6 +87,7 @@ static inline void pgem_eliminate(pgem_linear_t *linear, int b, int i, int k, co
             for (int m = 0; m < b; m++) {
                 const double factor = l[r * b + m];
                 for (int c = 0; c < b; c++) {
+                    /* cppcheck-suppress uninitvar ; y[0 .. b*b) is copied above (b >= 3) */
                     row[c] -= factor * y[m * b + c];
                 }
             }
@@ -96,6 +97,7 @@ static inline void pgem_eliminate(pgem_linear_t *linear, int b, int i, int k, co
         }
     }
     for (int c = 0; c < b; c++) {
+        /* cppcheck-suppress uninitvar ; base[0 .. b) is set above */
         int first = base[c] + filled * b;
         for (int r = 0; r < b; r++) {
             values[first + r] = y[c * b + r];

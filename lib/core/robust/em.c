@@ -300,7 +300,7 @@ static int pgem_plain(pgem_t *graph, const pgem_solve_options_t *solve, pgem_rob
 int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
                          const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
-    pgem_robust_summary_t local;
+    pgem_robust_summary_t local = {0};
     pgem_robust_summary_t *out = summary != NULL ? summary : &local;
     memset(out, 0, sizeof *out);
     if (graph == NULL) {
