@@ -13,10 +13,11 @@ constexpr int kPerTurn = 12, kPoses = 3 * kPerTurn + 1;
 // Ground truth: radius 5 m, 0.5 m up per turn, facing along the ramp.
 Eigen::Isometry3d truth(int k)
 {
-    const double angle = 2.0 * EIGEN_PI * k / kPerTurn;
+    const double angle = 2.0 * static_cast<double>(EIGEN_PI) * k / kPerTurn;
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
     pose.translation() << 5.0 * std::cos(angle), 5.0 * std::sin(angle), 0.5 * k / kPerTurn;
-    pose.linear() = Eigen::AngleAxisd(angle + EIGEN_PI / 2, Eigen::Vector3d::UnitZ()).matrix();
+    const double quarter_turn = static_cast<double>(EIGEN_PI) / 2;
+    pose.linear() = Eigen::AngleAxisd(angle + quarter_turn, Eigen::Vector3d::UnitZ()).matrix();
     return pose;
 }
 

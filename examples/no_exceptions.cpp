@@ -32,7 +32,7 @@ int main()
     pgem_cpp::Graph2d graph = std::move(*made);
     // A triangle walked with a drifting guess and closed by one loop.
     const Eigen::Isometry2d turn(Eigen::Translation2d(1.0, 0.0) *
-                                 Eigen::Rotation2Dd(2.0 * EIGEN_PI / 3));
+                                 Eigen::Rotation2Dd(2.0 * static_cast<double>(EIGEN_PI) / 3));
     const Eigen::Matrix3d information = Eigen::Vector3d(50, 50, 200).asDiagonal();
     Eigen::Isometry2d guess = Eigen::Isometry2d::Identity();
     bool ok = check(graph.try_add_pose(0, guess));

@@ -21,9 +21,12 @@
 
 /* The C++ test reads the counters (as 0) in the sanitizer build too. */
 #if !TEST_UNDER_SANITIZER || defined(__cplusplus)
-static long allocations; /* malloc + calloc + realloc calls of any kind */
-static long releases;    /* blocks handed back: free(p) and realloc(p, ...) count the
-                            block they end, so a balanced phase has allocations == releases */
+/* volatile: the compiler treats malloc as a builtin that touches no program variable, so
+ * without it clang keeps a counter read before a malloc call in a register across the call. */
+static volatile long allocations; /* malloc + calloc + realloc calls of any kind */
+static volatile long releases;    /* blocks handed back: free(p) and realloc(p, ...) count the
+                                     block they end, so a balanced phase has allocations ==
+                                     releases */
 #endif
 
 #if !TEST_UNDER_SANITIZER

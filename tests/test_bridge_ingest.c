@@ -234,13 +234,13 @@ static void test_bad_values_rejected(void **state)
     pgem_ingest_t *ingest = make_ingest(2, 10, 10, 4, &sink);
     feed(ingest, PGEM_ROLE_POSE, pose2(0, 0, 0, 0));
     feed(ingest, PGEM_ROLE_POSE, pose2(1, 0, 0, 0));
-    expect_rejected(ingest, PGEM_ROLE_POSE, pose2(2, NAN, 0, 0), PGEM_REJECT_NOT_FINITE);
-    expect_rejected(ingest, PGEM_ROLE_POSE, pose2(3, 0, INFINITY, 0), PGEM_REJECT_NOT_FINITE);
+    expect_rejected(ingest, PGEM_ROLE_POSE, pose2(2, (double)NAN, 0, 0), PGEM_REJECT_NOT_FINITE);
+    expect_rejected(ingest, PGEM_ROLE_POSE, pose2(3, 0, (double)INFINITY, 0), PGEM_REJECT_NOT_FINITE);
     pgem_edge2_t e = edge2_msg(1, 0, 1);
-    e.measurement[2] = NAN;
+    e.measurement[2] = (double)NAN;
     expect_rejected(ingest, PGEM_ROLE_EDGE, encode_edge2(&e), PGEM_REJECT_NOT_FINITE);
     e = edge2_msg(2, 0, 1);
-    e.information[1] = INFINITY;
+    e.information[1] = (double)INFINITY;
     expect_rejected(ingest, PGEM_ROLE_EDGE, encode_edge2(&e), PGEM_REJECT_NOT_FINITE);
     e = edge2_msg(3, 0, 1);
     e.information[5] = -1.0;

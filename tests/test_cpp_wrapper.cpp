@@ -411,7 +411,7 @@ void test_errors_status(void **)
     assert_true(graph.try_fix_pose(1).ok());
     assert_int_equal(graph.try_fix_pose(8).code(), PGEM_ERR_UNKNOWN_ID);
     assert_int_equal(graph.try_set_pose(8, se2(0, 0, 0)).code(), PGEM_ERR_UNKNOWN_ID);
-    assert_int_equal(graph.try_set_pose(2, se2(NAN, 0, 0)).code(), PGEM_ERR_NOT_FINITE);
+    assert_int_equal(graph.try_set_pose(2, se2((double)NAN, 0, 0)).code(), PGEM_ERR_NOT_FINITE);
 
     // construction without exceptions
     std::array<double, 8> tiny{};

@@ -86,7 +86,7 @@ static void test_pose_errors_change_nothing(void **state)
     assert_int_equal(pgem_add_pose(graph, 1, identity_2d), PGEM_OK);
     assert_int_equal(pgem_add_pose(graph, 1, identity_2d), PGEM_ERR_DUPLICATE_ID);
     assert_non_null(strstr(pgem_last_error(graph), "pose id 1 already exists"));
-    double nan_pose[3] = {0.0, NAN, 0.0};
+    double nan_pose[3] = {0.0, (double)NAN, 0.0};
     assert_int_equal(pgem_add_pose(graph, 2, nan_pose), PGEM_ERR_NOT_FINITE);
     assert_non_null(strstr(pgem_last_error(graph), "field y"));
     assert_non_null(strstr(pgem_last_error(graph), "pose id 2"));
@@ -129,7 +129,7 @@ static void test_edge_errors_change_nothing(void **state)
     assert_non_null(strstr(pgem_last_error(graph), "no pose with id 12 (edge 10 -> 12)"));
     assert_int_equal(pgem_add_edge(graph, 10, 10, z, information, PGEM_EDGE_LOOP, NULL), PGEM_ERR_SELF_LOOP);
     assert_non_null(strstr(pgem_last_error(graph), "10 -> 10"));
-    double bad_z[3] = {1, INFINITY, 0};
+    double bad_z[3] = {1, (double)INFINITY, 0};
     assert_int_equal(pgem_add_edge(graph, 10, 11, bad_z, information, PGEM_EDGE_LOOP, NULL), PGEM_ERR_NOT_FINITE);
     assert_non_null(strstr(pgem_last_error(graph), "measurement: field y"));
     double asymmetric[9] = {1, 0.5, 0, 0, 1, 0, 0, 0, 1};
@@ -138,7 +138,7 @@ static void test_edge_errors_change_nothing(void **state)
     double indefinite[9] = {1, 2, 0, 2, 1, 0, 0, 0, 1};
     assert_int_equal(pgem_add_edge(graph, 10, 11, z, indefinite, PGEM_EDGE_LOOP, NULL), PGEM_ERR_INFORMATION);
     assert_non_null(strstr(pgem_last_error(graph), "positive definite"));
-    double nan_info[9] = {1, 0, 0, 0, NAN, 0, 0, 0, 1};
+    double nan_info[9] = {1, 0, 0, 0, (double)NAN, 0, 0, 0, 1};
     assert_int_equal(pgem_add_edge(graph, 10, 11, z, nan_info, PGEM_EDGE_LOOP, NULL), PGEM_ERR_NOT_FINITE);
     assert_non_null(strstr(pgem_last_error(graph), "information(1,1)"));
     assert_int_equal(pgem_add_edge(graph, 10, 11, z, information, (pgem_edge_kind_t)7, NULL), PGEM_ERR_INVALID_ARGUMENT);
@@ -193,7 +193,7 @@ static void test_information_check(void **state)
     int entry = 99;
     assert_int_equal(pgem_information_check(m, 3, &entry), PGEM_OK);
     assert_int_equal(entry, -1);
-    m[5] = NAN;
+    m[5] = (double)NAN;
     assert_int_equal(pgem_information_check(m, 3, &entry), PGEM_ERR_NOT_FINITE);
     assert_int_equal(entry, 5);
     m[5] = 0.5; /* (1,2) = 0.5 but (2,1) = 0 */

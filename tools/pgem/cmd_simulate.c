@@ -91,8 +91,8 @@ static void sim_defaults(sim_args_t *args)
 
 static int sim_parse(int argc, char **argv, sim_args_t *args)
 {
-    *args = (sim_args_t){NULL, NULL, SIM_WORLD_MANHATTAN, 0u, 1u, NAN, NAN, NAN};
-    for (int k = 1; k < argc; k++) {
+    *args = (sim_args_t){NULL, NULL, SIM_WORLD_MANHATTAN, 0u, 1u, (double)NAN, (double)NAN, (double)NAN};
+    for (int k = 1; k < argc; k += 2) { /* every option takes a value */
         const char *arg = argv[k], *value = k + 1 < argc ? argv[k + 1] : NULL;
         int ok = 1;
         if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
@@ -126,7 +126,6 @@ static int sim_parse(int argc, char **argv, sim_args_t *args)
         if (!ok) {
             return PGEM_EXIT_USAGE;
         }
-        k++;
     }
     if (args->output == NULL) {
         fprintf(stderr, "pgem simulate: -o OUT.g2o is required\n");
