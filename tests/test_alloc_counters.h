@@ -30,6 +30,27 @@ static volatile long releases;    /* blocks handed back: free(p) and realloc(p, 
 #endif
 
 #if !TEST_UNDER_SANITIZER
+/* A test that sweeps allocation failures defines TEST_ALLOC_FAULTS before the include: after
+ * alloc_fault_arm(k) the k-th malloc, calloc or realloc call (0, 1, ...) returns NULL. A failed
+ * call counts in neither counter (realloc then keeps its block). */
+#ifdef TEST_ALLOC_FAULTS
+static long alloc_fault_at = -1; /* call to fail; negative: disarmed, nothing counted */
+static long alloc_fault_seen;    /* calls since arming */
+
+static void alloc_fault_arm(long index)
+{
+    alloc_fault_at = index;
+    alloc_fault_seen = 0;
+}
+
+static int alloc_fault_next(void)
+{
+    return alloc_fault_at >= 0 && alloc_fault_seen++ == alloc_fault_at;
+}
+#else
+#define alloc_fault_next() 0
+#endif
+
 #ifdef __cplusplus
 #define TEST_NOEXCEPT noexcept
 extern "C" {
@@ -44,18 +65,27 @@ extern void __libc_free(void *pointer) TEST_NOEXCEPT;
 
 void *malloc(size_t size) TEST_NOEXCEPT
 {
+    if (alloc_fault_next()) {
+        return NULL;
+    }
     allocations++;
     return __libc_malloc(size);
 }
 
 void *calloc(size_t count, size_t size) TEST_NOEXCEPT
 {
+    if (alloc_fault_next()) {
+        return NULL;
+    }
     allocations++;
     return __libc_calloc(count, size);
 }
 
 void *realloc(void *pointer, size_t size) TEST_NOEXCEPT
 {
+    if (alloc_fault_next()) {
+        return NULL;
+    }
     allocations++;
     releases += pointer != NULL;
     return __libc_realloc(pointer, size);

@@ -52,22 +52,32 @@ size_t pgem_memory_size(const pgem_config_t *config);
 
 /** A compile-time upper bound of pgem_memory_size() for explicit capacities (none 0), for
  * static blocks: `static unsigned char block[PGEM_MEMORY_BOUND(2, 500, 600, 16000)];`.
- * Per pose 437 bytes in 2D (997 in 3D), per edge 231 (695), per factor nonzero 8 plus 4 per
+ * Per pose 437 bytes in 2D (997 in 3D), per edge 240 (704), per factor nonzero 8 plus 4 per
  * b x b block (b = 3 or 6), and 2144 for the instance itself and alignment. It includes
  * CSparse's pool of the source-built mode (56 bytes per pose, 24 per edge), so it holds for
  * both modes, on 32- and 64-bit machines; the id map's power-of-two size makes it exceed the
  * exact figure by up to 8 bytes per pose. */
 #define PGEM_MEMORY_BOUND(dimension, max_poses, max_edges, fill_budget)               \
     ((size_t)(max_poses) * ((dimension) == 3 ? 997u : 437u) +                         \
-     (size_t)(max_edges) * ((dimension) == 3 ? 695u : 231u) +                         \
+     (size_t)(max_edges) * ((dimension) == 3 ? 704u : 240u) +                         \
      (size_t)(fill_budget) * 8u + (size_t)(fill_budget) / ((dimension) == 3 ? 36u : 9u) * 4u + \
      2144u)
 
 /** Initialises an instance inside buffer (size bytes, at least pgem_memory_size(config)).
  * On success *instance points into buffer; nothing is allocated, now or later (with the
  * system CSparse, its symbolic analysis mallocs and frees workspace: see DESIGN.md). There is no teardown: the
- * caller owns the buffer. */
+ * caller owns the buffer. pgem_init_message() below is the same call, saying why it failed. */
 int pgem_init(pgem_t **instance, const pgem_config_t *config, void *buffer, size_t size);
+
+/** pgem_init that says why it failed (there is no instance yet for pgem_last_error): on
+ * failure writes one line into message (message_size bytes, always NUL-terminated; NULL for
+ * none), e.g. "the memory block is too small: 4095 bytes given, this configuration needs 4096
+ * (pgem_memory_size)", and leaves *instance as it was. "" on success.
+ * Errors: INVALID_ARGUMENT (a NULL instance, config or buffer), CONFIG (names the field),
+ * BUFFER_TOO_SMALL. The block may start at any address: pgem_memory_size() includes the
+ * 15 bytes an unaligned start can cost. */
+int pgem_init_message(pgem_t **instance, const pgem_config_t *config, void *buffer, size_t size,
+                      char *message, size_t message_size);
 
 /** Hosted convenience: mallocs one block of pgem_memory_size(config) and initialises it.
  * Release with pgem_destroy(). Not available when PGEM_NO_MALLOC is defined. */

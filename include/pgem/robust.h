@@ -96,7 +96,9 @@ typedef struct pgem_robust_summary {
  * pgem_robust_reset() brings them back. A call starts from the loops' current states, so a
  * second call (say, after new edges arrived) continues from the first one's pruning; the
  * consistency test of the default method re-admits a pruned loop that fits again. Pruned
- * loops leave H's structure (one symbolic re-analysis when the pruned set changes). On failure the estimate before the call is restored.
+ * loops leave H's structure (one symbolic re-analysis when the pruned set changes). On failure
+ * the estimate and every loop's weight and state are restored to what they were before the
+ * call (the next solve then re-analyses).
  * solve may be NULL (Gauss-Newton defaults; max_iterations is ignored for EM M-steps). */
 int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
                          const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);

@@ -16,11 +16,30 @@ typedef struct pgem_arena {
     unsigned char *base;  /* start of the block (NULL: measuring pass) */
     size_t size;          /* bytes available */
     size_t used;          /* bytes carved so far, including alignment padding */
+    size_t carves;        /* slices asked for from the block (not counted when measuring) */
+    size_t failed;        /* number (1, 2, ...) of the first slice that could not be carved,
+                             0 if none */
+    size_t failed_bytes;  /* bytes that slice asked for */
 } pgem_arena_t;
 
 /* Returns an aligned slice of count * item bytes, or NULL when measuring or out of room
- * (then used still grows, so a measuring pass yields the total). */
+ * (then used still grows, so a measuring pass yields the total, and a failed carve is
+ * recorded in failed). */
 void *pgem_arena_take(pgem_arena_t *arena, size_t count, size_t item);
+
+/* Fault injection for the memory-exhaustion test (tests/test_exhaustion.c), compiled only into
+ * a test copy of the core (PGEM_FAULT_INJECTION; the released library never has it):
+ * pgem_fault_next() is asked once per carve from the block and once per CSparse allocation
+ * from its pool, and says 1 for the one the test chose. Without the define it is 0. */
+#ifdef PGEM_FAULT_INJECTION
+int pgem_fault_next(void);
+/* From now on, request number `index` (0, 1, ...) fails; a negative index counts only. */
+void pgem_fault_arm(long index);
+/* Requests seen since pgem_fault_arm (the sweep is over once a run sees no more than index). */
+long pgem_fault_seen(void);
+#else
+#define pgem_fault_next() 0
+#endif
 
 /* CSparse's workspace inside the block (source-built CSparse only; see linalg/cs_pool.c).
  * With the system CSparse the region is empty and CSparse uses the C heap. */
@@ -118,6 +137,8 @@ struct pgem {
     uint8_t *edge_kind;        /* [max_edges] pgem_edge_kind_t */
     uint8_t *edge_active;      /* [max_edges] pgem_edge_state_t: active, dormant or pruned */
     double *edge_weight;       /* [max_edges] robust weight, 1 for odometry */
+    double *edge_weight_saved; /* [max_edges] weights before a robust solve, and */
+    uint8_t *edge_active_saved; /* [max_edges] states: put back if the solve fails */
 
     pgem_linear_t linear;      /* normal equations */
     char message[PGEM_MESSAGE_SIZE]; /* last error message */
@@ -132,7 +153,12 @@ static inline size_t pgem_pose_bytes(const pgem_t *graph)
 /* Carves every array of an instance from the arena (measuring when arena->base is NULL). */
 void pgem_carve(pgem_t *graph, pgem_arena_t *arena);
 
-/* Message building without stdio (firmware-safe): clear, then append pieces. */
+/* Text building without stdio (firmware-safe): appends to a NUL-terminated text of size
+ * bytes, truncating. */
+void pgem_text_append(char *text, size_t size, const char *piece);
+void pgem_text_u64(char *text, size_t size, uint64_t value);
+
+/* Message building into the instance: clear, then append pieces. */
 void pgem_message_clear(pgem_t *graph);
 void pgem_message_text(pgem_t *graph, const char *text);
 void pgem_message_u64(pgem_t *graph, uint64_t value);

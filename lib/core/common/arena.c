@@ -7,17 +7,43 @@ void *pgem_arena_take(pgem_arena_t *arena, size_t count, size_t item)
 {
     size_t start = (arena->used + (PGEM_ARENA_ALIGN - 1u)) & ~(size_t)(PGEM_ARENA_ALIGN - 1u);
     size_t bytes = count * item;
-    if (item != 0 && bytes / item != count) {
+    if ((item != 0 && bytes / item != count) || start < arena->used || start + bytes < start) {
         arena->used = (size_t)-1; /* overflow: no block can hold this */
-        return NULL;
+    } else {
+        arena->used = start + bytes;
     }
-    if (start < arena->used || start + bytes < start) {
-        arena->used = (size_t)-1;
-        return NULL;
+    if (arena->base == NULL) {
+        return NULL; /* measuring */
     }
-    arena->used = start + bytes;
-    if (arena->base == NULL || arena->used > arena->size) {
+    arena->carves++;
+    if (arena->used > arena->size || pgem_fault_next()) {
+        if (arena->failed == 0) {
+            arena->failed = arena->carves;
+            arena->failed_bytes = bytes;
+        }
         return NULL;
     }
     return arena->base + start;
 }
+
+#ifdef PGEM_FAULT_INJECTION
+/* Test builds only (see internal.h). One instance at a time: the tests are single-threaded. */
+static long pgem_fault_target = -1;
+static long pgem_fault_count;
+
+void pgem_fault_arm(long index)
+{
+    pgem_fault_target = index;
+    pgem_fault_count = 0;
+}
+
+long pgem_fault_seen(void)
+{
+    return pgem_fault_count;
+}
+
+int pgem_fault_next(void)
+{
+    return pgem_fault_count++ == pgem_fault_target;
+}
+#endif

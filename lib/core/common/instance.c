@@ -69,6 +69,8 @@ static void pgem_carve_graph(pgem_t *graph, pgem_arena_t *arena)
     graph->edge_kind = pgem_arena_take(arena, edges, 1);
     graph->edge_active = pgem_arena_take(arena, edges, 1);
     graph->edge_weight = pgem_arena_take(arena, edges, sizeof(double));
+    graph->edge_weight_saved = pgem_arena_take(arena, edges, sizeof(double));
+    graph->edge_active_saved = pgem_arena_take(arena, edges, 1);
 }
 
 static void pgem_carve_linear(pgem_t *graph, pgem_arena_t *arena)
@@ -119,7 +121,7 @@ static size_t pgem_measure(const pgem_config_t *resolved)
     probe.config = *resolved;
     probe.pose_size = PGEM_POSE_SIZE(resolved->dimension);
     probe.tangent = PGEM_TANGENT_SIZE(resolved->dimension);
-    pgem_arena_t arena = {NULL, 0, 0};
+    pgem_arena_t arena = {NULL, 0, 0, 0, 0, 0};
     (void)pgem_arena_take(&arena, 1, sizeof(pgem_t));
     pgem_carve(&probe, &arena);
     return arena.used;
@@ -138,37 +140,112 @@ size_t pgem_memory_size(const pgem_config_t *config)
     return bytes + 16u; /* room to align an arbitrary buffer start */
 }
 
-int pgem_init(pgem_t **instance, const pgem_config_t *config, void *buffer, size_t size)
+/* The first configuration field out of range, in words (pgem_config_resolve's checks). */
+static const char *pgem_config_problem(const pgem_config_t *config)
+{
+    if (config->dimension != 0 && config->dimension != 2 && config->dimension != 3) {
+        return "config.dimension is not 2 or 3 (0 means 2)";
+    }
+    if (config->max_poses > PGEM_MAX_POSES_LIMIT) {
+        return "config.max_poses is above PGEM_MAX_POSES_LIMIT";
+    }
+    if (config->max_edges > PGEM_MAX_EDGES_LIMIT) {
+        return "config.max_edges is above PGEM_MAX_EDGES_LIMIT";
+    }
+    if (config->fill_budget > (uint32_t)INT32_MAX) {
+        return "config.fill_budget is above INT32_MAX";
+    }
+    return "the capacities need more bytes than this machine can address";
+}
+
+/* The message of a failed init: "what" then "N bytes given, this configuration needs M". */
+static int pgem_init_fail(int code, const char *what, size_t given, size_t needed, char *message,
+                          size_t message_size)
+{
+    if (message == NULL || message_size == 0) {
+        return code;
+    }
+    message[0] = '\0';
+    pgem_text_append(message, message_size, what);
+    if (needed > 0) {
+        pgem_text_append(message, message_size, ": ");
+        pgem_text_u64(message, message_size, given);
+        pgem_text_append(message, message_size, " bytes given, this configuration needs ");
+        pgem_text_u64(message, message_size, needed);
+        pgem_text_append(message, message_size, " (pgem_memory_size)");
+    }
+    return code;
+}
+
+/* A slice the block could not give (the arena's first failed carve), in the message. */
+static int pgem_carve_failed(const pgem_arena_t *arena, size_t given, size_t needed,
+                             char *message, size_t message_size)
+{
+    char what[96] = "the memory block could not hold slice ";
+    pgem_text_u64(what, sizeof what, arena->failed);
+    pgem_text_append(what, sizeof what, " (");
+    pgem_text_u64(what, sizeof what, arena->failed_bytes);
+    pgem_text_append(what, sizeof what, " bytes) of the instance");
+    return pgem_init_fail(PGEM_ERR_BUFFER_TOO_SMALL, what, given, needed, message, message_size);
+}
+
+int pgem_init_message(pgem_t **instance, const pgem_config_t *config, void *buffer, size_t size,
+                      char *message, size_t message_size)
 {
     pgem_config_t resolved;
-    if (instance == NULL || config == NULL || buffer == NULL) {
-        return PGEM_ERR_INVALID_ARGUMENT;
+    if (instance == NULL || config == NULL) {
+        return pgem_init_fail(PGEM_ERR_INVALID_ARGUMENT,
+                              instance == NULL ? "instance is NULL" : "config is NULL", 0, 0,
+                              message, message_size);
+    }
+    if (buffer == NULL) {
+        return pgem_init_fail(PGEM_ERR_INVALID_ARGUMENT, "the memory block is NULL", 0,
+                              pgem_memory_size(config), message, message_size);
     }
     if (pgem_config_resolve(config, &resolved) != PGEM_OK) {
-        return PGEM_ERR_CONFIG;
+        return pgem_init_fail(PGEM_ERR_CONFIG, pgem_config_problem(config), 0, 0, message,
+                              message_size);
     }
     size_t needed = pgem_memory_size(&resolved);
     if (needed == 0) {
-        return PGEM_ERR_CONFIG;
+        return pgem_init_fail(PGEM_ERR_CONFIG, pgem_config_problem(&resolved), 0, 0, message,
+                              message_size);
     }
     if (size < needed) {
-        return PGEM_ERR_BUFFER_TOO_SMALL;
+        return pgem_init_fail(PGEM_ERR_BUFFER_TOO_SMALL, "the memory block is too small", size,
+                              needed, message, message_size);
     }
+    /* Any start address works: the slices are aligned inside the block, and needed includes
+     * the 15 bytes the worst start can cost. */
     uintptr_t address = (uintptr_t)buffer;
     size_t skip = (size_t)((16u - (address & 15u)) & 15u);
-    pgem_arena_t arena = {(unsigned char *)buffer + skip, size - skip, 0};
+    pgem_arena_t arena = {(unsigned char *)buffer + skip, size - skip, 0, 0, 0, 0};
     pgem_t *graph = pgem_arena_take(&arena, 1, sizeof(pgem_t));
+    if (graph == NULL) { /* cannot happen after the size check, unless a test injects it */
+        return pgem_carve_failed(&arena, size, needed, message, message_size);
+    }
     memset(graph, 0, sizeof *graph);
     graph->config = resolved;
     graph->pose_size = PGEM_POSE_SIZE(resolved.dimension);
     graph->tangent = PGEM_TANGENT_SIZE(resolved.dimension);
     pgem_carve(graph, &arena);
+    if (arena.failed != 0) {
+        return pgem_carve_failed(&arena, size, needed, message, message_size);
+    }
     graph->block_bytes = size;
     graph->used_bytes = arena.used + skip;
     memset(graph->map_slot, 0, ((size_t)graph->map_mask + 1u) * sizeof(uint32_t));
     memset(graph->linear.reach_mark, 0, (size_t)resolved.max_poses * sizeof(int));
     *instance = graph;
+    if (message != NULL && message_size > 0) {
+        message[0] = '\0';
+    }
     return PGEM_OK;
+}
+
+int pgem_init(pgem_t **instance, const pgem_config_t *config, void *buffer, size_t size)
+{
+    return pgem_init_message(instance, config, buffer, size, NULL, 0);
 }
 
 const pgem_config_t *pgem_get_config(const pgem_t *instance)

@@ -1,24 +1,19 @@
 /* Error messages built into the instance without stdio, so the core stays firmware-safe. */
 #include "internal.h"
 
-void pgem_message_clear(pgem_t *graph)
-{
-    graph->message[0] = '\0';
-}
-
-void pgem_message_text(pgem_t *graph, const char *text)
+void pgem_text_append(char *text, size_t size, const char *piece)
 {
     size_t length = 0;
-    while (graph->message[length] != '\0') {
+    while (text[length] != '\0') {
         length++;
     }
-    while (*text != '\0' && length + 1 < PGEM_MESSAGE_SIZE) {
-        graph->message[length++] = *text++;
+    while (*piece != '\0' && length + 1 < size) {
+        text[length++] = *piece++;
     }
-    graph->message[length] = '\0';
+    text[length] = '\0';
 }
 
-void pgem_message_u64(pgem_t *graph, uint64_t value)
+void pgem_text_u64(char *text, size_t size, uint64_t value)
 {
     char digits[24];
     int count = 0;
@@ -26,12 +21,27 @@ void pgem_message_u64(pgem_t *graph, uint64_t value)
         digits[count++] = (char)('0' + (int)(value % 10u));
         value /= 10u;
     } while (value != 0u);
-    char text[24];
+    char piece[24];
     for (int k = 0; k < count; k++) {
-        text[k] = digits[count - 1 - k];
+        piece[k] = digits[count - 1 - k];
     }
-    text[count] = '\0';
-    pgem_message_text(graph, text);
+    piece[count] = '\0';
+    pgem_text_append(text, size, piece);
+}
+
+void pgem_message_clear(pgem_t *graph)
+{
+    graph->message[0] = '\0';
+}
+
+void pgem_message_text(pgem_t *graph, const char *text)
+{
+    pgem_text_append(graph->message, PGEM_MESSAGE_SIZE, text);
+}
+
+void pgem_message_u64(pgem_t *graph, uint64_t value)
+{
+    pgem_text_u64(graph->message, PGEM_MESSAGE_SIZE, value);
 }
 
 void pgem_message_i64(pgem_t *graph, int64_t value)

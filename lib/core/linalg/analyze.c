@@ -98,6 +98,24 @@ static int64_t pgem_analyze_factor(pgem_linear_t *linear)
     return nonzeros;
 }
 
+/* CSparse's symbolic routines could not get workspace: the message names the step and the
+ * memory that was short (the C heap with the system CSparse, else the block's pool). */
+static int pgem_fail_workspace(pgem_t *graph, const char *step)
+{
+    const size_t pool = graph->linear.cs_pool.size;
+    pgem_message_clear(graph);
+    pgem_message_text(graph, "out of memory in the symbolic analysis (");
+    pgem_message_text(graph, step);
+    if (pool == 0) {
+        pgem_message_text(graph, "): CSparse's workspace from the C heap: malloc returned NULL");
+    } else {
+        pgem_message_text(graph, "): CSparse's pool in the memory block (");
+        pgem_message_u64(graph, pool);
+        pgem_message_text(graph, " bytes) could not hold its workspace");
+    }
+    return PGEM_ERR_OUT_OF_MEMORY;
+}
+
 static int pgem_fill_exceeded(pgem_t *graph, int64_t nonzeros)
 {
     pgem_message_clear(graph);
@@ -118,7 +136,7 @@ static int pgem_linear_analyze_once(pgem_t *graph)
         return pgem_fail(graph, PGEM_ERR_EMPTY, "every pose is fixed: nothing to optimize");
     }
     if (pgem_pattern_order(graph, blocks) != PGEM_OK) {
-        return pgem_fail(graph, PGEM_ERR_OUT_OF_MEMORY, "CSparse AMD ordering ran out of memory");
+        return pgem_fail_workspace(graph, "AMD ordering");
     }
     linear->block_count = blocks;
     linear->scalar_count = blocks * linear->block;
@@ -127,7 +145,7 @@ static int pgem_linear_analyze_once(pgem_t *graph)
     pgem_analyze_upper(linear);
     int64_t nonzeros = pgem_analyze_factor(linear);
     if (nonzeros < 0) {
-        return pgem_fail(graph, PGEM_ERR_OUT_OF_MEMORY, "CSparse symbolic analysis ran out of memory");
+        return pgem_fail_workspace(graph, "elimination tree and column counts");
     }
     linear->factor_nonzeros = nonzeros > INT32_MAX ? INT32_MAX : (int)nonzeros;
     if (nonzeros > (int64_t)graph->config.fill_budget) {

@@ -119,14 +119,16 @@ static void *pgem_pool_take(int n, size_t size)
     return pool->base + start + PGEM_POOL_HEADER;
 }
 
+/* pgem_fault_next() is 0 except in the exhaustion test's copy of the core, which fails each
+ * allocation in turn (internal.h). */
 void *cs_di_malloc(int n, size_t size)
 {
-    return pgem_pool_take(n, size);
+    return pgem_fault_next() ? NULL : pgem_pool_take(n, size);
 }
 
 void *cs_di_calloc(int n, size_t size)
 {
-    void *p = pgem_pool_take(n, size);
+    void *p = pgem_fault_next() ? NULL : pgem_pool_take(n, size);
     if (p != NULL) {
         memset(p, 0, pgem_pool_header(pgem_pool_open, pgem_pool_offset(pgem_pool_open, p))->bytes);
     }
@@ -153,6 +155,10 @@ void *cs_di_realloc(void *p, int n, size_t size, int *ok)
 {
     pgem_cs_pool_t *pool = pgem_pool_open;
     size_t bytes;
+    if (pgem_fault_next()) {
+        *ok = 0;
+        return p;
+    }
     if (p == NULL) {
         void *fresh = pgem_pool_take(n, size);
         *ok = fresh != NULL;

@@ -190,6 +190,21 @@ static void pgem_restore_initial(pgem_t *graph)
     memcpy(graph->pose, graph->pose_initial, pgem_pose_bytes(graph));
 }
 
+/* The loops' weights and states before a robust solve, put back if it fails (with the
+ * estimate), so a failed call changes nothing the caller can see. */
+static void pgem_save_loops(pgem_t *graph)
+{
+    memcpy(graph->edge_weight_saved, graph->edge_weight, graph->edge_count * sizeof(double));
+    memcpy(graph->edge_active_saved, graph->edge_active, graph->edge_count);
+}
+
+static void pgem_restore_loops(pgem_t *graph)
+{
+    memcpy(graph->edge_weight, graph->edge_weight_saved, graph->edge_count * sizeof(double));
+    memcpy(graph->edge_active, graph->edge_active_saved, graph->edge_count);
+    pgem_linear_invalidate(graph); /* the structure was built for the states of the failed solve */
+}
+
 /* Rounds of E/M iterations, each followed by pruning, until a round prunes nothing. */
 static int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
                           const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
@@ -311,6 +326,7 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
         return pgem_fail(graph, PGEM_ERR_INVALID_ARGUMENT, "unknown robust kernel");
     }
     memcpy(graph->pose_initial, graph->pose, pgem_pose_bytes(graph));
+    pgem_save_loops(graph);
     out->initial_chi2 = pgem_total_chi2(graph);
     int status;
     if (resolved.kernel == PGEM_KERNEL_NONE) {
@@ -323,6 +339,7 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     pgem_wake_dormant(graph); /* none stays dormant after the solve */
     if (status != PGEM_OK) {
         pgem_restore_initial(graph);
+        pgem_restore_loops(graph);
         return status;
     }
     pgem_count_loops(graph, out);
