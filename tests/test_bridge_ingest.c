@@ -364,6 +364,74 @@ static void test_wrong_dimension(void **state)
     pgem_ingest_destroy(ingest);
 }
 
+/* Ids travel as int64 and are read as unsigned 64-bit: -1 is 2^64 - 1 and INT64_MIN is 2^63,
+ * every value is a valid id (none is reserved), and the messages name them that way. Bad values
+ * are rejected with a message naming the pose or edge and the field. */
+static void test_ids_at_the_ends_of_the_range(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 10, 10, 4, &sink);
+    const int64_t wire_ids[] = {INT64_MAX, INT64_MIN, -2, -1};
+    const pgem_id_t ids[] = {UINT64_C(9223372036854775807), UINT64_C(9223372036854775808),
+                             UINT64_C(18446744073709551614), UINT64_C(18446744073709551615)};
+    for (int k = 0; k < 4; ++k) {
+        assert_int_equal(feed(ingest, PGEM_ROLE_POSE, pose2(wire_ids[k], k, 0, 0)).verdict,
+                         PGEM_VERDICT_ACCEPTED);
+        assert_true(sink.items[k].from == ids[k]);
+    }
+    /* INT64_MAX -> INT64_MIN and -2 -> -1 differ by one as unsigned ids (set by hand: their
+     * difference overflows int64) */
+    pgem_edge2_t top = edge2_msg(0, 0, 1);
+    top.from = INT64_MAX;
+    top.to = INT64_MIN;
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&top)).verdict,
+                     PGEM_VERDICT_ACCEPTED);
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(1, -2, -1)).verdict, PGEM_VERDICT_ACCEPTED);
+    assert_int_equal(sink.count, 6);
+    assert_true(sink.items[4].from == ids[0] && sink.items[4].to == ids[1]);
+    assert_true(sink.items[5].from == ids[2] && sink.items[5].to == ids[3]);
+    /* the same id twice: a replay, or a conflict naming it */
+    assert_int_equal(feed(ingest, PGEM_ROLE_POSE, pose2(-1, 3, 0, 0)).verdict, PGEM_VERDICT_REPLAY);
+    pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_POSE, pose2(-1, 4, 0, 0));
+    assert_int_equal(r.reason, PGEM_REJECT_CONFLICT);
+    assert_string_equal(r.message, "2D pose 18446744073709551615: the pose already exists with "
+                                   "another estimate");
+    r = feed(ingest, PGEM_ROLE_EDGE, edge2(2, -1, -1));
+    assert_int_equal(r.reason, PGEM_REJECT_SELF_LOOP);
+    assert_string_equal(r.message, "edge 18446744073709551615 -> 18446744073709551615 (source "
+                                   "'fe', sequence 2): a self-loop");
+    r = feed(ingest, PGEM_ROLE_POSE, pose2(7, 0, NAN, 0));
+    assert_int_equal(r.reason, PGEM_REJECT_NOT_FINITE);
+    assert_string_equal(r.message, "2D pose 7: NaN or Inf in the estimate (field y)");
+    pgem_edge2_t e = edge2_msg(3, -2, -1);
+    e.measurement[2] = -INFINITY;
+    r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
+    assert_int_equal(r.reason, PGEM_REJECT_NOT_FINITE);
+    assert_string_equal(r.message, "edge 18446744073709551614 -> 18446744073709551615 (source "
+                                   "'fe', sequence 3): NaN or Inf in the measurement (field theta)");
+    e = edge2_msg(4, -2, -1);
+    e.information[4] = NAN; /* yt */
+    r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
+    assert_int_equal(r.reason, PGEM_REJECT_NOT_FINITE);
+    assert_non_null(strstr(r.message, "information has NaN or Inf (entry 1,2)"));
+    e = edge2_msg(5, -2, -1);
+    e.information[0] = 0.0;
+    r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
+    assert_int_equal(r.reason, PGEM_REJECT_INFORMATION);
+    assert_non_null(strstr(r.message, "(source 'fe', sequence 5): information is not positive "
+                                      "definite (entry 0,0)"));
+    /* an edge naming a pose that never comes waits, counted, and is not lost */
+    r = feed(ingest, PGEM_ROLE_EDGE, edge2(6, -1, 42));
+    assert_int_equal(r.verdict, PGEM_VERDICT_ACCEPTED);
+    assert_int_equal(r.pending, 1);
+    pgem_ingest_counts_t counts;
+    pgem_ingest_counts(ingest, &counts);
+    assert_int_equal(counts.pending, 1);
+    assert_int_equal(sink.count, 6);
+    pgem_ingest_destroy(ingest);
+}
+
 static void test_capacity(void **state)
 {
     (void)state;
@@ -518,6 +586,7 @@ int main(void)
         cmocka_unit_test(test_garbage_and_truncation),
         cmocka_unit_test(test_wrong_dimension),
         cmocka_unit_test(test_capacity),
+        cmocka_unit_test(test_ids_at_the_ends_of_the_range),
         cmocka_unit_test(test_commands),
         cmocka_unit_test(test_order_and_replay_determinism),
         cmocka_unit_test(test_any_role_ignores_other_types),

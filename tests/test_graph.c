@@ -77,6 +77,31 @@ static void test_pose_ids_64bit(void **state)
     assert_int_equal(index, 1);
     assert_int_equal(pgem_pose_index(graph, big, NULL), PGEM_ERR_INVALID_ARGUMENT);
     pgem_destroy(graph);
+    /* every id is valid, none is reserved: the ends of the signed and unsigned ranges */
+    const pgem_id_t ends[] = {UINT64_C(9223372036854775807), UINT64_C(9223372036854775808),
+                              UINT64_C(18446744073709551614), UINT64_C(18446744073709551615)};
+    graph = test_create(2, 4, 4);
+    double information[9];
+    test_diagonal_information(3, 1.0, information);
+    const double z[3] = {1, 0, 0};
+    for (int k = 0; k < 4; k++) {
+        assert_int_equal(pgem_add_pose(graph, ends[k], identity_2d), PGEM_OK);
+    }
+    for (int k = 0; k < 3; k++) {
+        assert_int_equal(pgem_add_edge(graph, ends[k], ends[k + 1], z, information,
+                                       PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    }
+    assert_int_equal(pgem_add_pose(graph, ends[3], identity_2d), PGEM_ERR_CAPACITY);
+    assert_int_equal(pgem_add_edge(graph, ends[3], 0, z, information, PGEM_EDGE_LOOP, NULL),
+                     PGEM_ERR_UNKNOWN_ID);
+    assert_string_equal(pgem_last_error(graph),
+                        "no pose with id 0 (edge 18446744073709551615 -> 0)");
+    assert_int_equal(pgem_optimize(graph, NULL, NULL), PGEM_OK);
+    for (int k = 0; k < 4; k++) {
+        assert_int_equal(pgem_pose_at(graph, (uint32_t)k, &id, NULL, NULL), PGEM_OK);
+        assert_true(id == ends[k]);
+    }
+    pgem_destroy(graph);
 }
 
 static void test_pose_errors_change_nothing(void **state)
@@ -97,6 +122,11 @@ static void test_pose_errors_change_nothing(void **state)
     assert_int_equal(pgem_pose_count(graph), 2);
     assert_int_equal(pgem_fix_pose(graph, 99, 1), PGEM_ERR_UNKNOWN_ID);
     assert_non_null(strstr(pgem_last_error(graph), "99"));
+    double inf_pose[3] = {0.0, 0.0, -INFINITY}, stored[3];
+    assert_int_equal(pgem_set_pose(graph, 2, inf_pose), PGEM_ERR_NOT_FINITE);
+    assert_string_equal(pgem_last_error(graph), "pose: field theta is not finite (pose id 2)");
+    assert_int_equal(pgem_get_pose(graph, 2, stored), PGEM_OK);
+    assert_memory_equal(stored, identity_2d, sizeof stored);
     pgem_destroy(graph);
 }
 

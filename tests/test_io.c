@@ -415,6 +415,10 @@ static void test_error_field_count(void **state)
                  "toro_few.graph:4:", "field 11 (Iyt) is missing");
     expect_error("fix_empty.g2o", HEAD2 "FIX\n", PGEM_ERR_PARSE, "fix_empty.g2o:3:",
                  "FIX has 0 fields");
+    expect_error("fix_many.g2o",
+                 HEAD2 "FIX 0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25 "
+                       "26 27 28 29 30 31\n",
+                 PGEM_ERR_PARSE, "fix_many.g2o:3:", "FIX has 32 ids, at most 31 per line");
     expect_error("long_edge.g2o",
                  "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nEDGE_SE3:QUAT 0 1 1 2 3 0 0 0 1 1 2 3 4 5 6 7 "
                  "8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24\n",
@@ -530,6 +534,10 @@ static void test_error_long_line(void **state)
     assert_int_equal(graph.pose_count, 2);
     pgem_io_graph_free(&graph);
     assert_int_equal(read_long_line(65537, "\n", &graph, message, sizeof message),
+                     PGEM_ERR_PARSE);
+    assert_contains(message, "long.g2o:2: line is longer than 65536 bytes");
+    assert_graph_empty(&graph);
+    assert_int_equal(read_long_line(65537, "\r\n", &graph, message, sizeof message),
                      PGEM_ERR_PARSE);
     assert_contains(message, "long.g2o:2: line is longer than 65536 bytes");
     assert_graph_empty(&graph);
@@ -706,6 +714,100 @@ static void test_edge_kinds(void **state)
     assert_int_equal(graph.edges[3].kind, PGEM_EDGE_LOOP);
     assert_int_equal(graph.edges[4].kind, PGEM_EDGE_LOOP);
     assert_int_equal(graph.edges[5].kind, PGEM_EDGE_ODOMETRY);
+    pgem_io_graph_free(&graph);
+}
+
+/* A UTF-8 byte order mark at the start is skipped: without that, the first line's tag was
+ * unknown and the line silently left out (an edge-only file lost its first edge). */
+static void test_byte_order_mark(void **state)
+{
+    pgem_io_graph_t graph;
+    (void)state;
+    read_ok("bom.g2o", "\xEF\xBB\xBFVERTEX_SE2 0 0 0 0\r\nVERTEX_SE2 1 1 0 0\r\n"
+                       "EDGE_SE2 0 1 1 0 0" INFO2 "\r\n", &graph);
+    assert_int_equal(graph.pose_count, 2);
+    assert_int_equal(graph.edge_count, 1);
+    assert_int_equal(graph.unknown_lines, 0);
+    assert_int_equal(graph.poses[0].line, 1);
+    pgem_io_graph_free(&graph);
+    read_ok("bom_edges.g2o", "\xEF\xBB\xBF" "EDGE_SE2 0 1 1 0 0" INFO2 "\nEDGE_SE2 1 2 1 0 0" INFO2
+                             "\n", &graph);
+    assert_int_equal(graph.edge_count, 2);
+    assert_int_equal(graph.pose_count, 3);
+    assert_int_equal(graph.unknown_lines, 0);
+    pgem_io_graph_free(&graph);
+    /* only at the start of the file: elsewhere it is part of an (unknown) tag */
+    read_ok("bom_late.g2o", HEAD2 "\xEF\xBB\xBFVERTEX_SE2 2 0 0 0\n", &graph);
+    assert_int_equal(graph.pose_count, 2);
+    assert_int_equal(graph.unknown_lines, 1);
+    assert_int_equal(graph.first_unknown_line, 3);
+    pgem_io_graph_free(&graph);
+}
+
+/* Ids at the top of the 64-bit range are ordinary ids (none is reserved); one past is refused. */
+static void test_ids_near_two_to_the_64(void **state)
+{
+    pgem_io_graph_t graph;
+    pgem_io_graph_t copy;
+    const pgem_id_t ids[] = {UINT64_C(9223372036854775807), UINT64_C(9223372036854775808),
+                             UINT64_C(18446744073709551614), UINT64_C(18446744073709551615), 0};
+    (void)state;
+    read_ok("top_ids.g2o",
+            "VERTEX_SE2 9223372036854775807 0 0 0\nVERTEX_SE2 9223372036854775808 1 0 0\n"
+            "VERTEX_SE2 18446744073709551614 2 0 0\nVERTEX_SE2 18446744073709551615 3 0 0\n"
+            "VERTEX_SE2 0 4 0 0\n"
+            "EDGE_SE2 9223372036854775807 9223372036854775808 1 0 0" INFO2 "\n"
+            "EDGE_SE2 18446744073709551614 18446744073709551615 1 0 0" INFO2 "\n"
+            "EDGE_SE2 18446744073709551615 0 1 0 0" INFO2 "\n"
+            "EDGE_SE2 9223372036854775808 18446744073709551614 1 0 0" INFO2 "\n",
+            &graph);
+    assert_int_equal(graph.pose_count, 5);
+    for (size_t k = 0; k < 5; ++k) {
+        assert_true(graph.poses[k].id == ids[k]);
+    }
+    assert_int_equal(graph.edges[0].kind, PGEM_EDGE_ODOMETRY);
+    assert_int_equal(graph.edges[1].kind, PGEM_EDGE_ODOMETRY);
+    assert_int_equal(graph.edges[2].kind, PGEM_EDGE_LOOP); /* 2^64 - 1 and 0: no wrap-around */
+    assert_int_equal(graph.edges[3].kind, PGEM_EDGE_LOOP);
+    pgem_t *instance = test_load_graph(&graph);
+    assert_int_equal(pgem_io_from_instance(instance, &copy), PGEM_OK);
+    for (size_t k = 0; k < 5; ++k) {
+        assert_true(copy.poses[k].id == ids[k]);
+    }
+    round_trip(&copy, PGEM_FORMAT_G2O, "top_ids_out.g2o");
+    pgem_io_graph_free(&copy);
+    pgem_destroy(instance);
+    pgem_io_graph_free(&graph);
+    expect_error("past_top.g2o", "EDGE_SE2 0 18446744073709551616 1 0 0" INFO2 "\n",
+                 PGEM_ERR_PARSE, "past_top.g2o:1:",
+                 "EDGE_SE2 field 2 (j) is not an unsigned 64-bit id: '18446744073709551616'");
+    expect_error("neg_edge.g2o", "EDGE_SE2 -9223372036854775808 1 1 0 0" INFO2 "\n",
+                 PGEM_ERR_PARSE, "neg_edge.g2o:1:",
+                 "EDGE_SE2 field 1 (i) is not an unsigned 64-bit id: '-9223372036854775808'");
+}
+
+/* Lines of every length, so that line ends fall at every position of the reader's chunks. */
+static void test_lines_across_chunks(void **state)
+{
+    enum { POSES = 3000 };
+    size_t capacity = (size_t)POSES * 400u;
+    char *text = (char *)malloc(capacity);
+    size_t used = 0;
+    pgem_io_graph_t graph;
+    (void)state;
+    assert_non_null(text);
+    for (int k = 0; k < POSES; ++k) {
+        used += (size_t)snprintf(text + used, capacity - used, "%*sVERTEX_SE2 %d %d.5 0 0%s\n",
+                                 (k * 37) % 311, "", k, k, k % 3 == 0 ? "\r" : "");
+    }
+    read_ok("chunks.g2o", text, &graph);
+    free(text);
+    assert_int_equal(graph.pose_count, POSES);
+    for (int k = 0; k < POSES; ++k) {
+        assert_true(graph.poses[k].id == (pgem_id_t)k);
+        assert_true(graph.poses[k].pose[0] == k + 0.5);
+        assert_int_equal(graph.poses[k].line, (unsigned long)k + 1u);
+    }
     pgem_io_graph_free(&graph);
 }
 
@@ -1048,6 +1150,43 @@ static void test_load_errors(void **state)
                       PGEM_ERR_ROTATION, "bad_quat.g2o:2: pose 1: ");
     expect_load_error("self.g2o", HEAD2 "EDGE_SE2 1 1 0 0 0" INFO2 "\n", PGEM_ERR_SELF_LOOP,
                       "self.g2o:3: edge 1 -> 1: ");
+    expect_load_error("zero_info.g2o", HEAD2 "EDGE_SE2 0 1 1 0 0 0 0 0 0 0 0\n",
+                      PGEM_ERR_INFORMATION,
+                      "zero_info.g2o:3: edge 0 -> 1: information is not positive definite "
+                      "(pivot 0 is not positive)");
+    expect_load_error("indefinite.g2o", HEAD2 "EDGE_SE2 0 1 1 0 0 1 2 0 1 0 1\n",
+                      PGEM_ERR_INFORMATION, "(pivot 1 is not positive)");
+    expect_load_error("neg_info_3d.g2o",
+                      "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT 1 0 0 0 0 0 0 1\n"
+                      "EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 -1\n",
+                      PGEM_ERR_INFORMATION, "neg_info_3d.g2o:3: edge 0 -> 1: information is not "
+                      "positive definite (pivot 5 is not positive)");
+    /* a graph larger than the instance's room: refused before anything is added */
+    read_ok("too_big.g2o", HEAD2 "VERTEX_SE2 2 0 0 0\nEDGE_SE2 0 1 1 0 0" INFO2 "\n", &graph);
+    memset(&config, 0, sizeof config);
+    config.dimension = 2;
+    config.max_poses = 2;
+    config.max_edges = 4;
+    assert_int_equal(pgem_create(&instance, &config), PGEM_OK);
+    assert_int_equal(pgem_io_load(&graph, instance, message, sizeof message), PGEM_ERR_CAPACITY);
+    assert_contains(message, "too_big.g2o: 3 poses do not fit: the instance has room for 2 more "
+                             "(max_poses = 2)");
+    assert_int_equal(pgem_pose_count(instance), 0);
+    pgem_destroy(instance);
+    config.max_poses = 8;
+    config.max_edges = 1;
+    const double pose[3] = {0, 0, 0};
+    assert_int_equal(pgem_create(&instance, &config), PGEM_OK);
+    assert_int_equal(pgem_add_pose(instance, 9, pose), PGEM_OK);
+    assert_int_equal(pgem_add_pose(instance, 8, pose), PGEM_OK);
+    assert_int_equal(pgem_add_edge(instance, 9, 8, pose, graph.edges[0].information,
+                                   PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    assert_int_equal(pgem_io_load(&graph, instance, message, sizeof message), PGEM_ERR_CAPACITY);
+    assert_contains(message, "too_big.g2o: 1 edges do not fit: the instance has room for 0 "
+                             "more (max_edges = 1)");
+    assert_int_equal(pgem_pose_count(instance), 2);
+    pgem_destroy(instance);
+    pgem_io_graph_free(&graph);
     /* a 3D graph into a 2D instance */
     read_ok("dim_load.g2o", "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n", &graph);
     memset(&config, 0, sizeof config);
@@ -1082,6 +1221,9 @@ int main(void)
         cmocka_unit_test(test_crlf_tabs_comments),
         cmocka_unit_test(test_unknown_tags_and_equiv),
         cmocka_unit_test(test_edge_kinds),
+        cmocka_unit_test(test_byte_order_mark),
+        cmocka_unit_test(test_ids_near_two_to_the_64),
+        cmocka_unit_test(test_lines_across_chunks),
         cmocka_unit_test(test_chain_2d),
         cmocka_unit_test(test_chain_3d),
         cmocka_unit_test(test_datasets_read),

@@ -348,6 +348,81 @@ static void test_consistency_gate_prunes_what_em_keeps(void **state)
     }
 }
 
+/* Two chains joined only by two loop closures that contradict each other, the second chain's
+ * guess halfway between them: EM prunes both, which leaves the second chain with no held pose.
+ * Under Gauss-Newton and under Levenberg-Marquardt (whose damping would hide the singular
+ * matrix) the solve fails naming a pose of that chain, and the estimate is restored. */
+static void test_pruning_that_splits_the_graph_fails(void **state)
+{
+    (void)state;
+    for (int method = 0; method < 2; method++) {
+        pgem_t *graph = test_create(2, 20, 20);
+        double information[9];
+        test_diagonal_information(3, 100.0, information);
+        for (int part = 0; part < 2; part++) {
+            for (int k = 0; k < 10; k++) {
+                const double pose[3] = {k, part * 32.5, 0.0};
+                assert_int_equal(pgem_add_pose(graph, (pgem_id_t)(part * 100 + k), pose), PGEM_OK);
+            }
+            for (int k = 0; k < 9; k++) {
+                const double step[3] = {1.0, 0.0, 0.0};
+                const pgem_id_t from = (pgem_id_t)(part * 100 + k);
+                assert_int_equal(pgem_add_edge(graph, from, from + 1u, step, information,
+                                               PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+            }
+        }
+        const double near[3] = {0.0, 5.0, 0.0}, far[3] = {0.0, 60.0, 0.0};
+        assert_int_equal(pgem_add_edge(graph, 5, 105, near, information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
+        assert_int_equal(pgem_add_edge(graph, 6, 106, far, information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
+        double before[3 * 20], after[3 * 20];
+        test_snapshot(graph, before);
+        pgem_robust_options_t options = em_options();
+        pgem_solve_options_t solve = {0};
+        solve.method = method == 0 ? PGEM_GAUSS_NEWTON : PGEM_LEVENBERG_MARQUARDT;
+        pgem_robust_summary_t summary;
+        assert_int_equal(pgem_robust_optimize(graph, &options, &solve, &summary),
+                         PGEM_ERR_NOT_POSITIVE_DEFINITE);
+        assert_int_equal(summary.usable, 0);
+        assert_contains(pgem_last_error(graph), "pose 100 is in a part of the graph with no held pose");
+        test_snapshot(graph, after);
+        assert_memory_equal(before, after, sizeof before);
+        pgem_destroy(graph);
+    }
+}
+
+/* NaN or Inf in a robust option (or in the solve options it passes on) is refused by name. */
+static void test_non_finite_robust_options_refused(void **state)
+{
+    (void)state;
+    double truth[3 * RING];
+    pgem_t *graph = ring(5, truth);
+    pgem_robust_options_t options = em_options();
+    options.scale = NAN;
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, NULL), PGEM_ERR_INVALID_ARGUMENT);
+    assert_string_equal(pgem_last_error(graph), "option scale is not a finite number");
+    options = em_options();
+    options.gate = INFINITY;
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, NULL), PGEM_ERR_INVALID_ARGUMENT);
+    assert_string_equal(pgem_last_error(graph), "option gate is not a finite number");
+    options = em_options();
+    options.dormant_threshold = -INFINITY;
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, NULL), PGEM_ERR_INVALID_ARGUMENT);
+    assert_string_equal(pgem_last_error(graph), "option dormant_threshold is not a finite number");
+    options = em_options();
+    options.prune_threshold = NAN;
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, NULL), PGEM_ERR_INVALID_ARGUMENT);
+    options.prune_threshold = 0.0;
+    options.weight_tolerance = NAN;
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, NULL), PGEM_ERR_INVALID_ARGUMENT);
+    assert_string_equal(pgem_last_error(graph), "option weight_tolerance is not a finite number");
+    pgem_solve_options_t solve = {0};
+    solve.step_tolerance = NAN;
+    options = em_options();
+    assert_int_equal(pgem_robust_optimize(graph, &options, &solve, NULL), PGEM_ERR_INVALID_ARGUMENT);
+    assert_string_equal(pgem_last_error(graph), "option step_tolerance is not a finite number");
+    pgem_destroy(graph);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -361,6 +436,8 @@ int main(void)
         cmocka_unit_test(test_pruned_loops_leave_the_structure),
         cmocka_unit_test(test_dormant_loops_keep_the_factor_sparse),
         cmocka_unit_test(test_consistency_gate_prunes_what_em_keeps),
+        cmocka_unit_test(test_pruning_that_splits_the_graph_fails),
+        cmocka_unit_test(test_non_finite_robust_options_refused),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

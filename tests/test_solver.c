@@ -107,7 +107,7 @@ static void test_singular_restores_estimate(void **state)
 {
     (void)state;
     double truth[3 * 10], before[3 * 12], after[3 * 12], information[9];
-    pgem_t *graph = test_create(2, 12, 20);
+    pgem_t *graph = test_create(2, 13, 20);
     test_ring_2d(graph, 10, 3, 0.01, 0.01, 3, truth);
     test_diagonal_information(3, 1.0, information);
     double p[3] = {5, 5, 0}, q[3] = {6, 5, 0.1}, z[3] = {1.2, 0.1, 0};
@@ -120,12 +120,30 @@ static void test_singular_restores_estimate(void **state)
     assert_int_equal(summary.usable, 0);
     assert_int_equal(summary.estimate_changed, 0);
     assert_int_equal(summary.termination, PGEM_TERM_NOT_POSITIVE_DEFINITE);
-    assert_non_null(strstr(pgem_last_error(graph), "fixed pose"));
+    assert_string_equal(pgem_last_error(graph),
+                        "pose 100 is in a part of the graph with no held pose (a fixed pose, or "
+                        "the first pose added when none is fixed): no edge, or only pruned loop "
+                        "closures, join it to one");
     test_snapshot(graph, after);
     assert_memory_equal(before, after, sizeof before);
-    /* holding the second component too makes it solvable */
+    /* Levenberg-Marquardt's damping would make the matrix invertible and let the second part
+     * float: the split is refused before any number is computed, whatever the method */
+    pgem_solve_options_t lm = {0};
+    lm.method = PGEM_LEVENBERG_MARQUARDT;
+    assert_int_equal(pgem_optimize(graph, &lm, &summary), PGEM_ERR_NOT_POSITIVE_DEFINITE);
+    assert_int_equal(summary.usable, 0);
+    assert_contains(pgem_last_error(graph), "pose 100 is in a part");
+    test_snapshot(graph, after);
+    assert_memory_equal(before, after, sizeof before);
+    /* holding the second component too makes it solvable, but a pose without any edge is a
+     * part of its own */
     assert_int_equal(pgem_fix_pose(graph, 0, 1), PGEM_OK);
     assert_int_equal(pgem_fix_pose(graph, 100, 1), PGEM_OK);
+    double lone[3] = {9, 9, 0};
+    assert_int_equal(pgem_add_pose(graph, 77, lone), PGEM_OK);
+    assert_int_equal(pgem_optimize(graph, &lm, &summary), PGEM_ERR_NOT_POSITIVE_DEFINITE);
+    assert_contains(pgem_last_error(graph), "pose 77 is in a part");
+    assert_int_equal(pgem_fix_pose(graph, 77, 1), PGEM_OK);
     assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_OK);
     double held[3];
     assert_int_equal(pgem_get_pose(graph, 100, held), PGEM_OK);
@@ -149,6 +167,38 @@ static void test_non_finite_chi2_fails_cleanly(void **state)
     double pose[3];
     assert_int_equal(pgem_get_pose(graph, 1, pose), PGEM_OK);
     assert_memory_equal(pose, b, sizeof b);
+    pgem_destroy(graph);
+}
+
+/* A NaN or Inf solver option is refused, naming it, before anything changes (a NaN tolerance
+ * would otherwise never stop the solve, a NaN damping poison the matrix). */
+static void test_non_finite_options_refused(void **state)
+{
+    (void)state;
+    double truth[3 * 10], before[3 * 10], after[3 * 10];
+    pgem_t *graph = test_create(2, 10, 20);
+    test_ring_2d(graph, 10, 3, 0.01, 0.01, 5, truth);
+    test_snapshot(graph, before);
+    const char *names[] = {"relative_chi2_tolerance", "step_tolerance", "initial_lambda"};
+    const double bad[] = {NAN, INFINITY, -INFINITY};
+    for (int field = 0; field < 3; field++) {
+        for (int k = 0; k < 3; k++) {
+            pgem_solve_options_t options = {0};
+            options.method = PGEM_LEVENBERG_MARQUARDT;
+            double *value = field == 0 ? &options.relative_chi2_tolerance
+                            : field == 1 ? &options.step_tolerance
+                                         : &options.initial_lambda;
+            *value = bad[k];
+            pgem_summary_t summary;
+            assert_int_equal(pgem_optimize(graph, &options, &summary), PGEM_ERR_INVALID_ARGUMENT);
+            assert_int_equal(summary.usable, 0);
+            char expected[96];
+            snprintf(expected, sizeof expected, "option %s is not a finite number", names[field]);
+            assert_string_equal(pgem_last_error(graph), expected);
+        }
+    }
+    test_snapshot(graph, after);
+    assert_memory_equal(before, after, sizeof before);
     pgem_destroy(graph);
 }
 
@@ -249,6 +299,7 @@ int main(void)
         cmocka_unit_test(test_3d_recovers_truth),
         cmocka_unit_test(test_singular_restores_estimate),
         cmocka_unit_test(test_non_finite_chi2_fails_cleanly),
+        cmocka_unit_test(test_non_finite_options_refused),
         cmocka_unit_test(test_fill_budget_reports_need),
         cmocka_unit_test(test_callback_can_stop),
         cmocka_unit_test(test_analysis_once_per_topology),

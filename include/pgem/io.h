@@ -75,9 +75,24 @@ typedef struct pgem_io_graph {
  * - A file with edge lines but no VERTEX line gets one pose per referenced id, ordered by id;
  *   if some ids have VERTEX lines, an edge naming an id without one is PGEM_ERR_UNKNOWN_ID.
  * - Lines are limited to 65536 bytes; a NUL byte in a line is PGEM_ERR_PARSE.
+ * - LF and CRLF line ends are accepted, and a UTF-8 byte order mark at the start of the file
+ *   is skipped. The memory a read takes depends on the graph, not on the file's size: blank,
+ *   comment and unknown lines cost nothing.
  * FORMATS.md at the repository root lists every accepted line. */
 int pgem_io_read(const char *path, pgem_format_t format, pgem_io_graph_t *graph,
                  char *message, size_t message_size);
+
+/** Progress of a long read, for a tool that shows it: bytes and lines read so far. */
+typedef void (*pgem_io_progress_fn)(uint64_t bytes, unsigned long lines, void *user);
+
+/** Bytes between two calls of a pgem_io_progress_fn (16 MiB). */
+#define PGEM_IO_PROGRESS_BYTES (UINT64_C(16) << 20)
+
+/** As pgem_io_read, calling progress (if not NULL) each time another PGEM_IO_PROGRESS_BYTES
+ * have been read. */
+int pgem_io_read_progress(const char *path, pgem_format_t format, pgem_io_graph_t *graph,
+                          char *message, size_t message_size, pgem_io_progress_fn progress,
+                          void *user);
 
 /** As pgem_io_read, from an open stream; name is used in messages. */
 int pgem_io_read_stream(FILE *stream, const char *name, pgem_format_t format,
@@ -89,7 +104,10 @@ void pgem_io_graph_free(pgem_io_graph_t *graph);
 void pgem_io_config(const pgem_io_graph_t *graph, pgem_config_t *config);
 
 /** Adds every pose, edge and FIX of the file graph to an empty instance. On error the message
- * names the file line of the offending pose or edge and the instance's message is appended. */
+ * names the file line of the offending pose or edge and the instance's message is appended.
+ * A graph larger than the instance's free capacity is PGEM_ERR_CAPACITY with nothing added;
+ * after any other error the instance holds the poses and edges added before the offending
+ * one: discard it (the core cannot take them back). */
 int pgem_io_load(const pgem_io_graph_t *graph, pgem_t *instance, char *message,
                  size_t message_size);
 

@@ -202,15 +202,19 @@ static void reject(pgem_ingest_t *ingest, pgem_ingest_result_t *result, pgem_rej
 
 /* ---- checks shared by poses and edges ---------------------------------------------------- */
 
-static int all_finite(const double *values, int count)
+/* The index of the first value that is NaN or Inf, or -1. */
+static int first_not_finite(const double *values, int count)
 {
     for (int i = 0; i < count; ++i) {
         if (!isfinite(values[i])) {
-            return 0;
+            return i;
         }
     }
-    return 1;
+    return -1;
 }
+
+static const char *const value_names_2d[] = {"x", "y", "theta"};
+static const char *const value_names_3d[] = {"x", "y", "z", "qx", "qy", "qz", "qw"};
 
 static int quaternion_ok(const double *pose7)
 {
@@ -249,8 +253,10 @@ static int values_ok(pgem_ingest_t *ingest, const double *values, const char *wh
                      const char *noun, pgem_ingest_result_t *result)
 {
     int dimension = ingest->config.dimension;
-    if (!all_finite(values, PGEM_POSE_SIZE(dimension))) {
-        snprintf(result->message, sizeof result->message, "%s: NaN or Inf in the %s", what, noun);
+    int bad = first_not_finite(values, PGEM_POSE_SIZE(dimension));
+    if (bad >= 0) {
+        snprintf(result->message, sizeof result->message, "%s: NaN or Inf in the %s (field %s)",
+                 what, noun, dimension == 3 ? value_names_3d[bad] : value_names_2d[bad]);
         reject(ingest, result, PGEM_REJECT_NOT_FINITE);
         return 0;
     }

@@ -212,6 +212,14 @@ void pgem_pattern_build(pgem_t *graph, int block_count, int *colptr, int *rows, 
 
 /* Linear layer. */
 int pgem_linear_analyze(pgem_t *graph);
+/* PGEM_ERR_NOT_POSITIVE_DEFINITE, naming a pose, if a part of the graph (edges not pruned)
+ * has no held pose; needs the numbering of a valid analysis (linalg/analyze.c). */
+int pgem_linear_check_parts(pgem_t *graph);
+/* PGEM_ERR_INVALID_ARGUMENT with "option NAME is not a finite number" unless value is finite
+ * (solver/optimize.c). */
+int pgem_check_option(pgem_t *graph, double value, const char *name);
+/* The method and every double of solve options (NULL: fine), as pgem_optimize checks them. */
+int pgem_check_solve_options(pgem_t *graph, const pgem_solve_options_t *options);
 double pgem_linear_assemble(pgem_t *graph);
 void pgem_linear_damp(pgem_t *graph, double lambda);
 int pgem_linear_factor(pgem_t *graph);

@@ -4,6 +4,7 @@
 
 #include <stdarg.h>
 #include <stddef.h>
+#include <stdint.h>
 #include <stdio.h>
 
 #include "pgem/io.h"
@@ -20,11 +21,19 @@
 #define IO_LINE_TOO_LONG (-100) /* more than IO_LINE_MAX bytes */
 #define IO_LINE_HAS_NUL (-101)  /* a NUL byte (binary data) */
 
-/* A growing buffer holding one line, NUL-terminated, without its line end. */
+/* Bytes read from the stream at a time. */
+#define IO_CHUNK_BYTES 65536u
+
+/* A growing buffer holding one line, NUL-terminated, without its line end, and the chunk of
+ * the stream the next lines are cut from. */
 typedef struct io_line {
     char *text;
     size_t length;
     size_t capacity;
+    size_t consumed;  /* bytes the last io_read_line took from the stream, line end included */
+    char *chunk;      /* IO_CHUNK_BYTES read ahead from the stream */
+    size_t chunk_start;  /* next unread byte of chunk */
+    size_t chunk_end;    /* bytes held in chunk */
 } io_line_t;
 
 /* Everything one read needs besides the line itself. */
@@ -39,6 +48,10 @@ typedef struct io_reader {
     size_t fixed_lines_capacity;
     char *message;                 /* caller's message buffer (may be NULL) */
     size_t message_size;
+    pgem_io_progress_fn progress;  /* may be NULL */
+    void *progress_user;
+    uint64_t bytes;                /* bytes read so far */
+    uint64_t next_progress;        /* call progress when bytes reaches this */
 } io_reader_t;
 
 /* message.c: formats "NAME:LINE: text" (or "NAME: text" when line is 0) into a caller's

@@ -93,6 +93,29 @@ static int io_load_fixed(const pgem_io_graph_t *graph, pgem_t *instance, char *m
     return PGEM_OK;
 }
 
+/* The capacities are checked before anything is added, so a graph too large for the
+ * instance leaves it as it was (the core would refuse only the first pose or edge past them). */
+static int io_load_fits(const pgem_io_graph_t *graph, const pgem_t *instance, char *message,
+                        size_t message_size)
+{
+    const pgem_config_t *config = pgem_get_config(instance);
+    const size_t free_poses = config->max_poses - pgem_pose_count(instance);
+    const size_t free_edges = config->max_edges - pgem_edge_count(instance);
+    if (graph->pose_count > free_poses) {
+        return io_load_failed(graph, 0, PGEM_ERR_CAPACITY, message, message_size,
+                              "%zu poses do not fit: the instance has room for %zu more "
+                              "(max_poses = %lu)", graph->pose_count, free_poses,
+                              (unsigned long)config->max_poses);
+    }
+    if (graph->edge_count > free_edges) {
+        return io_load_failed(graph, 0, PGEM_ERR_CAPACITY, message, message_size,
+                              "%zu edges do not fit: the instance has room for %zu more "
+                              "(max_edges = %lu)", graph->edge_count, free_edges,
+                              (unsigned long)config->max_edges);
+    }
+    return PGEM_OK;
+}
+
 int pgem_io_load(const pgem_io_graph_t *graph, pgem_t *instance, char *message,
                  size_t message_size)
 {
@@ -107,7 +130,10 @@ int pgem_io_load(const pgem_io_graph_t *graph, pgem_t *instance, char *message,
                               "the graph is %dD but the instance is %dD", graph->dimension,
                               pgem_dimension(instance));
     }
-    status = io_load_poses(graph, instance, message, message_size);
+    status = io_load_fits(graph, instance, message, message_size);
+    if (status == PGEM_OK) {
+        status = io_load_poses(graph, instance, message, message_size);
+    }
     if (status == PGEM_OK) {
         status = io_load_edges(graph, instance, message, message_size);
     }

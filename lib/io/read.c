@@ -1,5 +1,6 @@
 /* pgem I/O read: reads a g2o or TORO file line by line into a file graph. */
 #include <errno.h>
+#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -24,10 +25,34 @@ static int io_line_error(const io_reader_t *reader, int status, int saved_errno)
     }
 }
 
+/* The text of a line to parse: a UTF-8 byte order mark (some Windows editors start every file
+ * with one) is skipped on line 1, or the first tag would not be recognised and its line would
+ * be counted as unknown instead of read. */
+static char *io_line_text(const io_reader_t *reader, io_line_t *line)
+{
+    static const char bom[] = "\xEF\xBB\xBF";
+    if (reader->line == 1 && line->length >= 3 && memcmp(line->text, bom, 3) == 0) {
+        return line->text + 3;
+    }
+    return line->text;
+}
+
+/* Counts the bytes of a line and calls the progress callback when another step is read. */
+static void io_count_bytes(io_reader_t *reader, const io_line_t *line)
+{
+    reader->bytes += line->consumed;
+    if (reader->progress != NULL && reader->bytes >= reader->next_progress) {
+        reader->progress(reader->bytes, reader->line, reader->progress_user);
+        reader->next_progress = reader->bytes - reader->bytes % PGEM_IO_PROGRESS_BYTES +
+                                PGEM_IO_PROGRESS_BYTES;
+    }
+}
+
 static int io_read_lines(io_reader_t *reader, FILE *stream)
 {
-    io_line_t line = {NULL, 0, 0};
+    io_line_t line = {NULL, 0, 0, 0, NULL, 0, 0};
     int status = PGEM_OK;
+    reader->next_progress = PGEM_IO_PROGRESS_BYTES;
     for (;;) {
         int got;
         errno = 0;
@@ -35,12 +60,17 @@ static int io_read_lines(io_reader_t *reader, FILE *stream)
         if (got == IO_LINE_END) {
             break;
         }
+        if (reader->line == ULONG_MAX) { /* 32-bit longs: a file of more than 4 Gi lines */
+            status = io_fail(reader, 0, PGEM_ERR_PARSE, "more than %lu lines", ULONG_MAX);
+            break;
+        }
         reader->line++;
+        io_count_bytes(reader, &line);
         if (got != IO_LINE_READ) {
             status = io_line_error(reader, got, errno);
             break;
         }
-        status = io_parse_line(reader, line.text);
+        status = io_parse_line(reader, io_line_text(reader, &line));
         if (status != PGEM_OK) {
             break;
         }
@@ -63,8 +93,9 @@ static int io_check_read_arguments(FILE *stream, pgem_format_t format, pgem_io_g
     return PGEM_OK;
 }
 
-int pgem_io_read_stream(FILE *stream, const char *name, pgem_format_t format,
-                        pgem_io_graph_t *graph, char *message, size_t message_size)
+static int io_read_stream(FILE *stream, const char *name, pgem_format_t format,
+                          pgem_io_graph_t *graph, char *message, size_t message_size,
+                          pgem_io_progress_fn progress, void *user)
 {
     io_reader_t reader;
     int status;
@@ -82,6 +113,8 @@ int pgem_io_read_stream(FILE *stream, const char *name, pgem_format_t format,
     reader.graph = graph;
     reader.message = message;
     reader.message_size = message_size;
+    reader.progress = progress;
+    reader.progress_user = user;
     status = io_read_lines(&reader, stream);
     if (status == PGEM_OK) {
         status = io_check_ids(&reader);
@@ -95,8 +128,21 @@ int pgem_io_read_stream(FILE *stream, const char *name, pgem_format_t format,
     return PGEM_OK;
 }
 
+int pgem_io_read_stream(FILE *stream, const char *name, pgem_format_t format,
+                        pgem_io_graph_t *graph, char *message, size_t message_size)
+{
+    return io_read_stream(stream, name, format, graph, message, message_size, NULL, NULL);
+}
+
 int pgem_io_read(const char *path, pgem_format_t format, pgem_io_graph_t *graph, char *message,
                  size_t message_size)
+{
+    return pgem_io_read_progress(path, format, graph, message, message_size, NULL, NULL);
+}
+
+int pgem_io_read_progress(const char *path, pgem_format_t format, pgem_io_graph_t *graph,
+                          char *message, size_t message_size, pgem_io_progress_fn progress,
+                          void *user)
 {
     FILE *stream;
     int status;
@@ -112,7 +158,7 @@ int pgem_io_read(const char *path, pgem_format_t format, pgem_io_graph_t *graph,
         io_message(message, message_size, "%s: cannot open: %s", path, strerror(errno));
         return PGEM_ERR_IO;
     }
-    status = pgem_io_read_stream(stream, path, format, graph, message, message_size);
+    status = io_read_stream(stream, path, format, graph, message, message_size, progress, user);
     fclose(stream);
     return status;
 }

@@ -46,6 +46,9 @@ int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel);
 #define PGEM_CLI_NEED_POSES 1u   /* a graph without poses is an error ("PATH has no poses") */
 #define PGEM_CLI_WARN_CHAINED 2u /* warn when the poses were guessed along the edges */
 
+/* pgem_cli_read_graph reports progress on stderr for files at least this large (64 MiB). */
+#define PGEM_CLI_PROGRESS_MIN_BYTES (UINT64_C(64) << 20)
+
 /* Reads a graph file (format by tag). Every message starts with prefix ("pgem", "pgem plot").
  * Returns PGEM_EXIT_OK, PGEM_EXIT_IO when the file could not be read, or PGEM_EXIT_FAILURE
  * when it was refused (or has no poses under PGEM_CLI_NEED_POSES). *graph is the caller's to

@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 
 #include "cli.h"
@@ -61,11 +62,40 @@ int pgem_cli_parse_number(const char *prefix, const char *option, const char *te
     return 1;
 }
 
+/* Progress of a long read, on stderr: one line each time another tenth of the file is read. */
+typedef struct pgem_cli_reading {
+    const char *prefix;
+    const char *path;
+    uint64_t size;       /* bytes in the file */
+    int tenths_shown;    /* tenths of it already reported */
+} pgem_cli_reading_t;
+
+static void pgem_cli_read_progress(uint64_t bytes, unsigned long lines, void *user)
+{
+    pgem_cli_reading_t *reading = user;
+    const int tenths = (int)(bytes * 10u / reading->size);
+    if (tenths > reading->tenths_shown && bytes < reading->size) {
+        reading->tenths_shown = tenths;
+        fprintf(stderr, "%s: reading %s: %d%% (%llu of %llu MiB, %lu lines)\n", reading->prefix,
+                reading->path, (int)(bytes * 100u / reading->size),
+                (unsigned long long)(bytes >> 20), (unsigned long long)(reading->size >> 20),
+                lines);
+        fflush(stderr);
+    }
+}
+
 int pgem_cli_read_graph(const char *prefix, const char *path, unsigned flags,
                         pgem_io_graph_t *graph)
 {
     char message[1024];
-    int status = pgem_io_read(path, PGEM_FORMAT_AUTO, graph, message, sizeof message);
+    struct stat info;
+    pgem_cli_reading_t reading = {prefix, path, 0u, 0};
+    /* a file this large takes a second or more: say how far the read is */
+    const int show = stat(path, &info) == 0 && S_ISREG(info.st_mode) &&
+                     (uint64_t)info.st_size >= PGEM_CLI_PROGRESS_MIN_BYTES;
+    reading.size = show ? (uint64_t)info.st_size : 0u;
+    int status = pgem_io_read_progress(path, PGEM_FORMAT_AUTO, graph, message, sizeof message,
+                                       show ? pgem_cli_read_progress : NULL, &reading);
     if (status != PGEM_OK) {
         fprintf(stderr, "%s: %s\n", prefix, message);
         return status == PGEM_ERR_IO ? PGEM_EXIT_IO : PGEM_EXIT_FAILURE;
@@ -113,6 +143,12 @@ static int pgem_cli_try_load(const pgem_io_graph_t *file, const pgem_config_t *c
                              pgem_t **instance)
 {
     char message[1024];
+    if (file->pose_count > PGEM_MAX_POSES_LIMIT || file->edge_count > PGEM_MAX_EDGES_LIMIT) {
+        fprintf(stderr, "pgem: %s: %zu poses and %zu edges: more than an instance holds (at "
+                        "most %u poses and %u edges)\n", file->source, file->pose_count,
+                file->edge_count, PGEM_MAX_POSES_LIMIT, PGEM_MAX_EDGES_LIMIT);
+        return PGEM_ERR_CAPACITY;
+    }
     int status = pgem_create(instance, config);
     if (status != PGEM_OK) {
         fprintf(stderr, "pgem: cannot create an instance: %s\n", pgem_error_description(status));

@@ -385,6 +385,21 @@ static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph)
     return args->output != NULL ? pgem_cli_write(graph, args->output) : PGEM_EXIT_OK;
 }
 
+/* A file without edges is most likely not the file meant (a wrong path, an empty export,
+ * another format whose tags are all unknown): an error, not an empty success. */
+static void pgem_optimize_nothing(const pgem_optimize_args_t *args, const pgem_io_graph_t *file)
+{
+    fprintf(stderr, "pgem: %s has no edges: nothing to optimize", args->input);
+    if (file->unknown_lines > 0) {
+        fprintf(stderr, " (%zu lines with unknown tags, the first '%s' on line %lu: not a g2o "
+                        "or TORO file?)", file->unknown_lines, file->first_unknown_tag,
+                file->first_unknown_line);
+    } else if (file->pose_count == 0) {
+        fprintf(stderr, " (the file holds no graph lines at all)");
+    }
+    fprintf(stderr, "\n");
+}
+
 int pgem_cmd_optimize(int argc, char **argv)
 {
     pgem_optimize_args_t args;
@@ -399,6 +414,11 @@ int pgem_cmd_optimize(int argc, char **argv)
         return status;
     }
     pgem_describe_input(pgem_progress_stream(&args), args.input, &file);
+    if (file.edge_count == 0) {
+        pgem_optimize_nothing(&args, &file);
+        pgem_io_graph_free(&file);
+        return PGEM_EXIT_FAILURE;
+    }
     pgem_t *graph = NULL;
     status = pgem_cli_load(&file, args.input, &graph, &args.analysis_seconds);
     pgem_io_graph_free(&file);

@@ -143,6 +143,9 @@ int pgem_set_pose(pgem_t *graph, pgem_id_t id, const double *pose)
     }
     int status = pgem_check_pose(graph, pose, checked, "pose");
     if (status != PGEM_OK) {
+        pgem_message_text(graph, " (pose id ");
+        pgem_message_u64(graph, id);
+        pgem_message_text(graph, ")");
         return status;
     }
     memcpy(graph->pose + (size_t)index * (size_t)graph->pose_size, checked,

@@ -126,6 +126,58 @@ static int pgem_fill_exceeded(pgem_t *graph, int64_t nonzeros)
     return PGEM_ERR_FILL_BUDGET;
 }
 
+/* Root of a pose in the union-find forest `parent`, halving the path on the way. */
+static int pgem_part_root(int *parent, int pose)
+{
+    while (parent[pose] != pose) {
+        parent[pose] = parent[parent[pose]];
+        pose = parent[pose];
+    }
+    return pose;
+}
+
+/* Every part of the graph (poses joined by edges in the problem: active or dormant, not
+ * pruned) must hold a held pose, or its poses can move together at no cost. Gauss-Newton
+ * would meet a zero pivot, but Levenberg-Marquardt's damping hides it and solves a part that
+ * floats anywhere; so the rule is checked on the graph before every solve (pruning may split
+ * a graph without a new analysis: pruned loops keep their place in H for a while). O(poses +
+ * edges), against the assembly's O(edges) dense blocks. The factorisation's scratch
+ * (reach_stack, fill_next: max_poses ints each, free between factorisations) holds the
+ * union-find forest and the held marks. */
+int pgem_linear_check_parts(pgem_t *graph)
+{
+    int *parent = graph->linear.reach_stack;
+    int *held = graph->linear.fill_next;
+    for (uint32_t p = 0; p < graph->pose_count; p++) {
+        parent[p] = (int)p;
+        held[p] = 0;
+    }
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        if (graph->edge_active[k] != PGEM_EDGE_PRUNED) {
+            int a = pgem_part_root(parent, (int)graph->edge_from[k]);
+            int b = pgem_part_root(parent, (int)graph->edge_to[k]);
+            parent[a < b ? b : a] = a < b ? a : b;
+        }
+    }
+    for (uint32_t p = 0; p < graph->pose_count; p++) {
+        if (graph->linear.pose_block[p] < 0) {
+            held[pgem_part_root(parent, (int)p)] = 1;
+        }
+    }
+    for (uint32_t p = 0; p < graph->pose_count; p++) {
+        if (!held[pgem_part_root(parent, (int)p)]) {
+            pgem_message_clear(graph);
+            pgem_message_text(graph, "pose ");
+            pgem_message_u64(graph, graph->pose_id[p]);
+            pgem_message_text(graph, " is in a part of the graph with no held pose (a fixed "
+                                     "pose, or the first pose added when none is fixed): no "
+                                     "edge, or only pruned loop closures, join it to one");
+            return PGEM_ERR_NOT_POSITIVE_DEFINITE;
+        }
+    }
+    return PGEM_OK;
+}
+
 static int pgem_linear_analyze_once(pgem_t *graph)
 {
     pgem_linear_t *linear = &graph->linear;

@@ -150,10 +150,18 @@ static int pgem_factor_diagonal(pgem_linear_t *linear, int k, const double *diag
 
 static int pgem_not_positive_definite(pgem_t *graph, int unknown)
 {
+    const int block = unknown / graph->linear.block;
     pgem_message_clear(graph);
     pgem_message_text(graph, "normal equations not positive definite at unknown ");
     pgem_message_i64(graph, unknown);
-    pgem_message_text(graph, " (is every connected part of the graph held by a fixed pose?)");
+    for (uint32_t p = 0; p < graph->pose_count; p++) {
+        if (graph->linear.pose_block[p] == block) {
+            pgem_message_text(graph, " (pose ");
+            pgem_message_u64(graph, graph->pose_id[p]);
+            pgem_message_text(graph, ")");
+        }
+    }
+    pgem_message_text(graph, ": is the information of its edges too small or degenerate?");
     return PGEM_ERR_NOT_POSITIVE_DEFINITE;
 }
 

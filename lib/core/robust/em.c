@@ -27,6 +27,26 @@ static pgem_robust_options_t pgem_robust_resolve(const pgem_robust_options_t *op
     return out;
 }
 
+/* NaN fails every "> 0" test in pgem_robust_resolve and would silently become the default;
+ * Inf would disable the kernel or the gate. Both are refused, naming the option. */
+static int pgem_check_robust_options(pgem_t *graph, const pgem_robust_options_t *options)
+{
+    if (options == NULL) {
+        return PGEM_OK;
+    }
+    const double values[] = {options->scale, options->prune_threshold, options->weight_tolerance,
+                             options->gate, options->dormant_threshold};
+    const char *const names[] = {"scale", "prune_threshold", "weight_tolerance", "gate",
+                                 "dormant_threshold"};
+    for (size_t k = 0; k < sizeof values / sizeof values[0]; k++) {
+        int status = pgem_check_option(graph, values[k], names[k]);
+        if (status != PGEM_OK) {
+            return status;
+        }
+    }
+    return PGEM_OK;
+}
+
 void pgem_robust_reset(pgem_t *graph)
 {
     if (graph == NULL) {
@@ -320,6 +340,13 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     memset(out, 0, sizeof *out);
     if (graph == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    int checked = pgem_check_robust_options(graph, options);
+    if (checked == PGEM_OK) {
+        checked = pgem_check_solve_options(graph, solve);
+    }
+    if (checked != PGEM_OK) {
+        return checked;
     }
     pgem_robust_options_t resolved = pgem_robust_resolve(options);
     if ((unsigned)resolved.kernel > (unsigned)PGEM_KERNEL_DCS) { /* also catches negative values */

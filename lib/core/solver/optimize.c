@@ -1,5 +1,6 @@
 /* pgem_optimize: options defaults, symbolic analysis when the topology changed, the chosen
  * method, and restoring the previous estimate when the solve fails. */
+#include <math.h>
 #include <string.h>
 
 #include "internal.h"
@@ -58,6 +59,9 @@ static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_sum
 {
     const size_t pose_bytes = pgem_pose_bytes(graph);
     int status = pgem_analyze(graph);
+    if (status == PGEM_OK) {
+        status = pgem_linear_check_parts(graph);
+    }
     summary->factor_nonzeros = (uint32_t)graph->linear.factor_nonzeros;
     if (status != PGEM_OK) {
         summary->termination = pgem_failure_termination(status);
@@ -81,15 +85,51 @@ static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_sum
     return PGEM_OK;
 }
 
+int pgem_check_option(pgem_t *graph, double value, const char *name)
+{
+    if (isfinite(value)) {
+        return PGEM_OK;
+    }
+    pgem_message_clear(graph);
+    pgem_message_text(graph, "option ");
+    pgem_message_text(graph, name);
+    pgem_message_text(graph, " is not a finite number");
+    return PGEM_ERR_INVALID_ARGUMENT;
+}
+
+/* A NaN would slip past every "0 means the default" test below and stop the solve from ever
+ * converging (or, as a damping, poison the matrix): refused, naming the option. */
+int pgem_check_solve_options(pgem_t *graph, const pgem_solve_options_t *options)
+{
+    if (options == NULL) {
+        return PGEM_OK;
+    }
+    if (options->method != PGEM_GAUSS_NEWTON && options->method != PGEM_LEVENBERG_MARQUARDT) {
+        return pgem_fail(graph, PGEM_ERR_INVALID_ARGUMENT, "unknown solver method");
+    }
+    int status = pgem_check_option(graph, options->relative_chi2_tolerance,
+                                   "relative_chi2_tolerance");
+    if (status == PGEM_OK) {
+        status = pgem_check_option(graph, options->step_tolerance, "step_tolerance");
+    }
+    if (status == PGEM_OK) {
+        status = pgem_check_option(graph, options->initial_lambda, "initial_lambda");
+    }
+    return status;
+}
+
 int pgem_optimize(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary)
 {
     pgem_summary_t local;
     if (graph == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    if (options != NULL && options->method != PGEM_GAUSS_NEWTON &&
-        options->method != PGEM_LEVENBERG_MARQUARDT) {
-        return pgem_fail(graph, PGEM_ERR_INVALID_ARGUMENT, "unknown solver method");
+    int checked = pgem_check_solve_options(graph, options);
+    if (checked != PGEM_OK) {
+        if (summary != NULL) {
+            memset(summary, 0, sizeof *summary);
+        }
+        return checked;
     }
     pgem_solve_options_t resolved = pgem_options_resolve(options);
     pgem_summary_t *out = summary != NULL ? summary : &local;
