@@ -284,6 +284,79 @@ static void test_too_many_sources(void **state)
     pgem_ingest_destroy(ingest);
 }
 
+/* Regression: a rejected edge used to register its source name before its checks, so a stream
+ * of bad edges under changing names (a broken front-end, random bytes that decode) filled the
+ * source table and every later front-end was refused. Only an admitted edge adds a source. */
+static void test_rejected_edges_take_no_source(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 10, 10, 8, &sink); /* 4 sources */
+    feed(ingest, PGEM_ROLE_POSE, pose2(0, 0, 0, 0));
+    feed(ingest, PGEM_ROLE_POSE, pose2(1, 1, 0, 0));
+    char names[8][8] = {"n0", "n1", "n2", "n3", "n4", "n5", "n6", "n7"};
+    for (int s = 0; s < 8; ++s) {
+        pgem_edge2_t e = edge2_msg(s, 1, 1); /* a self-loop */
+        e.source = names[s];
+        expect_rejected(ingest, PGEM_ROLE_EDGE, encode_edge2(&e), PGEM_REJECT_SELF_LOOP);
+        e = edge2_msg(s, 0, 1);
+        e.source = names[s];
+        e.kind = 9;
+        expect_rejected(ingest, PGEM_ROLE_EDGE, encode_edge2(&e), PGEM_REJECT_KIND);
+    }
+    assert_int_equal(pgem_ingest_source_count(ingest), 0);
+    char good[] = "late-front-end";
+    pgem_edge2_t e = edge2_msg(0, 0, 1);
+    e.source = good;
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e)).verdict,
+                     PGEM_VERDICT_ACCEPTED);
+    assert_int_equal(pgem_ingest_source_count(ingest), 1);
+    assert_string_equal(pgem_ingest_source_name(ingest, 0), good);
+    assert_int_equal(sink.items[sink.count - 1].source, 0);
+    pgem_ingest_destroy(ingest);
+}
+
+/* A front-end that restarts its numbering: its history resent as it was is all replays and
+ * its new edges land; other edges under used numbers are conflicts whose message says what
+ * happened and where to resume. */
+static void test_restarted_numbering(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 10, 10, 8, &sink);
+    for (int id = 0; id < 5; ++id) {
+        feed(ingest, PGEM_ROLE_POSE, pose2(id, id, 0, 0));
+    }
+    for (int k = 0; k < 3; ++k) {
+        assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(k, k, k + 1)).verdict,
+                         PGEM_VERDICT_ACCEPTED);
+    }
+    /* restarted with its history: 0..2 again, the same, then 3 */
+    for (int k = 0; k < 3; ++k) {
+        assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(k, k, k + 1)).verdict,
+                         PGEM_VERDICT_REPLAY);
+    }
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(3, 3, 4)).verdict,
+                     PGEM_VERDICT_ACCEPTED);
+    /* restarted without it: sequence 0 now names another edge */
+    pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_EDGE, edge2(0, 4, 0));
+    assert_int_equal(r.verdict, PGEM_VERDICT_REJECTED);
+    assert_int_equal(r.reason, PGEM_REJECT_CONFLICT);
+    assert_non_null(strstr(r.message, "source 'fe', sequence 0"));
+    assert_non_null(strstr(r.message, "its highest is 3"));
+    assert_non_null(strstr(r.message, "number on from 4"));
+    assert_non_null(strstr(r.message, "new source name"));
+    /* resuming above the highest, or under a new name, is accepted */
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(4, 4, 0)).verdict,
+                     PGEM_VERDICT_ACCEPTED);
+    pgem_ingest_counts_t counts;
+    pgem_ingest_counts(ingest, &counts);
+    assert_int_equal(counts.accepted_edges, 5);
+    assert_int_equal(counts.replays, 3);
+    assert_int_equal(counts.rejected[PGEM_REJECT_CONFLICT], 1);
+    pgem_ingest_destroy(ingest);
+}
+
 static void test_garbage_and_truncation(void **state)
 {
     (void)state;
@@ -583,6 +656,8 @@ int main(void)
         cmocka_unit_test(test_replays_and_conflicts),
         cmocka_unit_test(test_bad_values_rejected),
         cmocka_unit_test(test_too_many_sources),
+        cmocka_unit_test(test_rejected_edges_take_no_source),
+        cmocka_unit_test(test_restarted_numbering),
         cmocka_unit_test(test_garbage_and_truncation),
         cmocka_unit_test(test_wrong_dimension),
         cmocka_unit_test(test_capacity),

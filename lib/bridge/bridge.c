@@ -133,6 +133,10 @@ static void on_message(const lcm_recv_buf_t *buffer, const char *channel, void *
 
     pthread_mutex_lock(&bridge->lock);
     bridge->visible = bridge->tail;
+    pgem_ingest_counts(bridge->ingest, &bridge->counts);
+    if (bridge->journal != NULL) {
+        bridge->journal_records = pgem_journal_records(bridge->journal);
+    }
     if (result.verdict == PGEM_VERDICT_REJECTED) {
         snprintf(bridge->last_message, sizeof bridge->last_message, "rejected (%s): %.340s",
                  pgem_reject_name(result.reason), result.message);
@@ -343,8 +347,9 @@ static int start(bridge_t *bridge, char *message, size_t message_size)
         bridge->recovered = info.records;
         bridge->visible = bridge->tail;
         bridge->recovery_pending = info.records > 0;
-        pgem_ingest_counts_t counts;
-        pgem_ingest_counts(bridge->ingest, &counts);
+        pgem_ingest_counts(bridge->ingest, &bridge->counts);
+        bridge->journal_records = info.records;
+        const pgem_ingest_counts_t counts = bridge->counts;
         bridge_log(bridge, "journal %s: %lld records replayed (%lld poses, %lld edges)",
                    o->journal, (long long)info.records, (long long)counts.accepted_poses,
                    (long long)counts.accepted_edges);

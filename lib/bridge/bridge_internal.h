@@ -25,6 +25,13 @@ typedef struct bridge {
     pgem_ingest_t *ingest;
     pgem_journal_t *journal;
     int64_t recovered;
+    /* (L) The ingest's counters as of the last message handled to the end (journaled and
+     * visible to the solver). The status reports these, never the live ones: the solver
+     * publishes a status after each solve, and a count taken while the reception thread is
+     * between admitting an edge and journaling it would acknowledge an edge a SIGKILL then
+     * loses. */
+    pgem_ingest_counts_t counts;
+    int64_t journal_records;   /* (L) the journal's records at the same moment */
 
     /* Queue of admitted items (L): [head, visible) may be taken by the solver; [visible,
      * tail) are being journaled. Indices grow forever; slot = index % capacity. */

@@ -48,6 +48,8 @@ struct pgem_ingest {
     uint32_t admitted_poses;  /* capacity reserved since the last reset */
     uint32_t admitted_edges;  /* includes pending edges */
     char (*sources)[PGEM_SOURCE_MAX];
+    int64_t *source_last;     /* per source: highest sequence admitted since the last reset,
+                                 -1 none (named in conflict messages) */
     uint32_t source_count;
     pgem_ingest_counts_t counts;
 };
@@ -145,9 +147,10 @@ pgem_ingest_t *pgem_ingest_create(const pgem_ingest_config_t *config, pgem_emit_
     ingest->user = user;
     ingest->pending = calloc(ingest->config.max_pending, sizeof *ingest->pending);
     ingest->sources = calloc(ingest->config.max_sources, sizeof *ingest->sources);
+    ingest->source_last = calloc(ingest->config.max_sources, sizeof *ingest->source_last);
     if (!table_init(&ingest->poses, config->max_poses) ||
         !table_init(&ingest->edges, config->max_edges) || ingest->pending == NULL ||
-        ingest->sources == NULL) {
+        ingest->sources == NULL || ingest->source_last == NULL) {
         pgem_ingest_destroy(ingest);
         return NULL;
     }
@@ -161,6 +164,7 @@ void pgem_ingest_destroy(pgem_ingest_t *ingest)
         free(ingest->edges.slots);
         free(ingest->pending);
         free(ingest->sources);
+        free(ingest->source_last);
         free(ingest);
     }
 }
@@ -223,7 +227,9 @@ static int quaternion_ok(const double *pose7)
     return fabs(norm - 1.0) <= PGEM_QUAT_NORM_TOLERANCE;
 }
 
-/* The index of a source name, adding it if new; -1 (result filled) if it is refused. */
+/* The index of a source name: a known source's, or for a new one the index it will take if
+ * its edge is admitted (a rejected message must not use up the source table). -1 (result
+ * filled) when the name is refused or the table is full. */
 static int source_index(pgem_ingest_t *ingest, const char *name, pgem_ingest_result_t *result)
 {
     size_t length = name != NULL ? strlen(name) : 0;
@@ -243,8 +249,21 @@ static int source_index(pgem_ingest_t *ingest, const char *name, pgem_ingest_res
                  name, (unsigned)ingest->config.max_sources);
         return -1;
     }
-    memcpy(ingest->sources[ingest->source_count], name, length + 1);
-    return (int)ingest->source_count++;
+    return (int)ingest->source_count;
+}
+
+/* Admits an edge's source: a new name takes the index source_index gave it. */
+static void source_admit(pgem_ingest_t *ingest, uint32_t index, const char *name,
+                         int64_t sequence)
+{
+    if (index == ingest->source_count) {
+        memcpy(ingest->sources[index], name, strlen(name) + 1);
+        ingest->source_last[index] = -1;
+        ingest->source_count++;
+    }
+    if (sequence > ingest->source_last[index]) {
+        ingest->source_last[index] = sequence;
+    }
 }
 
 /* A pose estimate or a measurement: finite, and in 3D a unit quaternion. Returns 1, or 0 with
@@ -349,6 +368,18 @@ static void admit_pose(pgem_ingest_t *ingest, const pgem_item_t *item, const cha
 
 /* ---- edges ------------------------------------------------------------------------------- */
 
+/* Other content under a used (source, sequence) is most often a front-end that restarted and
+ * numbers from 0 again. Every such edge is refused, so the message says how to resume. */
+static void explain_conflict(const pgem_ingest_t *ingest, uint32_t source, const char *what,
+                             pgem_ingest_result_t *result)
+{
+    long long last = (long long)ingest->source_last[source];
+    snprintf(result->message, sizeof result->message,
+             "%s: other content under a sequence number this source used (its highest is %lld):"
+             " a restarted front-end must number on from %lld or use a new source name", what,
+             last, last + 1);
+}
+
 static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *source,
                        pgem_ingest_result_t *result)
 {
@@ -396,6 +427,9 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
                          "this source already sent this sequence number with other content",
                          "edges", result);
     if (slot == NULL) {
+        if (result->verdict == PGEM_VERDICT_REJECTED && result->reason == PGEM_REJECT_CONFLICT) {
+            explain_conflict(ingest, item->source, what, result);
+        }
         return;
     }
     int ready = pose_known(ingest, item->from) && pose_known(ingest, item->to);
@@ -407,6 +441,7 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
         return;
     }
     take(slot, item->source, (uint64_t)item->sequence, content);
+    source_admit(ingest, item->source, source, item->sequence);
     ingest->admitted_edges++;
     ingest->counts.accepted_edges++;
     if (ready) {
@@ -471,6 +506,9 @@ static void reset(pgem_ingest_t *ingest)
     ingest->pending_count = 0;
     ingest->admitted_poses = 0;
     ingest->admitted_edges = 0;
+    for (uint32_t i = 0; i < ingest->source_count; ++i) {
+        ingest->source_last[i] = -1;
+    }
     pgem_item_t item;
     memset(&item, 0, sizeof item);
     item.type = PGEM_ITEM_RESET;

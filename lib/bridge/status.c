@@ -63,7 +63,7 @@ void bridge_publish_status(bridge_t *bridge)
     pgem_ingest_counts_t counts;
 
     pthread_mutex_lock(&bridge->lock);
-    pgem_ingest_counts(bridge->ingest, &counts);
+    counts = bridge->counts;
     status.queued = (int32_t)(bridge->tail - bridge->head);
     status.poses = bridge->graph_poses;
     status.edges = bridge->graph_edges;
@@ -72,7 +72,7 @@ void bridge_publish_status(bridge_t *bridge)
     status.solves = bridge->solves;
     status.solving = (int8_t)bridge->solving;
     status.recovered = bridge->recovered;
-    status.journal_records = bridge->journal != NULL ? pgem_journal_records(bridge->journal) : 0;
+    status.journal_records = bridge->journal_records;
     counts.rejected[PGEM_REJECT_CORE] += bridge->core_rejections + bridge->queue_overflows;
     memcpy(message, bridge->last_message, sizeof message);
     pthread_mutex_unlock(&bridge->lock);
