@@ -256,7 +256,7 @@ static int source_index(pgem_ingest_t *ingest, const char *name, pgem_ingest_res
 static void source_admit(pgem_ingest_t *ingest, uint32_t index, const char *name,
                          int64_t sequence)
 {
-    if (index == ingest->source_count) {
+    if (index == ingest->source_count && name != NULL) { /* source_index refused NULL */
         memcpy(ingest->sources[index], name, strlen(name) + 1);
         ingest->source_last[index] = -1;
         ingest->source_count++;
