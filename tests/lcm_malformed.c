@@ -138,7 +138,7 @@ static void set_string_length(message_t *m, uint32_t length)
 
 static double bad_number(void)
 {
-    return below(2) ? NAN : (below(2) ? INFINITY : -INFINITY);
+    return below(2) ? (double)NAN : (below(2) ? (double)INFINITY : -(double)INFINITY);
 }
 
 #define KINDS 20

@@ -474,17 +474,17 @@ static void test_ids_at_the_ends_of_the_range(void **state)
     assert_int_equal(r.reason, PGEM_REJECT_SELF_LOOP);
     assert_string_equal(r.message, "edge 18446744073709551615 -> 18446744073709551615 (source "
                                    "'fe', sequence 2): a self-loop");
-    r = feed(ingest, PGEM_ROLE_POSE, pose2(7, 0, NAN, 0));
+    r = feed(ingest, PGEM_ROLE_POSE, pose2(7, 0, (double)NAN, 0));
     assert_int_equal(r.reason, PGEM_REJECT_NOT_FINITE);
     assert_string_equal(r.message, "2D pose 7: NaN or Inf in the estimate (field y)");
     pgem_edge2_t e = edge2_msg(3, -2, -1);
-    e.measurement[2] = -INFINITY;
+    e.measurement[2] = -(double)INFINITY;
     r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
     assert_int_equal(r.reason, PGEM_REJECT_NOT_FINITE);
     assert_string_equal(r.message, "edge 18446744073709551614 -> 18446744073709551615 (source "
                                    "'fe', sequence 3): NaN or Inf in the measurement (field theta)");
     e = edge2_msg(4, -2, -1);
-    e.information[4] = NAN; /* yt */
+    e.information[4] = (double)NAN; /* yt */
     r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
     assert_int_equal(r.reason, PGEM_REJECT_NOT_FINITE);
     assert_non_null(strstr(r.message, "information has NaN or Inf (entry 1,2)"));

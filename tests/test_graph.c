@@ -122,7 +122,7 @@ static void test_pose_errors_change_nothing(void **state)
     assert_int_equal(pgem_pose_count(graph), 2);
     assert_int_equal(pgem_fix_pose(graph, 99, 1), PGEM_ERR_UNKNOWN_ID);
     assert_non_null(strstr(pgem_last_error(graph), "99"));
-    double inf_pose[3] = {0.0, 0.0, -INFINITY}, stored[3];
+    double inf_pose[3] = {0.0, 0.0, -(double)INFINITY}, stored[3];
     assert_int_equal(pgem_set_pose(graph, 2, inf_pose), PGEM_ERR_NOT_FINITE);
     assert_string_equal(pgem_last_error(graph), "pose: field theta is not finite (pose id 2)");
     assert_int_equal(pgem_get_pose(graph, 2, stored), PGEM_OK);

@@ -180,7 +180,7 @@ static void test_non_finite_options_refused(void **state)
     test_ring_2d(graph, 10, 3, 0.01, 0.01, 5, truth);
     test_snapshot(graph, before);
     const char *names[] = {"relative_chi2_tolerance", "step_tolerance", "initial_lambda"};
-    const double bad[] = {NAN, INFINITY, -INFINITY};
+    const double bad[] = {(double)NAN, (double)INFINITY, -(double)INFINITY};
     for (int field = 0; field < 3; field++) {
         for (int k = 0; k < 3; k++) {
             pgem_solve_options_t options = {0};
