@@ -884,6 +884,49 @@ static void test_chain_3d(void **state)
     pgem_io_graph_free(&graph);
 }
 
+/* Found by fuzzing (tests/fuzz/fuzz_g2o): in an edge-only file, measurements near the double
+ * range composed into a pose guess of Inf; the read succeeded with it, the load then failed on
+ * a pose no line wrote, and writing the graph gave "inf", which does not read back. */
+static void test_chain_guess_not_finite(void **state)
+{
+    (void)state;
+    expect_error("chain_inf.g2o",
+                 "EDGE_SE2 0 1 1e308 0 0" INFO2 "\nEDGE_SE2 1 2 1e308 0 0" INFO2 "\n",
+                 PGEM_ERR_PARSE, "chain_inf.g2o:2:",
+                 "edge 1 -> 2: the pose guessed for id 2 by composing the measurements from "
+                 "id 1 is not finite");
+    /* walked backwards: pose(from) = pose(to) * z^-1 */
+    expect_error("chain_inf_back.g2o",
+                 "EDGE_SE2 9 0 -1e308 0 0" INFO2 "\nEDGE_SE2 10 9 -1e308 0 0" INFO2 "\n",
+                 PGEM_ERR_PARSE, "chain_inf_back.g2o:2:",
+                 "edge 10 -> 9: the pose guessed for id 10 by composing the measurements from "
+                 "id 9 is not finite");
+}
+
+/* Found by fuzzing: a measurement quaternion too large to normalise (its norm overflows)
+ * became a zero rotation in the guess, so loading failed on a pose no line wrote; now the
+ * guess keeps the identity rotation and the load names the edge's own line. */
+static void test_chain_guess_huge_quaternion(void **state)
+{
+    pgem_io_graph_t graph;
+    char message[512];
+    (void)state;
+    read_ok("chain_huge_q.g2o",
+            "EDGE_SE3:QUAT 0 1 1 0 0 1e200 1e200 0 1e200 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 "
+            "1\n", &graph);
+    assert_int_equal(graph.chained_poses, 2);
+    assert_true(graph.poses[1].pose[0] == 1.0);
+    assert_true(graph.poses[1].pose[3] == 0.0 && graph.poses[1].pose[6] == 1.0);
+    pgem_config_t config;
+    pgem_io_config(&graph, &config);
+    pgem_t *instance = NULL;
+    assert_int_equal(pgem_create(&instance, &config), PGEM_OK);
+    assert_int_equal(pgem_io_load(&graph, instance, message, sizeof message), PGEM_ERR_ROTATION);
+    assert_contains(message, "chain_huge_q.g2o:1: edge 0 -> 1:");
+    pgem_destroy(instance);
+    pgem_io_graph_free(&graph);
+}
+
 /* ---------------------------------------------------------------- datasets */
 
 typedef struct dataset {
@@ -1226,6 +1269,8 @@ int main(void)
         cmocka_unit_test(test_lines_across_chunks),
         cmocka_unit_test(test_chain_2d),
         cmocka_unit_test(test_chain_3d),
+        cmocka_unit_test(test_chain_guess_not_finite),
+        cmocka_unit_test(test_chain_guess_huge_quaternion),
         cmocka_unit_test(test_datasets_read),
         cmocka_unit_test(test_datasets_details),
         cmocka_unit_test(test_load_and_from_instance),

@@ -1,5 +1,7 @@
 /* Robust layer tests: kernel formulas, EM on inlier-only and corrupted graphs, the paper's
  * M-estimator equivalence, determinism, reporting and reset of pruned loops. */
+#include <float.h>
+#include <math.h>
 #include <stdio.h>
 
 #include "test_util.h"
@@ -423,6 +425,58 @@ static void test_non_finite_robust_options_refused(void **state)
     pgem_destroy(graph);
 }
 
+/* Found by fuzzing (tests/fuzz/fuzz_core_api): a pose at the edge of the double range makes
+ * an edge's chi2 NaN (Inf - Inf); the E-step turned it into a NaN loop weight, which the
+ * failed solve left on the edge, so every later solve of the graph failed too. A robust solve
+ * from an estimate whose chi2 is not finite now fails before any E-step. */
+static void test_non_finite_start_leaves_the_weights(void **state)
+{
+    (void)state;
+    static const double poses[3][3] = {{0.0, 0.0, 0.0}, {DBL_MAX, 0.0, 0.5}, {-DBL_MAX, 0.0, 0.0}};
+    pgem_t *graph = test_create(2, 3, 3);
+    double information[9], z[3] = {1.0, 0.0, 0.0}, before[9], after[9];
+    test_diagonal_information(3, 1.0, information);
+    for (int i = 0; i < 3; i++) {
+        assert_int_equal(pgem_add_pose(graph, (pgem_id_t)i, poses[i]), PGEM_OK);
+    }
+    assert_int_equal(pgem_add_edge(graph, 0, 1, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    assert_int_equal(pgem_add_edge(graph, 1, 2, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    assert_int_equal(pgem_add_edge(graph, 0, 2, z, information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
+    assert_false(isfinite(pgem_total_chi2(graph)));
+    test_snapshot(graph, before);
+    for (int kernel = PGEM_KERNEL_NONE; kernel <= PGEM_KERNEL_DCS; kernel++) {
+        pgem_robust_options_t options = {0};
+        options.kernel = (pgem_kernel_t)kernel;
+        pgem_robust_summary_t summary;
+        assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_ERR_NUMERIC);
+        assert_false(summary.usable);
+        assert_contains(pgem_last_error(graph), "initial chi2 is not finite");
+        pgem_edge_view_t loop;
+        assert_int_equal(pgem_edge_at(graph, 2, &loop), PGEM_OK);
+        assert_true(loop.weight == 1.0 && loop.active);
+        test_snapshot(graph, after);
+        assert_memory_equal(before, after, sizeof before);
+    }
+    /* with the pose back in range the graph solves: nothing was left behind */
+    const double moved[3] = {2.0, 0.0, 0.0};
+    assert_int_equal(pgem_set_pose(graph, 2, moved), PGEM_OK);
+    const double near[3] = {1.0, 0.0, 0.0};
+    assert_int_equal(pgem_set_pose(graph, 1, near), PGEM_OK);
+    pgem_robust_options_t options = em_options();
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, NULL), PGEM_OK);
+    pgem_destroy(graph);
+}
+
+/* Found by fuzzing: with a scale so small that c^2 underflows to 0, the Cauchy weight of an
+ * exact fit (chi2 = 0) was 1 / (1 + 0 / 0) = NaN. */
+static void test_cauchy_weight_of_an_exact_fit(void **state)
+{
+    (void)state;
+    assert_near(pgem_kernel_weight(PGEM_KERNEL_CAUCHY, 0.0, 1e-200), 1.0, 0.0);
+    assert_near(pgem_kernel_weight(PGEM_KERNEL_EM, 0.0, 4.9406564584124654e-324), 1.0, 0.0);
+    assert_near(pgem_kernel_weight(PGEM_KERNEL_EM, 1e-300, 1e-200), 0.0, 0.0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -438,6 +492,8 @@ int main(void)
         cmocka_unit_test(test_consistency_gate_prunes_what_em_keeps),
         cmocka_unit_test(test_pruning_that_splits_the_graph_fails),
         cmocka_unit_test(test_non_finite_robust_options_refused),
+        cmocka_unit_test(test_non_finite_start_leaves_the_weights),
+        cmocka_unit_test(test_cauchy_weight_of_an_exact_fit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

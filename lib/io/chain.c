@@ -1,4 +1,5 @@
 /* pgem I/O chain: poses of an edge-only file, guessed along a spanning tree, odometry first. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -16,6 +17,10 @@ typedef struct io_tree {
     unsigned char *reached;
     size_t *order;         /* nodes in the order they were reached */
     size_t reached_count;
+    int overflowed;        /* a guess came out not finite: */
+    size_t overflow_edge;  /* the first edge that made one, */
+    size_t overflow_node;  /* the node it reached */
+    size_t overflow_start; /* and the node it came from */
 } io_tree_t;
 
 static void io_tree_free(io_tree_t *tree)
@@ -105,17 +110,36 @@ static void io_tree_link(io_tree_t *tree, const pgem_id_t *ids)
 }
 
 /* The measurement of an edge, quaternion normalised (a copy; the edge keeps what was read); a
- * zero quaternion becomes the identity rotation. */
+ * zero quaternion, or one too large to normalise (its norm overflows), becomes the identity
+ * rotation. */
 static void io_unit_measurement(int dimension, const double *measurement, double *out)
 {
+    double norm;
     memcpy(out, measurement, sizeof(double) * (size_t)PGEM_POSE_SIZE(dimension));
-    if (dimension == 3 && !(pgem_quat_normalize(&out[3]) > 0.0)) {
+    if (dimension != 3) {
+        return;
+    }
+    norm = pgem_quat_normalize(&out[3]);
+    if (!(norm > 0.0 && isfinite(norm))) {
         io_identity_pose(3, out);
         memcpy(out, measurement, sizeof(double) * 3);
     }
 }
 
-/* pose(to) = pose(from) * z, or pose(from) = pose(to) * z^-1 when walking an edge backwards. */
+static int io_pose_finite(const pgem_io_graph_t *graph, size_t node)
+{
+    int k;
+    for (k = 0; k < PGEM_POSE_SIZE(graph->dimension); ++k) {
+        if (!isfinite(graph->poses[node].pose[k])) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* pose(to) = pose(from) * z, or pose(from) = pose(to) * z^-1 when walking an edge backwards.
+ * The first edge whose composition is not finite (measurements near the double range) is
+ * remembered: the graph cannot be read with such a guess. */
 static void io_walk_edge(io_tree_t *tree, size_t edge, size_t node, size_t next)
 {
     pgem_io_graph_t *graph = tree->graph;
@@ -134,6 +158,12 @@ static void io_walk_edge(io_tree_t *tree, size_t edge, size_t node, size_t next)
             pgem_se2_inverse(z, z);
         }
         pgem_se2_compose(start, z, out);
+    }
+    if (!tree->overflowed && !io_pose_finite(graph, next)) {
+        tree->overflowed = 1;
+        tree->overflow_edge = edge;
+        tree->overflow_node = next;
+        tree->overflow_start = node;
     }
 }
 
@@ -222,6 +252,17 @@ int io_chain_poses(io_reader_t *reader)
     free(ids);
     if (status != PGEM_OK) {
         return io_fail(reader, 0, status, "out of memory");
+    }
+    if (tree.overflowed) {
+        const pgem_io_graph_t *graph = reader->graph;
+        const pgem_io_edge_t *edge = &graph->edges[tree.overflow_edge];
+        return io_fail(reader, edge->line, PGEM_ERR_PARSE,
+                       "edge %llu -> %llu: the pose guessed for id %llu by composing the "
+                       "measurements from id %llu is not finite (no VERTEX lines; "
+                       "measurements too large)",
+                       (unsigned long long)edge->from, (unsigned long long)edge->to,
+                       (unsigned long long)graph->poses[tree.overflow_node].id,
+                       (unsigned long long)graph->poses[tree.overflow_start].id);
     }
     return PGEM_OK;
 }

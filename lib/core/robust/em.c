@@ -355,6 +355,10 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     memcpy(graph->pose_initial, graph->pose, pgem_pose_bytes(graph));
     pgem_save_loops(graph);
     out->initial_chi2 = pgem_total_chi2(graph);
+    if (!isfinite(out->initial_chi2)) {
+        /* refused before any E-step: a NaN chi2 would become a NaN weight on the loops */
+        return pgem_fail_numeric(graph, "initial chi2", 0);
+    }
     int status;
     if (resolved.kernel == PGEM_KERNEL_NONE) {
         status = pgem_plain(graph, solve, out);

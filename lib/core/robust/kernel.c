@@ -8,8 +8,9 @@ double pgem_kernel_weight(pgem_kernel_t kernel, double chi2, double scale)
     switch (kernel) {
     case PGEM_KERNEL_EM:
     case PGEM_KERNEL_CAUCHY:
-        /* Cauchy: rho(s) = c^2 log(1 + s / c^2), w = rho'(s) = 1 / (1 + s / c^2) */
-        return 1.0 / (1.0 + chi2 / (scale * scale));
+        /* Cauchy: rho(s) = c^2 log(1 + s / c^2), w = rho'(s) = 1 / (1 + s / c^2); an exact
+         * fit has weight 1 even when c^2 underflows to 0 (0 / 0 would be NaN) */
+        return chi2 <= 0.0 ? 1.0 : 1.0 / (1.0 + chi2 / (scale * scale));
     case PGEM_KERNEL_HUBER: {
         /* Huber on the Mahalanobis norm r = sqrt(s): w = 1 for r <= k, else k / r */
         double norm = sqrt(chi2);
