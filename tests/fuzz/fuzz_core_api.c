@@ -240,15 +240,22 @@ static void check_unchanged(const run_t *run, int with_weights)
 
 /* ---- the calls -------------------------------------------------------------------------- */
 
-static void op_add_pose(run_t *run, fuzz_input_t *in)
+/* The id and the pose of an add_pose or set_pose call, traced. */
+static pgem_id_t read_id_and_pose(run_t *run, fuzz_input_t *in, double *pose)
 {
     pgem_id_t id = fuzz_id(in, ID_RANGE);
-    double pose[PGEM_POSE_SIZE_MAX];
     read_pose(in, run->dimension, pose);
     if (run->trace) {
         fprintf(stderr, "  id %llu\n", (unsigned long long)id);
     }
     trace_values(run, "pose", pose, run->pose_bytes / sizeof(double));
+    return id;
+}
+
+static void op_add_pose(run_t *run, fuzz_input_t *in)
+{
+    double pose[PGEM_POSE_SIZE_MAX];
+    pgem_id_t id = read_id_and_pose(run, in, pose);
     start_call(run, "add_pose", 0);
     int status = pgem_add_pose(run->graph, id, pose);
     end_call(run, status);
@@ -326,13 +333,8 @@ static void op_fix_pose(run_t *run, fuzz_input_t *in)
 
 static void op_set_pose(run_t *run, fuzz_input_t *in)
 {
-    pgem_id_t id = fuzz_id(in, ID_RANGE);
     double pose[PGEM_POSE_SIZE_MAX];
-    read_pose(in, run->dimension, pose);
-    if (run->trace) {
-        fprintf(stderr, "  id %llu\n", (unsigned long long)id);
-    }
-    trace_values(run, "pose", pose, run->pose_bytes / sizeof(double));
+    pgem_id_t id = read_id_and_pose(run, in, pose);
     start_call(run, "set_pose", 0);
     int status = pgem_set_pose(run->graph, id, pose);
     end_call(run, status);
