@@ -3,11 +3,27 @@
 
 #include "internal.h"
 
-int pgem_config_resolve(const pgem_config_t *config, pgem_config_t *resolved)
+/* The first field of a resolved configuration out of range, in words, or NULL. */
+static const char *pgem_config_problem(const pgem_config_t *config)
 {
-    if (config == NULL || resolved == NULL) {
-        return PGEM_ERR_INVALID_ARGUMENT;
+    if (config->dimension != 2 && config->dimension != 3) {
+        return "config.dimension is not 2 or 3 (0 means 2)";
     }
+    if (config->max_poses > PGEM_MAX_POSES_LIMIT) {
+        return "config.max_poses is above PGEM_MAX_POSES_LIMIT";
+    }
+    if (config->max_edges > PGEM_MAX_EDGES_LIMIT) {
+        return "config.max_edges is above PGEM_MAX_EDGES_LIMIT";
+    }
+    if (config->fill_budget > (uint32_t)INT32_MAX) {
+        return "config.fill_budget is above INT32_MAX";
+    }
+    return NULL;
+}
+
+/* The defaults filled in (each computed, clamped, from max_poses), then the ranges checked. */
+static pgem_config_t pgem_config_defaults(const pgem_config_t *config)
+{
     pgem_config_t out = *config;
     if (out.dimension == 0) {
         out.dimension = PGEM_DEFAULT_DIMENSION;
@@ -15,25 +31,25 @@ int pgem_config_resolve(const pgem_config_t *config, pgem_config_t *resolved)
     if (out.max_poses == 0) {
         out.max_poses = PGEM_DEFAULT_MAX_POSES;
     }
-    if (out.dimension != 2 && out.dimension != 3) {
-        return PGEM_ERR_CONFIG;
-    }
-    if (out.max_poses > PGEM_MAX_POSES_LIMIT) {
-        return PGEM_ERR_CONFIG;
-    }
     if (out.max_edges == 0) {
         uint64_t edges = (uint64_t)out.max_poses * PGEM_DEFAULT_EDGES_PER_POSE;
         out.max_edges = edges > PGEM_MAX_EDGES_LIMIT ? PGEM_MAX_EDGES_LIMIT : (uint32_t)edges;
     }
-    if (out.max_edges > PGEM_MAX_EDGES_LIMIT) {
-        return PGEM_ERR_CONFIG;
-    }
-    uint64_t block = (uint64_t)PGEM_TANGENT_SIZE(out.dimension);
     if (out.fill_budget == 0) {
+        uint64_t block = (uint64_t)PGEM_TANGENT_SIZE(out.dimension);
         uint64_t fill = (uint64_t)PGEM_DEFAULT_FILL_PER_POSE * block * block * out.max_poses;
         out.fill_budget = fill > (uint64_t)INT32_MAX ? (uint32_t)INT32_MAX : (uint32_t)fill;
     }
-    if (out.fill_budget > (uint32_t)INT32_MAX) {
+    return out;
+}
+
+int pgem_config_resolve(const pgem_config_t *config, pgem_config_t *resolved)
+{
+    if (config == NULL || resolved == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    pgem_config_t out = pgem_config_defaults(config);
+    if (pgem_config_problem(&out) != NULL) {
         return PGEM_ERR_CONFIG;
     }
     *resolved = out;
@@ -140,24 +156,6 @@ size_t pgem_memory_size(const pgem_config_t *config)
     return bytes + 16u; /* room to align an arbitrary buffer start */
 }
 
-/* The first configuration field out of range, in words (pgem_config_resolve's checks). */
-static const char *pgem_config_problem(const pgem_config_t *config)
-{
-    if (config->dimension != 0 && config->dimension != 2 && config->dimension != 3) {
-        return "config.dimension is not 2 or 3 (0 means 2)";
-    }
-    if (config->max_poses > PGEM_MAX_POSES_LIMIT) {
-        return "config.max_poses is above PGEM_MAX_POSES_LIMIT";
-    }
-    if (config->max_edges > PGEM_MAX_EDGES_LIMIT) {
-        return "config.max_edges is above PGEM_MAX_EDGES_LIMIT";
-    }
-    if (config->fill_budget > (uint32_t)INT32_MAX) {
-        return "config.fill_budget is above INT32_MAX";
-    }
-    return "the capacities need more bytes than this machine can address";
-}
-
 /* The message of a failed init: "what" then "N bytes given, this configuration needs M". */
 static int pgem_init_fail(int code, const char *what, size_t given, size_t needed, char *message,
                           size_t message_size)
@@ -192,7 +190,6 @@ static int pgem_carve_failed(const pgem_arena_t *arena, size_t given, size_t nee
 int pgem_init_message(pgem_t **instance, const pgem_config_t *config, void *buffer, size_t size,
                       char *message, size_t message_size)
 {
-    pgem_config_t resolved;
     if (instance == NULL || config == NULL) {
         return pgem_init_fail(PGEM_ERR_INVALID_ARGUMENT,
                               instance == NULL ? "instance is NULL" : "config is NULL", 0, 0,
@@ -202,14 +199,15 @@ int pgem_init_message(pgem_t **instance, const pgem_config_t *config, void *buff
         return pgem_init_fail(PGEM_ERR_INVALID_ARGUMENT, "the memory block is NULL", 0,
                               pgem_memory_size(config), message, message_size);
     }
-    if (pgem_config_resolve(config, &resolved) != PGEM_OK) {
-        return pgem_init_fail(PGEM_ERR_CONFIG, pgem_config_problem(config), 0, 0, message,
-                              message_size);
-    }
-    size_t needed = pgem_memory_size(&resolved);
+    const pgem_config_t resolved = pgem_config_defaults(config);
+    const char *problem = pgem_config_problem(&resolved);
+    size_t needed = problem == NULL ? pgem_memory_size(&resolved) : 0;
     if (needed == 0) {
-        return pgem_init_fail(PGEM_ERR_CONFIG, pgem_config_problem(&resolved), 0, 0, message,
-                              message_size);
+        return pgem_init_fail(PGEM_ERR_CONFIG,
+                              problem != NULL ? problem
+                                              : "the capacities need more bytes than this "
+                                                "machine can address",
+                              0, 0, message, message_size);
     }
     if (size < needed) {
         return pgem_init_fail(PGEM_ERR_BUFFER_TOO_SMALL, "the memory block is too small", size,
