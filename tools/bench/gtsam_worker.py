@@ -10,7 +10,7 @@ and, for the robust methods, OUTDIR/weights.txt in pgem's weights format (one ``
 state`` line per loop closure, file order); it prints one JSON object (the solve's time, memory
 and counters) on stdout, or one error line on stderr and exits with status 1.
 
-bench.py and bench_robust.py run it through ``command()``.
+bench.py, bench_robust.py and bench_real.py run it through ``command()``.
 """
 
 from __future__ import annotations
