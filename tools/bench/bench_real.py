@@ -82,6 +82,7 @@ GNC = "gtsam-gnc"
 ORACLE, ORACLE_GTSAM = "oracle", "oracle-gtsam"  # pgem and GTSAM Gauss-Newton on the true loops only
 ORACLE_OPTIONS = ("--solver", "gn")
 PGEM_PRUNED_ONLY = 0.0  # pgem eval --reject-below for pgem: a loop is rejected when pruned
+PGEM_REPEAT_SECONDS = 2.0  # a pgem solve is repeated (up to --pgem-runs) while its runs took less in all
 
 ATE_TIE = 1e-3  # m: ATEs this close are a tie (best method), and the slack of the ATE targets
 TARGET_ATE_RATIO = 1.02  # pgem-em's ATE at most 2 % above the best GTSAM method's
@@ -124,6 +125,15 @@ def parse_variant(text: str) -> tuple[str, str]:
         raise argparse.ArgumentTypeError(f"--variant '{text}': expected NAME=OPTIONS, NAME of letters, digits "
                                          "and ._+- (not 'em', the default)")
     return name, options
+
+
+def chosen_methods(methods: Sequence[Method], patterns: Sequence[str]) -> list[Method]:
+    """The methods named by the patterns (shell globs: 'pgem-em,gtsam-*'); every one without."""
+    unknown = [p for p in patterns if not any(fnmatch.fnmatchcase(m.name, p) for m in methods)]
+    if unknown:
+        raise BenchError(f"no method matches {', '.join(unknown)} (with these options: "
+                         f"{', '.join(m.name for m in methods)})")
+    return [m for m in methods if not patterns or any(fnmatch.fnmatchcase(m.name, p) for p in patterns)]
 
 
 def all_methods(variants: Sequence[tuple[str, str]], peer: str) -> list[Method]:
@@ -593,8 +603,9 @@ def pgem_summary(command: Sequence[str], timeout: float) -> dict[str, Any]:
 
 
 def run_pgem(args: argparse.Namespace, cell: Cell, method: Method) -> Solve:
-    """`pgem optimize --robust em OPTIONS --json` args.pgem_runs times; the time is the median of
-    its solve_seconds, the files those of the last run."""
+    """`pgem optimize --robust em OPTIONS --json` up to args.pgem_runs times, stopping once the
+    runs took PGEM_REPEAT_SECONDS in all (a long solve is timed once); the time is the median of
+    the runs' solve_seconds, the files those of the last run."""
     outdir = args.work / "pgem" / cell.slug / method.name
     outdir.mkdir(parents=True, exist_ok=True)
     result, weights = outdir / gtsam_worker.RESULT_FILE, outdir / gtsam_worker.WEIGHTS_FILE
@@ -602,7 +613,7 @@ def run_pgem(args: argparse.Namespace, cell: Cell, method: Method) -> Solve:
                "--json", "--quiet", "-o", str(result), "--weights", str(weights)]
     solve = Solve(cell.name, method.name)
     try:
-        for _ in range(args.pgem_runs):
+        while len(solve.times) < args.pgem_runs and sum(solve.times) < PGEM_REPEAT_SECONDS:
             for stale in (result, weights):
                 stale.unlink(missing_ok=True)  # never score a previous run's files
             solve.summary = pgem_summary(command, args.timeout)
@@ -951,7 +962,8 @@ def cross_check_lines(results: Sequence[CellResult]) -> list[str]:
             continue
         seen.add(res.cell.oracle_input)
         if oracle is None or not oracle.ok or not other.ok:
-            lines.append(f"| {res.cell.oracle_label} | {time_or_status(oracle)} | {time_or_status(other)} | - | - | - |")
+            lines.append(f"| {res.cell.oracle_label} | {time_or_status(oracle)} | {time_or_status(other)} "
+                         "| - | - | - |")
             continue
         lines.append(f"| {res.cell.oracle_label} | {format_ate(oracle.scores.get('ate_translation_rmse'))} | "
                      f"{format_ate(other.scores.get('ate_translation_rmse'))} | "
@@ -977,9 +989,10 @@ def definitions(args: argparse.Namespace, methods: Sequence[Method]) -> list[str
     """How to read the tables."""
     variants = "; ".join(f"`{m.name}`: `{' '.join(('--robust', 'em') + m.options)}`" for m in methods if m.is_pgem)
     return [
-        f"- **Methods**: {variants} (pgem's time: its `solve_seconds`, median of {args.pgem_runs} run(s), run "
-        "alone). GTSAM: GNC-TLS = `GncLMOptimizer`, truncated least squares, gauge prior and odometry known "
-        "inliers, GTSAM's defaults otherwise (inlier threshold: the 0.99 chi-square quantile); Cauchy and DCS = "
+        f"- **Methods**: {variants} (pgem's time: its `solve_seconds`, median of up to {args.pgem_runs} run(s), "
+        f"fewer once they took {PGEM_REPEAT_SECONDS:g} s in all; run alone). GTSAM: GNC-TLS = `GncLMOptimizer`, "
+        "truncated least squares, gauge prior and odometry known inliers, GTSAM's defaults otherwise (inlier "
+        "threshold: the 0.99 chi-square quantile); Cauchy and DCS = "
         f"Levenberg-Marquardt with the kernel (scale {gtsam_worker.KERNEL_SCALE:g}) on the loop closures only. "
         f"LM: at most {gtsam_worker.LM_MAX_ITERATIONS} iterations, error tolerances {gtsam_worker.LM_ERROR_TOL:g}. "
         "GTSAM's time: optimizer construction plus `optimize()`, one fresh process per solve.",
@@ -1178,7 +1191,9 @@ def build_cells(args: argparse.Namespace, notes: list[str]) -> list[Cell]:
         else:
             found.append(cell)
     if not found:
-        raise BenchError(f"no cell selected or found under {args.datasets} (--cells {','.join(args.cells) or '*'})")
+        missing = f"; {len(notes)} skipped, e.g. {notes[0]}" if notes else ""
+        raise BenchError(f"no cell selected or found under {args.datasets} (--cells {','.join(args.cells) or '*'})"
+                         + missing)
     return found
 
 
@@ -1190,11 +1205,7 @@ def run_benchmark(args: argparse.Namespace) -> int:
     notes: list[str] = []
     fingerprint = bench_gn.binary_fingerprint(args.pgem)
     gtsam_version = bench_gn.gtsam_version() if args.peer == "gtsam" else ""
-    methods = [m for m in all_methods(args.variants, args.peer) if not args.methods or m.name in args.methods]
-    unknown = sorted(set(args.methods or []) - {m.name for m in all_methods(args.variants, args.peer)})
-    if unknown:
-        raise BenchError(f"unknown method(s) {', '.join(unknown)} (with these options: "
-                         f"{', '.join(m.name for m in all_methods(args.variants, args.peer))})")
+    methods = chosen_methods(all_methods(args.variants, args.peer), args.methods)
     cells = build_cells(args, notes)
     header = bench_gn.machine_line(args.pgem, gtsam=args.peer == "gtsam")
     progress(header)
@@ -1247,14 +1258,16 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
     parser.add_argument("--pgem", type=Path, default=bench_gn.DEFAULT_PGEM,
                         help="pgem binary (default build/release/tools/pgem/pgem)")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT,
-                        help="Markdown report; the raw results go beside it as .json (default build/bench/bench_real.md)")
+                        help="Markdown report; the raw results go beside it as .json "
+                             "(default build/bench/bench_real.md)")
     parser.add_argument("--work", type=Path, default=DEFAULT_WORK,
                         help="inputs, cache and results (default build/bench/bench_real_work)")
     parser.add_argument("--cells", help="comma-separated patterns over cell names (shell globs matched against the "
                                         "whole name, or regular expressions searched in it), e.g. 'real/*' or "
                                         "kitti_09 or 'synth/ring/local/*' (default every cell)")
-    parser.add_argument("--methods", help="comma-separated methods to run (default all: pgem-em, the variants, "
-                                          "gtsam-gnc, gtsam-cauchy, gtsam-dcs)")
+    parser.add_argument("--methods", help="comma-separated methods to run, shell globs allowed (default all: "
+                                          "pgem-em, the variants, gtsam-gnc, gtsam-cauchy, gtsam-dcs; e.g. "
+                                          "'pgem-em,gtsam-*')")
     parser.add_argument("--variant", action="append", type=parse_variant, metavar="NAME=OPTIONS",
                         help="a pgem method pgem-NAME: `pgem optimize --robust em OPTIONS`; repeatable; replaces the "
                              "default variants " + ", ".join(f"'{n}={o}'" for n, o in DEFAULT_VARIANTS))
@@ -1267,7 +1280,8 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
                         help="seconds before a solve is killed and recorded as a timeout (default 300)")
     parser.add_argument("--jobs", type=int, default=1,
                         help="GTSAM solves run at the same time (default 1); pgem is always timed alone")
-    parser.add_argument("--pgem-runs", type=int, help="runs of each pgem solve, the median time reported "
+    parser.add_argument("--pgem-runs", type=int, help="runs of each pgem solve, the median time reported; fewer "
+                                                      f"once they took {PGEM_REPEAT_SECONDS:g} s in all "
                                                       "(default 3; --quick: 1)")
     parser.add_argument("--no-cache", action="store_true", help="re-run the GTSAM methods and the oracles")
     parser.add_argument("--quick", action="store_true",
