@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import bench_gn  # noqa: E402  (shared helpers: machine header, dataset lookup, pgem checks)
+import bench_gn  # noqa: E402  (shared code: machine header, dataset lookup, pgem checks)
 import gtsam_worker  # noqa: E402  (the GTSAM solves, each in its own process)
 
 BenchError = bench_gn.BenchError
