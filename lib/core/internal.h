@@ -97,6 +97,7 @@ typedef struct pgem_linear {
     double *diagonal;          /* [max_poses * block] diagonal of H (LM damping) */
     double *gradient;          /* [max_poses * block] copy of -b kept across LM retries */
     uint32_t analyses;         /* symbolic analyses run so far */
+    uint32_t left_out;         /* couplings the last assembly left out of the structure */
     pgem_cs_pool_t cs_pool;    /* CSparse's workspace during analyses */
 } pgem_linear_t;
 
@@ -225,6 +226,19 @@ void pgem_linear_damp(pgem_t *graph, double lambda);
 int pgem_linear_factor(pgem_t *graph);
 void pgem_linear_solve(pgem_t *graph, double *step);
 void pgem_linear_invalidate(pgem_t *graph);
+/* y = H x with the assembled values (linalg/multiply.c); y += D x for the couplings the
+ * assembly left out (linalg/assemble.c). */
+void pgem_linear_multiply(const pgem_t *graph, const double *x, double *y);
+void pgem_linear_left_out_multiply(const pgem_t *graph, const double *x, double *y);
+/* out = A H^-1 A^T (n x n) for A = [a_from a_to] on poses from and to (n x n blocks,
+ * row-major), from the current factor (linalg/marginal.c). */
+void pgem_linear_marginal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
+                          const double *a_to, double *out);
+/* H^-1 on the factor's pattern, over the factor (linalg/inverse.c); then the marginal of two
+ * poses joined by a block of the pattern (PGEM_ERR_INVALID_ARGUMENT if they are not). */
+void pgem_linear_invert(pgem_t *graph);
+int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
+                                 const double *a_to, double *out);
 
 /* Weighted chi2 (edges not pruned, robust weights) under the current estimate. */
 double pgem_weighted_chi2(const pgem_t *graph);
