@@ -239,6 +239,10 @@ void pgem_linear_marginal(pgem_t *graph, uint32_t from, uint32_t to, const doubl
 void pgem_linear_invert(pgem_t *graph);
 int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
                                  const double *a_to, double *out);
+/* Solves (H + D) step = rhs in place (rhs: linear->rhs): the factor's solve, refined by
+ * conjugate gradients preconditioned with it when couplings were left out (solver/newton.c).
+ * Returns PGEM_OK, or PGEM_ERR_NUMERIC if the refinement did not converge. */
+int pgem_solve_newton(pgem_t *graph);
 
 /* Weighted chi2 (edges not pruned, robust weights) under the current estimate. */
 double pgem_weighted_chi2(const pgem_t *graph);
