@@ -12,7 +12,8 @@
  * linalg/cholesky.c). */
 static inline double *pgem_off(pgem_linear_t *linear, int b, int column, int q, int r, int c)
 {
-    return linear->factor_values + linear->factor_colptr[column * b + c] + (b - c) + q * b + r;
+    return linear->factor_values + linear->factor_colptr[column * b + c] + (b - c) +
+           (ptrdiff_t)q * b + r;
 }
 
 /* Element (r, c), r >= c, of the diagonal block of block column J. */
@@ -30,7 +31,7 @@ typedef struct pgem_column_base {
 
 static inline pgem_column_base_t pgem_column_base(pgem_linear_t *linear, int b, int column)
 {
-    pgem_column_base_t out;
+    pgem_column_base_t out = {{NULL}};
     for (int c = 0; c < b; c++) {
         out.base[c] = linear->factor_values + linear->factor_colptr[column * b + c];
     }
@@ -41,7 +42,7 @@ static inline pgem_column_base_t pgem_column_base(pgem_linear_t *linear, int b, 
 static inline void pgem_load_block(const pgem_column_base_t *column, int b, int q, double *out)
 {
     for (int c = 0; c < b; c++) {
-        const double *values = column->base[c] + (b - c) + q * b;
+        const double *values = column->base[c] + (b - c) + (ptrdiff_t)q * b;
         for (int r = 0; r < b; r++) {
             out[r * b + c] = values[r];
         }
@@ -63,7 +64,7 @@ static inline void pgem_load_diagonal(const pgem_column_base_t *column, int b, d
 static inline void pgem_subtract(int b, const double *z, int transpose, const double *x,
                                  const pgem_column_base_t *column, int q)
 {
-    double product[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    double product[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     for (int r = 0; r < b; r++) {
         double row[PGEM_TANGENT_SIZE_MAX] = {0};
         for (int m = 0; m < b; m++) {
@@ -77,7 +78,7 @@ static inline void pgem_subtract(int b, const double *z, int transpose, const do
         }
     }
     for (int c = 0; c < b; c++) {
-        double *values = column->base[c] + (b - c) + q * b;
+        double *values = column->base[c] + (b - c) + (ptrdiff_t)q * b;
         for (int r = 0; r < b; r++) {
             values[r] -= product[r * b + c];
         }
@@ -123,7 +124,7 @@ static inline void pgem_invert_column(pgem_linear_t *linear, int b, int column)
     }
     for (int q = 0; q < count; q++) {
         for (int c = 0; c < b; c++) {
-            memset(self.base[c] + (b - c) + q * b, 0, (size_t)b * sizeof(double));
+            memset(self.base[c] + (b - c) + (ptrdiff_t)q * b, 0, (size_t)b * sizeof(double));
         }
     }
     for (int q = 0; q < count; q++) {
@@ -219,7 +220,7 @@ static int pgem_inverse_position(const pgem_linear_t *linear, int column, int ro
 static void pgem_add_diagonal_form(pgem_linear_t *linear, int b, int column, const double *a,
                                    double *out)
 {
-    double az[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    double az[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     for (int r = 0; r < b; r++) {
         for (int c = 0; c < b; c++) {
             double sum = 0.0;
@@ -267,7 +268,7 @@ int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, cons
     }
     const double *a_low = block_from < block_to ? a_from : a_to;
     const double *a_high = block_from < block_to ? a_to : a_from;
-    double az[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX]; /* A_high Z_{high,low} */
+    double az[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0}; /* A_high Z_{high,low} */
     for (int r = 0; r < b; r++) {
         for (int c = 0; c < b; c++) {
             double sum = 0.0;

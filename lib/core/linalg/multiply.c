@@ -22,7 +22,7 @@ static inline void pgem_multiply_column(const pgem_linear_t *linear, int b, int 
                 y[j] += h * x[base + r];
             }
         }
-        const double *diagonal = values + count * b; /* H(column * b + r, j), r <= c */
+        const double *diagonal = values + (ptrdiff_t)count * b; /* H(column * b + r, j), r <= c */
         for (int r = 0; r < c; r++) {
             y[column * b + r] += diagonal[r] * x[j];
             y[j] += diagonal[r] * x[column * b + r];

@@ -138,7 +138,7 @@ static double pgem_rotation_sd(int n, const double *upper, const double *mu0, co
 {
     double variance = 0.0;
     for (int i = 0; i < n; i++) {
-        double g[PGEM_TANGENT_SIZE_MAX]; /* U^-1 v_i */
+        double g[PGEM_TANGENT_SIZE_MAX] = {0}; /* U^-1 v_i */
         for (int r = n - 1; r >= 0; r--) {
             double sum = vectors[r * n + i];
             for (int c = r + 1; c < n; c++) {
@@ -157,15 +157,16 @@ void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double infla
                           int from_inverse, pgem_innovation_t *out)
 {
     const int n = graph->tangent;
-    double e[PGEM_TANGENT_SIZE_MAX], predicted[PGEM_TANGENT_SIZE_MAX];
-    double jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    double upper[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    double a_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    double vectors[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    double values[PGEM_TANGENT_SIZE_MAX], mu0[PGEM_TANGENT_SIZE_MAX];
+    /* zeroed where the analysers cannot see the loops that fill them */
+    double e[PGEM_TANGENT_SIZE_MAX] = {0}, predicted[PGEM_TANGENT_SIZE_MAX] = {0};
+    double jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double upper[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double a_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double vectors[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double values[PGEM_TANGENT_SIZE_MAX] = {0}, mu0[PGEM_TANGENT_SIZE_MAX] = {0};
     pgem_edge_error(graph, k, e, jf, jt);
     pgem_information_root(graph->edge_information + (size_t)k * (size_t)(n * n), n, upper);
     pgem_upper_times(upper, jf, n, a_from);
