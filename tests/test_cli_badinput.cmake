@@ -81,6 +81,23 @@ file(WRITE "${WORK}/at_limit.g2o" "${PAIR}#${long}\nEDGE_SE2 0 1 1 0 0 ${I2}\n")
 pgem_ok(at_limit optimize at_limit.g2o --quiet)
 file(WRITE "${WORK}/past_limit.g2o" "${PAIR}#${long}x\nEDGE_SE2 0 1 1 0 0 ${I2}\n")
 pgem_fails(1 past_limit "pgem: past_limit.g2o:3: line is longer than 65536 bytes" optimize past_limit.g2o)
+# a line that never ends (a device, a pipe) is refused once it is known to be too long or to hold
+# a NUL, not read to its end: the commands below ran until killed before
+if(EXISTS /dev/zero)
+  execute_process(COMMAND "${PGEM}" stats /dev/zero WORKING_DIRECTORY "${WORK}" TIMEOUT 20
+                  RESULT_VARIABLE code ERROR_VARIABLE err OUTPUT_QUIET)
+  if(NOT code STREQUAL "1")
+    fail("endless_nul: pgem stats /dev/zero: exit ${code}, expected 1 within 20 s\n${err}")
+  endif()
+  contains(endless_nul "${err}" "pgem stats: /dev/zero:1: line contains a NUL byte (binary data?)")
+  execute_process(COMMAND sh -c "tr '\\000' x < /dev/zero | '${PGEM}' optimize /dev/stdin"
+                  WORKING_DIRECTORY "${WORK}" TIMEOUT 20 RESULT_VARIABLE code ERROR_VARIABLE err
+                  OUTPUT_QUIET)
+  if(NOT code STREQUAL "1")
+    fail("endless_line: an endless line on stdin: exit ${code}, expected 1 within 20 s\n${err}")
+  endif()
+  contains(endless_line "${err}" "pgem: /dev/stdin:1: line is longer than 65536 bytes")
+endif()
 
 # ---- ids at the top of the 64-bit range are ordinary ids ----------------------------------------
 file(WRITE "${WORK}/top_ids.g2o"

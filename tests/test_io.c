@@ -1,5 +1,5 @@
 /* Tests of pgem I/O: g2o / TORO reading, writing, error messages, chain guess and datasets. */
-#define _POSIX_C_SOURCE 200809L
+#define _GNU_SOURCE /* fopencookie: streams that never end */
 
 #include "test_io_util.h"
 
@@ -545,6 +545,55 @@ static void test_error_long_line(void **state)
                      PGEM_ERR_PARSE);
     assert_contains(message, "long.g2o:2:");
     assert_graph_empty(&graph);
+}
+
+/* A stream that never ends: every read gets `fill` bytes, up to `limit` in all (then the end,
+ * so a reader that reads to the end still finishes); `served` counts what was handed out. */
+typedef struct endless {
+    char fill;
+    size_t served;
+    size_t limit;
+} endless_t;
+
+static ssize_t endless_read(void *cookie, char *buffer, size_t size)
+{
+    endless_t *endless = (endless_t *)cookie;
+    size_t left = endless->limit - endless->served;
+    size_t given = size < left ? size : left;
+    memset(buffer, endless->fill, given);
+    endless->served += given;
+    return (ssize_t)given;
+}
+
+/* Reads an endless stream of `fill` bytes; returns the status, *served the bytes it took. */
+static int read_endless(char fill, size_t *served, char *message, size_t message_size)
+{
+    endless_t endless = {fill, 0, (size_t)64 << 20};
+    cookie_io_functions_t functions = {endless_read, NULL, NULL, NULL};
+    pgem_io_graph_t graph;
+    FILE *stream = fopencookie(&endless, "r", functions);
+    assert_non_null(stream);
+    int status = pgem_io_read_stream(stream, "endless", PGEM_FORMAT_AUTO, &graph, message,
+                                     message_size);
+    fclose(stream);
+    assert_graph_empty(&graph);
+    *served = endless.served;
+    return status;
+}
+
+/* A line with no end (a pipe, /dev/zero) is refused as soon as it is known to be too long or
+ * to hold a NUL, not read to its end first (before: 64 MiB here, forever from /dev/zero). */
+static void test_endless_line_stops_at_the_limit(void **state)
+{
+    char message[512];
+    size_t served = 0;
+    (void)state;
+    assert_int_equal(read_endless('x', &served, message, sizeof message), PGEM_ERR_PARSE);
+    assert_contains(message, "endless:1: line is longer than 65536 bytes");
+    assert_true(served <= (size_t)4 << 16); /* the reader's chunks plus stdio's buffer */
+    assert_int_equal(read_endless('\0', &served, message, sizeof message), PGEM_ERR_PARSE);
+    assert_contains(message, "endless:1: line contains a NUL byte");
+    assert_true(served <= (size_t)4 << 16);
 }
 
 static void test_error_nul_and_missing_file(void **state)
@@ -1258,6 +1307,7 @@ int main(void)
         cmocka_unit_test(test_error_dimension),
         cmocka_unit_test(test_error_duplicate_and_unknown_ids),
         cmocka_unit_test(test_error_long_line),
+        cmocka_unit_test(test_endless_line_stops_at_the_limit),
         cmocka_unit_test(test_error_nul_and_missing_file),
         cmocka_unit_test(test_empty_and_garbage),
         cmocka_unit_test(test_read_stream),
