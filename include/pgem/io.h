@@ -64,7 +64,8 @@ typedef struct pgem_io_graph {
 /** Reads a graph file. Blank lines and lines starting with '#' are ignored. Poses without a
  * VERTEX line get an initial guess composed from the edges (odometry chain first). On error
  * returns PGEM_ERR_IO / PGEM_ERR_PARSE / PGEM_ERR_DIMENSION / PGEM_ERR_UNKNOWN_ID /
- * PGEM_ERR_DUPLICATE_ID (or PGEM_ERR_OUT_OF_MEMORY), writes "FILE:LINE: what is wrong" into
+ * PGEM_ERR_DUPLICATE_ID / PGEM_ERR_OUT_OF_RANGE (or PGEM_ERR_OUT_OF_MEMORY), writes
+ * "FILE:LINE: what is wrong" into
  * message, and leaves *graph empty.
  * - *graph is overwritten, not freed: release a graph read earlier with pgem_io_graph_free.
  * - An empty file (or one with only blank, comment or unknown lines) is a valid empty graph
@@ -74,10 +75,14 @@ typedef struct pgem_io_graph {
  *   in unknown_lines, not an error. FIX takes one or more ids (as g2o writes it).
  * - A file with edge lines but no VERTEX line gets one pose per referenced id, ordered by id;
  *   if some ids have VERTEX lines, an edge naming an id without one is PGEM_ERR_UNKNOWN_ID.
- * - Lines are limited to 65536 bytes; a NUL byte in a line is PGEM_ERR_PARSE.
+ * - Lines are limited to 65536 bytes; a NUL byte in a line is PGEM_ERR_PARSE. Either stops
+ *   the read where it is found (a stream that never ends a line is not read to its end).
  * - LF and CRLF line ends are accepted, and a UTF-8 byte order mark at the start of the file
  *   is skipped. The memory a read takes depends on the graph, not on the file's size: blank,
  *   comment and unknown lines cost nothing.
+ * - A translation beyond PGEM_TRANSLATION_LIMIT or an information value beyond
+ *   PGEM_INFORMATION_LIMIT (pgem/graph.h) is PGEM_ERR_OUT_OF_RANGE, naming the field: a graph
+ *   that reads loads (capacity and the core's other checks aside) with a finite chi2.
  * FORMATS.md at the repository root lists every accepted line. */
 int pgem_io_read(const char *path, pgem_format_t format, pgem_io_graph_t *graph,
                  char *message, size_t message_size);
