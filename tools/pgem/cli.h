@@ -21,8 +21,10 @@ double pgem_cli_now(void);
 /* The tools apply the core's rule for 3D quaternions. */
 #define PGEM_CLI_QUAT_TOLERANCE PGEM_QUAT_NORM_TOLERANCE
 
-/* Parses a non-negative integer option value; prints an error and returns 0 on failure. */
-int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value);
+/* Parses a non-negative integer option value; prints "PREFIX: OPTION needs a non-negative
+ * integer, got 'TEXT'" and returns 0 on failure. */
+int pgem_cli_parse_u32(const char *prefix, const char *option, const char *text,
+                       uint32_t *value);
 
 /* As pgem_cli_parse_u32, and at least `least`: below it prints "PREFIX: OPTION needs at least
  * LEAST WHAT, got N" and returns 0. */

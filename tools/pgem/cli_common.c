@@ -18,14 +18,15 @@ double pgem_cli_now(void)
     return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
 }
 
-int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value)
+int pgem_cli_parse_u32(const char *prefix, const char *option, const char *text,
+                       uint32_t *value)
 {
     char *end = NULL;
     errno = 0;
     unsigned long parsed = text != NULL ? strtoul(text, &end, 10) : 0;
     if (text == NULL || *text == '\0' || *text == '-' || *end != '\0' || errno != 0 ||
         parsed > UINT32_MAX) {
-        fprintf(stderr, "pgem: %s needs a non-negative integer, got '%s'\n", option,
+        fprintf(stderr, "%s: %s needs a non-negative integer, got '%s'\n", prefix, option,
                 text != NULL ? text : "");
         return 0;
     }
@@ -36,7 +37,7 @@ int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value)
 int pgem_cli_parse_at_least(const char *prefix, const char *option, const char *text,
                             uint32_t least, const char *what, uint32_t *value)
 {
-    if (!pgem_cli_parse_u32(option, text, value)) {
+    if (!pgem_cli_parse_u32(prefix, option, text, value)) {
         return 0;
     }
     if (*value < least) {

@@ -81,13 +81,13 @@ static int corrupt_parse(int argc, char **argv, corrupt_args_t *args)
                 fprintf(stderr, "pgem corrupt: --policy takes random, local, random-grouped or local-grouped\n");
             }
         } else if (ok && strcmp(arg, "--count") == 0) {
-            ok = have_count = pgem_cli_parse_u32(arg, value, &args->count);
+            ok = have_count = pgem_cli_parse_u32("pgem", arg, value, &args->count);
         } else if (ok && strcmp(arg, "--group-size") == 0) {
             ok = pgem_cli_parse_at_least("pgem corrupt", arg, value, 1u, "loop", &args->group_size);
         } else if (ok && strcmp(arg, "--information") == 0) {
             args->information = value;
         } else if (ok && strcmp(arg, "--seed") == 0) {
-            ok = have_seed = pgem_cli_parse_u32(arg, value, &args->seed);
+            ok = have_seed = pgem_cli_parse_u32("pgem", arg, value, &args->seed);
         } else {
             fprintf(stderr, "pgem corrupt: unknown or incomplete option '%s' (see --help)\n", arg);
             ok = 0;

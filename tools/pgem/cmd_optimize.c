@@ -91,7 +91,7 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
             }
             k++;
         } else if (strcmp(arg, "--max-iterations") == 0) {
-            if (!pgem_cli_parse_u32(arg, value, &args->max_iterations)) {
+            if (!pgem_cli_parse_u32("pgem", arg, value, &args->max_iterations)) {
                 return PGEM_EXIT_USAGE;
             }
             k++;
@@ -111,12 +111,12 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
             }
             k++;
         } else if (strcmp(arg, "--m-step-iterations") == 0) {
-            if (!pgem_cli_parse_u32(arg, value, &args->robust.m_step_iterations)) {
+            if (!pgem_cli_parse_u32("pgem", arg, value, &args->robust.m_step_iterations)) {
                 return PGEM_EXIT_USAGE;
             }
             k++;
         } else if (strcmp(arg, "--max-em-iterations") == 0) {
-            if (!pgem_cli_parse_u32(arg, value, &args->robust.max_em_iterations)) {
+            if (!pgem_cli_parse_u32("pgem", arg, value, &args->robust.max_em_iterations)) {
                 return PGEM_EXIT_USAGE;
             }
             k++;

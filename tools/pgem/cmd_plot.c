@@ -132,7 +132,7 @@ static int plot_parse(int argc, char **argv, plot_args_t *args)
         }
         if (target != NULL) {
             *target = value;
-        } else if (!pgem_cli_parse_u32(arg, value, &args->width)) {
+        } else if (!pgem_cli_parse_u32("pgem", arg, value, &args->width)) {
             return PGEM_EXIT_USAGE;
         } else if (args->width < PLOT_MIN_WIDTH || args->width > PLOT_MAX_WIDTH) {
             fprintf(stderr, "pgem plot: --width takes %u to %u pixels, got %s\n",
