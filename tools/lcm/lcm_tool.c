@@ -401,15 +401,6 @@ int pgem_lcm_file_commit(pgem_lcm_file_t *file, int failed)
 
 /* ---- Output ----------------------------------------------------------------------------- */
 
-void pgem_lcm_json_number(FILE *out, double value)
-{
-    if (isfinite(value)) {
-        fprintf(out, "%.17g", value);
-    } else {
-        fputs("null", out);
-    }
-}
-
 int64_t pgem_lcm_status_rejected(const pgem_status_t *status)
 {
     int64_t total = 0;
@@ -427,7 +418,7 @@ void pgem_lcm_json_status(FILE *out, const pgem_status_t *s)
             (long long)s->accepted_poses, (long long)s->accepted_edges, (long long)s->replays);
     for (int32_t r = 0; r < s->num_reasons; r++) {
         fputs(r > 0 ? "," : "", out);
-        pgem_cli_json_string_to(out, s->reasons[r] != NULL ? s->reasons[r] : "");
+        pgem_json_string(out, s->reasons[r] != NULL ? s->reasons[r] : "");
         fprintf(out, ":%lld", (long long)s->rejected[r]);
     }
     fprintf(out, "},\"pending\":%d,\"queued\":%d,\"poses\":%d,\"edges\":%d,\"loops\":%d,"
@@ -438,7 +429,7 @@ void pgem_lcm_json_status(FILE *out, const pgem_status_t *s)
             (int)s->pruned, (int)s->max_poses, (int)s->max_edges, (int)s->max_pending,
             (long long)s->solves, s->solving ? "true" : "false", (long long)s->commands,
             (long long)s->journal_records, (long long)s->recovered);
-    pgem_cli_json_string_to(out, s->message != NULL ? s->message : "");
+    pgem_json_string(out, s->message != NULL ? s->message : "");
     fputc('}', out);
 }
 

@@ -147,9 +147,6 @@ int pgem_lcm_file_commit(pgem_lcm_file_t *file, int failed);
 
 /* ---- Output ----------------------------------------------------------------------------- */
 
-/* A JSON number: %.17g, or null when not finite. */
-void pgem_lcm_json_number(FILE *out, double value);
-
 /* A status_t as one JSON object (no newline): every field by its .lcm name, except reasons
  * and rejected, which become one object "rejected": {reason: count, ...}. */
 void pgem_lcm_json_status(FILE *out, const pgem_status_t *status);

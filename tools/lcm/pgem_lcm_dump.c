@@ -321,13 +321,13 @@ static int dump_write_weights(const pgem_graph_t *graph, const char *path)
 static void dump_json_stats(FILE *out, const pgem_solve_stats_t *stats)
 {
     fprintf(out, "{\"solve_id\":%lld,\"trigger\":", (long long)stats->solve_id);
-    pgem_cli_json_string_to(out, stats->trigger != NULL ? stats->trigger : "");
+    pgem_json_string(out, stats->trigger != NULL ? stats->trigger : "");
     fprintf(out, ",\"usable\":%s,\"message\":", stats->usable ? "true" : "false");
-    pgem_cli_json_string_to(out, stats->message != NULL ? stats->message : "");
+    pgem_json_string(out, stats->message != NULL ? stats->message : "");
     fputs(",\"initial_chi2\":", out);
-    pgem_lcm_json_number(out, stats->initial_chi2);
+    pgem_json_number(out, stats->initial_chi2, 17);
     fputs(",\"chi2\":", out);
-    pgem_lcm_json_number(out, stats->chi2);
+    pgem_json_number(out, stats->chi2, 17);
     fprintf(out, ",\"em_rounds\":%d,\"em_iterations\":%d,\"gn_iterations\":%d,"
                  "\"solve_time_us\":%lld,\"poses\":%d,\"edges\":%d,\"loops\":%d,\"pruned\":%d}",
             (int)stats->em_rounds, (int)stats->em_iterations, (int)stats->gn_iterations,
@@ -351,7 +351,7 @@ static int dump_write_json(const dump_state_t *state, const char *path)
             (unsigned long long)state->graphs);
     for (int32_t s = 0; s < graph->num_sources; s++) {
         fputs(s > 0 ? "," : "", out);
-        pgem_cli_json_string_to(out, graph->sources[s] != NULL ? graph->sources[s] : "");
+        pgem_json_string(out, graph->sources[s] != NULL ? graph->sources[s] : "");
         fprintf(out, ":%lld", (long long)graph->last_sequence[s]);
     }
     fputs("},\"stats\":", out);

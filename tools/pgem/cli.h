@@ -117,11 +117,16 @@ size_t pgem_cli_pair_run_end(const pgem_cli_pair_t *pairs, size_t count, size_t 
 /* "s" unless count is 1. */
 const char *pgem_cli_plural(size_t count);
 
-/* Writes text to stdout as a JSON string: quoted, with '"', '\\' and control bytes escaped. */
-void pgem_cli_json_string(const char *text);
+/* JSON (cli_json.c), the one writer every --json output goes through. A number with `digits`
+ * significant digits (%.*g: 10 for the CLI's summaries, 17 for values that must read back
+ * exactly), or with `decimals` after the point (%.*f: seconds); null when it is NaN or
+ * infinite, which JSON cannot hold. */
+void pgem_json_number(FILE *out, double value, int digits);
+void pgem_json_fixed(FILE *out, double value, int decimals);
 
-/* As pgem_cli_json_string, to a stream. */
-void pgem_cli_json_string_to(FILE *out, const char *text);
+/* A JSON string: quoted, '"', '\\' and control bytes escaped, and each byte that is not part
+ * of valid UTF-8 as \ufffd (a name from the network cannot break the document). */
+void pgem_json_string(FILE *out, const char *text);
 
 int pgem_cmd_optimize(int argc, char **argv);
 int pgem_cmd_simulate(int argc, char **argv);

@@ -268,26 +268,6 @@ double pgem_cli_gaussian(uint64_t *state)
     return sqrt(-2.0 * log(u + 1e-300)) * cos(6.283185307179586 * v);
 }
 
-void pgem_cli_json_string_to(FILE *out, const char *text)
-{
-    fputc('"', out);
-    for (const unsigned char *c = (const unsigned char *)text; *c != '\0'; c++) {
-        if (*c == '"' || *c == '\\') {
-            fprintf(out, "\\%c", *c);
-        } else if (*c < 0x20u) {
-            fprintf(out, "\\u%04x", (unsigned)*c);
-        } else {
-            fputc(*c, out);
-        }
-    }
-    fputc('"', out);
-}
-
-void pgem_cli_json_string(const char *text)
-{
-    pgem_cli_json_string_to(stdout, text);
-}
-
 static int pgem_cli_compare_ids(const void *a, const void *b)
 {
     const pgem_cli_id_t *x = a, *y = b;

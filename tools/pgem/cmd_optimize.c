@@ -256,6 +256,30 @@ static void pgem_block_parts(const pgem_t *graph, uint32_t fill_budget, pgem_blo
     parts->factor = (size_t)(per_nonzero * (double)fill_budget + 0.5);
 }
 
+/* "initial_chi2":..,"final_chi2":..,"solve_seconds":..,"analysis_seconds":.. (chi2 to 10
+ * digits, seconds to the microsecond; null for a chi2 that is not finite). */
+static void pgem_print_json_timing(double initial, double final, double seconds,
+                                   double analysis_seconds)
+{
+    printf("\"initial_chi2\":");
+    pgem_json_number(stdout, initial, 10);
+    printf(",\"final_chi2\":");
+    pgem_json_number(stdout, final, 10);
+    printf(",\"solve_seconds\":");
+    pgem_json_fixed(stdout, seconds, 6);
+    printf(",\"analysis_seconds\":");
+    pgem_json_fixed(stdout, analysis_seconds, 6);
+}
+
+/* "block_bytes":..,"block_bytes_per_pose":..,"block_bytes_per_edge":..,"block_bytes_factor":..}
+ * and the line end: the end of both summaries. */
+static void pgem_print_json_block(const pgem_memory_stats_t *stats, const pgem_block_parts_t *parts)
+{
+    printf("\"block_bytes\":%zu,\"block_bytes_per_pose\":%zu,\"block_bytes_per_edge\":%zu,"
+           "\"block_bytes_factor\":%zu}\n",
+           stats->block_bytes, parts->per_pose, parts->per_edge, parts->factor);
+}
+
 static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, const pgem_t *graph,
                                const pgem_summary_t *summary, double seconds, int status)
 {
@@ -265,20 +289,19 @@ static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, cons
     pgem_block_parts(graph, stats.factor_budget, &parts);
     if (args->json) {
         printf("{\"input\":");
-        pgem_cli_json_string(args->input);
+        pgem_json_string(stdout, args->input);
         printf(",\"method\":\"%s\",\"status\":\"%s\",\"termination\":\"%s\","
-               "\"iterations\":%u,\"initial_chi2\":%.10g,\"final_chi2\":%.10g,"
-               "\"solve_seconds\":%.6f,\"analysis_seconds\":%.6f,\"usable\":%s,\"estimate_changed\":%s,"
-               "\"poses\":%u,\"edges\":%u,\"unknowns\":%u,\"factor_nonzeros\":%u,"
-               "\"block_bytes\":%zu,\"block_bytes_per_pose\":%zu,\"block_bytes_per_edge\":%zu,"
-               "\"block_bytes_factor\":%zu}\n",
+               "\"iterations\":%u,",
                pgem_method_name(args->method), pgem_error_name(status),
-               pgem_termination_name(summary->termination), summary->iterations,
-               summary->initial_chi2, summary->final_chi2, seconds, args->analysis_seconds,
+               pgem_termination_name(summary->termination), summary->iterations);
+        pgem_print_json_timing(summary->initial_chi2, summary->final_chi2, seconds,
+                               args->analysis_seconds);
+        printf(",\"usable\":%s,\"estimate_changed\":%s,"
+               "\"poses\":%u,\"edges\":%u,\"unknowns\":%u,\"factor_nonzeros\":%u,",
                summary->usable ? "true" : "false", summary->estimate_changed ? "true" : "false",
                pgem_pose_count(graph), pgem_edge_count(graph), summary->variables,
-               stats.factor_nonzeros, stats.block_bytes, parts.per_pose, parts.per_edge,
-               parts.factor);
+               stats.factor_nonzeros);
+        pgem_print_json_block(&stats, &parts);
         return;
     }
     fprintf(out, "%s: %s after %u iterations; chi2 %.6f -> %.6f in %.4f s\n",
@@ -320,20 +343,20 @@ static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *arg
     pgem_block_parts(graph, stats.factor_budget, &parts);
     if (args->json) {
         printf("{\"input\":");
-        pgem_cli_json_string(args->input);
+        pgem_json_string(stdout, args->input);
         printf(",\"robust\":\"%s\",\"status\":\"%s\",\"rounds\":%u,"
                "\"em_iterations\":%u,\"gn_iterations\":%u,\"loops\":%u,\"pruned\":%u,"
-               "\"readmitted\":%u,\"gated\":%u,\"initial_chi2\":%.10g,\"final_chi2\":%.10g,"
-               "\"solve_seconds\":%.6f,\"analysis_seconds\":%.6f,\"usable\":%s,\"poses\":%u,\"edges\":%u,"
-               "\"analyses\":%u,\"factor_nonzeros\":%u,\"block_bytes\":%zu,"
-               "\"block_bytes_per_pose\":%zu,\"block_bytes_per_edge\":%zu,"
-               "\"block_bytes_factor\":%zu}\n",
+               "\"readmitted\":%u,\"gated\":%u,",
                pgem_kernel_name(args->robust.kernel), pgem_error_name(status), summary->rounds,
                summary->em_iterations, summary->gn_iterations, summary->loops, summary->pruned,
-               summary->readmitted, summary->gated, summary->initial_chi2, summary->final_chi2,
-               seconds, args->analysis_seconds, summary->usable ? "true" : "false", pgem_pose_count(graph),
-               pgem_edge_count(graph), stats.analyses, stats.factor_nonzeros, stats.block_bytes,
-               parts.per_pose, parts.per_edge, parts.factor);
+               summary->readmitted, summary->gated);
+        pgem_print_json_timing(summary->initial_chi2, summary->final_chi2, seconds,
+                               args->analysis_seconds);
+        printf(",\"usable\":%s,\"poses\":%u,\"edges\":%u,\"analyses\":%u,"
+               "\"factor_nonzeros\":%u,",
+               summary->usable ? "true" : "false", pgem_pose_count(graph),
+               pgem_edge_count(graph), stats.analyses, stats.factor_nonzeros);
+        pgem_print_json_block(&stats, &parts);
     } else {
         fprintf(out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures pruned (consistency test: %u re-admitted, %u pruned); chi2 %.6f -> %.6f in %.4f s\n",
                 pgem_kernel_name(args->robust.kernel), summary->rounds, summary->em_iterations,

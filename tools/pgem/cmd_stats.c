@@ -738,7 +738,8 @@ static void stats_json_box(const char *key, const double *corner, int axes, int 
         return;
     }
     for (int a = 0; a < axes; a++) {
-        printf("%c%.10g", a == 0 ? '[' : ',', corner[a]);
+        putchar(a == 0 ? '[' : ',');
+        pgem_json_number(stdout, corner[a], 10);
     }
     printf("]");
 }
@@ -750,7 +751,7 @@ static void stats_json_reasons(const stats_t *s, const char *key, int warnings)
     for (size_t k = 0; k < s->reason_count; k++) {
         if ((s->reason_level[k] >= STATS_WARNING) == warnings) {
             printf("%s", separator);
-            pgem_cli_json_string(s->reason[k]);
+            pgem_json_string(stdout, s->reason[k]);
             separator = ",";
         }
     }
@@ -762,7 +763,7 @@ static void stats_print_json(const stats_t *s)
     const pgem_io_graph_t *g = s->graph;
     const int have = g->pose_count > 0;
     printf("{\"file\":");
-    pgem_cli_json_string(s->path);
+    pgem_json_string(stdout, s->path);
     printf(",\"dimension\":%d,\"poses\":%zu,\"edges\":%zu,\"odometry\":%zu,\"loops\":%zu,"
            "\"poses_without_vertex\":%zu,\"unknown_lines\":%zu,\"equiv_lines\":%zu,"
            "\"isam_like_edges\":%zu,\"fixed\":%zu",
@@ -776,11 +777,9 @@ static void stats_print_json(const stats_t *s)
     }
     printf(",\"id_gaps\":%zu,\"ids_missing\":%llu,\"degree_min\":%zu", s->id_gaps, s->id_missing,
            s->degree_min);
-    if (have) {
-        printf(",\"degree_mean\":%.10g", (double)s->degree_sum / (double)g->pose_count);
-    } else {
-        printf(",\"degree_mean\":null");
-    }
+    printf(",\"degree_mean\":");
+    pgem_json_number(stdout, have ? (double)s->degree_sum / (double)g->pose_count : (double)NAN,
+                     10);
     printf(",\"degree_max\":%zu,\"degree0\":%zu,\"degree1\":%zu", s->degree_max, s->degree0,
            s->degree1);
     stats_json_list("loop_leaves", &s->loop_leaves);
@@ -801,8 +800,9 @@ static void stats_print_json(const stats_t *s)
     printf(",\"information_ok\":%zu,\"information_asymmetric\":0,"
            "\"information_asymmetric_first\":[]", s->information_ok);
     stats_json_list("information_not_pd", &s->not_pd);
-    printf(",\"angles_out_of_range\":%zu,\"quaternions_off\":%zu,\"quaternion_error_max\":%.10g",
-           s->angles_out, s->quaternions_off + s->bad_quaternions.count, s->quaternion_error);
+    printf(",\"angles_out_of_range\":%zu,\"quaternions_off\":%zu,\"quaternion_error_max\":",
+           s->angles_out, s->quaternions_off + s->bad_quaternions.count);
+    pgem_json_number(stdout, s->quaternion_error, 10);
     stats_json_list("quaternions_refused", &s->bad_quaternions);
     int axes = g->dimension == 3 ? 3 : 2, box = have && s->low[0] <= s->high[0];
     stats_json_box("bbox_min", s->low, axes, box);
