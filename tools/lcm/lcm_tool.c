@@ -441,8 +441,9 @@ void pgem_lcm_print_status(FILE *out, const pgem_status_t *s)
     const char *separator = " (";
     for (int32_t r = 0; r < s->num_reasons; r++) {
         if (s->rejected[r] != 0) {
-            fprintf(out, "%s%s %lld", separator, s->reasons[r] != NULL ? s->reasons[r] : "?",
-                    (long long)s->rejected[r]);
+            char reason[64]; /* from the network: escaped */
+            pgem_io_escape(reason, sizeof reason, s->reasons[r] != NULL ? s->reasons[r] : "?");
+            fprintf(out, "%s%s %lld", separator, reason, (long long)s->rejected[r]);
             separator = ", ";
         }
     }

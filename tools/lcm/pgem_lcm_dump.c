@@ -266,11 +266,15 @@ static int32_t dump_pruned(const pgem_graph_t *graph)
 static void dump_graph_line(const pgem_graph_t *graph)
 {
     double milliseconds = (double)graph->stats.solve_time_us / 1000.0;
-    fprintf(stderr, "graph %lld: %d poses, %d loops (%d pruned), chi2 %.2f, solve %.*f ms%s%s\n",
+    char chi2[PGEM_CLI_NUMBER_MAX];
+    char why[256]; /* from the network: escaped */
+    pgem_io_escape(why, sizeof why,
+                   graph->stats.usable || graph->stats.message == NULL ? "" : graph->stats.message);
+    fprintf(stderr, "graph %lld: %d poses, %d loops (%d pruned), chi2 %s, solve %.*f ms%s%s\n",
             (long long)graph->stats.solve_id, (int)graph->num_poses, (int)graph->num_loops,
-            (int)dump_pruned(graph), graph->stats.chi2, milliseconds < 10.0 ? 1 : 0,
-            milliseconds, graph->stats.usable ? "" : ", not usable: ",
-            graph->stats.usable ? "" : graph->stats.message);
+            (int)dump_pruned(graph), pgem_cli_number(chi2, sizeof chi2, graph->stats.chi2, 2),
+            milliseconds < 10.0 ? 1 : 0, milliseconds, graph->stats.usable ? "" : ", not usable: ",
+            why);
 }
 
 /* ---- Writing ---------------------------------------------------------------------------- */

@@ -114,6 +114,11 @@ void pgem_cli_sort_pairs(pgem_cli_pair_t *pairs, size_t count);
 size_t pgem_cli_pair_run_end(const pgem_cli_pair_t *pairs, size_t count, size_t first,
                              pgem_id_t from, pgem_id_t to);
 
+/* A value for a text line with `decimals` after the point (%.*f), or in exponent form (%.*e)
+ * from 1e15 on, where %f would print up to 309 digits (a chi2 of 1e308). Returns out. */
+#define PGEM_CLI_NUMBER_MAX 40 /* bytes a pgem_cli_number buffer needs */
+const char *pgem_cli_number(char *out, size_t size, double value, int decimals);
+
 /* "s" unless count is 1. */
 const char *pgem_cli_plural(size_t count);
 

@@ -332,6 +332,13 @@ size_t pgem_cli_pair_run_end(const pgem_cli_pair_t *pairs, size_t count, size_t 
     return first;
 }
 
+const char *pgem_cli_number(char *out, size_t size, double value, int decimals)
+{
+    snprintf(out, size, fabs(value) < 1e15 || !isfinite(value) ? "%.*f" : "%.*e", decimals,
+             value);
+    return out;
+}
+
 const char *pgem_cli_plural(size_t count)
 {
     return count == 1u ? "" : "s";

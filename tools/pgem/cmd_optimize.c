@@ -168,9 +168,10 @@ static int pgem_progress_line(const pgem_iteration_t *iteration, void *user)
 {
     const pgem_progress_t *progress = user;
     if (!progress->quiet) {
-        fprintf(progress->out, "%5u %18.6f %12.4e %10.4f%s\n", iteration->iteration,
-                iteration->chi2, iteration->step_norm, pgem_cli_now() - progress->start,
-                iteration->accepted ? "" : "  (rejected)");
+        char chi2[PGEM_CLI_NUMBER_MAX];
+        fprintf(progress->out, "%5u %18s %12.4e %10.4f%s\n", iteration->iteration,
+                pgem_cli_number(chi2, sizeof chi2, iteration->chi2, 6), iteration->step_norm,
+                pgem_cli_now() - progress->start, iteration->accepted ? "" : "  (rejected)");
         fflush(progress->out);
     }
     return 0;
@@ -304,14 +305,18 @@ static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, cons
         pgem_print_json_block(&stats, &parts);
         return;
     }
-    fprintf(out, "%s: %s after %u iterations; chi2 %.6f -> %.6f in %.4f s\n",
+    char initial[PGEM_CLI_NUMBER_MAX];
+    char final[PGEM_CLI_NUMBER_MAX];
+    fprintf(out, "%s: %s after %u iterations; chi2 %s -> %s in %.4f s\n",
             pgem_method_name(args->method), pgem_termination_name(summary->termination),
-            summary->iterations, summary->initial_chi2, summary->final_chi2, seconds);
+            summary->iterations, pgem_cli_number(initial, sizeof initial, summary->initial_chi2, 6),
+            pgem_cli_number(final, sizeof final, summary->final_chi2, 6), seconds);
     fprintf(out, "  %u unknowns, factor %u nonzeros, memory block %zu bytes%s\n",
             summary->variables, stats.factor_nonzeros, stats.block_bytes,
             summary->estimate_changed ? "" : ", estimate unchanged");
-    if (status != PGEM_OK) {
-        fprintf(out, "  failed: %s; the estimate is the one before the solve\n", pgem_last_error(graph));
+    if (status != PGEM_OK) { /* on stderr, as every error */
+        fprintf(stderr, "pgem: solve failed: %s; the estimate is the one before the solve\n",
+                pgem_last_error(graph));
     }
 }
 
@@ -319,9 +324,11 @@ static int pgem_round_line(const pgem_robust_progress_t *progress, void *user)
 {
     const pgem_progress_t *state = user;
     if (!state->quiet) {
-        fprintf(state->out, "round %3u: %6u active loops, %6u pruned, chi2 %14.6f, largest weight change %.3g, %.3f s\n",
-                progress->round, progress->active_loops, progress->pruned_loops, progress->chi2,
-                progress->largest_change, pgem_cli_now() - state->start);
+        char chi2[PGEM_CLI_NUMBER_MAX];
+        fprintf(state->out, "round %3u: %6u active loops, %6u pruned, chi2 %14s, largest weight change %.3g, %.3f s\n",
+                progress->round, progress->active_loops, progress->pruned_loops,
+                pgem_cli_number(chi2, sizeof chi2, progress->chi2, 6), progress->largest_change,
+                pgem_cli_now() - state->start);
         fflush(state->out);
     }
     return 0;
@@ -357,11 +364,18 @@ static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *arg
                summary->usable ? "true" : "false", pgem_pose_count(graph),
                pgem_edge_count(graph), stats.analyses, stats.factor_nonzeros);
         pgem_print_json_block(&stats, &parts);
-    } else {
-        fprintf(out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures pruned (consistency test: %u re-admitted, %u pruned); chi2 %.6f -> %.6f in %.4f s\n",
+    } else if (status == PGEM_OK) {
+        char initial[PGEM_CLI_NUMBER_MAX];
+        char final[PGEM_CLI_NUMBER_MAX];
+        fprintf(out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures pruned (consistency test: %u re-admitted, %u pruned); chi2 %s -> %s in %.4f s\n",
                 pgem_kernel_name(args->robust.kernel), summary->rounds, summary->em_iterations,
                 summary->gn_iterations, summary->pruned, summary->loops, summary->readmitted,
-                summary->gated, summary->initial_chi2, summary->final_chi2, seconds);
+                summary->gated, pgem_cli_number(initial, sizeof initial, summary->initial_chi2, 6),
+                pgem_cli_number(final, sizeof final, summary->final_chi2, 6), seconds);
+    } else { /* no pruned counts or final chi2 to report: the solve left nothing behind */
+        fprintf(out, "%s: failed after %u rounds, %u E/M iterations, %u GN iterations in %.4f s\n",
+                pgem_kernel_name(args->robust.kernel), summary->rounds, summary->em_iterations,
+                summary->gn_iterations, seconds);
     }
     if (status != PGEM_OK) {
         fprintf(stderr, "pgem: robust solve failed: %s; the estimate is the one before the solve\n",
