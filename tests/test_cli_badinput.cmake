@@ -175,6 +175,43 @@ foreach(solver gn lm)
   endif()
 endforeach()
 
+# ---- output files are written whole or not at all ----------------------------------------------
+# issue 17: `pgem optimize X -o X` on a full disk left X cut mid-line (exit 3). A file size limit
+# (ulimit -f, SIGXFSZ ignored) fails the write as a full disk does: X must stay as it was, and
+# no temporary file may be left beside it.
+pgem_ok(inplace_make simulate --poses 2000 --seed 3 -o inplace.g2o)
+file(SHA256 "${WORK}/inplace.g2o" inplace_before)
+execute_process(COMMAND sh -c "trap '' XFSZ; ulimit -f 100; exec '${PGEM}' optimize inplace.g2o -o inplace.g2o --quiet"
+                WORKING_DIRECTORY "${WORK}" RESULT_VARIABLE code ERROR_VARIABLE err OUTPUT_QUIET)
+if(NOT code STREQUAL "3")
+  fail("inplace: optimize -o onto its input past a file size limit: exit ${code}, expected 3\n${err}")
+endif()
+contains(inplace "${err}" "pgem: inplace.g2o: write failed: File too large (the file is as it was)")
+file(SHA256 "${WORK}/inplace.g2o" inplace_after)
+if(NOT inplace_before STREQUAL inplace_after)
+  fail("inplace: the input was changed by a failed write onto it")
+endif()
+file(GLOB inplace_left "${WORK}/.inplace.g2o.*")
+if(inplace_left)
+  fail("inplace: temporary files left behind: ${inplace_left}")
+endif()
+# with room it is replaced; written through a symbolic link, the link stays and its file changes
+pgem_ok(inplace_room optimize inplace.g2o -o inplace.g2o --quiet)
+file(SHA256 "${WORK}/inplace.g2o" inplace_solved)
+if(inplace_solved STREQUAL inplace_before)
+  fail("inplace: optimize -o onto its input did not write the result")
+endif()
+file(CREATE_LINK inplace.g2o "${WORK}/link.g2o" SYMBOLIC)
+pgem_ok(through_link optimize windows.g2o -o link.g2o --quiet)
+if(NOT IS_SYMLINK "${WORK}/link.g2o")
+  fail("through_link: the symbolic link was replaced by a file")
+endif()
+file(STRINGS "${WORK}/inplace.g2o" through_link_lines)
+list(LENGTH through_link_lines through_link_count)
+if(NOT through_link_count EQUAL 5) # windows.g2o's 3 poses and 2 edges
+  fail("through_link: the link's file has ${through_link_count} lines, not windows.g2o's result")
+endif()
+
 # ---- more poses than an instance can hold ------------------------------------------------------
 # 4000001 vertex lines (94 MiB), made by seq and sed; also a read large enough to show progress
 find_program(SEQ seq)

@@ -338,67 +338,6 @@ int pgem_lcm_stop_signal(void)
     return (int)pgem_lcm_stop;
 }
 
-/* ---- Files ------------------------------------------------------------------------------ */
-
-int pgem_lcm_file_open(pgem_lcm_file_t *file, const char *tool, const char *path)
-{
-    static const char suffix[] = ".tmp";
-    memset(file, 0, sizeof *file);
-    file->tool = tool;
-    file->path = path;
-    file->temporary = malloc(strlen(path) + sizeof suffix);
-    if (file->temporary == NULL) {
-        fprintf(stderr, "%s: out of memory\n", tool);
-        return -1;
-    }
-    strcpy(file->temporary, path);
-    strcat(file->temporary, suffix);
-    file->stream = fopen(file->temporary, "w");
-    if (file->stream == NULL) {
-        fprintf(stderr, "%s: %s: cannot open for writing: %s\n", tool, file->temporary,
-                strerror(errno));
-        free(file->temporary);
-        file->temporary = NULL;
-        return -1;
-    }
-    return 0;
-}
-
-int pgem_lcm_file_commit(pgem_lcm_file_t *file, int failed)
-{
-    const char *step = NULL;
-    int error = 0;
-    if (failed || ferror(file->stream)) {
-        step = "write";
-        error = errno;
-    } else if (fflush(file->stream) != 0) {
-        step = "write";
-        error = errno;
-    } else if (fsync(fileno(file->stream)) != 0 && errno != EINVAL && errno != EROFS) {
-        step = "fsync"; /* EINVAL, EROFS: a file that cannot be synced (e.g. a pipe) */
-        error = errno;
-    }
-    if (fclose(file->stream) != 0 && step == NULL) {
-        step = "close";
-        error = errno;
-    }
-    if (step == NULL && rename(file->temporary, file->path) != 0) {
-        fprintf(stderr, "%s: cannot rename %s to %s: %s\n", file->tool, file->temporary,
-                file->path, strerror(errno));
-        step = "";
-    } else if (step != NULL) {
-        fprintf(stderr, "%s: %s: %s failed: %s\n", file->tool, file->temporary, step,
-                error != 0 ? strerror(error) : "unknown error");
-    }
-    if (step != NULL) {
-        remove(file->temporary);
-    }
-    free(file->temporary);
-    file->temporary = NULL;
-    file->stream = NULL;
-    return step == NULL ? 0 : -1;
-}
-
 /* ---- Output ----------------------------------------------------------------------------- */
 
 int64_t pgem_lcm_status_rejected(const pgem_status_t *status)

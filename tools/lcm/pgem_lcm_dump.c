@@ -283,7 +283,7 @@ static void dump_graph_line(const pgem_graph_t *graph)
 static int dump_write_g2o(const pgem_graph_t *graph, const char *path)
 {
     pgem_io_graph_t poses;
-    pgem_lcm_file_t file;
+    pgem_cli_file_t file;
     memset(&poses, 0, sizeof poses);
     poses.dimension = graph->dimension;
     poses.pose_count = (size_t)graph->num_poses;
@@ -296,10 +296,10 @@ static int dump_write_g2o(const pgem_graph_t *graph, const char *path)
         poses.poses[k].id = (pgem_id_t)(uint64_t)graph->ids[k];
         memcpy(poses.poses[k].pose, graph->poses[k], (size_t)graph->pose_size * sizeof(double));
     }
-    int status = pgem_lcm_file_open(&file, DUMP_TOOL, path);
+    int status = pgem_cli_file_open(&file, DUMP_TOOL, path);
     if (status == 0) {
         int failed = pgem_io_write_stream(file.stream, PGEM_FORMAT_G2O, &poses) != PGEM_OK;
-        status = pgem_lcm_file_commit(&file, failed);
+        status = (pgem_cli_file_commit(&file, failed) == PGEM_EXIT_OK ? 0 : -1);
     }
     free(poses.poses);
     return status;
@@ -308,8 +308,8 @@ static int dump_write_g2o(const pgem_graph_t *graph, const char *path)
 /* One line per loop closure, the format of pgem optimize --weights. */
 static int dump_write_weights(const pgem_graph_t *graph, const char *path)
 {
-    pgem_lcm_file_t file;
-    if (pgem_lcm_file_open(&file, DUMP_TOOL, path) != 0) {
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, DUMP_TOOL, path) != 0) {
         return -1;
     }
     fprintf(file.stream, "# from to weight state (one line per loop closure)\n");
@@ -319,7 +319,7 @@ static int dump_write_weights(const pgem_graph_t *graph, const char *path)
                 (unsigned long long)(uint64_t)loop->to, loop->weight,
                 loop->state == PGEM_LOOP_T_PRUNED ? "pruned" : "accepted");
     }
-    return pgem_lcm_file_commit(&file, 0);
+    return (pgem_cli_file_commit(&file, 0) == PGEM_EXIT_OK ? 0 : -1);
 }
 
 static void dump_json_stats(FILE *out, const pgem_solve_stats_t *stats)
@@ -343,8 +343,8 @@ static void dump_json_stats(FILE *out, const pgem_solve_stats_t *stats)
 static int dump_write_json(const dump_state_t *state, const char *path)
 {
     const pgem_graph_t *graph = state->graph;
-    pgem_lcm_file_t file;
-    if (pgem_lcm_file_open(&file, DUMP_TOOL, path) != 0) {
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, DUMP_TOOL, path) != 0) {
         return -1;
     }
     FILE *out = file.stream;
@@ -361,18 +361,18 @@ static int dump_write_json(const dump_state_t *state, const char *path)
     fputs("},\"stats\":", out);
     dump_json_stats(out, &graph->stats);
     fputs("}\n", out);
-    return pgem_lcm_file_commit(&file, 0);
+    return (pgem_cli_file_commit(&file, 0) == PGEM_EXIT_OK ? 0 : -1);
 }
 
 static int dump_write_status(const pgem_status_t *status, const char *path)
 {
-    pgem_lcm_file_t file;
-    if (pgem_lcm_file_open(&file, DUMP_TOOL, path) != 0) {
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, DUMP_TOOL, path) != 0) {
         return -1;
     }
     pgem_lcm_json_status(file.stream, status);
     fputc('\n', file.stream);
-    return pgem_lcm_file_commit(&file, 0);
+    return (pgem_cli_file_commit(&file, 0) == PGEM_EXIT_OK ? 0 : -1);
 }
 
 /* Writes the graph files asked for from the latest graph. Returns a PGEM_EXIT_* code. */

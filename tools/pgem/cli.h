@@ -58,18 +58,34 @@ int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel);
 int pgem_cli_read_graph(const char *prefix, const char *path, unsigned flags,
                         pgem_io_graph_t *graph);
 
-/* Writes a file graph as g2o; prints "PREFIX: message" on failure. Returns a PGEM_EXIT_*
- * code. */
+/* Writes a file graph as g2o (through pgem_cli_file_t); prints "PREFIX: ..." on failure.
+ * Returns a PGEM_EXIT_* code. */
 int pgem_cli_write_graph(const char *prefix, const pgem_io_graph_t *graph, const char *path);
 
-/* Opens a text file for writing; prints "PREFIX: PATH: cannot open for writing: reason" and
- * returns NULL on failure. */
-FILE *pgem_cli_create(const char *prefix, const char *path);
+/* An output file written whole or not at all (cli_file.c): the stream writes a new temporary
+ * file beside PATH (.NAME.XXXXXX in its folder), which replaces PATH when it is complete and
+ * synced, so a failure (a full disk) leaves PATH as it was and `-o` onto the input cannot
+ * destroy it. A PATH that is a symbolic link keeps it (its target is replaced); one that is a
+ * device or a pipe (/dev/stdout) is written directly. */
+typedef struct pgem_cli_file {
+    FILE *stream;        /* write here between open and commit */
+    const char *prefix;  /* for messages: "pgem", "pgem-lcm-dump", ... */
+    const char *path;    /* as given */
+    char *target;        /* the file the rename replaces (heap; NULL when written directly) */
+    char *temporary;     /* the file written (heap; NULL when written directly) */
+} pgem_cli_file_t;
 
-/* Closes a file from pgem_cli_create. When failed is set (an earlier write failed) or the
- * close fails, prints "PREFIX: PATH: write failed: reason" and returns PGEM_EXIT_IO; else
- * PGEM_EXIT_OK. */
-int pgem_cli_finish(const char *prefix, const char *path, FILE *file, int failed);
+/* Returns 0, or -1 after printing "PREFIX: PATH: cannot ...: reason". */
+int pgem_cli_file_open(pgem_cli_file_t *file, const char *prefix, const char *path);
+
+/* Flushes, syncs and closes the stream and renames the temporary file over PATH. With
+ * `failed` set (an earlier write failed), or when a step fails, prints "PREFIX: PATH: STEP
+ * failed: reason (the file is as it was)", removes the temporary file and returns
+ * PGEM_EXIT_IO; else PGEM_EXIT_OK. The file is closed either way. */
+int pgem_cli_file_commit(pgem_cli_file_t *file, int failed);
+
+/* Closes the stream and removes the temporary file: PATH stays as it was (nothing printed). */
+void pgem_cli_file_discard(pgem_cli_file_t *file);
 
 /* Writes one line per loop closure, "from to weight state"; prints errors; 0 on success. */
 int pgem_cli_write_weights(const pgem_t *instance, const char *path);

@@ -114,30 +114,15 @@ int pgem_cli_read_graph(const char *prefix, const char *path, unsigned flags,
 
 int pgem_cli_write_graph(const char *prefix, const pgem_io_graph_t *graph, const char *path)
 {
-    char message[1024];
-    if (pgem_io_write(path, PGEM_FORMAT_G2O, graph, message, sizeof message) != PGEM_OK) {
-        fprintf(stderr, "%s: %s\n", prefix, message);
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, prefix, path) != 0) {
         return PGEM_EXIT_IO;
     }
-    return PGEM_EXIT_OK;
-}
-
-FILE *pgem_cli_create(const char *prefix, const char *path)
-{
-    FILE *file = fopen(path, "w");
-    if (file == NULL) {
-        fprintf(stderr, "%s: %s: cannot open for writing: %s\n", prefix, path, strerror(errno));
+    int status = pgem_io_write_stream(file.stream, PGEM_FORMAT_G2O, graph);
+    if (status == PGEM_ERR_DIMENSION) { /* a graph no file format holds: nothing to write */
+        fprintf(stderr, "%s: %s: the graph has no dimension to write\n", prefix, path);
     }
-    return file;
-}
-
-int pgem_cli_finish(const char *prefix, const char *path, FILE *file, int failed)
-{
-    if (fclose(file) != 0 || failed) {
-        fprintf(stderr, "%s: %s: write failed: %s\n", prefix, path, strerror(errno));
-        return PGEM_EXIT_IO;
-    }
-    return PGEM_EXIT_OK;
+    return pgem_cli_file_commit(&file, status != PGEM_OK);
 }
 
 static int pgem_cli_try_load(const pgem_io_graph_t *file, const pgem_config_t *config,
@@ -245,12 +230,12 @@ int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel)
 
 int pgem_cli_write_weights(const pgem_t *instance, const char *path)
 {
-    FILE *file = pgem_cli_create("pgem", path);
-    if (file == NULL) {
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, "pgem", path) != 0) {
         return -1;
     }
-    int failed = pgem_io_write_weights(file, instance) != PGEM_OK;
-    return pgem_cli_finish("pgem", path, file, failed) == PGEM_EXIT_OK ? 0 : -1;
+    int failed = pgem_io_write_weights(file.stream, instance) != PGEM_OK;
+    return pgem_cli_file_commit(&file, failed) == PGEM_EXIT_OK ? 0 : -1;
 }
 
 double pgem_cli_uniform(uint64_t *state)

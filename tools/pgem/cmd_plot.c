@@ -475,11 +475,11 @@ static int plot_build(const plot_args_t *args, plot_figure_t *figure)
 
 static int plot_write(const plot_args_t *args, const plot_figure_t *figure)
 {
-    FILE *out = pgem_cli_create("pgem plot", args->output);
-    if (out == NULL) {
+    pgem_cli_file_t out;
+    if (pgem_cli_file_open(&out, "pgem plot", args->output) != 0) {
         return PGEM_EXIT_IO;
     }
-    return pgem_cli_finish("pgem plot", args->output, out, plot_write_svg(figure, out) != 0);
+    return pgem_cli_file_commit(&out, plot_write_svg(figure, out.stream) != 0);
 }
 
 int pgem_cmd_plot(int argc, char **argv)
