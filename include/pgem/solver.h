@@ -79,6 +79,15 @@ int pgem_optimize(pgem_t *graph, const pgem_solve_options_t *options, pgem_summa
  * does). Useful to move CSparse's symbolic allocation out of a time-critical loop. */
 int pgem_analyze(pgem_t *graph);
 
+/** The checks pgem_optimize makes before its first iteration, without solving: an edge and a
+ * free pose to solve (EMPTY), the factor within the fill budget (FILL_BUDGET), every part of
+ * the graph held by a fixed pose or the first pose (NOT_POSITIVE_DEFINITE, naming a pose of
+ * the part), and a finite chi2 at the current estimate (NUMERIC). PGEM_OK means the solve
+ * will start; the message says why not otherwise. Runs the symbolic analysis as pgem_analyze
+ * does (its allocation, with the system CSparse); the estimate and weights are not touched.
+ * A file checker (`pgem stats`) uses it to refuse what `pgem optimize` would refuse. */
+int pgem_check_solvable(pgem_t *graph);
+
 /** Name of a termination reason ("chi2-converged", ...); never NULL. */
 const char *pgem_termination_name(pgem_termination_t termination);
 

@@ -97,6 +97,11 @@ int pgem_cli_write_weights(const pgem_t *instance, const char *path);
 int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance,
                   double *analysis_seconds);
 
+/* As pgem_cli_load, with what went wrong in message instead of on stderr (a core message
+ * without "PATH: " when path is NULL). */
+int pgem_cli_load_quietly(const pgem_io_graph_t *file, const char *path, pgem_t **instance,
+                          double *analysis_seconds, char *message, size_t message_size);
+
 /* Writes an instance to a g2o file; prints errors. Returns a PGEM_EXIT_* code. */
 int pgem_cli_write(const pgem_t *instance, const char *path);
 

@@ -126,23 +126,22 @@ int pgem_cli_write_graph(const char *prefix, const pgem_io_graph_t *graph, const
 }
 
 static int pgem_cli_try_load(const pgem_io_graph_t *file, const pgem_config_t *config,
-                             pgem_t **instance)
+                             pgem_t **instance, char *message, size_t message_size)
 {
-    char message[1024];
     if (file->pose_count > PGEM_MAX_POSES_LIMIT || file->edge_count > PGEM_MAX_EDGES_LIMIT) {
-        fprintf(stderr, "pgem: %s: %zu poses and %zu edges: more than an instance holds (at "
-                        "most %u poses and %u edges)\n", file->source, file->pose_count,
-                file->edge_count, PGEM_MAX_POSES_LIMIT, PGEM_MAX_EDGES_LIMIT);
+        snprintf(message, message_size, "%s: %zu poses and %zu edges: more than an instance "
+                 "holds (at most %u poses and %u edges)", file->source, file->pose_count,
+                 file->edge_count, PGEM_MAX_POSES_LIMIT, PGEM_MAX_EDGES_LIMIT);
         return PGEM_ERR_CAPACITY;
     }
     int status = pgem_create(instance, config);
     if (status != PGEM_OK) {
-        fprintf(stderr, "pgem: cannot create an instance: %s\n", pgem_error_description(status));
+        snprintf(message, message_size, "cannot create an instance: %s",
+                 pgem_error_description(status));
         return status;
     }
-    status = pgem_io_load(file, *instance, message, sizeof message);
+    status = pgem_io_load(file, *instance, message, message_size);
     if (status != PGEM_OK) {
-        fprintf(stderr, "pgem: %s\n", message);
         pgem_destroy(*instance);
         *instance = NULL;
     }
@@ -160,17 +159,18 @@ static int pgem_cli_analyze(pgem_t *instance, double *seconds)
 
 /* Recreates *instance with a fill budget of exactly `fill` and re-analyses it. */
 static int pgem_cli_resize(const pgem_io_graph_t *file, pgem_config_t *config, uint32_t fill,
-                           pgem_t **instance, double *seconds)
+                           pgem_t **instance, double *seconds, char *message,
+                           size_t message_size)
 {
     pgem_destroy(*instance);
     *instance = NULL;
     config->fill_budget = fill;
-    int status = pgem_cli_try_load(file, config, instance);
+    int status = pgem_cli_try_load(file, config, instance, message, message_size);
     return status == PGEM_OK ? pgem_cli_analyze(*instance, seconds) : status;
 }
 
-int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance,
-                  double *analysis_seconds)
+int pgem_cli_load_quietly(const pgem_io_graph_t *file, const char *path, pgem_t **instance,
+                          double *analysis_seconds, char *message, size_t message_size)
 {
     double seconds = 0.0;
     if (analysis_seconds != NULL) {
@@ -178,7 +178,7 @@ int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instan
     }
     pgem_config_t config;
     pgem_io_config(file, &config);
-    int status = pgem_cli_try_load(file, &config, instance);
+    int status = pgem_cli_try_load(file, &config, instance, message, message_size);
     if (status != PGEM_OK || pgem_edge_count(*instance) == 0u) {
         return status;
     }
@@ -188,13 +188,27 @@ int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instan
     pgem_get_memory_stats(*instance, &stats);
     if (status == PGEM_ERR_FILL_BUDGET ||
         (status == PGEM_OK && stats.factor_nonzeros < stats.factor_budget - stats.factor_budget / 4u)) {
-        status = pgem_cli_resize(file, &config, stats.factor_nonzeros, instance, &seconds);
+        status = pgem_cli_resize(file, &config, stats.factor_nonzeros, instance, &seconds, message,
+                                 message_size);
     }
     if (analysis_seconds != NULL) {
         *analysis_seconds = seconds;
     }
     if (status != PGEM_OK && *instance != NULL) {
-        fprintf(stderr, "pgem: %s: %s\n", path, pgem_last_error(*instance));
+        snprintf(message, message_size, "%s%s%s", path != NULL ? path : "",
+                 path != NULL ? ": " : "", pgem_last_error(*instance));
+    }
+    return status;
+}
+
+int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance,
+                  double *analysis_seconds)
+{
+    char message[1024];
+    int status = pgem_cli_load_quietly(file, path, instance, analysis_seconds, message,
+                                       sizeof message);
+    if (status != PGEM_OK) {
+        fprintf(stderr, "pgem: %s\n", message);
     }
     return status;
 }

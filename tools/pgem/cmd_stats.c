@@ -83,7 +83,7 @@ typedef struct stats {
     int level;                   /* 0 ok, else the worst stats_level_t of the reasons */
     size_t reason_count;
     stats_level_t reason_level[STATS_REASONS];
-    char reason[STATS_REASONS][128];
+    char reason[STATS_REASONS][256];
 } stats_t;
 
 static void stats_help(FILE *out)
@@ -500,6 +500,29 @@ static void stats_warnings(stats_t *s)
     }
 }
 
+/* What the file's own counts cannot show: the graph loaded as `pgem optimize` loads it, then
+ * the core's checks before a solve (pgem_check_solvable: an edge and a free pose, every part
+ * held, a finite chi2), so `stats` says problems wherever `optimize` would refuse. */
+static void stats_solvable(stats_t *s)
+{
+    const pgem_io_graph_t *g = s->graph;
+    char message[1024] = "";
+    pgem_t *instance = NULL;
+    if (g->pose_count > 0 && g->edge_count == 0) {
+        stats_reason(s, STATS_PROBLEM, "no edges: nothing to optimize");
+        return;
+    }
+    int status = pgem_cli_load_quietly(g, NULL, &instance, NULL, message, sizeof message);
+    if (status == PGEM_OK) {
+        status = pgem_check_solvable(instance);
+        snprintf(message, sizeof message, "%s", pgem_last_error(instance));
+    }
+    pgem_destroy(instance);
+    if (status != PGEM_OK) {
+        stats_reason(s, STATS_PROBLEM, "optimize would refuse it: %s", message);
+    }
+}
+
 /* Runs every check; returns PGEM_EXIT_OK or PGEM_EXIT_FAILURE when out of memory. */
 static int stats_measure(stats_t *s)
 {
@@ -526,6 +549,9 @@ static int stats_measure(stats_t *s)
         stats_duplicates(s, pairs);
         stats_isam_check(s);
         stats_problems(s);
+        if (s->level < STATS_PROBLEM) {
+            stats_solvable(s);
+        }
         stats_warnings(s);
     }
     free(ids);

@@ -41,6 +41,25 @@ int pgem_analyze(pgem_t *graph)
     return pgem_linear_analyze(graph);
 }
 
+int pgem_check_solvable(pgem_t *graph)
+{
+    if (graph == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    int status = pgem_analyze(graph);
+    if (status == PGEM_OK) {
+        status = pgem_linear_check_parts(graph);
+    }
+    if (status == PGEM_OK && !isfinite(pgem_total_chi2(graph))) {
+        status = pgem_fail(graph, PGEM_ERR_NUMERIC, "the chi2 at the current estimate is not "
+                                                    "finite");
+    }
+    if (status == PGEM_OK) {
+        pgem_message_clear(graph);
+    }
+    return status;
+}
+
 static pgem_termination_t pgem_failure_termination(int status)
 {
     switch (status) {
