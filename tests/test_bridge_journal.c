@@ -368,7 +368,7 @@ static int bridge_stop(void)
 typedef struct bridge_run {
     pgem_bridge_options_t options;
     int status;
-    char message[256];
+    char message[1024];
 } bridge_run_t;
 
 static void *bridge_thread(void *user)
@@ -636,6 +636,77 @@ static void test_full_journal_refuses_and_recovers(void **state)
     remove(path);
 }
 
+/* Log lines of a bridge, counted. */
+typedef struct lines {
+    int count;
+    int refused;  /* "journal record refused on replay" lines */
+} lines_t;
+
+static void count_line(void *user, const char *line)
+{
+    lines_t *lines = user;
+    lines->count++;
+    lines->refused += strstr(line, "refused on replay") != NULL;
+}
+
+/* Issue 17: restarted with a smaller --max-poses, a bridge printed a line for each of 17,332
+ * records it refused and then claimed all 64,282 replayed, running with part of its map. A
+ * journal whose records do not fit the bridge's capacities or dimension stops the start, says
+ * how many and why in one message, and is left as it was. */
+static void test_journal_that_does_not_fit(void **state)
+{
+    (void)state;
+    char path[512];
+    char message[512];
+    path_for(path, sizeof path, "pgem_test_fit.lcmlog");
+    pgem_journal_t *journal = pgem_journal_open(path, 0, NULL, NULL, NULL, message,
+                                                sizeof message);
+    assert_non_null(journal);
+    static char source[] = "fe";
+    for (int64_t id = 0; id < 100; ++id) {
+        pgem_pose2_t pose;
+        memset(&pose, 0, sizeof pose);
+        pose.source = source;
+        pose.id = id;
+        unsigned char bytes[256];
+        int size = pgem_pose2_t_encode(bytes, 0, sizeof bytes, &pose);
+        assert_int_equal(pgem_journal_append(journal, "PGEM_POSE2", bytes, (size_t)size, id,
+                                             message, sizeof message), 0);
+    }
+    pgem_journal_close(journal);
+    off_t size = file_size(path);
+    for (int dimension = 2; dimension <= 3; ++dimension) {
+        lines_t lines = {0, 0};
+        bridge_run_t run;
+        memset(&run, 0, sizeof run);
+        run.options.lcm = lcm_create("memq://");
+        run.options.journal = path;
+        run.options.dimension = dimension;
+        run.options.max_poses = dimension == 2 ? 40 : 1000;
+        run.options.log = count_line;
+        run.options.log_user = &lines;
+        pgem_bridge_defaults(&run.options);
+        bridge_stop_flag = 1;
+        run.status = pgem_bridge_run(&run.options, bridge_stop, run.message, sizeof run.message);
+        lcm_destroy(run.options.lcm);
+        print_message("%dD: %s (%d log lines, %d refusals logged)\n", dimension, run.message,
+                      lines.count, lines.refused);
+        assert_int_equal(run.status, -1);
+        assert_non_null(strstr(run.message, dimension == 2
+                                                ? "60 of its 100 records do not fit this bridge "
+                                                  "(capacity 60; the first, capacity: 2D pose 40: "
+                                                  "the bridge holds its maximum of 40 poses"
+                                                : "100 of its 100 records do not fit this bridge "
+                                                  "(dimension 100; the first, dimension: a 2D pose "
+                                                  "reached a 3D bridge)"));
+        assert_non_null(strstr(run.message, "start it with the --dimension, --max-poses and "
+                                            "--max-edges the journal was written with"));
+        assert_true(lines.refused <= 20);
+        assert_int_equal(file_size(path), size);
+    }
+    remove(path);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -649,6 +720,7 @@ int main(void)
         cmocka_unit_test(test_open_errors),
         cmocka_unit_test(test_status_counts_only_journaled),
         cmocka_unit_test(test_full_journal_refuses_and_recovers),
+        cmocka_unit_test(test_journal_that_does_not_fit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
