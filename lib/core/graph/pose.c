@@ -57,7 +57,7 @@ int pgem_check_pose(pgem_t *graph, const double *pose, double *normalised, const
             return status;
         }
         pgem_message_text(graph, ": field ");
-        pgem_message_text(graph, fields[field]);
+        pgem_message_text(graph, fields[field > 0 ? field : 0]); /* set with these codes */
         pgem_message_text(graph, status == PGEM_ERR_NOT_FINITE
                                      ? " is not finite"
                                      : " is beyond the translation limit (|x|, |y|, |z| at most "
