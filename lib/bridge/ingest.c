@@ -575,15 +575,21 @@ static void pending_expire(pgem_ingest_t *ingest, uint32_t k, const char *why)
     source_release(ingest, source);
 }
 
+/* Microseconds from since to now, 0 when the clock went back (no overflow for any times). */
+static uint64_t age(int64_t since, int64_t now)
+{
+    return now > since ? (uint64_t)now - (uint64_t)since : 0u;
+}
+
 uint32_t pgem_ingest_expire(pgem_ingest_t *ingest, int64_t utime)
 {
     uint32_t expired = 0;
-    while (ingest->oldest != NONE &&
-           utime - ingest->pending[ingest->oldest].since > ingest->config.pending_timeout) {
+    while (ingest->oldest != NONE && age(ingest->pending[ingest->oldest].since, utime) >
+                                         (uint64_t)ingest->config.pending_timeout) {
         const pgem_item_t *item = &ingest->pending[ingest->oldest].item;
         char why[160];
         snprintf(why, sizeof why, "it waited %.1f s for pose %llu (--pending-timeout %.0f s)",
-                 (double)(utime - ingest->pending[ingest->oldest].since) * 1e-6,
+                 (double)age(ingest->pending[ingest->oldest].since, utime) * 1e-6,
                  (unsigned long long)(pose_known(ingest, item->from) ? item->to : item->from),
                  (double)ingest->config.pending_timeout * 1e-6);
         pending_expire(ingest, ingest->oldest, why);

@@ -131,7 +131,8 @@ typedef struct pgem_ingest_config {
 typedef struct pgem_ingest_counts {
     int64_t received;          /* pose and edge messages */
     int64_t accepted_poses;
-    int64_t accepted_edges;
+    int64_t accepted_edges;    /* admitted, less those that expired since (so received is
+                                  always accepted + replays + rejected) */
     int64_t replays;
     int64_t commands;
     int64_t rejected[PGEM_REJECT_COUNT];
