@@ -195,7 +195,7 @@ static void test_edge_errors_change_nothing(void **state)
 static void test_magnitude_limits(void **state)
 {
     (void)state;
-    const double past = nextafter(PGEM_TRANSLATION_LIMIT, INFINITY);
+    const double past = nextafter(PGEM_TRANSLATION_LIMIT, (double)INFINITY);
     double information[9], z[3] = {1, 0, 0}, stored[3];
     test_diagonal_information(3, 1.0, information);
     pgem_t *graph = test_create(2, 8, 8);
@@ -229,7 +229,7 @@ static void test_magnitude_limits(void **state)
                         "measurement: field x is beyond the translation limit (|x|, |y|, |z| at "
                         "most 1e8 m, PGEM_TRANSLATION_LIMIT) (edge 4 -> 0)");
     double strong[9];
-    test_diagonal_information(3, nextafter(PGEM_INFORMATION_LIMIT, INFINITY), strong);
+    test_diagonal_information(3, nextafter(PGEM_INFORMATION_LIMIT, (double)INFINITY), strong);
     assert_int_equal(pgem_add_edge(graph, 4, 0, z, strong, PGEM_EDGE_LOOP, NULL),
                      PGEM_ERR_OUT_OF_RANGE);
     assert_string_equal(pgem_last_error(graph),

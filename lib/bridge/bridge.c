@@ -118,18 +118,19 @@ static int journal_admit(void *user, const void *data, size_t size, char *messag
     return status;
 }
 
-/* Edges that expired (waited too long for their poses, or made room in a full list) since
- * `before`: logged like rejections, the first 20 in full. */
+/* Edges that expired (waited too long for their poses, or made room in a full list), from
+ * count `before` to `after`: the latest is noted while fewer than 20 have expired, then once
+ * per thousand, like rejections. */
 static void log_expiries(bridge_t *bridge, int64_t before, int64_t after, const char *latest)
 {
-    for (int64_t k = before; k < after; ++k) {
-        bridge->expiries_logged++;
-        if (bridge->expiries_logged <= REJECTIONS_LOGGED ||
-            bridge->expiries_logged % 1000 == 0) {
-            bridge_note(bridge, "%s%s", latest,
-                        bridge->expiries_logged > REJECTIONS_LOGGED ? " (and earlier ones)" : "");
-            return;
-        }
+    if (after <= before) {
+        return;
+    }
+    int64_t first = bridge->expiries_logged + 1;
+    bridge->expiries_logged += after - before;
+    int64_t last = bridge->expiries_logged;
+    if (first <= REJECTIONS_LOGGED || last / 1000 > (first - 1) / 1000) {
+        bridge_note(bridge, "%s%s", latest, after - before > 1 ? " (and earlier ones)" : "");
     }
 }
 
