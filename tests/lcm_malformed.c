@@ -146,7 +146,7 @@ static double bad_number(void)
 #define KINDS 23
 
 static char unprintable_names[4][24] = {"fe\xff", "fe\nrejected (x): forged", "\x1b[2Jfe",
-                                        "rtl\xe2\x80\xae" "fe"};
+                                        "rtl\xe2\x80\xae\146\145"}; /* ...fe */
 static char escaping_paths[4][24] = {"../escaped.g2o", "/tmp/escaped.g2o", "sub/x.g2o",
                                      ".hidden.g2o"};
 

@@ -650,7 +650,7 @@ static void test_source_names_are_printable_utf8(void **state)
     feed(ingest, PGEM_ROLE_POSE, pose2(0, 0, 0, 0));
     feed(ingest, PGEM_ROLE_POSE, pose2(1, 1, 0, 0));
     char *bad[] = {(char *)"fe\xff", (char *)"fe\nrejected (x): forged", (char *)"a\xc3",
-                   (char *)"\xc0\xaf", (char *)"rtl\xe2\x80\xae" "evil", (char *)"del\x7f",
+                   (char *)"\xc0\xaf", (char *)"rtl\xe2\x80\xae\145vil", (char *)"del\x7f",
                    (char *)"c1\xc2\x85", (char *)"\xed\xa0\x80"};
     for (size_t k = 0; k < sizeof bad / sizeof bad[0]; ++k) {
         pgem_edge2_t e = edge2_msg((int64_t)k, 0, 1);
