@@ -616,6 +616,12 @@ def journal_refusal(graph: Path) -> None:
            f"journal: no clear refusal:\n{result.stderr}")
     expect(graph.read_bytes() == before, "journal: the g2o file was changed")
     print(f"journal: {result.stderr.strip().splitlines()[-1]}")
+    # the bridge's option errors name the bridge (issue 17: they started "pgem:")
+    for option, value in (("--max-poses", "x"), ("--dimension", "4"), ("--pending-timeout", "0")):
+        result = subprocess.run([program("BRIDGE"), option, value], capture_output=True, text=True,
+                                timeout=30)
+        expect(result.returncode == 2 and result.stderr.startswith(f"pgem-lcm-bridge: {option}"),
+               f"options: {option} {value}: exit {result.returncode}, {result.stderr!r}")
 
 
 def snapshot_checks() -> None:
