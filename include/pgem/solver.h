@@ -72,7 +72,8 @@ typedef struct pgem_summary {
  * robust weight (1 unless the robust layer set it); pruned loops are left out.
  * On failure (NOT_POSITIVE_DEFINITE, NUMERIC, FILL_BUDGET, EMPTY, OUT_OF_MEMORY) the poses are
  * restored to what they were before the call, summary->usable is 0 and the message says why.
- * options and summary may be NULL. */
+ * A solve that would leave a pose beyond PGEM_TRANSLATION_LIMIT has diverged: NUMERIC, so an
+ * instance never holds a pose it would refuse as input. options and summary may be NULL. */
 int pgem_optimize(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary);
 
 /** Runs the symbolic analysis for the current topology now (otherwise the next pgem_optimize

@@ -74,6 +74,27 @@ static pgem_termination_t pgem_failure_termination(int status)
     }
 }
 
+/* A solve that moved a pose past the translation limit has diverged (no well-posed graph within
+ * the input limits has its optimum 1e8 m away); keeping it would leave the instance holding
+ * what it refuses as input, and a written result that does not read back. */
+static int pgem_check_solved_poses(pgem_t *graph)
+{
+    for (uint32_t p = 0; p < graph->pose_count; p++) {
+        const double *pose = graph->pose + (size_t)p * (size_t)graph->pose_size;
+        for (int k = 0; k < graph->config.dimension; k++) {
+            if (!(fabs(pose[k]) <= PGEM_TRANSLATION_LIMIT)) {
+                pgem_message_clear(graph);
+                pgem_message_text(graph, "the solve diverged: it moved pose ");
+                pgem_message_u64(graph, graph->pose_id[p]);
+                pgem_message_text(graph, " beyond the translation limit (1e8 m, "
+                                         "PGEM_TRANSLATION_LIMIT)");
+                return PGEM_ERR_NUMERIC;
+            }
+        }
+    }
+    return PGEM_OK;
+}
+
 static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary)
 {
     const size_t pose_bytes = pgem_pose_bytes(graph);
@@ -91,6 +112,9 @@ static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_sum
     status = options->method == PGEM_LEVENBERG_MARQUARDT
                  ? pgem_levenberg_marquardt(graph, options, summary)
                  : pgem_gauss_newton(graph, options, summary);
+    if (status == PGEM_OK && (status = pgem_check_solved_poses(graph)) != PGEM_OK) {
+        summary->termination = PGEM_TERM_NUMERIC;
+    }
     if (status != PGEM_OK) {
         memcpy(graph->pose, graph->pose_saved, pose_bytes);
         if (summary->termination == PGEM_TERM_NONE) {
