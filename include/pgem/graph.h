@@ -36,7 +36,7 @@ typedef enum pgem_edge_kind {
  * (1.8e308), so no finite input can make a solve start non-finite; 1e8 m holds every frame
  * on Earth (UTM, ECEF), and 1e15 is a standard deviation of 32 nm (the shared datasets reach
  * 2.7e12). 2D angles are wrapped, 3D quaternions normalised: neither needs a limit. A solve
- * may move poses past the limit; it bounds inputs only. */
+ * that would leave a pose past the translation limit has diverged and fails (pgem_optimize). */
 #define PGEM_TRANSLATION_LIMIT 1e8
 #define PGEM_INFORMATION_LIMIT 1e15
 
