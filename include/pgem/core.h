@@ -52,14 +52,14 @@ size_t pgem_memory_size(const pgem_config_t *config);
 
 /** A compile-time upper bound of pgem_memory_size() for explicit capacities (none 0), for
  * static blocks: `static unsigned char block[PGEM_MEMORY_BOUND(2, 500, 600, 16000)];`.
- * Per pose 437 bytes in 2D (997 in 3D), per edge 240 (704), per factor nonzero 8 plus 4 per
+ * Per pose 437 bytes in 2D (997 in 3D), per edge 249 (713), per factor nonzero 8 plus 4 per
  * b x b block (b = 3 or 6), and 2144 for the instance itself and alignment. It includes
  * CSparse's pool of the source-built mode (56 bytes per pose, 24 per edge), so it holds for
  * both modes, on 32- and 64-bit machines; the id map's power-of-two size makes it exceed the
  * exact figure by up to 8 bytes per pose. */
 #define PGEM_MEMORY_BOUND(dimension, max_poses, max_edges, fill_budget)               \
     ((size_t)(max_poses) * ((dimension) == 3 ? 997u : 437u) +                         \
-     (size_t)(max_edges) * ((dimension) == 3 ? 704u : 240u) +                         \
+     (size_t)(max_edges) * ((dimension) == 3 ? 713u : 249u) +                         \
      (size_t)(fill_budget) * 8u + (size_t)(fill_budget) / ((dimension) == 3 ? 36u : 9u) * 4u + \
      2144u)
 

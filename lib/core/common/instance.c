@@ -87,6 +87,8 @@ static void pgem_carve_graph(pgem_t *graph, pgem_arena_t *arena)
     graph->edge_weight = pgem_arena_take(arena, edges, sizeof(double));
     graph->edge_weight_saved = pgem_arena_take(arena, edges, sizeof(double));
     graph->edge_active_saved = pgem_arena_take(arena, edges, 1);
+    graph->edge_distance = pgem_arena_take(arena, edges, sizeof(double));
+    graph->edge_checked = pgem_arena_take(arena, edges, 1);
 }
 
 static void pgem_carve_linear(pgem_t *graph, pgem_arena_t *arena)
