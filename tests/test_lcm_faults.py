@@ -422,7 +422,12 @@ def kills_scenario(args, graph: Path, edges: int) -> dict:
     expect(status["accepted_edges"] == edges and status["edges"] == edges,
            f"kills: {status['accepted_edges']} edges accepted and {status['edges']} in the "
            f"graph, not every one of the {edges} exactly once")
-    expect(sum(status["rejected"].values()) == 0, f"kills: rejections {status['rejected']}")
+    # Edges that waited longer than --pending-timeout for a pose sent while the bridge was down
+    # expire (a long run's kills lose poses for minutes) and land again with the resend; no
+    # other rejection may happen.
+    expired = status["rejected"]["expired"]
+    expect(sum(status["rejected"].values()) == expired,
+           f"kills: rejections {status['rejected']}")
     bridge.stop()
     result = {
         "kills": args.kills, "edges": edges, "streamed": streamed, "passes": passes,
@@ -433,7 +438,7 @@ def kills_scenario(args, graph: Path, edges: int) -> dict:
         "injected": sum(1 for row in rows if row["injected"]),
         "natural_torn": sum(1 for row in rows if row["torn"] and not row["injected"]),
         "seconds": kill_seconds, "resend": resend.strip().splitlines()[-1:],
-        "journal_records": status["journal_records"],
+        "journal_records": status["journal_records"], "expired": expired,
     }
     print(f"kills: {result['kills']} SIGKILLs in {kill_seconds:.1f} s while {streamed} edge "
           f"messages of the {edges}-edge graph were sent at {rate:.0f} edges/s ({passes} "
@@ -444,7 +449,8 @@ def kills_scenario(args, graph: Path, edges: int) -> dict:
           f"{result['solving']} kills with a solve running in the latest status; torn records "
           f"cut: {result['injected']} left by the test, {result['natural_torn']} by a kill; "
           f"final graph: {status['edges']} edges, every one once; journal "
-          f"{status['journal_records']} records")
+          f"{status['journal_records']} records; {expired} edges expired waiting for poses "
+          "lost while the bridge was down, and landed with the resend")
     return result
 
 
