@@ -6,9 +6,6 @@
  * would look consistent, and the point chi2 (or, for an accepted loop in the consistency
  * test, the innovation without the odometry allowance) is used instead. */
 #include <math.h>
-#ifdef PGEM_DEBUG_INNOVATION
-#include <stdio.h>
-#endif
 
 #include "internal.h"
 
@@ -45,11 +42,6 @@ static void pgem_loop_distance(pgem_t *graph, const pgem_robust_options_t *optio
     pgem_loop_innovation(graph, k, pruned ? 0.0 : graph->edge_weight[k],
                          options->odometry_inflation, from_inverse, &innovation);
     const int checked = innovation.rotation_sd <= options->predictable_rotation;
-#ifdef PGEM_DEBUG_INNOVATION
-    fprintf(stderr, "dist %llu %llu pruned=%d gating=%d w=%.3g chi2=%.4g d2=%.4g plain=%.4g rotsd=%.3g\n",
-            (unsigned long long)graph->pose_id[graph->edge_from[k]], (unsigned long long)graph->pose_id[graph->edge_to[k]],
-            pruned, gating, graph->edge_weight[k], pgem_edge_mahalanobis(graph, k), innovation.distance, innovation.plain, innovation.rotation_sd);
-#endif
     graph->edge_checked[k] = (uint8_t)checked;
     if (checked) {
         graph->edge_distance[k] = innovation.distance;
