@@ -182,6 +182,29 @@ else
     echo "(lcm-logger not installed: the recording step is not run)"
 fi
 
+step "only false loop closures: the published graph and the status say all were rejected"
+"$PGEM" simulate --world manhattan --poses 400 --seed 3 -o chain_src.g2o >/dev/null
+# the walk's odometry alone (consecutive ids), then 20 false loop closures
+awk '$1 != "EDGE_SE2" || $3 - $2 == 1 || $2 - $3 == 1' chain_src.g2o >chain.g2o
+"$PGEM" corrupt chain.g2o -o falsely.g2o --policy random --count 20 --seed 3 >/dev/null
+edges_all=$edges
+edges=$(grep -c '^EDGE' falsely.g2o)
+start_bridge falsely
+"$DUMP" -o falsely.g2o.out --json falsely.json --edges "$edges" --settled --timeout 120 \
+    --quiet 2>>falsely.dump.log &
+dump=$!
+pids="$pids $dump"
+sleep 0.3
+"$SEND" falsely.g2o --rate "$RATE" --wait 60 >falsely.send.log 2>&1 ||
+    fail "false loops: not every edge accepted"
+wait "$dump" || fail "false loops: no complete graph dumped"
+grep -q '"message":"warning: all 20 loop closures rejected' falsely.json ||
+    { cat falsely.json; fail "false loops: the graph's stats do not say all were rejected"; }
+grep -q "warning: all 20 loop closures rejected" falsely.log ||
+    { cat falsely.log; fail "false loops: the bridge's log does not say all were rejected"; }
+stop_bridge
+edges=$edges_all
+
 if [ -n "${FRONTEND:-}" ]; then
     step "the example front-end: its false loop closure pruned, its true ones kept"
     start_bridge example

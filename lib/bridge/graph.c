@@ -355,6 +355,19 @@ static int keep_going(const pgem_robust_progress_t *progress, void *user)
     return bridge->stopping ? 1 : 0;
 }
 
+/* A successful solve's degenerate outcome in words (the graph's stats message and the
+ * status), empty when loop closures were accepted. */
+static void describe_outcome(const pgem_robust_summary_t *summary, char *text, size_t size)
+{
+    if (summary->outcome == PGEM_ROBUST_ALL_REJECTED) {
+        snprintf(text, size, "warning: all %u loop closures rejected: the map is the odometry's "
+                             "alone", summary->loops);
+    } else if (summary->outcome == PGEM_ROBUST_MOST_REJECTED) {
+        snprintf(text, size, "warning: %u of %u loop closures rejected (more than 90%%)",
+                 summary->rejected, summary->loops);
+    }
+}
+
 void bridge_graph_solve(bridge_t *bridge, const char *trigger)
 {
     pthread_mutex_lock(&bridge->lock);
@@ -381,6 +394,7 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     if (status == PGEM_OK) {
         bridge->solved_poses = pgem_pose_count(bridge->core);
         memset(bridge->anchored, 0, bridge->solved_poses);
+        describe_outcome(&summary, why, sizeof why);
     } else {
         snprintf(why, sizeof why, "%s: %s", pgem_error_name(status),
                  pgem_last_error(bridge->core));
@@ -401,6 +415,9 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
                    pgem_pose_count(bridge->core), summary.loops, summary.pruned,
                    summary.final_chi2, summary.rounds, 1e-3 * (double)micros,
                    parts > 1 ? " (graph in several parts: each held at its smallest id)" : "");
+        if (why[0] != '\0') {
+            bridge_note(bridge, "solve %lld: %s", (long long)bridge->solve_id, why);
+        }
     } else {
         bridge_note(bridge, "solve %lld (%s) failed: %s", (long long)bridge->solve_id, trigger,
                     why);

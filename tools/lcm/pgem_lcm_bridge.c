@@ -44,6 +44,11 @@ static void usage(FILE *out, const pgem_lcm_options_t *lcm)
             "  --max-em-iterations N  E/M iterations per round (default 5)\n"
             "  --gate G               consistency-test chi2 threshold (default 99.9%% quantile)\n"
             "  --literal              the paper's EM as published (no polish or gate)\n"
+            "  --distance D           innovation (default: loops tested against what the map\n"
+            "                         predicts for them) or point (the paper's chi2)\n"
+            "  --odometry-inflation K innovation: the map's covariance counts K times (4)\n"
+            "  --predictable-rotation R  innovation: a loop is tested by its innovation when\n"
+            "                         the map predicts its rotation to R radians (0.1)\n"
             "  --quiet                no progress lines on stderr\n");
     pgem_lcm_options_help(out, lcm);
     fprintf(out, "Exit status: 0 after a clean stop, 1 if the bridge could not start, 2 usage.\n");
@@ -67,7 +72,8 @@ typedef enum value_kind {
     ITERATIONS,  /* an integer, at least 1 */
     POSITIVE,    /* a positive number */
     PATH,        /* a file name */
-    DIMENSION    /* 2 or 3 */
+    DIMENSION,   /* 2 or 3 */
+    DISTANCE     /* innovation or point */
 } value_kind_t;
 
 typedef struct valued_option {
@@ -98,6 +104,9 @@ static const valued_option_t valued_options[] = {
     {"--m-step-iterations", ITERATIONS, FIELD(robust.m_step_iterations)},
     {"--max-em-iterations", ITERATIONS, FIELD(robust.max_em_iterations)},
     {"--gate", POSITIVE, FIELD(robust.gate)},
+    {"--distance", DISTANCE, FIELD(robust.distance)},
+    {"--odometry-inflation", POSITIVE, FIELD(robust.odometry_inflation)},
+    {"--predictable-rotation", POSITIVE, FIELD(robust.predictable_rotation)},
 };
 
 #define VALUED_COUNT (sizeof valued_options / sizeof valued_options[0])
@@ -133,6 +142,17 @@ static int parse_value(void *user, const char *name, const char *value)
             return 0;
         }
         p->options.dimension = value[0] - '0';
+        return 1;
+    case DISTANCE:
+        if (value != NULL && strcmp(value, "innovation") == 0) {
+            p->options.robust.distance = PGEM_DISTANCE_INNOVATION;
+        } else if (value != NULL && strcmp(value, "point") == 0) {
+            p->options.robust.distance = PGEM_DISTANCE_POINT;
+        } else {
+            fprintf(stderr, TOOL ": --distance takes innovation or point, got '%s'\n",
+                    value != NULL ? value : "");
+            return 0;
+        }
         return 1;
     }
     return 0;

@@ -262,19 +262,19 @@ static int32_t dump_pruned(const pgem_graph_t *graph)
     return pruned;
 }
 
-/* "graph 12: 3500 poses, 2461 loops (100 pruned), chi2 7223.14, solve 38 ms" */
+/* "graph 12: 3500 poses, 2461 loops (100 pruned), chi2 7223.14, solve 38 ms", then the
+ * solve's message: why it is not usable, or its warning */
 static void dump_graph_line(const pgem_graph_t *graph)
 {
     double milliseconds = (double)graph->stats.solve_time_us / 1000.0;
     char chi2[PGEM_CLI_NUMBER_MAX];
     char why[256]; /* from the network: escaped */
-    pgem_io_escape(why, sizeof why,
-                   graph->stats.usable || graph->stats.message == NULL ? "" : graph->stats.message);
+    pgem_io_escape(why, sizeof why, graph->stats.message == NULL ? "" : graph->stats.message);
     fprintf(stderr, "graph %lld: %d poses, %d loops (%d pruned), chi2 %s, solve %.*f ms%s%s\n",
             (long long)graph->stats.solve_id, (int)graph->num_poses, (int)graph->num_loops,
             (int)dump_pruned(graph), pgem_cli_number(chi2, sizeof chi2, graph->stats.chi2, 2),
-            milliseconds < 10.0 ? 1 : 0, milliseconds, graph->stats.usable ? "" : ", not usable: ",
-            why);
+            milliseconds < 10.0 ? 1 : 0, milliseconds,
+            !graph->stats.usable ? ", not usable: " : why[0] != '\0' ? "; " : "", why);
 }
 
 /* ---- Writing ---------------------------------------------------------------------------- */
