@@ -110,7 +110,7 @@ static int online_parse_value(online_args_t *args, const char *arg, const char *
     } else if (strcmp(arg, "--every") == 0) {
         return pgem_cli_parse_at_least(ONLINE_TOOL, arg, value, 1, "pose", &args->every) ? 1 : -1;
     } else if (strcmp(arg, "--fill-budget") == 0) {
-        return pgem_cli_parse_u32(arg, value, &args->fill_budget) ? 1 : -1;
+        return pgem_cli_parse_u32(ONLINE_TOOL, arg, value, &args->fill_budget) ? 1 : -1;
     } else if (strcmp(arg, "--guess") == 0) {
         if (value == NULL || (strcmp(value, "anchored") != 0 && strcmp(value, "file") != 0)) {
             fprintf(stderr, ONLINE_TOOL ": --guess takes anchored or file\n");
@@ -164,14 +164,11 @@ static int online_parse(int argc, char **argv, online_args_t *args)
     return PGEM_EXIT_OK;
 }
 
-/* A number for JSON: finite values with 10 significant digits, else null. */
+/* ,"key":value with the tools' JSON writer: 10 significant digits, null when not finite. */
 static void online_json_number(const char *key, double value)
 {
-    if (isfinite(value)) {
-        printf(",\"%s\":%.10g", key, value);
-    } else {
-        printf(",\"%s\":null", key);
-    }
+    printf(",\"%s\":", key);
+    pgem_json_number(stdout, value, 10);
 }
 
 /* The JSON line of the update just made after pose `pose`. */
@@ -203,7 +200,7 @@ static void online_summary_line(const online_args_t *args, const online_stream_t
     pgem_memory_stats_t stats;
     pgem_get_memory_stats(state->core, &stats);
     printf("{\"type\":\"summary\",\"input\":");
-    pgem_cli_json_string(args->input);
+    pgem_json_string(stdout, args->input);
     printf(",\"mode\":\"%s\",\"every\":%u,\"guess\":\"%s\",\"poses\":%zu,\"poses_total\":%zu,"
            "\"edges\":%zu,\"edges_total\":%zu,\"updates\":%u,\"failed_updates\":%u,"
            "\"restarts\":%u,\"stopped\":%s",

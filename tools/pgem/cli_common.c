@@ -18,14 +18,15 @@ double pgem_cli_now(void)
     return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
 }
 
-int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value)
+int pgem_cli_parse_u32(const char *prefix, const char *option, const char *text,
+                       uint32_t *value)
 {
     char *end = NULL;
     errno = 0;
     unsigned long parsed = text != NULL ? strtoul(text, &end, 10) : 0;
     if (text == NULL || *text == '\0' || *text == '-' || *end != '\0' || errno != 0 ||
         parsed > UINT32_MAX) {
-        fprintf(stderr, "pgem: %s needs a non-negative integer, got '%s'\n", option,
+        fprintf(stderr, "%s: %s needs a non-negative integer, got '%s'\n", prefix, option,
                 text != NULL ? text : "");
         return 0;
     }
@@ -36,7 +37,7 @@ int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value)
 int pgem_cli_parse_at_least(const char *prefix, const char *option, const char *text,
                             uint32_t least, const char *what, uint32_t *value)
 {
-    if (!pgem_cli_parse_u32(option, text, value)) {
+    if (!pgem_cli_parse_u32(prefix, option, text, value)) {
         return 0;
     }
     if (*value < least) {
@@ -113,50 +114,34 @@ int pgem_cli_read_graph(const char *prefix, const char *path, unsigned flags,
 
 int pgem_cli_write_graph(const char *prefix, const pgem_io_graph_t *graph, const char *path)
 {
-    char message[1024];
-    if (pgem_io_write(path, PGEM_FORMAT_G2O, graph, message, sizeof message) != PGEM_OK) {
-        fprintf(stderr, "%s: %s\n", prefix, message);
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, prefix, path) != 0) {
         return PGEM_EXIT_IO;
     }
-    return PGEM_EXIT_OK;
-}
-
-FILE *pgem_cli_create(const char *prefix, const char *path)
-{
-    FILE *file = fopen(path, "w");
-    if (file == NULL) {
-        fprintf(stderr, "%s: %s: cannot open for writing: %s\n", prefix, path, strerror(errno));
+    int status = pgem_io_write_stream(file.stream, PGEM_FORMAT_G2O, graph);
+    if (status == PGEM_ERR_DIMENSION) { /* a graph no file format holds: nothing to write */
+        fprintf(stderr, "%s: %s: the graph has no dimension to write\n", prefix, path);
     }
-    return file;
-}
-
-int pgem_cli_finish(const char *prefix, const char *path, FILE *file, int failed)
-{
-    if (fclose(file) != 0 || failed) {
-        fprintf(stderr, "%s: %s: write failed: %s\n", prefix, path, strerror(errno));
-        return PGEM_EXIT_IO;
-    }
-    return PGEM_EXIT_OK;
+    return pgem_cli_file_commit(&file, status != PGEM_OK);
 }
 
 static int pgem_cli_try_load(const pgem_io_graph_t *file, const pgem_config_t *config,
-                             pgem_t **instance)
+                             pgem_t **instance, char *message, size_t message_size)
 {
-    char message[1024];
     if (file->pose_count > PGEM_MAX_POSES_LIMIT || file->edge_count > PGEM_MAX_EDGES_LIMIT) {
-        fprintf(stderr, "pgem: %s: %zu poses and %zu edges: more than an instance holds (at "
-                        "most %u poses and %u edges)\n", file->source, file->pose_count,
-                file->edge_count, PGEM_MAX_POSES_LIMIT, PGEM_MAX_EDGES_LIMIT);
+        snprintf(message, message_size, "%s: %zu poses and %zu edges: more than an instance "
+                 "holds (at most %u poses and %u edges)", file->source, file->pose_count,
+                 file->edge_count, PGEM_MAX_POSES_LIMIT, PGEM_MAX_EDGES_LIMIT);
         return PGEM_ERR_CAPACITY;
     }
     int status = pgem_create(instance, config);
     if (status != PGEM_OK) {
-        fprintf(stderr, "pgem: cannot create an instance: %s\n", pgem_error_description(status));
+        snprintf(message, message_size, "cannot create an instance: %s",
+                 pgem_error_description(status));
         return status;
     }
-    status = pgem_io_load(file, *instance, message, sizeof message);
+    status = pgem_io_load(file, *instance, message, message_size);
     if (status != PGEM_OK) {
-        fprintf(stderr, "pgem: %s\n", message);
         pgem_destroy(*instance);
         *instance = NULL;
     }
@@ -174,17 +159,18 @@ static int pgem_cli_analyze(pgem_t *instance, double *seconds)
 
 /* Recreates *instance with a fill budget of exactly `fill` and re-analyses it. */
 static int pgem_cli_resize(const pgem_io_graph_t *file, pgem_config_t *config, uint32_t fill,
-                           pgem_t **instance, double *seconds)
+                           pgem_t **instance, double *seconds, char *message,
+                           size_t message_size)
 {
     pgem_destroy(*instance);
     *instance = NULL;
     config->fill_budget = fill;
-    int status = pgem_cli_try_load(file, config, instance);
+    int status = pgem_cli_try_load(file, config, instance, message, message_size);
     return status == PGEM_OK ? pgem_cli_analyze(*instance, seconds) : status;
 }
 
-int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance,
-                  double *analysis_seconds)
+int pgem_cli_load_quietly(const pgem_io_graph_t *file, const char *path, pgem_t **instance,
+                          double *analysis_seconds, char *message, size_t message_size)
 {
     double seconds = 0.0;
     if (analysis_seconds != NULL) {
@@ -192,7 +178,7 @@ int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instan
     }
     pgem_config_t config;
     pgem_io_config(file, &config);
-    int status = pgem_cli_try_load(file, &config, instance);
+    int status = pgem_cli_try_load(file, &config, instance, message, message_size);
     if (status != PGEM_OK || pgem_edge_count(*instance) == 0u) {
         return status;
     }
@@ -202,13 +188,27 @@ int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instan
     pgem_get_memory_stats(*instance, &stats);
     if (status == PGEM_ERR_FILL_BUDGET ||
         (status == PGEM_OK && stats.factor_nonzeros < stats.factor_budget - stats.factor_budget / 4u)) {
-        status = pgem_cli_resize(file, &config, stats.factor_nonzeros, instance, &seconds);
+        status = pgem_cli_resize(file, &config, stats.factor_nonzeros, instance, &seconds, message,
+                                 message_size);
     }
     if (analysis_seconds != NULL) {
         *analysis_seconds = seconds;
     }
     if (status != PGEM_OK && *instance != NULL) {
-        fprintf(stderr, "pgem: %s: %s\n", path, pgem_last_error(*instance));
+        snprintf(message, message_size, "%s%s%s", path != NULL ? path : "",
+                 path != NULL ? ": " : "", pgem_last_error(*instance));
+    }
+    return status;
+}
+
+int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance,
+                  double *analysis_seconds)
+{
+    char message[1024];
+    int status = pgem_cli_load_quietly(file, path, instance, analysis_seconds, message,
+                                       sizeof message);
+    if (status != PGEM_OK) {
+        fprintf(stderr, "pgem: %s\n", message);
     }
     return status;
 }
@@ -244,12 +244,12 @@ int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel)
 
 int pgem_cli_write_weights(const pgem_t *instance, const char *path)
 {
-    FILE *file = pgem_cli_create("pgem", path);
-    if (file == NULL) {
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, "pgem", path) != 0) {
         return -1;
     }
-    int failed = pgem_io_write_weights(file, instance) != PGEM_OK;
-    return pgem_cli_finish("pgem", path, file, failed) == PGEM_EXIT_OK ? 0 : -1;
+    int failed = pgem_io_write_weights(file.stream, instance) != PGEM_OK;
+    return pgem_cli_file_commit(&file, failed) == PGEM_EXIT_OK ? 0 : -1;
 }
 
 double pgem_cli_uniform(uint64_t *state)
@@ -265,26 +265,6 @@ double pgem_cli_gaussian(uint64_t *state)
 {
     double u = pgem_cli_uniform(state), v = pgem_cli_uniform(state);
     return sqrt(-2.0 * log(u + 1e-300)) * cos(6.283185307179586 * v);
-}
-
-void pgem_cli_json_string_to(FILE *out, const char *text)
-{
-    fputc('"', out);
-    for (const unsigned char *c = (const unsigned char *)text; *c != '\0'; c++) {
-        if (*c == '"' || *c == '\\') {
-            fprintf(out, "\\%c", *c);
-        } else if (*c < 0x20u) {
-            fprintf(out, "\\u%04x", (unsigned)*c);
-        } else {
-            fputc(*c, out);
-        }
-    }
-    fputc('"', out);
-}
-
-void pgem_cli_json_string(const char *text)
-{
-    pgem_cli_json_string_to(stdout, text);
 }
 
 static int pgem_cli_compare_ids(const void *a, const void *b)
@@ -349,6 +329,13 @@ size_t pgem_cli_pair_run_end(const pgem_cli_pair_t *pairs, size_t count, size_t 
         first++;
     }
     return first;
+}
+
+const char *pgem_cli_number(char *out, size_t size, double value, int decimals)
+{
+    snprintf(out, size, fabs(value) < 1e15 || !isfinite(value) ? "%.*f" : "%.*e", decimals,
+             value);
+    return out;
 }
 
 const char *pgem_cli_plural(size_t count)

@@ -34,29 +34,34 @@ static int pgem_reach_union(const pgem_linear_t *linear, int a, int b, int *stac
     return count;
 }
 
-/* X_c = L_cc^-1 X_c for the b x n block of right-hand sides X_c (row-major: b rows, n
- * columns), then X_r -= L_rc X_c for every off-diagonal block r of column c. */
-static void pgem_forward_column(const pgem_linear_t *linear, int b, int n, int column)
+/* X_c = L_cc^-1 X_c for the b x b block of right-hand sides X_c (row-major: b rows, b
+ * columns), then X_r -= L_rc X_c for every off-diagonal block r of column c. b is a constant
+ * at each call, so the loops unroll. */
+static inline void pgem_forward_column(const pgem_linear_t *linear, int b, int column)
 {
     double *x = linear->block_work + (size_t)column * (size_t)(b * b);
     const int *rows = linear->factor_block_rows + linear->factor_block_colptr[column];
     const int count = linear->factor_block_colptr[column + 1] - linear->factor_block_colptr[column];
     for (int c = 0; c < b; c++) {
         const double *l = linear->factor_values + linear->factor_colptr[column * b + c];
-        for (int t = 0; t < n; t++) {
-            x[c * n + t] /= l[0];
+        const double inverse = 1.0 / l[0];
+        double xc[PGEM_TANGENT_SIZE_MAX] = {0};
+        for (int t = 0; t < b; t++) {
+            xc[t] = x[c * b + t] * inverse;
+            x[c * b + t] = xc[t];
         }
         for (int r = c + 1; r < b; r++) {
-            for (int t = 0; t < n; t++) {
-                x[r * n + t] -= l[r - c] * x[c * n + t];
+            for (int t = 0; t < b; t++) {
+                x[r * b + t] -= l[r - c] * xc[t];
             }
         }
         const double *off = l + (b - c);
         for (int q = 0; q < count; q++) {
             double *target = linear->block_work + (size_t)rows[q] * (size_t)(b * b);
             for (int r = 0; r < b; r++) {
-                for (int t = 0; t < n; t++) {
-                    target[r * n + t] -= off[q * b + r] * x[c * n + t];
+                const double factor = off[q * b + r];
+                for (int t = 0; t < b; t++) {
+                    target[r * b + t] -= factor * xc[t];
                 }
             }
         }
@@ -64,12 +69,38 @@ static void pgem_forward_column(const pgem_linear_t *linear, int b, int n, int c
 }
 
 /* Places A_pose^T (A: n x b row-major) into the right-hand side block of the pose's column. */
-static void pgem_place_rhs(pgem_linear_t *linear, int b, int n, int block, const double *a)
+static void pgem_place_rhs(pgem_linear_t *linear, int b, int block, const double *a)
 {
     double *x = linear->block_work + (size_t)block * (size_t)(b * b);
     for (int r = 0; r < b; r++) {
-        for (int t = 0; t < n; t++) {
-            x[r * n + t] += a[t * b + r];
+        for (int t = 0; t < b; t++) {
+            x[r * b + t] += a[t * b + r];
+        }
+    }
+}
+
+/* The solve and the sum M = sum_c X_c^T X_c for block size b (a constant at each call). */
+static inline void pgem_marginal_blocks(pgem_linear_t *linear, int b, int count, const int *stack,
+                                        int *mark, double *out)
+{
+    for (int p = 0; p < count; p++) {
+        const int column = stack[p];
+        pgem_forward_column(linear, b, column);
+        const double *x = linear->block_work + (size_t)column * (size_t)(b * b);
+        for (int s = 0; s < b; s++) {
+            for (int t = s; t < b; t++) {
+                double sum = 0.0;
+                for (int r = 0; r < b; r++) {
+                    sum += x[r * b + s] * x[r * b + t];
+                }
+                out[s * b + t] += sum;
+            }
+        }
+        mark[column] = -mark[column] - 2;
+    }
+    for (int s = 0; s < b; s++) {
+        for (int t = 0; t < s; t++) {
+            out[s * b + t] = out[t * b + s];
         }
     }
 }
@@ -78,34 +109,24 @@ void pgem_linear_marginal(pgem_t *graph, uint32_t from, uint32_t to, const doubl
                           const double *a_to, double *out)
 {
     pgem_linear_t *linear = &graph->linear;
-    const int b = linear->block, n = b;
+    const int b = linear->block;
     const int block_from = linear->pose_block[from], block_to = linear->pose_block[to];
     int *stack = linear->reach_stack, *mark = linear->reach_mark;
-    memset(out, 0, (size_t)(n * n) * sizeof(double));
+    memset(out, 0, (size_t)(b * b) * sizeof(double));
     const int count = pgem_reach_union(linear, block_from, block_to, stack, mark);
     for (int p = 0; p < count; p++) {
         memset(linear->block_work + (size_t)stack[p] * (size_t)(b * b), 0,
-               (size_t)(b * n) * sizeof(double));
+               (size_t)(b * b) * sizeof(double));
     }
     if (block_from >= 0) {
-        pgem_place_rhs(linear, b, n, block_from, a_from);
+        pgem_place_rhs(linear, b, block_from, a_from);
     }
     if (block_to >= 0) {
-        pgem_place_rhs(linear, b, n, block_to, a_to);
+        pgem_place_rhs(linear, b, block_to, a_to);
     }
-    for (int p = 0; p < count; p++) {
-        const int column = stack[p];
-        pgem_forward_column(linear, b, n, column);
-        const double *x = linear->block_work + (size_t)column * (size_t)(b * b);
-        for (int s = 0; s < n; s++) {
-            for (int t = 0; t < n; t++) {
-                double sum = 0.0;
-                for (int r = 0; r < b; r++) {
-                    sum += x[r * n + s] * x[r * n + t];
-                }
-                out[s * n + t] += sum;
-            }
-        }
-        mark[column] = -mark[column] - 2;
+    if (b == 6) {
+        pgem_marginal_blocks(linear, 6, count, stack, mark, out);
+    } else {
+        pgem_marginal_blocks(linear, 3, count, stack, mark, out);
     }
 }
