@@ -62,7 +62,7 @@ static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_sum
     if (status == PGEM_OK) {
         status = pgem_linear_check_parts(graph);
     }
-    summary->factor_nonzeros = (uint32_t)graph->linear.factor_nonzeros;
+    summary->factor_nonzeros = (uint32_t)graph->linear.factor.nonzeros;
     if (status != PGEM_OK) {
         summary->termination = pgem_failure_termination(status);
         return status;
