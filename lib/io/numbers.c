@@ -1,0 +1,363 @@
+/* pgem I/O numbers: decimal text to double and double to the shortest text that reads back to
+ * the same bits, both exact and several times faster than strtod and printf("%.17g").
+ *
+ * Reading (io_strtod) takes plain decimals of at most 19 significant digits whose value is
+ * w x 10^q with |q| <= 27: w and 5^|q| are integers of at most 64 bits, so the value is an
+ * exact rational that 128-bit integer arithmetic rounds once, to nearest even, as strtod does
+ * (and with w <= 2^53, |q| <= 22, one double multiplication or division does the same).
+ * Everything else (more digits, other exponents, hexadecimal, inf, nan, bad text) goes to
+ * strtod itself, so the result, the end pointer and errno are strtod's for every input.
+ *
+ * Writing (io_format_double) finds the shortest decimal inside the interval of reals that
+ * read back to the double (Ryu's digit removal, Ulf Adams 2018, over exact scaled bounds
+ * computed with the same 128-bit arithmetic instead of Ryu's tables), for doubles from about
+ * 1e-9 to 1e45; the others are written with "%.17g", which also reads back exactly. The text
+ * is laid out as %.17g lays out its digits (fixed for decimal exponents -4 .. 16, else d.ddde+XX).
+ * Without a 128-bit integer type (32-bit hosts) both fall back to the C library throughout. */
+#include <float.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "io_internal.h"
+
+#if defined(__SIZEOF_INT128__)
+#define IO_EXACT 1
+typedef unsigned __int128 io_u128;
+#else
+#define IO_EXACT 0
+#endif
+
+#define IO_POW5_MAX 27 /* 5^27 < 2^63 */
+
+/* Double operations round once only where the compiler evaluates in double precision. */
+#if defined(FLT_EVAL_METHOD) && FLT_EVAL_METHOD == 0
+#define IO_CLINGER 1
+#else
+#define IO_CLINGER 0
+#endif
+
+#if IO_EXACT
+/* The powers of ten a double holds exactly. */
+static const double io_exact_pow10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                                          1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+                                          1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+#endif
+
+#if IO_EXACT
+
+/* 5^k for k = 0 .. IO_POW5_MAX. */
+static uint64_t io_pow5(int k)
+{
+    static const uint64_t table[IO_POW5_MAX + 1] = {
+        1u, 5u, 25u, 125u, 625u, 3125u, 15625u, 78125u, 390625u, 1953125u, 9765625u,
+        48828125u, 244140625u, 1220703125u, UINT64_C(6103515625), UINT64_C(30517578125),
+        UINT64_C(152587890625), UINT64_C(762939453125), UINT64_C(3814697265625),
+        UINT64_C(19073486328125), UINT64_C(95367431640625), UINT64_C(476837158203125),
+        UINT64_C(2384185791015625), UINT64_C(11920928955078125), UINT64_C(59604644775390625),
+        UINT64_C(298023223876953125), UINT64_C(1490116119384765625),
+        UINT64_C(7450580596923828125)};
+    return table[k];
+}
+
+/* Bits of x (0 for 0). */
+static int io_bits128(io_u128 x)
+{
+    int bits = 0;
+    while (x >> 64 != 0) {
+        x >>= 64;
+        bits += 64;
+    }
+    uint64_t low = (uint64_t)x;
+    while (low != 0) {
+        low >>= 1;
+        bits++;
+    }
+    return bits;
+}
+
+/* The double nearest (ties to even) to x * 2^exponent, x > 0, sticky: whether nonzero bits
+ * were already dropped below x. The result is a normal double in the range io_strtod uses. */
+static double io_round(io_u128 x, int exponent, int sticky)
+{
+    const int bits = io_bits128(x);
+    uint64_t mantissa;
+    if (bits > 53) {
+        const int drop = bits - 53;
+        const io_u128 rest = x & (((io_u128)1 << drop) - 1u);
+        const io_u128 half = (io_u128)1 << (drop - 1);
+        mantissa = (uint64_t)(x >> drop);
+        exponent += drop;
+        if (rest > half || (rest == half && (sticky || (mantissa & 1u) != 0))) {
+            mantissa++;
+            if (mantissa >> 53 != 0) {
+                mantissa >>= 1;
+                exponent++;
+            }
+        }
+    } else {
+        mantissa = (uint64_t)x; /* exact (sticky cannot be set: the callers scale first) */
+    }
+    return ldexp((double)mantissa, exponent);
+}
+
+/* The exact value of a plain decimal w x 10^q, |q| <= IO_POW5_MAX, w > 0. */
+static double io_decimal_value(uint64_t w, int q)
+{
+    if (q >= 0) { /* w 5^q 2^q: an integer of at most 127 bits */
+        return io_round((io_u128)w * io_pow5(q), q, 0);
+    }
+    /* w / 5^p / 2^p: w shifted to the top of 128 bits, divided, the remainder sticky */
+    const int p = -q;
+    int shift = 64;
+    uint64_t top = w;
+    while ((top >> 63) == 0) {
+        top <<= 1;
+        shift++;
+    }
+    const io_u128 numerator = (io_u128)top << 64;
+    const io_u128 quotient = numerator / io_pow5(p);
+    const int sticky = numerator % io_pow5(p) != 0;
+    return io_round(quotient, -(shift + p), sticky);
+}
+
+#endif
+
+/* Parses [+-]digits[.digits][(e|E)[+-]digits] into w, q; 0 if the text is anything else or
+ * needs more than 19 significant digits. */
+static int io_plain_decimal(const char *text, int *negative, uint64_t *w, int *q)
+{
+    const char *p = text;
+    *negative = *p == '-';
+    if (*p == '-' || *p == '+') {
+        p++;
+    }
+    uint64_t value = 0;
+    int digits = 0, significant = 0, exponent = 0;
+    for (; *p >= '0' && *p <= '9'; p++, digits++) {
+        if (significant < 19) {
+            value = value * 10u + (uint64_t)(*p - '0');
+            significant += value != 0;
+        } else if (*p != '0') {
+            return 0;
+        } else {
+            exponent++;
+        }
+    }
+    if (*p == '.') {
+        for (p++; *p >= '0' && *p <= '9'; p++, digits++) {
+            if (significant < 19) {
+                value = value * 10u + (uint64_t)(*p - '0');
+                significant += value != 0;
+                exponent--;
+            } else if (*p != '0') {
+                return 0;
+            }
+        }
+    }
+    if (digits == 0) {
+        return 0;
+    }
+    if (*p == 'e' || *p == 'E') {
+        p++;
+        const int minus = *p == '-';
+        if (*p == '-' || *p == '+') {
+            p++;
+        }
+        if (*p < '0' || *p > '9') {
+            return 0;
+        }
+        int e = 0;
+        for (; *p >= '0' && *p <= '9'; p++) {
+            if (e > 10000) {
+                return 0;
+            }
+            e = e * 10 + (*p - '0');
+        }
+        exponent += minus ? -e : e;
+    }
+    if (*p != '\0') {
+        return 0;
+    }
+    *w = value;
+    *q = exponent;
+    return 1;
+}
+
+double io_strtod(const char *text, char **end)
+{
+#if IO_EXACT
+    int negative, q;
+    uint64_t w;
+    if (io_plain_decimal(text, &negative, &w, &q)) {
+        double value;
+        if (w == 0) {
+            value = 0.0;
+        } else if (IO_CLINGER && w <= (UINT64_C(1) << 53) && q >= -22 && q <= 22) {
+            /* w and 10^|q| are exact doubles: one correctly rounded operation (Clinger) */
+            value = q >= 0 ? (double)w * io_exact_pow10[q] : (double)w / io_exact_pow10[-q];
+        } else if (q >= -IO_POW5_MAX && q <= IO_POW5_MAX) {
+            value = io_decimal_value(w, q);
+        } else {
+            return strtod(text, end);
+        }
+        if (end != NULL) {
+            *end = (char *)(uintptr_t)(text + strlen(text)); /* strtod's type, const dropped */
+        }
+        return negative ? -value : value;
+    }
+#endif
+    return strtod(text, end);
+}
+
+#if IO_EXACT
+
+/* floor(e log10(2)) for |e| <= 1650. */
+static int io_log10_pow2(int e)
+{
+    return (int)(((int64_t)e * 78913) >> 18);
+}
+
+/* floor(x 2^e2 10^-q) and (in *exact) whether that was exact, for the q io_shortest chooses
+ * (|q| <= IO_POW5_MAX, x < 2^55; the result fits 64 bits). */
+static uint64_t io_scale(uint64_t x, int e2, int q, int *exact)
+{
+    io_u128 n;
+    if (q <= 0) {
+        n = (io_u128)x * io_pow5(-q);
+        const int shift = e2 - q;
+        if (shift >= 0) {
+            *exact = 1;
+            return (uint64_t)(n << shift);
+        }
+        *exact = (n & (((io_u128)1 << -shift) - 1u)) == 0;
+        return (uint64_t)(n >> -shift);
+    }
+    n = (io_u128)x << (e2 - q);
+    *exact = n % io_pow5(q) == 0;
+    return (uint64_t)(n / io_pow5(q));
+}
+
+/* The shortest digits of a positive normal double: *digits x 10^*exponent. 0 if outside the
+ * range the exact scaling covers. */
+static int io_shortest(uint64_t mantissa_bits, int exponent_bits, uint64_t *digits, int *exponent)
+{
+    const uint64_t m2 = (UINT64_C(1) << 52) | mantissa_bits;
+    const int e2 = exponent_bits - 1075 - 2;
+    const int q = io_log10_pow2(e2 + 55) - 18;
+    if (q < -IO_POW5_MAX || q > IO_POW5_MAX) {
+        return 0;
+    }
+    const int accept_bounds = (m2 & 1u) == 0;
+    const int mm_shift = mantissa_bits != 0 || exponent_bits <= 1;
+    const uint64_t mv = 4u * m2, mp = 4u * m2 + 2u, mm = 4u * m2 - 1u - (uint64_t)mm_shift;
+    int vr_exact, vp_exact, vm_exact;
+    uint64_t vr = io_scale(mv, e2, q, &vr_exact);
+    uint64_t vp = io_scale(mp, e2, q, &vp_exact);
+    uint64_t vm = io_scale(mm, e2, q, &vm_exact);
+    int vm_trailing_zeros = accept_bounds && vm_exact;
+    int vr_trailing_zeros = vr_exact;
+    if (!accept_bounds && vp_exact) {
+        vp--; /* the upper bound itself reads back to the neighbour */
+    }
+    int removed = 0, last = 0;
+    while (vp / 10u > vm / 10u) {
+        vm_trailing_zeros &= vm % 10u == 0;
+        vr_trailing_zeros &= last == 0;
+        last = (int)(vr % 10u);
+        vr /= 10u;
+        vp /= 10u;
+        vm /= 10u;
+        removed++;
+    }
+    if (vm_trailing_zeros) {
+        while (vm != 0 && vm % 10u == 0) {
+            vr_trailing_zeros &= last == 0;
+            last = (int)(vr % 10u);
+            vr /= 10u;
+            vp /= 10u;
+            vm /= 10u;
+            removed++;
+        }
+    }
+    if (vr_trailing_zeros && last == 5 && vr % 2u == 0) {
+        last = 4; /* exactly halfway: round to even */
+    }
+    *digits = vr + ((vr == vm && (!accept_bounds || !vm_trailing_zeros)) || last >= 5);
+    *exponent = q + removed;
+    return 1;
+}
+
+/* Writes digits x 10^exponent as %.17g lays out 17 significant digits with trailing zeros
+ * removed; returns the length. */
+static size_t io_layout(char *out, uint64_t digits, int exponent)
+{
+    char text[24];
+    int count = 0;
+    do {
+        text[count++] = (char)('0' + digits % 10u);
+        digits /= 10u;
+    } while (digits != 0);
+    for (int a = 0, b = count - 1; a < b; a++, b--) {
+        const char swap = text[a];
+        text[a] = text[b];
+        text[b] = swap;
+    }
+    const int lead = exponent + count - 1; /* decimal exponent of the first digit */
+    size_t at = 0;
+    if (lead < -4 || lead >= 17) {
+        out[at++] = text[0];
+        if (count > 1) {
+            out[at++] = '.';
+            memcpy(out + at, text + 1, (size_t)count - 1u);
+            at += (size_t)count - 1u;
+        }
+        at += (size_t)sprintf(out + at, "e%c%02d", lead < 0 ? '-' : '+', lead < 0 ? -lead : lead);
+    } else if (lead < 0) {
+        out[at++] = '0';
+        out[at++] = '.';
+        for (int k = -1; k > lead; k--) {
+            out[at++] = '0';
+        }
+        memcpy(out + at, text, (size_t)count);
+        at += (size_t)count;
+    } else {
+        for (int k = 0; k < count || k <= lead; k++) {
+            if (k == lead + 1) {
+                out[at++] = '.';
+            }
+            out[at++] = k < count ? text[k] : '0';
+        }
+    }
+    out[at] = '\0';
+    return at;
+}
+
+#endif
+
+size_t io_format_double(double value, char *out)
+{
+#if IO_EXACT
+    uint64_t bits;
+    memcpy(&bits, &value, sizeof bits);
+    const int negative = (int)(bits >> 63);
+    const int exponent_bits = (int)((bits >> 52) & 0x7ffu);
+    const uint64_t mantissa_bits = bits & ((UINT64_C(1) << 52) - 1u);
+    size_t at = 0;
+    if (exponent_bits == 0 && mantissa_bits == 0) {
+        return negative ? (memcpy(out, "-0", 3), 2u) : (memcpy(out, "0", 2), 1u);
+    }
+    uint64_t digits;
+    int exponent;
+    if (exponent_bits != 0 && exponent_bits != 0x7ff &&
+        io_shortest(mantissa_bits, exponent_bits, &digits, &exponent)) {
+        if (negative) {
+            out[at++] = '-';
+        }
+        return at + io_layout(out + at, digits, exponent);
+    }
+#endif
+    return (size_t)sprintf(out, "%.17g", value);
+}
