@@ -72,21 +72,22 @@ size_t pgem_memory_size(const pgem_config_t *config);
      PGEM_WORK_BYTES(dimension, max_poses) + 2400u)
 
 /** PGEM_MEMORY_BOUND for `threads` workers: each one past the first adds its own map of the
- * block rows (4 bytes per pose) and dense workspace. */
+ * block rows (4 bytes per pose) and a smaller dense workspace. */
 #define PGEM_MEMORY_BOUND_THREADS(dimension, max_poses, max_edges, fill_budget, threads)   \
     (PGEM_MEMORY_BOUND(dimension, max_poses, max_edges, fill_budget) +                       \
      ((size_t)(threads) > 1u ? (size_t)(threads) - 1u : 0u) *                                \
-         ((size_t)(max_poses) * 4u + PGEM_WORK_BYTES(dimension, max_poses) + 64u))
+         ((size_t)(max_poses) * 4u + PGEM_WORK_BYTES_(dimension, max_poses, 8u) + 64u))
 
-/** Bytes of one worker's dense workspace: half a pose block of doubles per pose (b x b / 2),
- * at least 32 doubles per column of a product of min(128, unknowns) columns, at most 49152
- * doubles (384 KiB). */
-#define PGEM_WORK_BYTES(dimension, max_poses)                                                \
-    (8u * PGEM_WORK_CLAMP_(PGEM_WORK_SHARE_(dimension, max_poses),                           \
+/** Bytes of the first worker's dense workspace: half a pose block of doubles per pose
+ * (b x b / 2; an eighth for the other workers), at least 32 doubles per column of a product of
+ * min(128, unknowns) columns, at most 49152 doubles (384 KiB). */
+#define PGEM_WORK_BYTES(dimension, max_poses) PGEM_WORK_BYTES_(dimension, max_poses, 2u)
+#define PGEM_WORK_BYTES_(dimension, max_poses, share)                                        \
+    (8u * PGEM_WORK_CLAMP_(PGEM_WORK_SHARE_(dimension, max_poses, share),                    \
                            32u * PGEM_WORK_MIN_(PGEM_WORK_UNKNOWNS_(dimension, max_poses), 128u)))
 #define PGEM_WORK_UNKNOWNS_(dimension, max_poses) ((size_t)(max_poses) * ((dimension) == 3 ? 6u : 3u))
-#define PGEM_WORK_SHARE_(dimension, max_poses) \
-    (PGEM_WORK_UNKNOWNS_(dimension, max_poses) * ((dimension) == 3 ? 6u : 3u) / 2u)
+#define PGEM_WORK_SHARE_(dimension, max_poses, share) \
+    (PGEM_WORK_UNKNOWNS_(dimension, max_poses) * ((dimension) == 3 ? 6u : 3u) / (share))
 #define PGEM_WORK_MIN_(a, b) ((a) < (b) ? (a) : (b))
 #define PGEM_WORK_CLAMP_(share, least) \
     PGEM_WORK_MIN_((share) < (least) ? (least) : (share), (size_t)49152u)
@@ -139,6 +140,15 @@ typedef struct pgem_executor {
  * for). The results are bit-identical for every number of workers. Errors: INVALID_ARGUMENT
  * (no run function, 0 workers or more than config.threads; the executor is left as it was). */
 int pgem_set_executor(pgem_t *instance, const pgem_executor_t *executor);
+
+/** Copies the poses (estimates, held flags), edges (with their robust weights and states) of
+ * `from` into `to`, an instance of the same dimension with no poses yet and room for them,
+ * and hands over from's fill-reducing ordering when from was analysed for the graph it holds,
+ * so to's first analysis does not order again (the result is the same as ordering anew). The
+ * use: size a block exactly - analyse in an instance of any fill budget (PGEM_ERR_FILL_BUDGET
+ * still reports the nonzeros needed in pgem_get_memory_stats), init a block of exactly that
+ * budget, copy. Errors: INVALID_ARGUMENT, DIMENSION, CAPACITY (nothing copied). */
+int pgem_copy(pgem_t *to, const pgem_t *from);
 
 /** Memory diagnostics of an instance. */
 typedef struct pgem_memory_stats {

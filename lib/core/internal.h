@@ -61,6 +61,9 @@ void pgem_cs_close(pgem_cs_pool_t *pool);
 /* Sparse structure and numeric workspace of the normal equations H dx = -b. */
 typedef struct pgem_linear {
     int valid;                 /* 1 while the structure matches the graph's topology */
+    int ordered;               /* 1 while pose_block holds a fill-reducing ordering of the
+                                  graph's topology (kept when an analysis fails on the fill
+                                  budget, handed over by pgem_copy) */
     int all_edges;             /* 1: the structure also holds pruned (inactive) edges, the
                                   fallback when leaving them out would need more fill */
     int block;             /* scalar size of a pose block: 3 (2D) or 6 (3D) */
@@ -88,6 +91,9 @@ typedef struct pgem_linear {
     double *gradient;          /* [max_poses * block] copy of -b kept across LM retries */
     uint32_t analyses;         /* symbolic analyses run so far */
     pgem_cs_pool_t cs_pool;    /* CSparse's workspace during analyses */
+    const pgem_solve_options_t *progress; /* the running solve's options (its on_progress),
+                                  NULL outside a solve */
+    uint32_t progress_iteration; /* the iteration the next factorisation belongs to */
 } pgem_linear_t;
 
 /* First value of scalar column c of block column `block` of H's lower triangle: each of the

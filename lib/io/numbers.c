@@ -263,6 +263,27 @@ static int io_shortest(uint64_t mantissa_bits, int exponent_bits, uint64_t *digi
         vp--; /* the upper bound itself reads back to the neighbour */
     }
     int removed = 0, last = 0;
+    if (!vm_trailing_zeros && !vr_trailing_zeros) {
+        /* the common case: no exactness to track, two digits at a time while they go */
+        int round_up = 0;
+        while (vp / 100u > vm / 100u) {
+            round_up = vr % 100u >= 50u;
+            vr /= 100u;
+            vp /= 100u;
+            vm /= 100u;
+            removed += 2;
+        }
+        while (vp / 10u > vm / 10u) {
+            round_up = vr % 10u >= 5u;
+            vr /= 10u;
+            vp /= 10u;
+            vm /= 10u;
+            removed++;
+        }
+        *digits = vr + (vr == vm || round_up);
+        *exponent = q + removed;
+        return 1;
+    }
     while (vp / 10u > vm / 10u) {
         vm_trailing_zeros &= vm % 10u == 0;
         vr_trailing_zeros &= last == 0;
@@ -290,21 +311,42 @@ static int io_shortest(uint64_t mantissa_bits, int exponent_bits, uint64_t *digi
     return 1;
 }
 
+/* Decimal digits of v (1 .. 20). */
+static int io_digit_count(uint64_t v)
+{
+    int count = 1;
+    for (uint64_t power = 10u; count < 20 && v >= power; power *= 10u) {
+        count++;
+    }
+    return count;
+}
+
+/* v's count decimal digits into text, two at a time from the last. */
+static void io_digits(uint64_t v, int count, char *text)
+{
+    static const char pairs[] = "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
+                                "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
+                                "8081828384858687888990919293949596979899";
+    int at = count;
+    while (at >= 2) {
+        const unsigned pair = (unsigned)(v % 100u);
+        v /= 100u;
+        at -= 2;
+        text[at] = pairs[2u * pair];
+        text[at + 1] = pairs[2u * pair + 1u];
+    }
+    if (at == 1) {
+        text[0] = (char)('0' + (int)v);
+    }
+}
+
 /* Writes digits x 10^exponent as %.17g lays out 17 significant digits with trailing zeros
  * removed; returns the length. */
 static size_t io_layout(char *out, uint64_t digits, int exponent)
 {
     char text[24];
-    int count = 0;
-    do {
-        text[count++] = (char)('0' + digits % 10u);
-        digits /= 10u;
-    } while (digits != 0);
-    for (int a = 0, b = count - 1; a < b; a++, b--) {
-        const char swap = text[a];
-        text[a] = text[b];
-        text[b] = swap;
-    }
+    const int count = io_digit_count(digits);
+    io_digits(digits, count, text);
     const int lead = exponent + count - 1; /* decimal exponent of the first digit */
     size_t at = 0;
     if (lead < -4 || lead >= 17) {
@@ -314,22 +356,28 @@ static size_t io_layout(char *out, uint64_t digits, int exponent)
             memcpy(out + at, text + 1, (size_t)count - 1u);
             at += (size_t)count - 1u;
         }
-        at += (size_t)sprintf(out + at, "e%c%02d", lead < 0 ? '-' : '+', lead < 0 ? -lead : lead);
-    } else if (lead < 0) {
-        out[at++] = '0';
-        out[at++] = '.';
-        for (int k = -1; k > lead; k--) {
-            out[at++] = '0';
+        const int magnitude = lead < 0 ? -lead : lead;
+        out[at++] = 'e';
+        out[at++] = lead < 0 ? '-' : '+';
+        if (magnitude >= 100) {
+            out[at++] = (char)('0' + magnitude / 100);
         }
+        out[at++] = (char)('0' + magnitude / 10 % 10);
+        out[at++] = (char)('0' + magnitude % 10);
+    } else if (lead < 0) {
+        memcpy(out, "0.0000", (size_t)(1 - lead));
+        at = (size_t)(1 - lead);
         memcpy(out + at, text, (size_t)count);
         at += (size_t)count;
+    } else if (count > lead + 1) {
+        memcpy(out, text, (size_t)lead + 1u);
+        out[lead + 1] = '.';
+        memcpy(out + lead + 2, text + lead + 1, (size_t)(count - lead - 1));
+        at = (size_t)count + 1u;
     } else {
-        for (int k = 0; k < count || k <= lead; k++) {
-            if (k == lead + 1) {
-                out[at++] = '.';
-            }
-            out[at++] = k < count ? text[k] : '0';
-        }
+        memcpy(out, text, (size_t)count);
+        memset(out + count, '0', (size_t)(lead + 1 - count));
+        at = (size_t)lead + 1u;
     }
     out[at] = '\0';
     return at;

@@ -8,6 +8,7 @@
 
 #include "pgem/io.h"
 #include "pgem/pgem.h"
+#include "pgem/threads.h"
 
 /* Exit codes (documented in the README). */
 #define PGEM_EXIT_OK 0
@@ -72,12 +73,15 @@ int pgem_cli_finish(const char *prefix, const char *path, FILE *file, int failed
 /* Writes one line per loop closure, "from to weight state"; prints errors; 0 on success. */
 int pgem_cli_write_weights(const pgem_t *instance, const char *path);
 
-/* Creates an instance sized for a file graph and loads it, with the fill budget set to
- * exactly what the symbolic analysis asks for. *analysis_seconds (may be NULL) receives the
- * time of the analysis the instance keeps (a solve that follows does not repeat it).
+/* Graphs from this many poses on get a line on stderr before their (seconds long) analysis. */
+#define PGEM_CLI_ANALYSIS_NOTICE_POSES 20000u
+
+/* Creates an instance sized for a file graph with `threads` workers and loads it, with the
+ * fill budget set to exactly what the symbolic analysis asks for. *analysis_seconds (may be
+ * NULL) receives the time of the analyses (a solve that follows does not repeat them).
  * Prints errors to stderr. Returns PGEM_OK or an error code. */
-int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance,
-                  double *analysis_seconds);
+int pgem_cli_load(const pgem_io_graph_t *file, const char *path, uint32_t threads,
+                  pgem_t **instance, double *analysis_seconds);
 
 /* Writes an instance to a g2o file; prints errors. Returns a PGEM_EXIT_* code. */
 int pgem_cli_write(const pgem_t *instance, const char *path);

@@ -172,40 +172,54 @@ static int pgem_cli_analyze(pgem_t *instance, double *seconds)
     return status;
 }
 
-/* Recreates *instance with a fill budget of exactly `fill` and re-analyses it. */
-static int pgem_cli_resize(const pgem_io_graph_t *file, pgem_config_t *config, uint32_t fill,
-                           pgem_t **instance, double *seconds)
+int pgem_cli_load(const pgem_io_graph_t *file, const char *path, uint32_t threads,
+                  pgem_t **instance, double *analysis_seconds)
 {
-    pgem_destroy(*instance);
-    *instance = NULL;
-    config->fill_budget = fill;
-    int status = pgem_cli_try_load(file, config, instance);
-    return status == PGEM_OK ? pgem_cli_analyze(*instance, seconds) : status;
-}
-
-int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance,
-                  double *analysis_seconds)
-{
-    double seconds = 0.0;
+    double seconds = 0.0, more = 0.0;
     if (analysis_seconds != NULL) {
         *analysis_seconds = 0.0;
     }
+    /* The factor's size is known only after the analysis: a probe instance with a factor of
+     * one nonzero is loaded and analysed (its analysis fails on the fill budget but reports
+     * the nonzeros needed), then copied, ordering included, into one of exactly that budget. */
     pgem_config_t config;
     pgem_io_config(file, &config);
-    int status = pgem_cli_try_load(file, &config, instance);
-    if (status != PGEM_OK || pgem_edge_count(*instance) == 0u) {
+    config.threads = threads;
+    pgem_config_t probe_config = config;
+    probe_config.fill_budget = 1u;
+    pgem_t *probe = NULL;
+    int status = pgem_cli_try_load(file, &probe_config, &probe);
+    if (status != PGEM_OK || pgem_edge_count(probe) == 0u) {
+        *instance = probe;
         return status;
     }
-    /* The factor's size is known only after the analysis: size the block to exactly it. */
-    status = pgem_cli_analyze(*instance, &seconds);
+    if (file->pose_count >= PGEM_CLI_ANALYSIS_NOTICE_POSES) {
+        fprintf(stderr, "pgem: ordering and analysing %zu poses and %zu edges...\n",
+                file->pose_count, file->edge_count);
+    }
+    status = pgem_cli_analyze(probe, &seconds);
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(*instance, &stats);
-    if (status == PGEM_ERR_FILL_BUDGET ||
-        (status == PGEM_OK && stats.factor_nonzeros < stats.factor_budget - stats.factor_budget / 4u)) {
-        status = pgem_cli_resize(file, &config, stats.factor_nonzeros, instance, &seconds);
+    pgem_get_memory_stats(probe, &stats);
+    if (status == PGEM_ERR_FILL_BUDGET) {
+        config.fill_budget = stats.factor_nonzeros;
+        status = pgem_create(instance, &config);
+        if (status != PGEM_OK) {
+            fprintf(stderr, "pgem: cannot create an instance for a factor of %u nonzeros: %s\n",
+                    stats.factor_nonzeros, pgem_error_description(status));
+            *instance = NULL;
+            pgem_destroy(probe);
+            return status;
+        }
+        status = pgem_copy(*instance, probe);
+        if (status == PGEM_OK) {
+            status = pgem_cli_analyze(*instance, &more);
+        }
+        pgem_destroy(probe);
+    } else {
+        *instance = probe; /* a failure other than the budget is reported with the probe */
     }
     if (analysis_seconds != NULL) {
-        *analysis_seconds = seconds;
+        *analysis_seconds = seconds + more;
     }
     if (status != PGEM_OK && *instance != NULL) {
         fprintf(stderr, "pgem: %s: %s\n", path, pgem_last_error(*instance));

@@ -15,15 +15,21 @@ typedef struct pgem_optimize_args {
     int json;                    /* summary as one JSON object on stdout */
     pgem_robust_options_t robust; /* --robust and its parameters */
     const char *weights;         /* per-loop weights file (NULL: none) */
+    uint32_t threads;            /* factorisation workers (0: the machine's, up to 8) */
     double analysis_seconds;     /* the symbolic analysis run while loading (not in the solve) */
 } pgem_optimize_args_t;
 
 /* What the progress callback needs. */
-typedef struct pgem_progress {
+typedef struct pgem_optimize_progress {
     FILE *out;       /* where progress lines go */
     double start;    /* clock at the start of the solve */
     int quiet;       /* print nothing */
-} pgem_progress_t;
+    double shown;    /* clock of the last factorisation progress line (0: none yet) */
+} pgem_optimize_progress_t;
+
+/* A factorisation progress line once a solve has run this long, then at most this often. */
+#define PGEM_PROGRESS_AFTER_SECONDS 3.0
+#define PGEM_PROGRESS_EVERY_SECONDS 2.0
 
 static void pgem_optimize_help(FILE *out)
 {
@@ -33,7 +39,7 @@ static void pgem_optimize_help(FILE *out)
             "                        [--prune-threshold T] [--m-step-iterations N] [--restart]\n"
             "                        [--max-em-iterations N] [--gate X] [--literal]\n"
             "                        [--dormant-threshold D|off]\n"
-            "                        [--weights FILE] [--quiet] [--json]\n"
+            "                        [--weights FILE] [--threads N] [--quiet] [--json]\n"
             "\n"
             "Reads a g2o (VERTEX_SE2/EDGE_SE2, VERTEX_SE3:QUAT/EDGE_SE3:QUAT, FIX) or TORO 2D\n"
             "(VERTEX2/EDGE2) graph, optimizes it from its own initial estimate and prints one\n"
@@ -59,7 +65,9 @@ static void pgem_optimize_help(FILE *out)
             "  --literal           EM exactly as published: keep the EM weights at the end\n"
             "                      (default: re-solve with accepted loops at weight 1)\n"
             "  --weights FILE      write one line per loop closure: from to weight state\n"
-            "  --quiet             no per-iteration lines\n"
+            "  --threads N         factorisation threads (default: the machine's, at most 8;\n"
+            "                      the result is the same for any N)\n"
+            "  --quiet             no per-iteration or progress lines\n"
             "  --json              print the summary as one JSON object on stdout (progress goes\n"
             "                      to stderr)\n");
 }
@@ -143,6 +151,16 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
             }
             args->weights = value;
             k++;
+        } else if (strcmp(arg, "--threads") == 0) {
+            if (!pgem_cli_parse_at_least("pgem optimize", arg, value, 1u, "thread", &args->threads)) {
+                return PGEM_EXIT_USAGE;
+            }
+            if (args->threads > PGEM_MAX_THREADS) {
+                fprintf(stderr, "pgem optimize: --threads takes at most %u, got %u\n",
+                        PGEM_MAX_THREADS, args->threads);
+                return PGEM_EXIT_USAGE;
+            }
+            k++;
         } else if (strcmp(arg, "--quiet") == 0) {
             args->quiet = 1;
         } else if (strcmp(arg, "--json") == 0) {
@@ -166,7 +184,8 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
 
 static int pgem_progress_line(const pgem_iteration_t *iteration, void *user)
 {
-    const pgem_progress_t *progress = user;
+    pgem_optimize_progress_t *progress = user;
+    progress->shown = 0.0;
     if (!progress->quiet) {
         fprintf(progress->out, "%5u %18.6f %12.4e %10.4f%s\n", iteration->iteration,
                 iteration->chi2, iteration->step_norm, pgem_cli_now() - progress->start,
@@ -174,6 +193,22 @@ static int pgem_progress_line(const pgem_iteration_t *iteration, void *user)
         fflush(progress->out);
     }
     return 0;
+}
+
+/* During a long factorisation: a line on stderr once the solve has run for a few seconds,
+ * then every few seconds, so a large graph never leaves a silent terminal. */
+static void pgem_factor_progress(const pgem_progress_t *factor, void *user)
+{
+    pgem_optimize_progress_t *progress = user;
+    const double now = pgem_cli_now();
+    if (progress->quiet || now - progress->start < PGEM_PROGRESS_AFTER_SECONDS ||
+        (progress->shown > 0.0 && now - progress->shown < PGEM_PROGRESS_EVERY_SECONDS)) {
+        return;
+    }
+    progress->shown = now;
+    fprintf(stderr, "pgem: iteration %u: factorisation %3.0f%% of %.3g multiply-adds, %.1f s\n",
+            factor->iteration, 100.0 * factor->done, factor->multiply_adds, now - progress->start);
+    fflush(stderr);
 }
 
 static void pgem_describe_input(FILE *out, const char *path, const pgem_io_graph_t *file)
@@ -271,14 +306,14 @@ static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, cons
                "\"solve_seconds\":%.6f,\"analysis_seconds\":%.6f,\"usable\":%s,\"estimate_changed\":%s,"
                "\"poses\":%u,\"edges\":%u,\"unknowns\":%u,\"factor_nonzeros\":%u,"
                "\"block_bytes\":%zu,\"block_bytes_per_pose\":%zu,\"block_bytes_per_edge\":%zu,"
-               "\"block_bytes_factor\":%zu}\n",
+               "\"block_bytes_factor\":%zu,\"threads\":%u}\n",
                pgem_method_name(args->method), pgem_error_name(status),
                pgem_termination_name(summary->termination), summary->iterations,
                summary->initial_chi2, summary->final_chi2, seconds, args->analysis_seconds,
                summary->usable ? "true" : "false", summary->estimate_changed ? "true" : "false",
                pgem_pose_count(graph), pgem_edge_count(graph), summary->variables,
                stats.factor_nonzeros, stats.block_bytes, parts.per_pose, parts.per_edge,
-               parts.factor);
+               parts.factor, args->threads);
         return;
     }
     fprintf(out, "%s: %s after %u iterations; chi2 %.6f -> %.6f in %.4f s\n",
@@ -294,7 +329,7 @@ static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, cons
 
 static int pgem_round_line(const pgem_robust_progress_t *progress, void *user)
 {
-    const pgem_progress_t *state = user;
+    const pgem_optimize_progress_t *state = user;
     if (!state->quiet) {
         fprintf(state->out, "round %3u: %6u active loops, %6u pruned, chi2 %14.6f, largest weight change %.3g, %.3f s\n",
                 progress->round, progress->active_loops, progress->pruned_loops, progress->chi2,
@@ -327,13 +362,13 @@ static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *arg
                "\"solve_seconds\":%.6f,\"analysis_seconds\":%.6f,\"usable\":%s,\"poses\":%u,\"edges\":%u,"
                "\"analyses\":%u,\"factor_nonzeros\":%u,\"block_bytes\":%zu,"
                "\"block_bytes_per_pose\":%zu,\"block_bytes_per_edge\":%zu,"
-               "\"block_bytes_factor\":%zu}\n",
+               "\"block_bytes_factor\":%zu,\"threads\":%u}\n",
                pgem_kernel_name(args->robust.kernel), pgem_error_name(status), summary->rounds,
                summary->em_iterations, summary->gn_iterations, summary->loops, summary->pruned,
                summary->readmitted, summary->gated, summary->initial_chi2, summary->final_chi2,
                seconds, args->analysis_seconds, summary->usable ? "true" : "false", pgem_pose_count(graph),
                pgem_edge_count(graph), stats.analyses, stats.factor_nonzeros, stats.block_bytes,
-               parts.per_pose, parts.per_edge, parts.factor);
+               parts.per_pose, parts.per_edge, parts.factor, args->threads);
     } else {
         fprintf(out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures pruned (consistency test: %u re-admitted, %u pruned); chi2 %.6f -> %.6f in %.4f s\n",
                 pgem_kernel_name(args->robust.kernel), summary->rounds, summary->em_iterations,
@@ -351,7 +386,7 @@ static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *arg
 static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph)
 {
     const int robust = args->robust.kernel != PGEM_KERNEL_NONE;
-    pgem_progress_t progress = {pgem_progress_stream(args), 0.0, args->quiet};
+    pgem_optimize_progress_t progress = {pgem_progress_stream(args), 0.0, args->quiet, 0.0};
     pgem_robust_options_t robust_options = args->robust;
     pgem_solve_options_t solve = {0};
     pgem_robust_summary_t robust_summary;
@@ -360,6 +395,8 @@ static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph)
     robust_options.on_round = pgem_round_line;
     robust_options.user = &progress;
     solve.max_iterations = args->max_iterations; /* robust: the final solve's limit */
+    solve.on_progress = pgem_factor_progress;
+    solve.user = &progress;
     if (!robust) {
         solve.on_iteration = pgem_progress_line;
         solve.user = &progress;
@@ -420,13 +457,32 @@ int pgem_cmd_optimize(int argc, char **argv)
         return PGEM_EXIT_FAILURE;
     }
     pgem_t *graph = NULL;
-    status = pgem_cli_load(&file, args.input, &graph, &args.analysis_seconds);
+    if (args.threads == 0u) {
+        args.threads = pgem_thread_count_online();
+        args.threads = args.threads < 8u ? args.threads : 8u;
+    }
+    status = pgem_cli_load(&file, args.input, args.threads, &graph, &args.analysis_seconds);
     pgem_io_graph_free(&file);
     if (status != PGEM_OK) {
         pgem_destroy(graph);
         return PGEM_EXIT_FAILURE;
     }
+    /* the threads are created once, here, and serve every factorisation of the solve */
+    pgem_thread_pool_t *pool = NULL;
+    if (args.threads > 1u) {
+        const pgem_executor_t executor = pgem_thread_pool_create(args.threads, &pool) == PGEM_OK
+                                             ? pgem_thread_pool_executor(pool)
+                                             : pgem_thread_pool_executor(NULL);
+        if (pool == NULL) {
+            fprintf(stderr, "pgem: could not start %u threads; solving on one\n", args.threads);
+            args.threads = 1u;
+        } else {
+            (void)pgem_set_executor(graph, &executor);
+        }
+    }
     status = pgem_optimize_run(&args, graph);
+    pgem_set_executor(graph, NULL);
+    pgem_thread_pool_destroy(pool);
     pgem_destroy(graph);
     return status;
 }

@@ -114,8 +114,8 @@ static void pgem_carve_factor(pgem_t *graph, pgem_arena_t *arena)
     factor->position = pgem_arena_take(arena, poses, sizeof(int));
     factor->worker_count = (int)graph->config.threads;
     factor->workers = pgem_arena_take(arena, graph->config.threads, sizeof(pgem_factor_worker_t));
-    const size_t work = pgem_factor_work_doubles(graph->config.max_poses, graph->tangent);
     for (uint32_t w = 0; w < graph->config.threads; w++) {
+        const size_t work = pgem_factor_work_doubles(graph->config.max_poses, graph->tangent, (int)w);
         int *map = pgem_arena_take(arena, poses, sizeof(int));
         double *doubles = pgem_arena_take(arena, work, sizeof(double));
         if (factor->workers != NULL) {

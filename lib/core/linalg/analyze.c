@@ -6,6 +6,7 @@
 void pgem_linear_invalidate(pgem_t *graph)
 {
     graph->linear.valid = 0;
+    graph->linear.ordered = 0;
 }
 
 /* Position of block row `row` inside block column `column` (rows are sorted). */
@@ -206,12 +207,19 @@ static int pgem_linear_analyze_once(pgem_t *graph)
     pgem_linear_t *linear = &graph->linear;
     linear->valid = 0;
     linear->factor.nonzeros = 0;
-    int blocks = pgem_pattern_number_free(graph);
-    if (blocks == 0) {
-        return pgem_fail(graph, PGEM_ERR_EMPTY, "every pose is fixed: nothing to optimize");
-    }
-    if (pgem_pattern_order(graph, blocks) != PGEM_OK) {
-        return pgem_fail_workspace(graph, "AMD ordering");
+    int blocks = 0;
+    if (linear->ordered) { /* pgem_copy handed over this graph's ordering */
+        for (uint32_t p = 0; p < graph->pose_count; p++) {
+            blocks += linear->pose_block[p] >= 0;
+        }
+    } else {
+        blocks = pgem_pattern_number_free(graph);
+        if (blocks == 0) {
+            return pgem_fail(graph, PGEM_ERR_EMPTY, "every pose is fixed: nothing to optimize");
+        }
+        if (pgem_pattern_order(graph, blocks) != PGEM_OK) {
+            return pgem_fail_workspace(graph, "AMD ordering");
+        }
     }
     linear->block_count = blocks;
     linear->scalar_count = blocks * linear->block;
@@ -219,6 +227,7 @@ static int pgem_linear_analyze_once(pgem_t *graph)
     if (nonzeros < 0) {
         return pgem_fail_workspace(graph, "elimination tree and column counts");
     }
+    linear->ordered = 1; /* pose_block holds the (postordered) ordering, whatever follows */
     if (nonzeros > (int64_t)graph->config.fill_budget) {
         return pgem_fill_exceeded(graph, nonzeros);
     }
@@ -236,7 +245,7 @@ static int pgem_linear_analyze_once(pgem_t *graph)
  * built over every edge instead (the fill the caller sized for). */
 int pgem_linear_analyze(pgem_t *graph)
 {
-    graph->linear.all_edges = 0;
+    graph->linear.all_edges = 0; /* a handed-over ordering (pgem_copy) is never the fallback's */
     int status = pgem_linear_analyze_once(graph);
     if (status == PGEM_ERR_FILL_BUDGET) {
         uint32_t k = 0;
@@ -245,6 +254,7 @@ int pgem_linear_analyze(pgem_t *graph)
         }
         if (k < graph->edge_count) { /* some edge was left out: try the full structure */
             graph->linear.all_edges = 1;
+            graph->linear.ordered = 0;
             status = pgem_linear_analyze_once(graph);
         }
     }

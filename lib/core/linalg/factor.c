@@ -3,15 +3,17 @@
  * positive. */
 #include "internal.h"
 
-size_t pgem_factor_work_doubles(uint32_t max_poses, int block)
+size_t pgem_factor_work_doubles(uint32_t max_poses, int block, int worker)
 {
-    /* half a pose block per pose, but at least one k block of the largest micro-tiles'
+    /* half a pose block per pose for worker 0, an eighth for the others (they run whole
+     * subtrees of at most 1/64 of the flops each, whose supernodes are smaller; worker 0 also
+     * runs the supernodes above them), but at least one k block of the largest micro-tiles'
      * operands (no product has more columns than the instance has unknowns), at most
      * PGEM_DENSE_WORK_MAX */
     const size_t unknowns = (size_t)max_poses * (size_t)block;
     const size_t k = unknowns < PGEM_DENSE_KC ? unknowns : PGEM_DENSE_KC;
     const size_t least = k * PGEM_DENSE_TILE_SPAN;
-    size_t doubles = unknowns * (size_t)block / 2u;
+    size_t doubles = unknowns * (size_t)block / (worker == 0 ? 2u : 8u);
     doubles = doubles < least ? least : doubles;
     return doubles > PGEM_DENSE_WORK_MAX ? PGEM_DENSE_WORK_MAX : doubles;
 }
@@ -64,7 +66,9 @@ static int pgem_factor_parallel(pgem_t *graph, int workers, int *failed)
     pgem_factor_job_t job;
     job.linear = &graph->linear;
     pgem_schedule_assign(factor, workers);
+    factor->progress_share = (double)workers; /* worker 0 reports for all */
     graph->executor.run(graph->executor.executor, pgem_factor_tasks, &job);
+    factor->progress_share = 1.0;
     int first = -1;
     for (int w = 0; w < workers; w++) {
         if (job.failed_task[w] >= 0 && (first < 0 || job.failed_task[w] < job.failed_task[first])) {

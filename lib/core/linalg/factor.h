@@ -17,6 +17,9 @@ struct pgem_linear;
  * (pgem_factor_work_doubles; PGEM_WORK_BYTES in pgem/core.h states the same). */
 #define PGEM_DENSE_WORK_MAX 49152u
 
+/* Factorisations of at least this many multiply-adds report their progress. */
+#define PGEM_PROGRESS_FLOPS 1e8
+
 /* Supernodes whose subtree holds less than a 1/PGEM_SUBTREE_SHARE of the factorisation's
  * flops are factorised whole by one worker (see linalg/schedule.c). */
 #define PGEM_SUBTREE_SHARE 64
@@ -79,6 +82,9 @@ typedef struct pgem_factor {
     int *next;              /* [max_poses] next supernode in the same list */
     int *position;          /* [max_poses] next row (index into rows) a supernode updates */
     pgem_factor_worker_t *workers; /* [worker_count] */
+    double progress_done;   /* multiply-adds done by worker 0, times the workers, so far */
+    double progress_next;   /* when to report next */
+    double progress_share;  /* workers sharing the tasks while worker 0 counts its own */
     int worker_count;       /* workers carved (config.threads) */
 } pgem_factor_t;
 
@@ -113,8 +119,9 @@ static inline size_t pgem_factor_column(int height, int j)
     return (size_t)j * (size_t)height - (size_t)j * (size_t)(j - 1) / 2u;
 }
 
-/* Doubles of dense workspace per worker for an instance of max_poses poses of block b. */
-size_t pgem_factor_work_doubles(uint32_t max_poses, int block);
+/* Doubles of dense workspace of a worker (0, 1, ...) of an instance of max_poses poses of
+ * block b. */
+size_t pgem_factor_work_doubles(uint32_t max_poses, int block, int worker);
 
 /* linalg/supernodes.c: supernodes, their rows and the layout from the block elimination tree
  * (linear->block_parent, postordered) and block column counts; returns the nonzeros the

@@ -103,6 +103,28 @@ static void pgem_numeric_link(pgem_factor_t *factor, int d, int limit)
     }
 }
 
+/* Worker 0 finished supernode s: its share of the flops counted, the solve's progress
+ * callback called at each further 1/64 of a long factorisation. */
+static void pgem_numeric_progress(pgem_linear_t *linear, int s)
+{
+    pgem_factor_t *factor = &linear->factor;
+    const pgem_solve_options_t *options = linear->progress;
+    if (options == NULL || options->on_progress == NULL || factor->flops < PGEM_PROGRESS_FLOPS) {
+        return;
+    }
+    factor->progress_done += pgem_factor_supernode_flops(factor, s) * factor->progress_share;
+    if (factor->progress_done >= factor->progress_next) {
+        pgem_progress_t progress;
+        progress.iteration = linear->progress_iteration;
+        progress.done = factor->progress_done < factor->flops ? factor->progress_done / factor->flops : 1.0;
+        progress.multiply_adds = factor->flops;
+        options->on_progress(&progress, options->user);
+        while (factor->progress_next <= factor->progress_done) {
+            factor->progress_next += factor->flops / 64.0;
+        }
+    }
+}
+
 /* Supernode s: gather, updates, dense factorisation, then its own link. Returns PGEM_OK, or
  * PGEM_ERR_NOT_POSITIVE_DEFINITE with *failed (the scalar column) set. */
 static int pgem_numeric_supernode(pgem_linear_t *linear, int s, int limit,
@@ -132,6 +154,9 @@ static int pgem_numeric_supernode(pgem_linear_t *linear, int s, int limit,
     }
     factor->position[s] = factor->row_start[s];
     pgem_numeric_link(factor, s, limit);
+    if (worker == &factor->workers[0]) {
+        pgem_numeric_progress(linear, s);
+    }
     return PGEM_OK;
 }
 
@@ -156,6 +181,9 @@ void pgem_numeric_begin(pgem_linear_t *linear)
     for (int s = 0; s < factor->super_count; s++) {
         factor->head[s] = -1;
     }
+    factor->progress_done = 0.0;
+    factor->progress_next = factor->flops / 64.0;
+    factor->progress_share = 1.0;
 }
 
 /* After the tasks: every supernode of a task that still has rows waits for a supernode above

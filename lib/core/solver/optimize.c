@@ -69,9 +69,11 @@ static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_sum
     }
     summary->variables = (uint32_t)graph->linear.scalar_count;
     memcpy(graph->pose_saved, graph->pose, pose_bytes);
+    graph->linear.progress = options; /* the factorisations report to options->on_progress */
     status = options->method == PGEM_LEVENBERG_MARQUARDT
                  ? pgem_levenberg_marquardt(graph, options, summary)
                  : pgem_gauss_newton(graph, options, summary);
+    graph->linear.progress = NULL;
     if (status != PGEM_OK) {
         memcpy(graph->pose, graph->pose_saved, pose_bytes);
         if (summary->termination == PGEM_TERM_NONE) {
