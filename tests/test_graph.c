@@ -265,7 +265,11 @@ static void test_memory_bound(void **state)
                     size_t bound = PGEM_MEMORY_BOUND(dimension, n, m, fills[f]);
                     assert_true(exact > 0);
                     assert_true(bound >= exact);
-                    assert_true(bound - exact <= 64u * n + 24u * m + 2400u);
+                    /* the bound holds the x86 builds' dense workspace floor (32 doubles per
+                     * column of a 128-column product); other builds need a quarter of it */
+                    const size_t unknowns = (size_t)n * (dimension == 3 ? 6u : 3u);
+                    const size_t floor_slack = 8u * 24u * (unknowns < 128u ? unknowns : 128u);
+                    assert_true(bound - exact <= 64u * n + 24u * m + 2400u + floor_slack);
                 }
             }
         }

@@ -31,8 +31,9 @@ static inline ptrdiff_t PGEM_DENSE_NAME(at)(int h, int r, int c)
 }
 
 /* Copies rows first .. first+count-1 of A's columns pc .. pc+kb-1 into slivers of `width`
- * rows: out[s * width * kb + p * width + t] = A(first + s * width + t, pc + p), zero past
- * count. */
+ * rows (PGEM_MR or PGEM_NR): out[s * width * kb + p * width + t] = A(first + s * width + t,
+ * pc + p), zero past count. Whole slivers go by vector registers (a loop the compiler would
+ * otherwise turn into a memmove call per sliver). */
 static void PGEM_DENSE_NAME(pack)(const pgem_dense_update_t *u, int first, int count, int pc,
                                   int kb, int width, double *restrict out)
 {
@@ -41,11 +42,22 @@ static void PGEM_DENSE_NAME(pack)(const pgem_dense_update_t *u, int first, int c
         const double *restrict in = u->source + column * u->step - column * (column - 1) / 2 + first;
         double *restrict sliver = out + (ptrdiff_t)p * width;
         int t = 0;
-        for (; t + width <= count; t += width) {
-            for (int r = 0; r < width; r++) {
-                sliver[r] = in[t + r];
+        if (width == PGEM_MR) {
+            for (; t + PGEM_MR <= count; t += PGEM_MR) {
+                for (int v = 0; v < PGEM_MV; v++) {
+                    pgem_vec x;
+                    memcpy(&x, in + t + v * PGEM_VW, sizeof x);
+                    memcpy(sliver + v * PGEM_VW, &x, sizeof x);
+                }
+                sliver += (ptrdiff_t)PGEM_MR * kb;
             }
-            sliver += (ptrdiff_t)width * kb;
+        } else {
+            for (; t + width <= count; t += width) {
+                for (int r = 0; r < PGEM_NR; r++) {
+                    sliver[r] = in[t + r];
+                }
+                sliver += (ptrdiff_t)width * kb;
+            }
         }
         if (t < count) {
             int r = 0;
