@@ -62,20 +62,14 @@ static uint64_t io_pow5(int k)
     return table[k];
 }
 
-/* Bits of x (0 for 0). */
+/* Bits of x (0 for 0): at most 128. */
 static int io_bits128(io_u128 x)
 {
-    int bits = 0;
-    while (x >> 64 != 0) {
-        x >>= 64;
-        bits += 64;
+    const uint64_t high = (uint64_t)(x >> 64), low = (uint64_t)x;
+    if (high != 0) {
+        return 128 - __builtin_clzll(high);
     }
-    uint64_t low = (uint64_t)x;
-    while (low != 0) {
-        low >>= 1;
-        bits++;
-    }
-    return bits;
+    return low != 0 ? 64 - __builtin_clzll(low) : 0;
 }
 
 /* The double nearest (ties to even) to x * 2^exponent, x > 0, sticky: whether nonzero bits
@@ -124,6 +118,8 @@ static double io_decimal_value(uint64_t w, int q)
 }
 
 #endif
+
+#if IO_EXACT
 
 /* Parses [+-]digits[.digits][(e|E)[+-]digits] into w, q; 0 if the text is anything else or
  * needs more than 19 significant digits. */
@@ -186,6 +182,8 @@ static int io_plain_decimal(const char *text, int *negative, uint64_t *w, int *q
     return 1;
 }
 
+#endif
+
 double io_strtod(const char *text, char **end)
 {
 #if IO_EXACT
@@ -204,7 +202,7 @@ double io_strtod(const char *text, char **end)
             return strtod(text, end);
         }
         if (end != NULL) {
-            *end = (char *)(uintptr_t)(text + strlen(text)); /* strtod's type, const dropped */
+            *end = strchr(text, '\0'); /* strtod's type: the end of the text */
         }
         return negative ? -value : value;
     }
@@ -238,6 +236,17 @@ static uint64_t io_scale(uint64_t x, int e2, int q, int *exact)
     n = (io_u128)x << (e2 - q);
     *exact = n % io_pow5(q) == 0;
     return (uint64_t)(n / io_pow5(q));
+}
+
+/* One digit off the three scaled bounds, tracking the last digit removed from vr and whether
+ * all removed before it were zeros. */
+static void io_drop_digit(uint64_t *vr, uint64_t *vp, uint64_t *vm, int *last, int *vr_zeros)
+{
+    *vr_zeros &= *last == 0;
+    *last = (int)(*vr % 10u);
+    *vr /= 10u;
+    *vp /= 10u;
+    *vm /= 10u;
 }
 
 /* The shortest digits of a positive normal double: *digits x 10^*exponent. 0 if outside the
@@ -286,20 +295,12 @@ static int io_shortest(uint64_t mantissa_bits, int exponent_bits, uint64_t *digi
     }
     while (vp / 10u > vm / 10u) {
         vm_trailing_zeros &= vm % 10u == 0;
-        vr_trailing_zeros &= last == 0;
-        last = (int)(vr % 10u);
-        vr /= 10u;
-        vp /= 10u;
-        vm /= 10u;
+        io_drop_digit(&vr, &vp, &vm, &last, &vr_trailing_zeros);
         removed++;
     }
     if (vm_trailing_zeros) {
         while (vm != 0 && vm % 10u == 0) {
-            vr_trailing_zeros &= last == 0;
-            last = (int)(vr % 10u);
-            vr /= 10u;
-            vp /= 10u;
-            vm /= 10u;
+            io_drop_digit(&vr, &vp, &vm, &last, &vr_trailing_zeros);
             removed++;
         }
     }
@@ -332,8 +333,8 @@ static void io_digits(uint64_t v, int count, char *text)
         const unsigned pair = (unsigned)(v % 100u);
         v /= 100u;
         at -= 2;
-        text[at] = pairs[2u * pair];
-        text[at + 1] = pairs[2u * pair + 1u];
+        text[at] = pairs[(size_t)2u * pair];
+        text[at + 1] = pairs[(size_t)2u * pair + 1u];
     }
     if (at == 1) {
         text[0] = (char)('0' + (int)v);
@@ -344,7 +345,7 @@ static void io_digits(uint64_t v, int count, char *text)
  * removed; returns the length. */
 static size_t io_layout(char *out, uint64_t digits, int exponent)
 {
-    char text[24];
+    char text[24] = {0}; /* io_digits fills the first count */
     const int count = io_digit_count(digits);
     io_digits(digits, count, text);
     const int lead = exponent + count - 1; /* decimal exponent of the first digit */

@@ -22,6 +22,7 @@
 #include "internal.h"
 #include "pgem/io.h"
 #include "pgem/pgem.h"
+#include "pgem/threads.h"
 
 #define BENCH_REPEAT_MAX 100
 
@@ -288,7 +289,7 @@ static int bench_matrix(pgem_t *graph, const char *path)
 /* ---------------------------------------------------------------------------------------- */
 /* pgem mode */
 
-static int bench_load(const char *path, int analyse, pgem_t **graph)
+static int bench_load(const char *path, int analyse, uint32_t threads, pgem_t **graph)
 {
     pgem_io_graph_t file = {0};
     char message[512];
@@ -300,6 +301,7 @@ static int bench_load(const char *path, int analyse, pgem_t **graph)
     }
     pgem_config_t config;
     pgem_io_config(&file, &config);
+    config.threads = threads;
     for (int attempt = 0; attempt < 2; attempt++) {
         status = pgem_create(graph, &config);
         if (status == PGEM_OK) {
@@ -332,12 +334,22 @@ static int bench_load(const char *path, int analyse, pgem_t **graph)
 static int bench_pgem(const bench_args_t *args)
 {
     pgem_t *graph = NULL;
-    if (bench_load(args->input, !args->matrix_only, &graph) != PGEM_OK) {
+    if (bench_load(args->input, !args->matrix_only, (uint32_t)args->threads, &graph) != PGEM_OK) {
         pgem_destroy(graph);
         return 1;
     }
     if (args->matrix_only) {
         return bench_matrix(graph, args->matrix);
+    }
+    pgem_thread_pool_t *pool = NULL;
+    if (args->threads > 1) {
+        if (pgem_thread_pool_create((uint32_t)args->threads, &pool) != PGEM_OK) {
+            fprintf(stderr, "bench_factor: cannot start %d threads\n", args->threads);
+            pgem_destroy(graph);
+            return 1;
+        }
+        const pgem_executor_t executor = pgem_thread_pool_executor(pool);
+        (void)pgem_set_executor(graph, &executor);
     }
     double analysis[BENCH_REPEAT_MAX], factor_times[BENCH_REPEAT_MAX], iteration[BENCH_REPEAT_MAX];
     for (int r = 0; r < args->repeat; r++) {
@@ -351,6 +363,8 @@ static int bench_pgem(const bench_args_t *args)
         const double start = bench_now();
         if (pgem_linear_factor(graph) != PGEM_OK) {
             fprintf(stderr, "bench_factor: %s\n", pgem_last_error(graph));
+            pgem_set_executor(graph, NULL);
+            pgem_thread_pool_destroy(pool);
             pgem_destroy(graph);
             return 1;
         }
@@ -396,6 +410,8 @@ static int bench_pgem(const bench_args_t *args)
         bench_print_times("iteration", iteration, args->repeat);
     }
     printf(",\"peak_rss_bytes\":%zu}\n", bench_status_bytes("VmHWM"));
+    (void)pgem_set_executor(graph, NULL);
+    pgem_thread_pool_destroy(pool);
     return bench_matrix(graph, args->matrix);
 }
 

@@ -53,6 +53,7 @@ static inline void pgem_block_update_b(const pgem_factor_t *factor, int b, int d
                 }
                 double *out = columns[c] + row0;
                 for (int r = (t == u ? c : 0); r < b; r++) {
+                    /* cppcheck-suppress uninitvar ; sums[0 .. b) is set above */
                     out[r] -= sums[r];
                 }
             }

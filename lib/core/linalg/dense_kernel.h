@@ -138,6 +138,8 @@ static void PGEM_DENSE_NAME(store)(double *target, const ptrdiff_t *column, cons
         return;
     }
     double spill[PGEM_NR][PGEM_MR];
+    /* cppcheck-suppress bufferAccessOutOfBounds ; acc is PGEM_NR x PGEM_MV vectors of
+     * PGEM_VW doubles: the same bytes (cppcheck does not size vector types) */
     memcpy(spill, acc, sizeof spill);
     for (int j = 0; j < nv; j++) {
         double *out = target + column[j];

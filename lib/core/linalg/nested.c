@@ -11,6 +11,8 @@
 
 #include "internal.h"
 
+#ifndef PGEM_NO_NESTED
+
 #define PGEM_ND_LEAF 160        /* parts this small go to AMD */
 #define PGEM_ND_COARSE 100      /* coarsen until this many vertices */
 #define PGEM_ND_RUNS_LARGE 4    /* separators tried for parts of at least 2000 vertices */
@@ -24,12 +26,12 @@
 
 /* A graph in compressed rows, with vertex and edge weights. */
 typedef struct pgem_nd_graph {
-    int n;        /* vertices */
     int *xadj;    /* [n + 1] */
     int *adj;     /* [xadj[n]] neighbours */
-    int *adjw;    /* [xadj[n]] edge weights */
-    int *vwgt;    /* [n] vertex weights */
+    int *adjw;    /* [xadj[n]] edge weights (NULL: all 1) */
+    int *vwgt;    /* [n] vertex weights (NULL: all 1) */
     int *cmap;    /* [n] vertex of the next coarser graph (NULL at the coarsest) */
+    int n;        /* vertices */
     int total;    /* sum of vertex weights */
 } pgem_nd_graph_t;
 
@@ -1079,3 +1081,5 @@ int pgem_nested_order(pgem_linear_t *linear, int n, const int *colptr, const int
     }
     return status;
 }
+
+#endif /* PGEM_NO_NESTED */

@@ -1,19 +1,23 @@
 /* The fill-reducing ordering of the free poses, chosen per graph: CSparse's AMD on the block
  * graph, and for graphs of at least PGEM_ND_MIN_BLOCKS free poses also nested dissection
  * (linalg/nested.c); the one whose factor needs fewer flops (from the elimination tree and
- * column counts of each) is kept, as CHOLMOD chooses among its orderings. CSparse allocates
+ * column counts of each) is kept, as CHOLMOD chooses among its orderings. Bare-metal builds
+ * (PGEM_NO_NESTED) order by AMD alone: a microcontroller's RAM holds far fewer poses than
+ * nested dissection needs to pay, and it saves 6.6 KiB of flash. CSparse allocates
  * here: from the heap with the system CSparse, from the block's pool with the source-built
  * one; nested dissection works in the part of the block H's values use later. */
 #include "internal.h"
 
 /* Nested dissection is tried only where it can pay for itself: graphs of at least this many
- * free poses whose AMD factor needs at least PGEM_ND_MIN_FLOPS_PER_BLOCK flops per pose. Below,
- * fronts are small, AMD's flops are within some 10 % of nested dissection's and the
- * dissection (about 15 us per pose) costs more than it saves over a solve's ten or so
- * factorisations (measured, DESIGN.md: City10000, 8.5e3 flops per pose, 0.27 s of dissection
- * to save 1 ms per factorisation). */
+ * free poses whose AMD factor needs at least PGEM_ND_MIN_FLOPS_PER_BLOCK flops per pose and
+ * PGEM_ND_MIN_FLOPS in all. Below, fronts are small, AMD's flops are within some 10 % of
+ * nested dissection's and the dissection (15-25 us per pose) costs more than it saves over a
+ * solve's ten or so factorisations (measured, DESIGN.md: City10000, 8.5e3 flops per pose, 0.27 s
+ * of dissection to save 1 ms per factorisation; Sphere2500, 1.6e5 per pose and 4e8 in all,
+ * where AMD also orders better). */
 #define PGEM_ND_MIN_BLOCKS 2000
-#define PGEM_ND_MIN_FLOPS_PER_BLOCK 1e5
+#define PGEM_ND_MIN_FLOPS_PER_BLOCK 2e5
+#define PGEM_ND_MIN_FLOPS 1e9
 
 /* Sets pose_block from the free numbering and position[free index]. */
 static void pgem_order_apply(pgem_t *graph, const int *position)
@@ -87,8 +91,16 @@ static int pgem_order_nested(pgem_t *graph, int blocks, int *position, int *orde
     const size_t b = (size_t)linear->block;
     const size_t doubles = (size_t)graph->config.max_edges * b * b +
                            (size_t)graph->config.max_poses * b * (b + 1u) / 2u;
+#ifdef PGEM_NO_NESTED
+    (void)colptr;
+    (void)rows;
+    (void)doubles;
+    (void)order;
+    const int status = PGEM_ERR_OUT_OF_MEMORY; /* compiled out: AMD only */
+#else
     const int status = pgem_nested_order(linear, blocks, colptr, rows, order,
                                          (int *)(void *)linear->lower_values, 2u * doubles);
+#endif
     for (int k = 0; status == PGEM_OK && k < blocks; k++) {
         position[order[k]] = k;
     }
@@ -119,7 +131,7 @@ int pgem_pattern_order(pgem_t *graph, int block_count)
         return PGEM_ERR_OUT_OF_MEMORY;
     }
     linear->factor.amd_flops = amd_flops;
-    if (amd_flops < PGEM_ND_MIN_FLOPS_PER_BLOCK * block_count) {
+    if (amd_flops < PGEM_ND_MIN_FLOPS_PER_BLOCK * block_count || amd_flops < PGEM_ND_MIN_FLOPS) {
         pgem_order_apply(graph, amd);
         return PGEM_OK;
     }

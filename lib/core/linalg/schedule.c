@@ -53,10 +53,7 @@ void pgem_schedule_assign(pgem_factor_t *factor, int workers)
     if (factor->task_workers == workers) {
         return;
     }
-    double load[PGEM_MAX_THREADS];
-    for (int w = 0; w < workers; w++) {
-        load[w] = 0.0;
-    }
+    double load[PGEM_MAX_THREADS] = {0.0};
     for (int t = 0; t < factor->task_count; t++) {
         double flops = 0.0;
         for (int k = factor->task_first[t]; k < factor->task_first[t + 1]; k++) {

@@ -3,17 +3,37 @@
  * columns reading its own rows and then its rows below. */
 #include "internal.h"
 
+/* One supernode as the solves read it. */
+typedef struct pgem_solve_node {
+    int first;             /* its first scalar row (and column) */
+    int width;             /* its scalar columns */
+    int height;            /* rows of its first column */
+    const int *rows;       /* its block rows below */
+    int count;             /* how many */
+    const double *values;  /* its trapezoid */
+} pgem_solve_node_t;
+
+static inline pgem_solve_node_t pgem_solve_node(const pgem_factor_t *factor, int b, int s)
+{
+    pgem_solve_node_t node;
+    node.first = factor->super_first[s] * b;
+    node.width = factor->super_first[s + 1] * b - node.first;
+    node.height = pgem_factor_height(factor, s);
+    node.rows = factor->rows + factor->row_start[s];
+    node.count = factor->row_start[s + 1] - factor->row_start[s];
+    node.values = factor->values + factor->value_start[s];
+    return node;
+}
+
 /* x = L^-1 x. */
 static inline void pgem_lower_solve(const pgem_factor_t *factor, int b, double *x)
 {
     for (int s = 0; s < factor->super_count; s++) {
-        const int first = factor->super_first[s] * b;
-        const int width = factor->super_first[s + 1] * b - first;
-        const int height = pgem_factor_height(factor, s);
-        const int *rows = factor->rows + factor->row_start[s];
-        const int count = factor->row_start[s + 1] - factor->row_start[s];
-        const double *values = factor->values + factor->value_start[s];
-        double *own = x + first;
+        const pgem_solve_node_t node = pgem_solve_node(factor, b, s);
+        const int width = node.width, height = node.height, count = node.count;
+        const int *rows = node.rows;
+        const double *values = node.values;
+        double *own = x + node.first;
         for (int j = 0; j < width; j++) {
             const double *l = values + pgem_factor_column(height, j) - j; /* l[r]: row r */
             const double value = own[j] / l[j];
@@ -36,13 +56,11 @@ static inline void pgem_lower_solve(const pgem_factor_t *factor, int b, double *
 static inline void pgem_upper_solve(const pgem_factor_t *factor, int b, double *x)
 {
     for (int s = factor->super_count - 1; s >= 0; s--) {
-        const int first = factor->super_first[s] * b;
-        const int width = factor->super_first[s + 1] * b - first;
-        const int height = pgem_factor_height(factor, s);
-        const int *rows = factor->rows + factor->row_start[s];
-        const int count = factor->row_start[s + 1] - factor->row_start[s];
-        const double *values = factor->values + factor->value_start[s];
-        double *own = x + first;
+        const pgem_solve_node_t node = pgem_solve_node(factor, b, s);
+        const int width = node.width, height = node.height, count = node.count;
+        const int *rows = node.rows;
+        const double *values = node.values;
+        double *own = x + node.first;
         for (int j = width - 1; j >= 0; j--) {
             const double *l = values + pgem_factor_column(height, j) - j;
             double sum = own[j];
