@@ -38,6 +38,14 @@ static int fewest_digits(double x)
     return 17;
 }
 
+/* The shortest text comes from 128-bit integer arithmetic (lib/io/numbers.c); hosts without
+ * it (32-bit x86) write %.17g, exact but not shortest. */
+#ifdef __SIZEOF_INT128__
+#define SHORTEST_TEXT 1
+#else
+#define SHORTEST_TEXT 0
+#endif
+
 static void check_double(double x, int shortest)
 {
     char text[IO_NUMBER_TEXT];
@@ -47,7 +55,7 @@ static void check_double(double x, int shortest)
     if (memcmp(&back, &x, sizeof x) != 0) {
         fail_msg("%.17g was written '%s', which reads back as %.17g", x, text, back);
     }
-    if (shortest && x != 0.0 && significant_digits(text) > fewest_digits(x)) {
+    if (SHORTEST_TEXT && shortest && x != 0.0 && significant_digits(text) > fewest_digits(x)) {
         fail_msg("%.17g was written '%s': %d digits where %d read back", x, text,
                  significant_digits(text), fewest_digits(x));
     }
@@ -93,9 +101,14 @@ static void test_layout_as_percent_17g(void **state)
                  {1e17, "1e+17"},    {123.456, "123.456"},  {-0.001234, "-0.001234"},
                  {3e20, "3e+20"},  {1.5e-7, "1.5e-07"}};
     for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
-        char text[IO_NUMBER_TEXT];
+        char text[IO_NUMBER_TEXT], expected[IO_NUMBER_TEXT];
         io_format_double(cases[k].value, text);
-        assert_string_equal(text, cases[k].text);
+        if (SHORTEST_TEXT) {
+            assert_string_equal(text, cases[k].text);
+        } else { /* without 128-bit integers the writer is %.17g itself */
+            snprintf(expected, sizeof expected, "%.17g", cases[k].value);
+            assert_string_equal(text, expected);
+        }
     }
 }
 
