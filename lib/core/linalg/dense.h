@@ -11,8 +11,10 @@
  * sums are split the same way wherever it is computed (worker, CPU, capacity). */
 #define PGEM_DENSE_KC 128
 
-/* Columns of a supernode's panel in its dense factorisation (left-looking, blocked). */
+/* Columns of a supernode's panel in its dense factorisation (left-looking, blocked), and of
+ * the outer panels wider supernodes are factorised in. */
 #define PGEM_DENSE_PANEL 64
+#define PGEM_DENSE_OUTER 256
 
 /* Rows plus columns of the largest micro-tile among the builds compiled in: a product of k
  * columns needs at least min(k, PGEM_DENSE_KC) times this many doubles of workspace. */

@@ -295,8 +295,10 @@ static int PGEM_DENSE_NAME(panel)(double *values, int h, int c0, int w)
     return -1;
 }
 
-static int PGEM_DENSE_NAME(factor)(double *values, int height, int width, double *work,
-                                   size_t work_doubles)
+/* Blocked left-looking Cholesky of a trapezoid's first `width` columns in panels of
+ * PGEM_DENSE_PANEL: each panel first takes the product update of every column left of it. */
+static int PGEM_DENSE_NAME(factor_panels)(double *values, int height, int width, double *work,
+                                          size_t work_doubles)
 {
     for (int c0 = 0; c0 < width; c0 += PGEM_DENSE_PANEL) {
         const int w = PGEM_DENSE_NAME(min)(PGEM_DENSE_PANEL, width - c0);
@@ -316,6 +318,41 @@ static int PGEM_DENSE_NAME(factor)(double *values, int height, int width, double
         const int bad = PGEM_DENSE_NAME(panel)(values, height, c0, w);
         if (bad >= 0) {
             return bad;
+        }
+    }
+    return -1;
+}
+
+/* Wide trapezoids in two levels: outer panels of PGEM_DENSE_OUTER columns take the update of
+ * everything left of them in one product (each packed operand then serves four times as many
+ * columns as a 64-column panel would), and are factorised as trapezoids of their own (the
+ * trapezoid from entry (c0, c0) on is one, of height - c0 rows) in 64-column panels. */
+static int PGEM_DENSE_NAME(factor)(double *values, int height, int width, double *work,
+                                   size_t work_doubles)
+{
+    if (width <= PGEM_DENSE_OUTER) {
+        return PGEM_DENSE_NAME(factor_panels)(values, height, width, work, work_doubles);
+    }
+    for (int c0 = 0; c0 < width; c0 += PGEM_DENSE_OUTER) {
+        const int w = PGEM_DENSE_NAME(min)(PGEM_DENSE_OUTER, width - c0);
+        if (c0 > 0) {
+            pgem_dense_update_t u;
+            memset(&u, 0, sizeof u);
+            u.source = values + c0; /* entry (c0, 0) */
+            u.step = height - 1;
+            u.m = height - c0;
+            u.n = w;
+            u.k = c0;
+            u.target = values;
+            u.target_height = height;
+            u.row0 = c0;
+            PGEM_DENSE_NAME(update)(&u, work, work_doubles);
+        }
+        const ptrdiff_t corner = PGEM_DENSE_NAME(at)(height, c0, c0);
+        const int bad = PGEM_DENSE_NAME(factor_panels)(values + corner, height - c0, w, work,
+                                                       work_doubles);
+        if (bad >= 0) {
+            return c0 + bad;
         }
     }
     return -1;
