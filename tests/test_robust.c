@@ -6,6 +6,8 @@
 
 #include "test_util.h"
 
+#include "internal.h"
+
 #define RING 120
 #define FALSE_LOOPS 12
 /* Odometry noise of the test rings: 2 cm per step, and a gyro-like heading (2 mrad). With
@@ -316,8 +318,9 @@ static void test_dormant_loops_keep_the_factor_sparse(void **state)
     assert_int_equal(summary.pruned, FALSE_LOOPS);
     test_snapshot(graph, exact);
     pgem_destroy(graph);
+    /* the dormant loops' couplings come back through conjugate gradients: the same answer */
     for (int k = 0; k < 3 * RING; k++) {
-        assert_near(dormant[k], exact[k], 1e-7);
+        assert_near(dormant[k], exact[k], 1e-9);
     }
 }
 
@@ -450,7 +453,11 @@ static void test_non_finite_start_leaves_the_weights(void **state)
         pgem_robust_summary_t summary;
         assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_ERR_NUMERIC);
         assert_false(summary.usable);
-        assert_contains(pgem_last_error(graph), "initial chi2 is not finite");
+        /* plain least squares refuses the start; a robust kernel names the odometry edge that
+         * cannot be an outlier */
+        assert_contains(pgem_last_error(graph), kernel == PGEM_KERNEL_NONE
+                                                    ? "initial chi2 is not finite"
+                                                    : "the chi2 of odometry edge 0-1 is not finite");
         pgem_edge_view_t loop;
         assert_int_equal(pgem_edge_at(graph, 2, &loop), PGEM_OK);
         assert_true(loop.weight == 1.0 && loop.active);
@@ -477,6 +484,172 @@ static void test_cauchy_weight_of_an_exact_fit(void **state)
     assert_near(pgem_kernel_weight(PGEM_KERNEL_EM, 1e-300, 1e-200), 0.0, 0.0);
 }
 
+/* A corridor walked out and back (N poses each way, 1 m apart, the way back 2 m to the side),
+ * odometry whose stated information is four times too confident (standard deviations half
+ * the real ones, as real front-ends report them), and two true loop closures at the end of
+ * the walk back, with the same information, onto its start. The drift makes the loops' chi2
+ * far beyond their own information under the odometry guess. */
+#define CORRIDOR 100
+static pgem_t *corridor(uint64_t seed, double *truth, uint32_t *loops)
+{
+    const int poses = 2 * CORRIDOR;
+    pgem_t *graph = test_create(2, (uint32_t)poses, (uint32_t)poses + 8u);
+    const double sigma = 0.01, heading_sigma = 0.005, stated = 0.5;
+    double information[9], estimate[3 * 2 * CORRIDOR];
+    test_diagonal_information(3, 1.0 / (sigma * sigma * stated * stated), information);
+    information[8] = 1.0 / (heading_sigma * heading_sigma * stated * stated);
+    for (int i = 0; i < CORRIDOR; i++) {
+        truth[3 * i] = i, truth[3 * i + 1] = 0.0, truth[3 * i + 2] = 0.0;
+        const int back = CORRIDOR + i;
+        truth[3 * back] = CORRIDOR - 1 - i, truth[3 * back + 1] = 2.0;
+        truth[3 * back + 2] = 3.141592653589793;
+    }
+    test_rng_t rng = {seed};
+    memset(estimate, 0, 3 * sizeof(double));
+    assert_int_equal(pgem_add_pose(graph, 0, estimate), PGEM_OK);
+    for (int i = 1; i < poses; i++) {
+        double z[3];
+        pgem_se2_between(truth + 3 * (i - 1), truth + 3 * i, z);
+        z[0] += sigma * test_gaussian(&rng);
+        z[1] += sigma * test_gaussian(&rng);
+        z[2] += heading_sigma * test_gaussian(&rng);
+        pgem_se2_compose(estimate + 3 * (i - 1), z, estimate + 3 * i);
+        assert_int_equal(pgem_add_pose(graph, (pgem_id_t)i, estimate + 3 * i), PGEM_OK);
+        assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(i - 1), (pgem_id_t)i, z, information,
+                                       PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    }
+    for (int m = 0; m < 2; m++) {
+        const int from = poses - 1 - m, to = m;
+        double z[3];
+        pgem_se2_between(truth + 3 * from, truth + 3 * to, z);
+        assert_int_equal(pgem_add_edge(graph, (pgem_id_t)from, (pgem_id_t)to, z, information,
+                                       PGEM_EDGE_LOOP, &loops[m]), PGEM_OK);
+    }
+    return graph;
+}
+
+static int loops_kept(const pgem_t *graph, const uint32_t *loops, int count)
+{
+    int kept = 0;
+    for (int m = 0; m < count; m++) {
+        pgem_edge_view_t edge;
+        assert_int_equal(pgem_edge_at(graph, loops[m], &edge), PGEM_OK);
+        kept += edge.active;
+    }
+    return kept;
+}
+
+/* Issue 16: under the odometry guess the true loops' chi2 is far beyond their information
+ * (10^4 and more), so the paper's point distance prunes them in some seeds and the map stays
+ * at the odometry; measured against what the map predicts for them (the innovation, with the
+ * allowance for optimistic odometry), they are kept in every seed. */
+static void test_drifted_true_loops_are_kept(void **state)
+{
+    (void)state;
+    int point_failures = 0;
+    for (uint64_t seed = 1; seed <= 8; seed++) {
+        for (int distance = 0; distance <= 1; distance++) {
+            double truth[3 * 2 * CORRIDOR];
+            uint32_t loops[2];
+            pgem_t *graph = corridor(seed, truth, loops);
+            double chi2;
+            assert_int_equal(pgem_edge_chi2(graph, loops[0], &chi2), PGEM_OK);
+            assert_true(chi2 > 100.0);
+            pgem_robust_options_t options = em_options();
+            options.distance = (pgem_loop_distance_t)distance;
+            pgem_robust_summary_t summary;
+            assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+            const int kept = loops_kept(graph, loops, 2);
+            if (distance == PGEM_DISTANCE_INNOVATION) {
+                assert_int_equal(kept, 2);
+                assert_int_equal(summary.outcome, PGEM_ROBUST_LOOPS_ACCEPTED);
+            } else {
+                point_failures += kept < 2;
+            }
+            pgem_destroy(graph);
+        }
+    }
+    assert_true(point_failures > 0); /* the case the innovation distance fixes */
+}
+
+/* Issue 16: the summary says when every loop (or nearly every one) was rejected, and gives the
+ * chi2 with the rejected loops beside the one without them. */
+static void test_degenerate_outcomes_are_reported(void **state)
+{
+    (void)state;
+    double truth[3 * RING];
+    uint32_t false_loops[FALSE_LOOPS];
+    /* a chain with only false loop closures */
+    pgem_t *graph = test_create(2, RING, 2 * RING);
+    double information[9];
+    test_diagonal_information(3, 1.0 / (SIGMA * SIGMA), information);
+    double pose[3] = {0.0, 0.0, 0.0};
+    assert_int_equal(pgem_add_pose(graph, 0, pose), PGEM_OK);
+    for (int k = 1; k < RING; k++) {
+        const double z[3] = {1.0, 0.0, 0.0};
+        pose[0] = k;
+        assert_int_equal(pgem_add_pose(graph, (pgem_id_t)k, pose), PGEM_OK);
+        assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(k - 1), (pgem_id_t)k, z, information,
+                                       PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    }
+    pgem_robust_options_t options = em_options();
+    pgem_robust_summary_t summary;
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.outcome, PGEM_ROBUST_NO_LOOPS);
+    add_false_loops(graph, FALSE_LOOPS, 5, false_loops);
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.outcome, PGEM_ROBUST_ALL_REJECTED);
+    assert_int_equal(summary.rejected, FALSE_LOOPS);
+    assert_int_equal(summary.loops, FALSE_LOOPS);
+    assert_true(summary.usable);
+    assert_true(summary.final_chi2 < 1e-6);
+    assert_true(summary.final_chi2_all > 1e3 * (summary.final_chi2 + 1.0));
+    assert_near(summary.final_chi2_all, pgem_total_chi2(graph), 1e-9 * summary.final_chi2_all);
+    assert_string_equal(pgem_robust_outcome_name(summary.outcome), "all_rejected");
+    pgem_destroy(graph);
+    /* a ring with its true loops, then many more false ones: most rejected */
+    graph = test_create(2, RING, 6 * RING);
+    test_ring_2d(graph, RING, 6, SIGMA, HEADING_SIGMA, 3, truth);
+    for (int batch = 0; batch < 16; batch++) {
+        add_false_loops(graph, FALSE_LOOPS, 100u + (uint64_t)batch, false_loops);
+    }
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_true(summary.rejected > (uint32_t)(0.9 * summary.loops));
+    assert_int_equal(summary.outcome, PGEM_ROBUST_MOST_REJECTED);
+    assert_string_equal(pgem_robust_outcome_name(summary.outcome), "most_rejected");
+    pgem_destroy(graph);
+}
+
+/* Issue 17: a loop closure whose chi2 is not finite (its measurement near the double range,
+ * written past the input checks here) is an outlier from the start, not the end of every
+ * solve: pruned at weight 0 and named by its index, the rest solved. */
+static void test_non_finite_loop_is_pruned(void **state)
+{
+    (void)state;
+    double truth[3 * RING];
+    pgem_t *graph = ring(4, truth);
+    const uint32_t bad = 5u + (uint32_t)RING; /* a loop closure: the odometry comes first */
+    pgem_edge_view_t edge;
+    assert_int_equal(pgem_edge_at(graph, bad, &edge), PGEM_OK);
+    assert_int_equal(edge.kind, PGEM_EDGE_LOOP);
+    graph->edge_measurement[3u * bad] = 1e300;
+    for (int kernel = PGEM_KERNEL_EM; kernel <= PGEM_KERNEL_DCS; kernel++) {
+        pgem_robust_reset(graph);
+        pgem_robust_options_t options = {0};
+        options.kernel = (pgem_kernel_t)kernel;
+        pgem_robust_summary_t summary;
+        assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+        assert_int_equal(summary.non_finite, 1);
+        assert_int_equal(summary.first_non_finite, bad);
+        assert_int_equal(pgem_edge_at(graph, bad, &edge), PGEM_OK);
+        assert_int_equal(edge.active, 0);
+        assert_true(edge.weight == 0.0);
+        assert_true(isfinite(summary.final_chi2));
+        assert_false(isfinite(summary.final_chi2_all));
+    }
+    pgem_destroy(graph);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -494,6 +667,9 @@ int main(void)
         cmocka_unit_test(test_non_finite_robust_options_refused),
         cmocka_unit_test(test_non_finite_start_leaves_the_weights),
         cmocka_unit_test(test_cauchy_weight_of_an_exact_fit),
+        cmocka_unit_test(test_drifted_true_loops_are_kept),
+        cmocka_unit_test(test_degenerate_outcomes_are_reported),
+        cmocka_unit_test(test_non_finite_loop_is_pruned),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

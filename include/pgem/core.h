@@ -60,16 +60,25 @@ size_t pgem_memory_size(const pgem_config_t *config);
 /** A compile-time upper bound of pgem_memory_size() for explicit capacities (none 0) and one
  * worker (threads 0 or 1), for static blocks:
  * `static unsigned char block[PGEM_MEMORY_BOUND(2, 500, 600, 16000)];`.
- * Per pose 373 bytes in 2D (693 in 3D), per edge 240 (704), per factor nonzero 8 plus 4 per
- * b x b block (b = 3 or 6), the factorisation's dense workspace (PGEM_WORK_BYTES) and 2400 for
- * the instance itself and alignment. It includes CSparse's pool of the source-built mode (56
- * bytes per pose, 24 per edge), so it holds for both modes, on 32- and 64-bit machines; the id
- * map's power-of-two size makes it exceed the exact figure by up to 8 bytes per pose. */
+ * Per pose 357 bytes in 2D (677 in 3D), per edge 237 (701), per factor nonzero 8 plus 4 per
+ * b x b block (b = 3 or 6), the region the analysis's scratch, the factorisation's dense
+ * workspace and the solves' vectors share (PGEM_SHARED_BYTES) and 2400 for the instance
+ * itself and alignment. It includes CSparse's pool of the source-built mode (56 bytes per
+ * pose, 24 per edge), so it holds for both modes, on 32- and 64-bit machines; the id map's
+ * power-of-two size makes it exceed the exact figure by up to 8 bytes per pose. */
 #define PGEM_MEMORY_BOUND(dimension, max_poses, max_edges, fill_budget)               \
-    ((size_t)(max_poses) * ((dimension) == 3 ? 693u : 373u) +                         \
-     (size_t)(max_edges) * ((dimension) == 3 ? 704u : 240u) +                         \
+    ((size_t)(max_poses) * ((dimension) == 3 ? 677u : 357u) +                         \
+     (size_t)(max_edges) * ((dimension) == 3 ? 701u : 237u) +                         \
      (size_t)(fill_budget) * 8u + (size_t)(fill_budget) / ((dimension) == 3 ? 36u : 9u) * 4u + \
-     PGEM_WORK_BYTES(dimension, max_poses) + 2400u)
+     PGEM_SHARED_BYTES(dimension, max_poses, max_edges) + 2400u)
+
+/** Bytes of the shared region: the most of the analysis's scratch (12 per edge, 16 per pose),
+ * the first worker's dense workspace (PGEM_WORK_BYTES) and one pose block of doubles per pose
+ * (72 bytes in 2D, 288 in 3D: the solves after a factorisation). */
+#define PGEM_SHARED_BYTES(dimension, max_poses, max_edges)                                  \
+    PGEM_WORK_MAX_(PGEM_WORK_MAX_((size_t)(max_edges) * 12u + (size_t)(max_poses) * 16u + 24u, \
+                                  PGEM_WORK_BYTES(dimension, max_poses)),                   \
+                   (size_t)(max_poses) * ((dimension) == 3 ? 288u : 72u))
 
 /** PGEM_MEMORY_BOUND for `threads` workers: each one past the first adds its own map of the
  * block rows (4 bytes per pose) and a smaller dense workspace. */
@@ -89,6 +98,7 @@ size_t pgem_memory_size(const pgem_config_t *config);
 #define PGEM_WORK_SHARE_(dimension, max_poses, share) \
     (PGEM_WORK_UNKNOWNS_(dimension, max_poses) * ((dimension) == 3 ? 6u : 3u) / (share))
 #define PGEM_WORK_MIN_(a, b) ((a) < (b) ? (a) : (b))
+#define PGEM_WORK_MAX_(a, b) ((a) > (b) ? (a) : (b))
 #define PGEM_WORK_CLAMP_(share, least) \
     PGEM_WORK_MIN_((share) < (least) ? (least) : (share), (size_t)49152u)
 

@@ -25,6 +25,25 @@ typedef enum pgem_kernel {
 /** The weight one kernel gives a loop closure of Mahalanobis error chi2 = e^T Omega e. */
 double pgem_kernel_weight(pgem_kernel_t kernel, double chi2, double scale);
 
+/** What EM measures a loop closure by, in its E-step and its consistency test. */
+typedef enum pgem_loop_distance {
+    PGEM_DISTANCE_INNOVATION = 0,  /**< default: the loop against what the rest of the graph
+                                      predicts for it (leave-one-out innovation, the map's
+                                      covariance included), where the map predicts it well
+                                      enough; the point chi2 elsewhere (see DESIGN.md) */
+    PGEM_DISTANCE_POINT = 1        /**< the paper: e^T Omega e under the current estimate */
+} pgem_loop_distance_t;
+
+/** How a successful robust solve ended for the loop closures. */
+typedef enum pgem_robust_outcome {
+    PGEM_ROBUST_LOOPS_ACCEPTED = 0, /**< loop closures accepted, fewer than 90% rejected */
+    PGEM_ROBUST_NO_LOOPS = 1,       /**< the graph has no loop closure */
+    PGEM_ROBUST_MOST_REJECTED = 2,  /**< more than 90% of the loop closures rejected: check the
+                                       front-end's loop detector and loop information */
+    PGEM_ROBUST_ALL_REJECTED = 3    /**< every loop closure rejected: the estimate is the
+                                       odometry's alone */
+} pgem_robust_outcome_t;
+
 /** State of a loop closure after a robust solve. */
 typedef enum pgem_loop_state {
     PGEM_LOOP_ACCEPTED = 0,  /**< in the solution with its weight */
@@ -59,20 +78,32 @@ typedef struct pgem_robust_options {
                                         rounds capped at max_em_iterations (5), then "polish"
                                         (accepted loops at weight 1, Gauss-Newton to
                                         convergence) and a consistency test under the
-                                        polished estimate (pruned loops with chi2 below the
-                                        gate come back, accepted ones above it are pruned),
-                                        repeated while it changes anything. An outlier-free
-                                        graph reaches exactly the plain optimum. */
-    double gate;                     /**< EM consistency test (not literal): chi2 threshold;
+                                        polished estimate (pruned loops whose distance is
+                                        below the gate come back, accepted ones above it are
+                                        pruned), repeated while it changes anything, with
+                                        the innovation distance after the first rounds. An
+                                        outlier-free graph reaches exactly the plain
+                                        optimum. */
+    double gate;                     /**< EM consistency test (not literal): distance threshold;
                                         0 means the 99.9% chi-square quantile for the edge's
                                         degrees of freedom (16.27 in 2D, 22.46 in 3D) */
     double dormant_threshold;        /**< EM (not literal): a loop whose weight is below it is
-                                        dormant: it keeps its weight and its exact gradient,
-                                        but the block coupling its two poses is left out of
-                                        the Newton matrix unless H's structure already holds
-                                        it, so false loops do not make the factor dense.
-                                        0 means prune_threshold / 100; negative: never
-                                        (the exact Newton matrix, as the literal method) */
+                                        dormant: the block coupling its two poses is kept out
+                                        of the factor's structure (unless it already has a
+                                        place there), so false loops do not make the factor
+                                        dense, and the Newton step adds it back by conjugate
+                                        gradients preconditioned with the factor: the step is
+                                        the exact one, only the time changes. 0 means
+                                        prune_threshold / 100; negative: never */
+    pgem_loop_distance_t distance;   /**< EM (not literal): the loops' distance; default
+                                        PGEM_DISTANCE_INNOVATION (0) */
+    double odometry_inflation;       /**< innovation: the map's covariance is multiplied by it
+                                        in a loop's innovation, an allowance for odometry
+                                        covariances that are too optimistic; 0 means 4 (the
+                                        odometry's standard deviations understated twice) */
+    double predictable_rotation;     /**< innovation: the map predicts a loop well enough when
+                                        the standard deviation of its predicted rotation is
+                                        at most this (radians); 0 means 0.1 */
     pgem_robust_fn on_round;         /**< may be NULL; return non-zero to stop */
     void *user;                      /**< passed to on_round */
 } pgem_robust_options_t;
@@ -86,8 +117,18 @@ typedef struct pgem_robust_summary {
     uint32_t pruned;                 /**< of them pruned */
     uint32_t readmitted;             /**< pruned loops re-admitted by the consistency test */
     uint32_t gated;                  /**< accepted loops pruned by the consistency test */
+    uint32_t rejected;               /**< loops rejected: pruned, or for the kernels that never
+                                        prune (Cauchy, Huber, DCS) weighing below
+                                        prune_threshold */
+    uint32_t non_finite;             /**< loops pruned at the start: their chi2 was not finite */
+    uint32_t first_non_finite;       /**< edge index of the first of them, UINT32_MAX if none */
     double initial_chi2;             /**< unweighted chi2 before */
     double final_chi2;               /**< weighted chi2 after (pruned loops excluded) */
+    double final_chi2_all;           /**< chi2 after with every edge at weight 1, the pruned
+                                        loops included */
+    pgem_robust_outcome_t outcome;   /**< after a successful solve: loops accepted, none in the
+                                        graph, most or all of them rejected */
+    int estimate_changed;            /**< 1 if the solve moved any pose */
     int usable;                      /**< 1 if the estimate is the result of a successful solve */
 } pgem_robust_summary_t;
 
@@ -108,6 +149,9 @@ void pgem_robust_reset(pgem_t *graph);
 
 /** Name of a kernel ("em", "cauchy", "huber", "dcs", "none"); never NULL. */
 const char *pgem_kernel_name(pgem_kernel_t kernel);
+
+/** Name of an outcome ("loops_accepted", "no_loops", "most_rejected", "all_rejected"). */
+const char *pgem_robust_outcome_name(pgem_robust_outcome_t outcome);
 
 #ifdef __cplusplus
 }

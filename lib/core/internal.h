@@ -90,6 +90,7 @@ typedef struct pgem_linear {
     double *diagonal;          /* [max_poses * block] diagonal of H (LM damping) */
     double *gradient;          /* [max_poses * block] copy of -b kept across LM retries */
     uint32_t analyses;         /* symbolic analyses run so far */
+    uint32_t left_out;         /* couplings the last assembly left out of the structure */
     pgem_cs_pool_t cs_pool;    /* CSparse's workspace during analyses */
     const pgem_solve_options_t *progress; /* the running solve's options (its on_progress),
                                   NULL outside a solve */
@@ -145,6 +146,8 @@ struct pgem {
     double *edge_weight;       /* [max_edges] robust weight, 1 for odometry */
     double *edge_weight_saved; /* [max_edges] weights before a robust solve, and */
     uint8_t *edge_active_saved; /* [max_edges] states: put back if the solve fails */
+    double *edge_distance;     /* [max_edges] a loop's distance in the last E-step or test */
+    uint8_t *edge_checked;     /* [max_edges] 1 if the map predicted the loop (innovation) */
 
     pgem_linear_t linear;      /* normal equations */
     pgem_executor_t executor;  /* threads of the factorisation (run NULL: the caller's only) */
@@ -235,6 +238,38 @@ void pgem_linear_damp(pgem_t *graph, double lambda);
 int pgem_linear_factor(pgem_t *graph);
 void pgem_linear_solve(pgem_t *graph, double *step);
 void pgem_linear_invalidate(pgem_t *graph);
+/* y = H x with the assembled values (linalg/multiply.c); y += D x for the couplings the
+ * assembly left out (linalg/assemble.c). */
+void pgem_linear_multiply(const pgem_t *graph, const double *x, double *y);
+void pgem_linear_left_out_multiply(const pgem_t *graph, const double *x, double *y);
+/* Solves (H + D) step = rhs in place (rhs: linear->rhs): the factor's solve, refined by
+ * conjugate gradients preconditioned with it when couplings were left out (solver/newton.c).
+ * Returns PGEM_OK, or PGEM_ERR_NUMERIC if the refinement did not converge. */
+int pgem_solve_newton(pgem_t *graph);
+/* out = A H^-1 A^T (n x n) for A = [a_from a_to] on poses from and to (n x n blocks,
+ * row-major), from the current factor (linalg/marginal.c). */
+void pgem_linear_marginal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
+                          const double *a_to, double *out);
+/* A loop's innovation (robust/innovation.c): its distance with the odometry allowance, the
+ * same without it (inflation 1), and the predicted rotation's standard deviation (radians). */
+typedef struct pgem_innovation {
+    double distance;     /* d^2 under Omega^-1 + inflation J Sigma_-k J^T */
+    double plain;        /* d^2 under Omega^-1 + J Sigma_-k J^T */
+    double rotation_sd;  /* sqrt of the rotation block's trace of J Sigma_-k J^T */
+} pgem_innovation_t;
+/* Loop k's innovation under the current factor, in which it has weight `weight` (0 when
+ * pruned); its marginal from the sparse inverse (from_inverse) or by a solve with L. */
+void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double inflation,
+                          int from_inverse, pgem_innovation_t *out);
+/* EM's E-step (robust/estep.c): every loop's distance (every loop, pruned ones included, in
+ * the consistency test: gating), then the weights; returns the largest weight change. */
+void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int gating);
+double pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options);
+/* H^-1 on the factor's pattern, over the factor (linalg/inverse.c); then the marginal of two
+ * poses joined by a block of the pattern (PGEM_ERR_INVALID_ARGUMENT if they are not). */
+void pgem_linear_invert(pgem_t *graph);
+int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
+                                 const double *a_to, double *out);
 
 /* Weighted chi2 (edges not pruned, robust weights) under the current estimate. */
 double pgem_weighted_chi2(const pgem_t *graph);

@@ -4,19 +4,18 @@
 ``python3 tools/bench/bench.py`` runs, and reports in one Markdown document:
 
 1. plain Gauss-Newton on the clean graphs: ``pgem optimize --solver gn`` against GTSAM's
-   GaussNewtonOptimizer (the worker of bench_gn.py), time, iterations, g2o-convention chi2,
+   GaussNewtonOptimizer (bench_gn.py's solve), time, iterations, g2o-convention chi2,
    the positions' error against the clean optimum and memory;
 2. robust solves of corrupted graphs (``pgem corrupt``): ``pgem optimize --robust em`` against
-   GTSAM Levenberg-Marquardt with DCS on the loop closures (the worker of bench_robust.py;
-   ``--with-gnc`` adds GTSAM's GNC), time, iterations, chi2 of the kept edges, precision and
+   GTSAM Levenberg-Marquardt with DCS on the loop closures (``--with-gnc`` adds GTSAM's GNC), time, iterations, chi2 of the kept edges, precision and
    recall of the rejected loops, ATE against the clean optimum and memory;
 3. the make-up of pgem's block (bytes per pose, per edge, factor) next to GTSAM's peak
    resident-set growth on the same graph;
 4. the timing spread of every measurement, and the project's speed targets, met or missed.
 
 Every timing is the median of several runs, pgem and GTSAM interleaved. Every GTSAM solve is a
-fresh process (``bench.py --gtsam-worker ...`` or ``bench_robust.py --gtsam-worker ...``),
-killed after ``--timeout`` seconds; a failed or timed-out run is recorded and shown, not fatal.
+fresh process (``gtsam_worker.py METHOD FILE OUTDIR``), killed after ``--timeout`` seconds; a
+failed or timed-out run is recorded and shown, not fatal.
 ``--peer none`` runs pgem alone and imports neither gtsam nor numpy. The report goes to stdout
 and ``--out``; every run, raw, goes to the same name ending in ``.json``.
 """
@@ -37,6 +36,7 @@ from typing import Any, Sequence
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_gn  # noqa: E402  (GTSAM Gauss-Newton worker, chi2, machine header, dataset lookup)
 import bench_robust  # noqa: E402  (corruption, reference, pgem and GTSAM robust solves, pgem eval)
+import gtsam_worker  # noqa: E402  (the GTSAM solves, each in its own process)
 
 BenchError = bench_gn.BenchError
 RunFailure = bench_robust.RunFailure
@@ -60,7 +60,7 @@ ROBUST_RUNS = 3
 QUICK = {"files": ("intel", "input_M3500_g2o"), "robust_files": ("input_M3500_g2o",),
          "policies": ("random",), "counts": (100,), "seeds": (1,)}
 
-PGEM_GN, GTSAM_GN = "pgem-gn", "gtsam-gn"
+PGEM_GN, GTSAM_GN = "pgem-gn", gtsam_worker.GTSAM_GN
 PGEM_EM, GTSAM_DCS, GTSAM_GNC = "pgem-em", "gtsam-dcs", "gtsam-gnc"
 GN_OPTIONS = ("--solver", "gn", "--max-iterations", str(bench_gn.MAX_ITERATIONS))
 CLEAN = "clean"  # the policy field of a Gauss-Newton run
@@ -71,25 +71,6 @@ TARGET_EM_OVER_GN = 3.0    # pgem EM time / pgem GN time on the clean graph, at 
 TARGET_CELL = ("input_M3500_g2o", "random", 1000)
 
 NO_NUMBER = "-"
-
-
-# --------------------------------------------------------------------------------------
-# GTSAM Gauss-Newton worker (its own process)
-# --------------------------------------------------------------------------------------
-
-
-def gn_worker_main(path: str, outdir: str) -> int:
-    """bench_gn's GTSAM Gauss-Newton solve, writing the estimate to outdir: JSON on stdout,
-    a one-line error on stderr."""
-    try:
-        Path(outdir).mkdir(parents=True, exist_ok=True)
-        result = bench_gn.gtsam_worker(Path(path), Path(outdir) / bench_robust.RESULT_FILE)
-        print(json.dumps(result))
-    except Exception as error:  # any GTSAM exception is a failed run, reported in one line
-        message = " ".join(str(error).split()) or type(error).__name__
-        print(f"gtsam worker: {type(error).__name__}: {message}", file=sys.stderr)
-        return 1
-    return 0
 
 
 # --------------------------------------------------------------------------------------
@@ -124,8 +105,7 @@ def run_gn(args: argparse.Namespace, run: Run, clean: Path, reference: Path, out
             return summary
     else:
         def solve() -> dict[str, Any]:
-            command = [sys.executable, str(Path(__file__).resolve()), "--gtsam-worker", GTSAM_GN,
-                       str(clean), str(outdir)]
+            command = gtsam_worker.command(GTSAM_GN, clean, outdir)
             output = bench_robust.run_command(command, f"GTSAM worker {GTSAM_GN}", args.timeout)
             return bench_robust.parse_json(output, "GTSAM worker")
     bench_robust.execute(run, outdir, solve,
@@ -738,10 +718,7 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
     parser.add_argument("--quick", action="store_true",
                         help="smoke run: 1 run; Gauss-Newton on intel and input_M3500_g2o, EM on input_M3500_g2o "
                              "with 100 random false loops")
-    parser.add_argument("--gtsam-worker", nargs=3, metavar=("METHOD", "FILE", "OUTDIR"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
-    if args.gtsam_worker is not None:
-        return args
     quick = QUICK if args.quick else {"files": GN_FILES, "robust_files": ROBUST_FILES, "policies": POLICIES,
                                       "counts": COUNTS, "seeds": SEEDS}
     split = bench_robust.split_list
@@ -793,8 +770,7 @@ def resolve(args: argparse.Namespace, notes: list[str]) -> tuple[list[bench_gn.D
 
 def write_raw(path: Path, args: argparse.Namespace, header: str, records: Sequence[Record]) -> None:
     """Every run as JSON: the options, the header line and each run's summary and scores."""
-    options = {key: (str(value) if isinstance(value, Path) else value) for key, value in vars(args).items()
-               if key != "gtsam_worker"}
+    options = {key: (str(value) if isinstance(value, Path) else value) for key, value in vars(args).items()}
     runs = [{"phase": r.phase, "repeat": r.repeat, **asdict(r.run)} for r in records]
     path.write_text(json.dumps({"header": header, "options": options, "runs": runs}, indent=1) + "\n",
                     encoding="utf-8")
@@ -831,11 +807,6 @@ def run_benchmark(args: argparse.Namespace) -> None:
 
 def main(argv: Sequence[str]) -> int:
     args = parse_args(argv)
-    if args.gtsam_worker is not None:
-        method, path, outdir = args.gtsam_worker
-        if method == GTSAM_GN:
-            return gn_worker_main(path, outdir)
-        return bench_robust.worker_main(method, path, outdir)
     try:
         run_benchmark(args)
     except BenchError as error:

@@ -38,7 +38,8 @@ static void pgem_optimize_help(FILE *out)
             "                        [--robust em|cauchy|huber|dcs|none] [--robust-scale C]\n"
             "                        [--prune-threshold T] [--m-step-iterations N] [--restart]\n"
             "                        [--max-em-iterations N] [--gate X] [--literal]\n"
-            "                        [--dormant-threshold D|off]\n"
+            "                        [--dormant-threshold D|off] [--distance innovation|point]\n"
+            "                        [--odometry-inflation K] [--predictable-rotation R]\n"
             "                        [--weights FILE] [--threads N] [--quiet] [--json]\n"
             "\n"
             "Reads a g2o (VERTEX_SE2/EDGE_SE2, VERTEX_SE3:QUAT/EDGE_SE3:QUAT, FIX) or TORO 2D\n"
@@ -54,14 +55,24 @@ static void pgem_optimize_help(FILE *out)
             "  --robust-scale C    kernel scale: Cauchy c, Huber k, DCS phi (default 1)\n"
             "  --prune-threshold T EM: prune loops whose weight falls below T (default 0.01)\n"
             "  --m-step-iterations N  Gauss-Newton iterations per M-step (default 1)\n"
-            "  --max-em-iterations N  EM: E/M iterations per pruning round (default 100)\n"
+            "  --max-em-iterations N  EM: E/M iterations per pruning round (default 5;\n"
+            "                      --literal: 100)\n"
             "  --gate X            EM: chi2 of the final consistency test (default: 99.9%%\n"
             "                      chi-square quantile, 16.27 in 2D, 22.46 in 3D)\n"
             "  --restart           EM: restart from the initial estimate after pruning\n"
-            "  --dormant-threshold D|off  EM: a loop weighing less than D keeps its weight\n"
-            "                      and gradient but gets no place in the factor (default\n"
-            "                      T/100; off: the exact Newton matrix, slower with many\n"
-            "                      false loops)\n"
+            "  --dormant-threshold D|off  EM: a loop weighing less than D gets no place in\n"
+            "                      the factor; conjugate gradients add its coupling back, so\n"
+            "                      the result is the same, only faster with many false loops\n"
+            "                      (default T/100; off: every loop in the factor)\n"
+            "  --distance D        EM: innovation (default: after the paper's first rounds,\n"
+            "                      each loop is tested against what the rest of the map\n"
+            "                      predicts for it, the map's covariance included) or point\n"
+            "                      (the paper: chi2 under the current estimate throughout)\n"
+            "  --odometry-inflation K  innovation: the map's covariance counts K times, an\n"
+            "                      allowance for optimistic odometry covariances (default 4)\n"
+            "  --predictable-rotation R  innovation: a loop is tested by its innovation when\n"
+            "                      the map predicts its rotation to R radians (default 0.1),\n"
+            "                      else by its chi2 under the estimate\n"
             "  --literal           EM exactly as published: keep the EM weights at the end\n"
             "                      (default: re-solve with accepted loops at weight 1)\n"
             "  --weights FILE      write one line per loop closure: from to weight state\n"
@@ -137,6 +148,26 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
             k++;
         } else if (strcmp(arg, "--gate") == 0) {
             if (!pgem_cli_parse_number("pgem", arg, value, 1, &args->robust.gate)) {
+                return PGEM_EXIT_USAGE;
+            }
+            k++;
+        } else if (strcmp(arg, "--distance") == 0) {
+            if (value != NULL && strcmp(value, "innovation") == 0) {
+                args->robust.distance = PGEM_DISTANCE_INNOVATION;
+            } else if (value != NULL && strcmp(value, "point") == 0) {
+                args->robust.distance = PGEM_DISTANCE_POINT;
+            } else {
+                fprintf(stderr, "pgem optimize: --distance takes innovation or point\n");
+                return PGEM_EXIT_USAGE;
+            }
+            k++;
+        } else if (strcmp(arg, "--odometry-inflation") == 0) {
+            if (!pgem_cli_parse_number("pgem", arg, value, 1, &args->robust.odometry_inflation)) {
+                return PGEM_EXIT_USAGE;
+            }
+            k++;
+        } else if (strcmp(arg, "--predictable-rotation") == 0) {
+            if (!pgem_cli_parse_number("pgem", arg, value, 1, &args->robust.predictable_rotation)) {
                 return PGEM_EXIT_USAGE;
             }
             k++;
@@ -345,6 +376,27 @@ static FILE *pgem_progress_stream(const pgem_optimize_args_t *args)
     return args->json ? stderr : stdout;
 }
 
+/* The warnings a robust solve's outcome calls for, on stderr (also with --json). */
+static void pgem_warn_outcome(const pgem_t *graph, const pgem_robust_summary_t *summary)
+{
+    if (summary->non_finite > 0u) {
+        pgem_edge_view_t edge;
+        (void)pgem_edge_at(graph, summary->first_non_finite, &edge);
+        fprintf(stderr, "pgem: warning: %u loop closures rejected before the solve: their chi2 "
+                        "is not finite (the first: %llu-%llu)\n", summary->non_finite,
+                (unsigned long long)edge.from, (unsigned long long)edge.to);
+    }
+    if (summary->outcome == PGEM_ROBUST_ALL_REJECTED) {
+        fprintf(stderr, "pgem: warning: all %u loop closures were rejected: the result is the "
+                        "odometry alone (are the loop detector's matches or their information "
+                        "wrong?)\n", summary->loops);
+    } else if (summary->outcome == PGEM_ROBUST_MOST_REJECTED) {
+        fprintf(stderr, "pgem: warning: %u of %u loop closures (more than 90%%) were rejected: "
+                        "check the loop detector's matches and their information\n",
+                summary->rejected, summary->loops);
+    }
+}
+
 static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *args,
                                       const pgem_t *graph, const pgem_robust_summary_t *summary,
                                       double seconds, int status)
@@ -356,24 +408,32 @@ static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *arg
     if (args->json) {
         printf("{\"input\":");
         pgem_cli_json_string(args->input);
-        printf(",\"robust\":\"%s\",\"status\":\"%s\",\"rounds\":%u,"
+        printf(",\"robust\":\"%s\",\"status\":\"%s\",\"outcome\":\"%s\",\"rounds\":%u,"
                "\"em_iterations\":%u,\"gn_iterations\":%u,\"loops\":%u,\"pruned\":%u,"
-               "\"readmitted\":%u,\"gated\":%u,\"initial_chi2\":%.10g,\"final_chi2\":%.10g,"
+               "\"rejected\":%u,\"non_finite\":%u,\"readmitted\":%u,\"gated\":%u,"
+               "\"initial_chi2\":%.10g,\"final_chi2\":%.10g,\"final_chi2_with_rejected\":%.10g,"
+               "\"estimate_changed\":%s,"
                "\"solve_seconds\":%.6f,\"analysis_seconds\":%.6f,\"usable\":%s,\"poses\":%u,\"edges\":%u,"
                "\"analyses\":%u,\"factor_nonzeros\":%u,\"block_bytes\":%zu,"
                "\"block_bytes_per_pose\":%zu,\"block_bytes_per_edge\":%zu,"
                "\"block_bytes_factor\":%zu,\"threads\":%u}\n",
-               pgem_kernel_name(args->robust.kernel), pgem_error_name(status), summary->rounds,
+               pgem_kernel_name(args->robust.kernel), pgem_error_name(status),
+               pgem_robust_outcome_name(summary->outcome), summary->rounds,
                summary->em_iterations, summary->gn_iterations, summary->loops, summary->pruned,
-               summary->readmitted, summary->gated, summary->initial_chi2, summary->final_chi2,
-               seconds, args->analysis_seconds, summary->usable ? "true" : "false", pgem_pose_count(graph),
+               summary->rejected, summary->non_finite, summary->readmitted, summary->gated,
+               summary->initial_chi2, summary->final_chi2, summary->final_chi2_all,
+               summary->estimate_changed ? "true" : "false", seconds, args->analysis_seconds, summary->usable ? "true" : "false", pgem_pose_count(graph),
                pgem_edge_count(graph), stats.analyses, stats.factor_nonzeros, stats.block_bytes,
                parts.per_pose, parts.per_edge, parts.factor, args->threads);
     } else {
-        fprintf(out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures pruned (consistency test: %u re-admitted, %u pruned); chi2 %.6f -> %.6f in %.4f s\n",
+        fprintf(out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures rejected (consistency test: %u re-admitted, %u pruned); chi2 %.6f -> %.6f (%.6f with the rejected loops) in %.4f s\n",
                 pgem_kernel_name(args->robust.kernel), summary->rounds, summary->em_iterations,
-                summary->gn_iterations, summary->pruned, summary->loops, summary->readmitted,
-                summary->gated, summary->initial_chi2, summary->final_chi2, seconds);
+                summary->gn_iterations, summary->rejected, summary->loops, summary->readmitted,
+                summary->gated, summary->initial_chi2, summary->final_chi2,
+                summary->final_chi2_all, seconds);
+    }
+    if (status == PGEM_OK) {
+        pgem_warn_outcome(graph, summary);
     }
     if (status != PGEM_OK) {
         fprintf(stderr, "pgem: robust solve failed: %s; the estimate is the one before the solve\n",

@@ -93,6 +93,8 @@ static void pgem_carve_graph(pgem_t *graph, pgem_arena_t *arena)
     graph->edge_weight = pgem_arena_take(arena, edges, sizeof(double));
     graph->edge_weight_saved = pgem_arena_take(arena, edges, sizeof(double));
     graph->edge_active_saved = pgem_arena_take(arena, edges, 1);
+    graph->edge_distance = pgem_arena_take(arena, edges, sizeof(double));
+    graph->edge_checked = pgem_arena_take(arena, edges, 1);
 }
 
 static void pgem_carve_factor(pgem_t *graph, pgem_arena_t *arena)
@@ -117,7 +119,7 @@ static void pgem_carve_factor(pgem_t *graph, pgem_arena_t *arena)
     for (uint32_t w = 0; w < graph->config.threads; w++) {
         const size_t work = pgem_factor_work_doubles(graph->config.max_poses, graph->tangent, (int)w);
         int *map = pgem_arena_take(arena, poses, sizeof(int));
-        double *doubles = pgem_arena_take(arena, work, sizeof(double));
+        double *doubles = w == 0u ? factor->shared : pgem_arena_take(arena, work, sizeof(double));
         if (factor->workers != NULL) {
             factor->workers[w].map = map;
             factor->workers[w].work = doubles;
@@ -141,7 +143,11 @@ static void pgem_carve_linear(pgem_t *graph, pgem_arena_t *arena)
     linear->block_colptr = pgem_arena_take(arena, poses + 1u, sizeof(int));
     linear->block_rows = pgem_arena_take(arena, edges, sizeof(int));
     linear->block_parent = pgem_arena_take(arena, poses, sizeof(int));
-    linear->scratch = pgem_arena_take(arena, 3u * edges + 4u * poses + 4u, sizeof(int));
+    /* the analysis's scratch, worker 0's dense workspace and the solves' vectors in turn */
+    linear->factor.shared_doubles = pgem_factor_shared_doubles(graph->config.max_poses,
+                                                               graph->config.max_edges, (int)block);
+    linear->factor.shared = pgem_arena_take(arena, linear->factor.shared_doubles, sizeof(double));
+    linear->scratch = (int *)(void *)linear->factor.shared;
     linear->lower_start = pgem_arena_take(arena, poses + 1u, sizeof(int));
     linear->lower_values = pgem_arena_take(arena, lower, sizeof(double));
     pgem_carve_factor(graph, arena);

@@ -234,6 +234,8 @@ static inline double pgem_assemble_edges(pgem_t *graph, int n)
             const int transposed = linear->edge_transposed[k];
             pgem_add_off_diagonal(linear, n, transposed ? from : to, linear->edge_offset[k],
                                   transposed, blocks.from_to);
+        } else if (from >= 0 && to >= 0) {
+            linear->left_out++; /* a dormant loop's coupling: the solve adds it back */
         }
     }
     return chi2;
@@ -244,6 +246,7 @@ double pgem_linear_assemble(pgem_t *graph)
     pgem_linear_t *linear = &graph->linear;
     memset(linear->lower_values, 0, (size_t)linear->lower_start[linear->block_count] * sizeof(double));
     memset(linear->rhs, 0, (size_t)linear->scalar_count * sizeof(double));
+    linear->left_out = 0;
     const double chi2 = linear->block == 6 ? pgem_assemble_edges(graph, 6)
                                            : pgem_assemble_edges(graph, 3);
     for (int block = 0; block < linear->block_count; block++) {
@@ -263,5 +266,39 @@ void pgem_linear_damp(pgem_t *graph, double lambda)
             linear->lower_values[pgem_lower_column(linear, block, c)] =
                 linear->diagonal[block * linear->block + c] + lambda;
         }
+    }
+}
+
+/* y += D x for D the couplings the assembly left out (dormant loops without a place in the
+ * structure), each recomputed from the edge's linearisation. */
+static inline void pgem_left_out_edges(const pgem_t *graph, int n, const double *x, double *y)
+{
+    const pgem_linear_t *linear = &graph->linear;
+    pgem_edge_blocks_t blocks;
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        const int from = linear->pose_block[graph->edge_from[k]];
+        const int to = linear->pose_block[graph->edge_to[k]];
+        if (graph->edge_active[k] == PGEM_EDGE_PRUNED || from < 0 || to < 0 ||
+            linear->edge_offset[k] >= 0) {
+            continue;
+        }
+        (void)(n == 6 ? pgem_linearise_se3(graph, k, &blocks) : pgem_linearise_se2(graph, k, &blocks));
+        const double *xf = x + (ptrdiff_t)from * n, *xt = x + (ptrdiff_t)to * n;
+        double *yf = y + (ptrdiff_t)from * n, *yt = y + (ptrdiff_t)to * n;
+        for (int r = 0; r < n; r++) {
+            for (int c = 0; c < n; c++) {
+                yf[r] += blocks.from_to[r * n + c] * xt[c];
+                yt[c] += blocks.from_to[r * n + c] * xf[r];
+            }
+        }
+    }
+}
+
+void pgem_linear_left_out_multiply(const pgem_t *graph, const double *x, double *y)
+{
+    if (graph->linear.block == 6) {
+        pgem_left_out_edges(graph, 6, x, y);
+    } else {
+        pgem_left_out_edges(graph, 3, x, y);
     }
 }

@@ -18,6 +18,36 @@ size_t pgem_factor_work_doubles(uint32_t max_poses, int block, int worker)
     return doubles > PGEM_DENSE_WORK_MAX ? PGEM_DENSE_WORK_MAX : doubles;
 }
 
+size_t pgem_factor_shared_doubles(uint32_t max_poses, uint32_t max_edges, int block)
+{
+    const size_t scratch_ints = 3u * (size_t)max_edges + 4u * (size_t)max_poses + 4u;
+    size_t doubles = (scratch_ints + 1u) / 2u;
+    const size_t dense = pgem_factor_work_doubles(max_poses, block, 0);
+    const size_t solves = (size_t)max_poses * (size_t)block * (size_t)block;
+    doubles = doubles < dense ? dense : doubles;
+    return doubles < solves ? solves : doubles;
+}
+
+pgem_factor_column_t pgem_factor_column_view(const pgem_factor_t *factor, int column)
+{
+    const int b = factor->block;
+    const int s = factor->block_super[column];
+    const int first = factor->super_first[s];
+    const int height = pgem_factor_height(factor, s);
+    pgem_factor_column_t view;
+    view.inside = factor->super_first[s + 1] - 1 - column;
+    view.count = view.inside + factor->row_start[s + 1] - factor->row_start[s];
+    view.below = factor->rows + factor->row_start[s];
+    for (int c = 0; c < PGEM_TANGENT_SIZE_MAX; c++) {
+        view.base[c] = NULL;
+    }
+    for (int c = 0; c < b; c++) {
+        const int local = (column - first) * b + c;
+        view.base[c] = factor->values + factor->value_start[s] + pgem_factor_column(height, local);
+    }
+    return view;
+}
+
 static int pgem_not_positive_definite(pgem_t *graph, int unknown)
 {
     const int block = unknown / graph->linear.block;

@@ -8,6 +8,7 @@
 #include <stdint.h>
 
 #include "dense.h"
+#include "pgem/graph.h"
 
 struct pgem;
 struct pgem_linear;
@@ -82,6 +83,12 @@ typedef struct pgem_factor {
     int *next;              /* [max_poses] next supernode in the same list */
     int *position;          /* [max_poses] next row (index into rows) a supernode updates */
     pgem_factor_worker_t *workers; /* [worker_count] */
+    double *shared;         /* [shared_doubles] the region the analysis's scratch
+                               (linear->scratch), worker 0's dense workspace and the vectors of
+                               the solves after a factorisation (the Newton step's conjugate
+                               gradients, the marginals' right-hand sides, the inverse's blocks)
+                               take turns in: none of them outlives its call */
+    size_t shared_doubles;  /* pgem_factor_shared_doubles */
     double progress_done;   /* multiply-adds done by worker 0, times the workers, so far */
     double progress_next;   /* when to report next */
     double progress_share;  /* workers sharing the tasks while worker 0 counts its own */
@@ -122,6 +129,42 @@ static inline size_t pgem_factor_column(int height, int j)
 /* Doubles of dense workspace of a worker (0, 1, ...) of an instance of max_poses poses of
  * block b. */
 size_t pgem_factor_work_doubles(uint32_t max_poses, int block, int worker);
+
+/* Doubles of the shared region (pgem_factor_t.shared) of an instance: the most of the
+ * analysis's scratch (3 ints per edge, 4 per pose, 4), worker 0's dense workspace and one
+ * b x b block per pose (the solves'). */
+size_t pgem_factor_shared_doubles(uint32_t max_poses, uint32_t max_edges, int block);
+
+/* Block column J of L as the sparse inverse and the forward solves read it, whatever its
+ * supernode: its scalar column c starts at base[c] (the diagonal entry); the diagonal block's
+ * element (r, c), r >= c, is base[c][r - c], and off-diagonal block q's element (r, c) is
+ * base[c][(b - c) + q b + r]. Block q's block row is J + 1 + q for q < inside (the
+ * supernode's own later columns), then below[q - inside]: ascending, and a clique of the
+ * stored pattern (relaxed amalgamation's zeros included), so every pair of them is a block
+ * of some later column. */
+typedef struct pgem_factor_column {
+    double *base[PGEM_TANGENT_SIZE_MAX];
+    int inside;         /* off-diagonal blocks inside the supernode */
+    int count;          /* off-diagonal blocks in all */
+    const int *below;   /* the block rows of the rest */
+} pgem_factor_column_t;
+
+pgem_factor_column_t pgem_factor_column_view(const pgem_factor_t *factor, int column);
+
+static inline int pgem_factor_column_row(const pgem_factor_column_t *view, int column, int q)
+{
+    return q < view->inside ? column + 1 + q : view->below[q - view->inside];
+}
+
+/* The parent of block column J in the tree the stored pattern follows: the next column of
+ * its supernode, or the block elimination tree's parent of the supernode's last column (-1
+ * at a root). Every block row of column J is on its path to the root. */
+static inline int pgem_factor_column_parent(const pgem_factor_t *factor, const int *block_parent,
+                                            int column)
+{
+    const int s = factor->block_super[column];
+    return column + 1 < factor->super_first[s + 1] ? column + 1 : block_parent[column];
+}
 
 /* linalg/supernodes.c: supernodes, their rows and the layout from the block elimination tree
  * (linear->block_parent, postordered) and block column counts; returns the nonzeros the

@@ -19,6 +19,11 @@ static pgem_robust_options_t pgem_robust_resolve(const pgem_robust_options_t *op
     out.max_em_iterations = out.max_em_iterations > 0u ? out.max_em_iterations
                                                        : (out.literal ? 100u : 5u);
     out.max_rounds = out.max_rounds > 0u ? out.max_rounds : 20u;
+    out.odometry_inflation = out.odometry_inflation > 0.0 ? out.odometry_inflation : 4.0;
+    out.predictable_rotation = out.predictable_rotation > 0.0 ? out.predictable_rotation : 0.1;
+    if (out.literal || out.kernel != PGEM_KERNEL_EM) {
+        out.distance = PGEM_DISTANCE_POINT; /* the paper, and the IRLS kernels: point chi2 */
+    }
     if (out.literal || out.kernel != PGEM_KERNEL_EM || out.dormant_threshold < 0.0) {
         out.dormant_threshold = 0.0; /* no weight is below 0: never dormant */
     } else if (out.dormant_threshold == 0.0) {
@@ -34,10 +39,15 @@ static int pgem_check_robust_options(pgem_t *graph, const pgem_robust_options_t 
     if (options == NULL) {
         return PGEM_OK;
     }
+    if ((unsigned)options->distance > (unsigned)PGEM_DISTANCE_POINT) {
+        return pgem_fail(graph, PGEM_ERR_INVALID_ARGUMENT, "unknown loop distance");
+    }
     const double values[] = {options->scale, options->prune_threshold, options->weight_tolerance,
-                             options->gate, options->dormant_threshold};
+                             options->gate, options->dormant_threshold,
+                             options->odometry_inflation, options->predictable_rotation};
     const char *const names[] = {"scale", "prune_threshold", "weight_tolerance", "gate",
-                                 "dormant_threshold"};
+                                 "dormant_threshold", "odometry_inflation",
+                                 "predictable_rotation"};
     for (size_t k = 0; k < sizeof values / sizeof values[0]; k++) {
         int status = pgem_check_option(graph, values[k], names[k]);
         if (status != PGEM_OK) {
@@ -61,26 +71,6 @@ void pgem_robust_reset(pgem_t *graph)
     if (returned > 0u) {
         pgem_linear_invalidate(graph); /* pruned loops were out of H's structure */
     }
-}
-
-/* E-step: every loop closure not pruned gets its weight from its chi2 under the current
- * estimate; it turns dormant when the weight is below the dormant threshold, active otherwise.
- * Returns the largest weight change. */
-static double pgem_e_step(pgem_t *graph, const pgem_robust_options_t *options)
-{
-    double largest = 0.0;
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (graph->edge_kind[k] != PGEM_EDGE_LOOP || graph->edge_active[k] == PGEM_EDGE_PRUNED) {
-            continue;
-        }
-        double weight = pgem_kernel_weight(options->kernel, pgem_edge_mahalanobis(graph, k),
-                                           options->scale);
-        largest = fmax(largest, fabs(weight - graph->edge_weight[k]));
-        graph->edge_weight[k] = weight;
-        graph->edge_active[k] = weight < options->dormant_threshold ? PGEM_EDGE_DORMANT
-                                                                    : PGEM_EDGE_ACTIVE;
-    }
-    return largest;
 }
 
 /* 1 if edge k, made active, can be assembled into the current (valid) structure: it has a
@@ -191,7 +181,7 @@ static int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
     int settled = 0;
     for (uint32_t iteration = 0; iteration < options->max_em_iterations; iteration++) {
         if (iteration > 0u || !weights_current) {
-            *largest_change = pgem_e_step(graph, options);
+            *largest_change = pgem_em_e_step(graph, options);
         }
         if (settled && *largest_change < options->weight_tolerance) {
             return PGEM_OK;
@@ -201,7 +191,7 @@ static int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
             return status;
         }
     }
-    *largest_change = pgem_e_step(graph, options);
+    *largest_change = pgem_em_e_step(graph, options);
     return PGEM_OK;
 }
 
@@ -261,6 +251,8 @@ static int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
 
 /* 99.9% quantiles of the chi-square distribution with 3 and 6 degrees of freedom. */
 #define PGEM_CHI2_999_DOF3 16.266
+/* The share of rejected loop closures above which the outcome is PGEM_ROBUST_MOST_REJECTED. */
+#define PGEM_MOST_REJECTED 0.9
 #define PGEM_CHI2_999_DOF6 22.458
 
 static double pgem_gate_value(const pgem_t *graph, const pgem_robust_options_t *options)
@@ -271,17 +263,19 @@ static double pgem_gate_value(const pgem_t *graph, const pgem_robust_options_t *
     return graph->tangent == 6 ? PGEM_CHI2_999_DOF6 : PGEM_CHI2_999_DOF3;
 }
 
-/* The consistency test under the settled estimate: a pruned loop that passes the chi-square
+/* The consistency test under the polished estimate: a pruned loop whose distance passes the
  * gate is re-admitted, an accepted loop that fails it is pruned. Every loop is tested against
  * the same estimate. Returns how many changed state. */
-static uint32_t pgem_gate(pgem_t *graph, double gate, pgem_robust_summary_t *summary)
+static uint32_t pgem_gate(pgem_t *graph, const pgem_robust_options_t *options, double gate,
+                          pgem_robust_summary_t *summary)
 {
     uint32_t changed = 0;
+    pgem_em_distances(graph, options, 1);
     for (uint32_t k = 0; k < graph->edge_count; k++) {
         if (graph->edge_kind[k] != PGEM_EDGE_LOOP) {
             continue;
         }
-        int consistent = pgem_edge_mahalanobis(graph, k) < gate;
+        int consistent = graph->edge_distance[k] < gate;
         if (consistent != (graph->edge_active[k] != PGEM_EDGE_PRUNED)) {
             graph->edge_active[k] = consistent ? PGEM_EDGE_ACTIVE : PGEM_EDGE_PRUNED;
             summary->readmitted += (uint32_t)consistent;
@@ -309,18 +303,26 @@ static int pgem_polish(pgem_t *graph, const pgem_solve_options_t *solve, pgem_ro
 }
 
 /* EM rounds; then, under the polished estimate, the consistency test, and EM again while it
- * changes any loop's state (bounded by max_rounds passes). Ends polished. */
+ * changes any loop's state (bounded by max_rounds passes). Ends polished. With the innovation
+ * distance, the first rounds are the paper's (point chi2, from wherever the estimate starts);
+ * the test and the rounds after it measure loops against the map they produced. */
 static int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
                              const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
     const double gate = pgem_gate_value(graph, options);
-    int status = pgem_em_rounds(graph, options, solve, summary);
+    pgem_robust_options_t first = *options, later = *options;
+    first.distance = PGEM_DISTANCE_POINT;
+    if (options->distance == PGEM_DISTANCE_INNOVATION) {
+        later.dormant_threshold = 0.0; /* the innovations need the factor of the whole matrix */
+    }
+    int status = pgem_em_rounds(graph, &first, solve, summary);
     for (uint32_t pass = 0; status == PGEM_OK; pass++) {
         status = pgem_polish(graph, solve, summary);
-        if (status != PGEM_OK || pass == options->max_rounds || pgem_gate(graph, gate, summary) == 0u) {
+        if (status != PGEM_OK || pass == options->max_rounds ||
+            pgem_gate(graph, &later, gate, summary) == 0u) {
             break;
         }
-        status = pgem_em_rounds(graph, options, solve, summary);
+        status = pgem_em_rounds(graph, &later, solve, summary);
     }
     return status;
 }
@@ -332,12 +334,71 @@ static int pgem_plain(pgem_t *graph, const pgem_solve_options_t *solve, pgem_rob
     return pgem_polish(graph, solve, summary);
 }
 
+/* A loop closure whose chi2 is not finite (a pose or measurement near the double range) is an
+ * outlier before any E-step: pruned at weight 0, so the rest of the graph can be solved. An
+ * odometry edge like that fails the solve, naming its poses. */
+static int pgem_prune_non_finite(pgem_t *graph, pgem_robust_summary_t *summary)
+{
+    summary->first_non_finite = UINT32_MAX;
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        if (isfinite(pgem_edge_mahalanobis(graph, k))) {
+            continue;
+        }
+        if (graph->edge_kind[k] != PGEM_EDGE_LOOP) {
+            pgem_message_clear(graph);
+            pgem_message_text(graph, "the chi2 of odometry edge ");
+            pgem_message_u64(graph, graph->pose_id[graph->edge_from[k]]);
+            pgem_message_text(graph, "-");
+            pgem_message_u64(graph, graph->pose_id[graph->edge_to[k]]);
+            pgem_message_text(graph, " is not finite under the initial estimate");
+            return PGEM_ERR_NUMERIC;
+        }
+        if (summary->non_finite++ == 0u) {
+            summary->first_non_finite = k;
+        }
+        graph->edge_weight[k] = 0.0;
+        if (graph->edge_active[k] != PGEM_EDGE_PRUNED) {
+            graph->edge_active[k] = PGEM_EDGE_PRUNED;
+            pgem_linear_invalidate(graph);
+        }
+    }
+    return PGEM_OK;
+}
+
+/* The summary's account of the loops after a successful solve: how many were rejected (pruned,
+ * or for the kernels that never prune, weighing less than the prune threshold) and the
+ * outcome that says so. */
+static void pgem_summarise(pgem_t *graph, const pgem_robust_options_t *options,
+                           pgem_robust_summary_t *summary)
+{
+    pgem_count_loops(graph, summary);
+    summary->rejected = 0;
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        summary->rejected += (uint32_t)(graph->edge_kind[k] == PGEM_EDGE_LOOP &&
+                                        (graph->edge_active[k] == PGEM_EDGE_PRUNED ||
+                                         graph->edge_weight[k] < options->prune_threshold));
+    }
+    if (summary->loops == 0u) {
+        summary->outcome = PGEM_ROBUST_NO_LOOPS;
+    } else if (summary->rejected == summary->loops) {
+        summary->outcome = PGEM_ROBUST_ALL_REJECTED;
+    } else if ((double)summary->rejected > PGEM_MOST_REJECTED * (double)summary->loops) {
+        summary->outcome = PGEM_ROBUST_MOST_REJECTED;
+    } else {
+        summary->outcome = PGEM_ROBUST_LOOPS_ACCEPTED;
+    }
+    summary->final_chi2 = pgem_weighted_chi2(graph);
+    summary->final_chi2_all = pgem_total_chi2(graph);
+    summary->estimate_changed = memcmp(graph->pose, graph->pose_initial, pgem_pose_bytes(graph)) != 0;
+}
+
 int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
                          const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
     pgem_robust_summary_t local = {0};
     pgem_robust_summary_t *out = summary != NULL ? summary : &local;
     memset(out, 0, sizeof *out);
+    out->first_non_finite = UINT32_MAX;
     if (graph == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
@@ -355,16 +416,17 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     memcpy(graph->pose_initial, graph->pose, pgem_pose_bytes(graph));
     pgem_save_loops(graph);
     out->initial_chi2 = pgem_total_chi2(graph);
+    int status = PGEM_OK;
     if (!isfinite(out->initial_chi2)) {
-        /* refused before any E-step: a NaN chi2 would become a NaN weight on the loops */
-        return pgem_fail_numeric(graph, "initial chi2", 0);
+        /* before any E-step: a NaN chi2 would become a NaN weight on the loops */
+        status = resolved.kernel == PGEM_KERNEL_NONE ? pgem_fail_numeric(graph, "initial chi2", 0)
+                                                     : pgem_prune_non_finite(graph, out);
     }
-    int status;
-    if (resolved.kernel == PGEM_KERNEL_NONE) {
+    if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_NONE) {
         status = pgem_plain(graph, solve, out);
-    } else if (resolved.kernel == PGEM_KERNEL_EM && !resolved.literal) {
+    } else if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_EM && !resolved.literal) {
         status = pgem_em_with_gate(graph, &resolved, solve, out);
-    } else {
+    } else if (status == PGEM_OK) {
         status = pgem_em_rounds(graph, &resolved, solve, out);
     }
     pgem_wake_dormant(graph); /* none stays dormant after the solve */
@@ -373,9 +435,19 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
         pgem_restore_loops(graph);
         return status;
     }
-    pgem_count_loops(graph, out);
-    out->final_chi2 = pgem_weighted_chi2(graph);
+    pgem_summarise(graph, &resolved, out);
     out->usable = 1;
     pgem_message_clear(graph);
     return PGEM_OK;
+}
+
+const char *pgem_robust_outcome_name(pgem_robust_outcome_t outcome)
+{
+    switch (outcome) {
+    case PGEM_ROBUST_LOOPS_ACCEPTED: return "loops_accepted";
+    case PGEM_ROBUST_NO_LOOPS: return "no_loops";
+    case PGEM_ROBUST_MOST_REJECTED: return "most_rejected";
+    case PGEM_ROBUST_ALL_REJECTED: return "all_rejected";
+    }
+    return "unknown";
 }

@@ -21,7 +21,11 @@ int pgem_gauss_newton(pgem_t *graph, const pgem_solve_options_t *options, pgem_s
             summary->termination = PGEM_TERM_NOT_POSITIVE_DEFINITE;
             return status;
         }
-        pgem_linear_solve(graph, linear->rhs);
+        status = pgem_solve_newton(graph);
+        if (status != PGEM_OK) {
+            summary->termination = PGEM_TERM_NUMERIC;
+            return pgem_fail_numeric(graph, "step (conjugate gradients)", iteration);
+        }
         double step_norm = pgem_norm(linear->rhs, linear->scalar_count);
         if (!isfinite(step_norm)) {
             summary->termination = PGEM_TERM_NUMERIC;

@@ -58,7 +58,10 @@ static int pgem_lm_trial(pgem_t *graph, pgem_lm_t *lm, double *step_norm, int *s
     if (pgem_linear_factor(graph) != PGEM_OK) {
         return 0; /* damping too small to make H positive definite: grow it */
     }
-    pgem_linear_solve(graph, linear->rhs);
+    if (pgem_solve_newton(graph) != PGEM_OK) {
+        *status = PGEM_ERR_NUMERIC;
+        return 0;
+    }
     *step_norm = pgem_norm(linear->rhs, linear->scalar_count);
     if (!isfinite(*step_norm)) {
         *status = PGEM_ERR_NUMERIC;

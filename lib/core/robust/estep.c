@@ -1,0 +1,113 @@
+/* EM's E-step: each loop closure's distance and, from it, its weight. The paper's distance is
+ * the point chi2 under the current estimate; the innovation distance measures the loop against
+ * what the rest of the graph predicts for its two poses (robust/innovation.c), so a loop that
+ * the odometry's drift explains is not called an outlier. It is used where the map predicts
+ * the loop's rotation to options->predictable_rotation; where it does not, any measurement
+ * would look consistent, and the point chi2 (or, for an accepted loop in the consistency
+ * test, the innovation without the odometry allowance) is used instead. */
+#include <math.h>
+
+#include "internal.h"
+
+/* A factor of H under the current estimate at the current weights, and the Gauss-Newton step
+ * from it in linear->rhs (the innovations predict from where that step leads). */
+static int pgem_factor_current(pgem_t *graph)
+{
+    int status = pgem_analyze(graph);
+    if (status == PGEM_OK) {
+        (void)pgem_linear_assemble(graph);
+        status = pgem_linear_factor(graph);
+    }
+    if (status == PGEM_OK) {
+        status = pgem_solve_newton(graph);
+    }
+    return status;
+}
+
+/* 1 if loop k's poses meet on the factor's pattern (or one is held), so its marginal can be
+ * read from the sparse inverse; else it needs a solve with L. */
+static int pgem_on_pattern(const pgem_t *graph, uint32_t k)
+{
+    const pgem_linear_t *linear = &graph->linear;
+    return linear->edge_offset[k] >= 0 || linear->pose_block[graph->edge_from[k]] < 0 ||
+           linear->pose_block[graph->edge_to[k]] < 0;
+}
+
+/* Loop k's distance into edge_distance, and edge_checked: 1 if the map predicted it. */
+static void pgem_loop_distance(pgem_t *graph, const pgem_robust_options_t *options, uint32_t k,
+                               int gating, int from_inverse)
+{
+    const int pruned = graph->edge_active[k] == PGEM_EDGE_PRUNED;
+    pgem_innovation_t innovation;
+    pgem_loop_innovation(graph, k, pruned ? 0.0 : graph->edge_weight[k],
+                         options->odometry_inflation, from_inverse, &innovation);
+    const int checked = innovation.rotation_sd <= options->predictable_rotation;
+    graph->edge_checked[k] = (uint8_t)checked;
+    if (checked) {
+        graph->edge_distance[k] = innovation.distance;
+    } else if (gating && !pruned) {
+        graph->edge_distance[k] = innovation.plain; /* leave-one-out, no odometry allowance */
+    } else {
+        graph->edge_distance[k] = pgem_edge_mahalanobis(graph, k);
+    }
+}
+
+static int pgem_selected(const pgem_t *graph, uint32_t k, int with_pruned)
+{
+    return graph->edge_kind[k] == PGEM_EDGE_LOOP &&
+           (with_pruned || graph->edge_active[k] != PGEM_EDGE_PRUNED);
+}
+
+void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int gating)
+{
+    const int with_pruned = gating;
+    const int innovation = options->distance == PGEM_DISTANCE_INNOVATION &&
+                           pgem_factor_current(graph) == PGEM_OK;
+    uint32_t on_pattern = 0;
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        if (!pgem_selected(graph, k, with_pruned)) {
+            continue;
+        }
+        if (!innovation) { /* the point distance, or a singular problem: no covariance */
+            graph->edge_distance[k] = pgem_edge_mahalanobis(graph, k);
+            graph->edge_checked[k] = 0;
+        } else if (pgem_on_pattern(graph, k)) {
+            on_pattern++;
+        } else {
+            pgem_loop_distance(graph, options, k, gating, 0); /* solves with L: before the inverse */
+        }
+    }
+    if (on_pattern == 0u) {
+        return;
+    }
+    pgem_linear_invert(graph);
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        if (pgem_selected(graph, k, with_pruned) && pgem_on_pattern(graph, k)) {
+            pgem_loop_distance(graph, options, k, gating, 1);
+        }
+    }
+}
+
+double pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options)
+{
+    double largest = 0.0;
+    pgem_em_distances(graph, options, 0);
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        if (graph->edge_kind[k] != PGEM_EDGE_LOOP || graph->edge_active[k] == PGEM_EDGE_PRUNED) {
+            continue;
+        }
+        const double weight = pgem_kernel_weight(options->kernel, graph->edge_distance[k],
+                                                 options->scale);
+        largest = fmax(largest, fabs(weight - graph->edge_weight[k]));
+        graph->edge_weight[k] = weight;
+        graph->edge_active[k] = weight < options->dormant_threshold ? PGEM_EDGE_DORMANT
+                                                                    : PGEM_EDGE_ACTIVE;
+        /* a loop the map checked and found inconsistent leaves at once: its pull would bend
+         * the map the other loops are tested against (the others wait for the round's end) */
+        if (graph->edge_checked[k] && options->kernel == PGEM_KERNEL_EM &&
+            weight < options->prune_threshold) {
+            graph->edge_active[k] = PGEM_EDGE_PRUNED;
+        }
+    }
+    return largest;
+}

@@ -1,0 +1,199 @@
+/* A loop closure's innovation: its error measured against what the rest of the graph predicts
+ * for its two poses. With whitened error r = U e (U^T U = Omega), whitened Jacobian A = U J and
+ * the current factor holding the loop at weight w, M = A H^-1 A^T has eigenpairs (mu_i, v_i);
+ * the leave-one-out identities (Sherman-Morrison on the loop's own term) give the error the
+ * map would predict without the loop, rho0_i = v_i^T (r + A step) / (1 - w mu_i), and the
+ * map's covariance without it, mu0_i = mu_i / (1 - w mu_i), in whitened units. Then
+ *     d^2 = sum_i rho0_i^2 / (1 + kappa mu0_i),
+ * the Mahalanobis distance of the loop under the predicted covariance Omega^-1 + kappa J
+ * Sigma_-k J^T, kappa the odometry allowance (1: the stated covariances). `step` is the
+ * Gauss-Newton step from the current estimate, so the estimate need not be at the optimum of
+ * the current weights. */
+#include <math.h>
+#include <string.h>
+
+#include "internal.h"
+
+/* The map's variance, in units of the loop's own, at which half the odometry allowance
+ * applies. */
+#define PGEM_ALLOWANCE_HALF 10.0
+
+/* Upper-triangular U with U^T U = Omega (n x n, row-major); Omega is positive definite
+ * (checked when the edge was added). */
+static void pgem_information_root(const double *information, int n, double *upper)
+{
+    memset(upper, 0, (size_t)(n * n) * sizeof(double));
+    for (int j = 0; j < n; j++) {
+        double pivot = information[j * n + j];
+        for (int k = 0; k < j; k++) {
+            pivot -= upper[k * n + j] * upper[k * n + j];
+        }
+        const double root = sqrt(pivot > 0.0 ? pivot : 0.0);
+        upper[j * n + j] = root;
+        for (int i = j + 1; i < n; i++) {
+            double value = information[j * n + i];
+            for (int k = 0; k < j; k++) {
+                value -= upper[k * n + j] * upper[k * n + i];
+            }
+            upper[j * n + i] = root > 0.0 ? value / root : 0.0;
+        }
+    }
+}
+
+/* out = U X for upper-triangular U and X (n x n row-major). */
+static void pgem_upper_times(const double *upper, const double *x, int n, double *out)
+{
+    for (int r = 0; r < n; r++) {
+        for (int c = 0; c < n; c++) {
+            double sum = 0.0;
+            for (int m = r; m < n; m++) {
+                sum += upper[r * n + m] * x[m * n + c];
+            }
+            out[r * n + c] = sum;
+        }
+    }
+}
+
+/* Eigenvalues (values) and eigenvectors (columns of vectors) of the symmetric n x n matrix
+ * a, destroyed, by cyclic Jacobi rotations. */
+static void pgem_symmetric_eigen(double *a, int n, double *values, double *vectors)
+{
+    memset(vectors, 0, (size_t)(n * n) * sizeof(double));
+    for (int i = 0; i < n; i++) {
+        vectors[i * n + i] = 1.0;
+    }
+    for (int sweep = 0; sweep < 50; sweep++) {
+        double off = 0.0, scale = 0.0;
+        for (int p = 0; p < n; p++) {
+            scale += a[p * n + p] * a[p * n + p];
+            for (int q = p + 1; q < n; q++) {
+                off += a[p * n + q] * a[p * n + q];
+            }
+        }
+        if (!(off > 1e-30 * scale)) {
+            break;
+        }
+        for (int p = 0; p < n; p++) {
+            for (int q = p + 1; q < n; q++) {
+                const double apq = a[p * n + q];
+                if (apq == 0.0) {
+                    continue;
+                }
+                const double theta = (a[q * n + q] - a[p * n + p]) / (2.0 * apq);
+                const double t = (theta >= 0.0 ? 1.0 : -1.0) /
+                                 (fabs(theta) + sqrt(theta * theta + 1.0));
+                const double c = 1.0 / sqrt(t * t + 1.0), s = t * c;
+                for (int k = 0; k < n; k++) {
+                    const double akp = a[k * n + p], akq = a[k * n + q];
+                    a[k * n + p] = c * akp - s * akq;
+                    a[k * n + q] = s * akp + c * akq;
+                }
+                for (int k = 0; k < n; k++) {
+                    const double apk = a[p * n + k], aqk = a[q * n + k];
+                    a[p * n + k] = c * apk - s * aqk;
+                    a[q * n + k] = s * apk + c * aqk;
+                }
+                for (int k = 0; k < n; k++) {
+                    const double vkp = vectors[k * n + p], vkq = vectors[k * n + q];
+                    vectors[k * n + p] = c * vkp - s * vkq;
+                    vectors[k * n + q] = s * vkp + c * vkq;
+                }
+            }
+        }
+    }
+    for (int i = 0; i < n; i++) {
+        values[i] = a[i * n + i];
+    }
+}
+
+/* U (e + J step): the whitened error the Gauss-Newton step in linear->rhs predicts. */
+static void pgem_predicted_error(const pgem_t *graph, uint32_t k, const double *upper,
+                                 const double *error, const double *a_from, const double *a_to,
+                                 double *predicted)
+{
+    const int n = graph->tangent;
+    const int block_from = graph->linear.pose_block[graph->edge_from[k]];
+    const int block_to = graph->linear.pose_block[graph->edge_to[k]];
+    const double *step = graph->linear.rhs;
+    for (int r = 0; r < n; r++) {
+        double sum = 0.0;
+        for (int c = r; c < n; c++) {
+            sum += upper[r * n + c] * error[c];
+        }
+        for (int c = 0; c < n; c++) {
+            if (block_from >= 0) {
+                sum += a_from[r * n + c] * step[block_from * n + c];
+            }
+            if (block_to >= 0) {
+                sum += a_to[r * n + c] * step[block_to * n + c];
+            }
+        }
+        predicted[r] = sum;
+    }
+}
+
+/* Standard deviation of the loop's rotation as the map predicts it without the loop: the
+ * rotation block's trace of J Sigma_-k J^T = U^-1 M_0 U^-T, M_0 = V diag(mu0) V^T. */
+static double pgem_rotation_sd(int n, const double *upper, const double *mu0, const double *vectors)
+{
+    double variance = 0.0;
+    for (int i = 0; i < n; i++) {
+        double g[PGEM_TANGENT_SIZE_MAX] = {0}; /* U^-1 v_i */
+        for (int r = n - 1; r >= 0; r--) {
+            double sum = vectors[r * n + i];
+            for (int c = r + 1; c < n; c++) {
+                sum -= upper[r * n + c] * g[c];
+            }
+            g[r] = upper[r * n + r] > 0.0 ? sum / upper[r * n + r] : 0.0;
+        }
+        for (int r = n == 3 ? 2 : 3; r < n; r++) { /* the rotation rows: theta, or 3..5 */
+            variance += mu0[i] * g[r] * g[r];
+        }
+    }
+    return sqrt(variance);
+}
+
+void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double inflation,
+                          int from_inverse, pgem_innovation_t *out)
+{
+    const int n = graph->tangent;
+    /* zeroed where the analysers cannot see the loops that fill them */
+    double e[PGEM_TANGENT_SIZE_MAX] = {0}, predicted[PGEM_TANGENT_SIZE_MAX] = {0};
+    double jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double upper[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double a_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double vectors[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double values[PGEM_TANGENT_SIZE_MAX] = {0}, mu0[PGEM_TANGENT_SIZE_MAX] = {0};
+    pgem_edge_error(graph, k, e, jf, jt);
+    pgem_information_root(graph->edge_information + (size_t)k * (size_t)(n * n), n, upper);
+    pgem_upper_times(upper, jf, n, a_from);
+    pgem_upper_times(upper, jt, n, a_to);
+    if (from_inverse) {
+        (void)pgem_linear_marginal_inverse(graph, graph->edge_from[k], graph->edge_to[k], a_from,
+                                           a_to, m);
+    } else {
+        pgem_linear_marginal(graph, graph->edge_from[k], graph->edge_to[k], a_from, a_to, m);
+    }
+    pgem_symmetric_eigen(m, n, values, vectors);
+    pgem_predicted_error(graph, k, upper, e, a_from, a_to, predicted);
+    out->distance = out->plain = 0.0;
+    for (int i = 0; i < n; i++) {
+        double rho = 0.0;
+        for (int r = 0; r < n; r++) {
+            rho += vectors[r * n + i] * predicted[r];
+        }
+        const double mu = values[i] > 0.0 ? values[i] : 0.0;
+        const double shrink = fmax(1.0 - weight * mu, 1e-12); /* > 0 in exact arithmetic */
+        const double loo = rho / shrink;
+        mu0[i] = mu / shrink;
+        /* the allowance grows with the map's variance: none for a prediction about as tight
+         * as the loop, all of it for one from a long odometry chain (see DESIGN.md) */
+        const double allowance = 1.0 + (inflation - 1.0) * mu0[i] / (mu0[i] + PGEM_ALLOWANCE_HALF);
+        out->distance += loo * loo / (1.0 + allowance * mu0[i]);
+        out->plain += loo * loo / (1.0 + mu0[i]);
+    }
+    out->rotation_sd = pgem_rotation_sd(n, upper, mu0, vectors);
+}

@@ -1,0 +1,77 @@
+/* The Newton step: the factor's solve, then, when the assembly left couplings out of the
+ * structure (dormant loop closures), conjugate gradients on the whole matrix H + D with the
+ * factor of H as preconditioner, so the step is the exact one (to a relative residual of
+ * 1e-13) however sparse the factor was kept. No allocation: the vectors live in the shared
+ * region (linalg/factor.h) and the LM gradient copy. */
+#include <math.h>
+#include <string.h>
+
+#include "internal.h"
+
+#define PGEM_NEWTON_TOLERANCE 1e-13
+#define PGEM_NEWTON_ITERATIONS 200
+
+static double pgem_dot(const double *a, const double *b, int count)
+{
+    double sum = 0.0;
+    for (int j = 0; j < count; j++) {
+        sum += a[j] * b[j];
+    }
+    return sum;
+}
+
+/* out = (H + D) x */
+static void pgem_full_multiply(const pgem_t *graph, const double *x, double *out)
+{
+    pgem_linear_multiply(graph, x, out);
+    pgem_linear_left_out_multiply(graph, x, out);
+}
+
+int pgem_solve_newton(pgem_t *graph)
+{
+    pgem_linear_t *linear = &graph->linear;
+    const int count = linear->scalar_count;
+    if (linear->left_out == 0u) {
+        pgem_linear_solve(graph, linear->rhs);
+        return PGEM_OK;
+    }
+    double *x = linear->rhs;
+    double *b = linear->gradient; /* LM keeps the same -b there; GN does not use it */
+    double *r = linear->factor.shared; /* 3 vectors: b doubles per pose or more */
+    double *p = r + count;
+    double *q = p + count; /* (H + D) p, then the preconditioned residual */
+    memcpy(b, x, (size_t)count * sizeof(double));
+    pgem_linear_solve(graph, x);
+    pgem_full_multiply(graph, x, q);
+    for (int j = 0; j < count; j++) {
+        r[j] = b[j] - q[j];
+    }
+    const double limit = PGEM_NEWTON_TOLERANCE * sqrt(pgem_dot(b, b, count));
+    memcpy(p, r, (size_t)count * sizeof(double));
+    pgem_linear_solve(graph, p);
+    double rz = pgem_dot(r, p, count);
+    for (int iteration = 0; iteration < PGEM_NEWTON_ITERATIONS; iteration++) {
+        if (!(sqrt(pgem_dot(r, r, count)) > limit)) {
+            return PGEM_OK;
+        }
+        pgem_full_multiply(graph, p, q);
+        const double curvature = pgem_dot(p, q, count);
+        if (!(curvature > 0.0)) {
+            break;
+        }
+        const double alpha = rz / curvature;
+        for (int j = 0; j < count; j++) {
+            x[j] += alpha * p[j];
+            r[j] -= alpha * q[j];
+        }
+        memcpy(q, r, (size_t)count * sizeof(double));
+        pgem_linear_solve(graph, q);
+        const double next = pgem_dot(r, q, count);
+        const double beta = next / rz;
+        rz = next;
+        for (int j = 0; j < count; j++) {
+            p[j] = q[j] + beta * p[j];
+        }
+    }
+    return sqrt(pgem_dot(r, r, count)) <= limit ? PGEM_OK : PGEM_ERR_NUMERIC;
+}
