@@ -11,7 +11,9 @@
  * Writing (io_format_double) finds the shortest decimal inside the interval of reals that
  * read back to the double (Ryu's digit removal, Ulf Adams 2018, over exact scaled bounds
  * computed with the same 128-bit arithmetic instead of Ryu's tables), for doubles from about
- * 1e-9 to 1e45; the others are written with "%.17g", which also reads back exactly. The text
+ * 1e-9 to 1e45, and integers below 2^53 by their own digits (half the numbers of a g2o file:
+ * the information matrices); the others are written with "%.17g", which also reads back
+ * exactly. The text
  * is laid out as %.17g lays out its digits (fixed for decimal exponents -4 .. 16, else d.ddde+XX).
  * Without a 128-bit integer type (32-bit hosts) both fall back to the C library throughout. */
 #include <float.h>
@@ -273,7 +275,8 @@ static int io_shortest(uint64_t mantissa_bits, int exponent_bits, uint64_t *digi
     }
     int removed = 0, last = 0;
     if (!vm_trailing_zeros && !vr_trailing_zeros) {
-        /* the common case: no exactness to track, two digits at a time while they go */
+        /* the common case: no exactness to track, so only the last digit removed decides the
+         * rounding: the digits go eight, four, two and one at a time while they can */
         int round_up = 0;
         while (vp / 100u > vm / 100u) {
             round_up = vr % 100u >= 50u;
@@ -316,10 +319,23 @@ static int io_shortest(uint64_t mantissa_bits, int exponent_bits, uint64_t *digi
 static int io_digit_count(uint64_t v)
 {
     int count = 1;
-    for (uint64_t power = 10u; count < 20 && v >= power; power *= 10u) {
-        count++;
+    if (v >= UINT64_C(10000000000000000)) {
+        v /= UINT64_C(10000000000000000);
+        count += 16;
     }
-    return count;
+    if (v >= 100000000u) {
+        v /= 100000000u;
+        count += 8;
+    }
+    if (v >= 10000u) {
+        v /= 10000u;
+        count += 4;
+    }
+    if (v >= 100u) {
+        v /= 100u;
+        count += 2;
+    }
+    return count + (v >= 10u);
 }
 
 /* v's count decimal digits into text, two at a time from the last. */
@@ -400,6 +416,20 @@ size_t io_format_double(double value, char *out)
     }
     uint64_t digits;
     int exponent;
+    const double magnitude = negative ? -value : value;
+    if (exponent_bits != 0x7ff && magnitude < 9007199254740992.0 &&
+        magnitude == (double)(uint64_t)magnitude) {
+        /* an integer below 2^53: its own digits are the shortest text (a shorter one would
+         * be at least 1 away, and its neighbours are at most 1 away) */
+        digits = (uint64_t)magnitude;
+        const int count = io_digit_count(digits);
+        if (negative) {
+            out[at++] = '-';
+        }
+        io_digits(digits, count, out + at);
+        out[at + (size_t)count] = '\0';
+        return at + (size_t)count;
+    }
     if (exponent_bits != 0 && exponent_bits != 0x7ff &&
         io_shortest(mantissa_bits, exponent_bits, &digits, &exponent)) {
         if (negative) {

@@ -83,8 +83,16 @@ int pgem_cli_write_weights(const pgem_t *instance, const char *path);
 int pgem_cli_load(const pgem_io_graph_t *file, const char *path, uint32_t threads,
                   pgem_t **instance, double *analysis_seconds);
 
-/* Writes an instance to a g2o file; prints errors. Returns a PGEM_EXIT_* code. */
-int pgem_cli_write(const pgem_t *instance, const char *path);
+/* The instance's edges, as it holds them, into file, the graph it was loaded from (the same
+ * edges in the same order); 0 if file does not match. */
+int pgem_cli_refill_edges(const pgem_t *instance, pgem_io_graph_t *file);
+
+/* Writes an instance to a g2o file; prints errors. Returns a PGEM_EXIT_* code. file (may be
+ * NULL) is the graph the instance was loaded from, still held: it is overwritten with the
+ * instance's graph and written, instead of a fresh copy. edge_text (may be NULL): the
+ * instance's edge lines, already formatted (write_ahead.h), written after its poses. */
+int pgem_cli_write(const pgem_t *instance, pgem_io_graph_t *file, const char *path,
+                   const char *edge_text, size_t edge_bytes);
 
 /* A pose id and the index of its pose in a file graph. */
 typedef struct pgem_cli_id {

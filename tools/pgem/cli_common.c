@@ -227,8 +227,77 @@ int pgem_cli_load(const pgem_io_graph_t *file, const char *path, uint32_t thread
     return status;
 }
 
-int pgem_cli_write(const pgem_t *instance, const char *path)
+/* The instance's edges into `file`, the graph it was loaded from (the same edges in the same
+ * order, as the instance holds them: 3D measurements normalised), in place. */
+int pgem_cli_refill_edges(const pgem_t *instance, pgem_io_graph_t *file)
 {
+    if (file == NULL || file->dimension != pgem_dimension(instance) ||
+        file->edge_count != pgem_edge_count(instance)) {
+        return 0;
+    }
+    for (uint32_t i = 0; i < pgem_edge_count(instance); i++) {
+        pgem_io_edge_t *edge = &file->edges[i];
+        pgem_edge_view_t view;
+        if (pgem_edge_at(instance, i, &view) != PGEM_OK) {
+            return 0;
+        }
+        edge->from = view.from;
+        edge->to = view.to;
+        edge->kind = view.kind;
+        memcpy(edge->measurement, view.measurement, sizeof edge->measurement);
+        memcpy(edge->information, view.information, sizeof edge->information);
+    }
+    return 1;
+}
+
+/* The instance's graph into `file`, in place of a fresh copy: what pgem_io_from_instance would
+ * make, without allocating and touching as much memory again (City10000: 6.7 ms). 0 if it
+ * does not fit. */
+static int pgem_cli_refill(const pgem_t *instance, pgem_io_graph_t *file)
+{
+    if (file == NULL || file->pose_count != pgem_pose_count(instance) ||
+        !pgem_cli_refill_edges(instance, file)) {
+        return 0;
+    }
+    file->fixed_count = 0;
+    for (uint32_t i = 0; i < pgem_pose_count(instance); i++) {
+        pgem_io_pose_t *pose = &file->poses[i];
+        int fixed = 0;
+        if (pgem_pose_at(instance, i, &pose->id, pose->pose, &fixed) != PGEM_OK ||
+            (fixed && file->fixed_count == file->fixed_capacity)) {
+            return 0;
+        }
+        if (fixed) {
+            file->fixed[file->fixed_count++] = pose->id;
+        }
+    }
+    return 1;
+}
+
+/* The poses (and FIX lines) of graph, then the edge lines already formatted. */
+static int pgem_cli_write_poses_then(const pgem_io_graph_t *graph, const char *path,
+                                     const char *edge_text, size_t edge_bytes)
+{
+    FILE *stream = pgem_cli_create("pgem", path);
+    if (stream == NULL) {
+        return PGEM_EXIT_IO;
+    }
+    static char buffer[1u << 18]; /* as pgem_io_write's: one write call per 256 KiB */
+    (void)setvbuf(stream, buffer, _IOFBF, sizeof buffer);
+    pgem_io_graph_t poses = *graph;
+    poses.edge_count = 0;
+    int failed = pgem_io_write_stream(stream, PGEM_FORMAT_G2O, &poses) != PGEM_OK;
+    failed = failed || fwrite(edge_text, 1, edge_bytes, stream) != edge_bytes;
+    return pgem_cli_finish("pgem", path, stream, failed);
+}
+
+int pgem_cli_write(const pgem_t *instance, pgem_io_graph_t *file, const char *path,
+                   const char *edge_text, size_t edge_bytes)
+{
+    if (pgem_cli_refill(instance, file)) {
+        return edge_text != NULL ? pgem_cli_write_poses_then(file, path, edge_text, edge_bytes)
+                                 : pgem_cli_write_graph("pgem", file, path);
+    }
     pgem_io_graph_t out = {0};
     int status = pgem_io_from_instance(instance, &out);
     if (status == PGEM_OK) {

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "write_ahead.h"
 
 /* Command-line choices of one optimize run. */
 typedef struct pgem_optimize_args {
@@ -443,7 +444,9 @@ static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *arg
 
 /* Runs the robust solve (one line per round) or the plain one (one line per iteration), prints
  * the summary and writes the files asked for. Returns a PGEM_EXIT_* code. */
-static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph)
+/* The solve, then the outputs; file is the graph read (overwritten by the result's). */
+static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph,
+                             pgem_io_graph_t *file)
 {
     const int robust = args->robust.kernel != PGEM_KERNEL_NONE;
     pgem_optimize_progress_t progress = {pgem_progress_stream(args), 0.0, args->quiet, 0.0};
@@ -464,22 +467,33 @@ static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph)
             fprintf(progress.out, "%5s %18s %12s %10s\n", "iter", "chi2", "step-norm", "seconds");
         }
     }
+    pgem_write_ahead_t ahead; /* the result's edge lines, formatted during the solve */
+    memset(&ahead, 0, sizeof ahead);
+    if (args->output != NULL && pgem_cli_refill_edges(graph, file)) {
+        pgem_write_ahead_start(&ahead, file);
+    }
     progress.start = pgem_cli_now();
     int status = robust ? pgem_robust_optimize(graph, &robust_options, &solve, &robust_summary)
                         : pgem_optimize(graph, &solve, &summary);
     double seconds = pgem_cli_now() - progress.start;
+    pgem_write_ahead_finish(&ahead);
     if (robust) {
         pgem_print_robust_summary(progress.out, args, graph, &robust_summary, seconds, status);
     } else {
         pgem_print_summary(progress.out, args, graph, &summary, seconds, status);
     }
+    int exit_code = PGEM_EXIT_OK;
     if (status != PGEM_OK) {
-        return PGEM_EXIT_FAILURE;
+        exit_code = PGEM_EXIT_FAILURE;
+    } else if (args->weights != NULL && pgem_cli_write_weights(graph, args->weights) != 0) {
+        exit_code = PGEM_EXIT_IO;
+    } else if (args->output != NULL) {
+        const int ahead_usable = ahead.text != NULL && pgem_write_ahead_matches(graph, file);
+        exit_code = pgem_cli_write(graph, file, args->output, ahead_usable ? ahead.text : NULL,
+                                   ahead.size);
     }
-    if (args->weights != NULL && pgem_cli_write_weights(graph, args->weights) != 0) {
-        return PGEM_EXIT_IO;
-    }
-    return args->output != NULL ? pgem_cli_write(graph, args->output) : PGEM_EXIT_OK;
+    pgem_write_ahead_free(&ahead);
+    return exit_code;
 }
 
 /* A file without edges is most likely not the file meant (a wrong path, an empty export,
@@ -522,7 +536,9 @@ int pgem_cmd_optimize(int argc, char **argv)
         args.threads = args.threads < 8u ? args.threads : 8u;
     }
     status = pgem_cli_load(&file, args.input, args.threads, &graph, &args.analysis_seconds);
-    pgem_io_graph_free(&file);
+    if (status != PGEM_OK || args.output == NULL) {
+        pgem_io_graph_free(&file); /* kept only to be written over with the result */
+    }
     if (status != PGEM_OK) {
         pgem_destroy(graph);
         return PGEM_EXIT_FAILURE;
@@ -540,7 +556,8 @@ int pgem_cmd_optimize(int argc, char **argv)
             (void)pgem_set_executor(graph, &executor);
         }
     }
-    status = pgem_optimize_run(&args, graph);
+    status = pgem_optimize_run(&args, graph, &file);
+    pgem_io_graph_free(&file);
     pgem_set_executor(graph, NULL);
     pgem_thread_pool_destroy(pool);
     pgem_destroy(graph);
