@@ -10,8 +10,10 @@
  * length, a string without its NUL, random bytes, the other dimension's type, NaN or Inf in
  * an estimate, measurement or information, information not positive definite, self-loops,
  * unknown edge kinds, empty or over-long source names, unknown commands, SNAPSHOT without a
- * path. None can be accepted, and none names a pose or (source, sequence) of a real
- * front-end: they use the source "malformed" and ids from 1e12 on.
+ * path; and (issue 17) translations or information beyond the core's limits, source names that
+ * are not printable UTF-8, SNAPSHOT paths that are not a plain name. None can be accepted, and
+ * none names a pose or (source, sequence) of a real front-end: they use the source "malformed"
+ * and ids from 1e12 on.
  *
  * Prints "sent N malformed messages ..." and then the counts the bridge must add up to:
  * "expect received R" (pose and edge channel messages), "expect commands C" (commands that
@@ -141,7 +143,12 @@ static double bad_number(void)
     return below(2) ? (double)NAN : (below(2) ? (double)INFINITY : -(double)INFINITY);
 }
 
-#define KINDS 20
+#define KINDS 23
+
+static char unprintable_names[4][24] = {"fe\xff", "fe\nrejected (x): forged", "\x1b[2Jfe",
+                                        "rtl\xe2\x80\xae\146\145"}; /* ...fe */
+static char escaping_paths[4][24] = {"../escaped.g2o", "/tmp/escaped.g2o", "sub/x.g2o",
+                                     ".hidden.g2o"};
 
 /* Message number k of the given kind (0 .. KINDS-1). */
 static void build(message_t *m, int kind, int64_t k)
@@ -260,6 +267,28 @@ static void build(message_t *m, int kind, int64_t k)
         break;
     case 18:
         encode_command(m, PGEM_COMMAND_T_SNAPSHOT, empty_name);
+        m->reason = PGEM_REJECT_COMMAND;
+        break;
+    case 19: /* beyond the magnitude limits: a translation (1e8 m) or information (1e15) */
+        if (below(3) == 0) {
+            encode_pose(m, k, below(2) ? 1e160 : -1.5e8);
+        } else {
+            if (below(2)) {
+                edge.measurement[below(2)] = below(2) ? 1e160 : -2e8;
+            } else {
+                edge.information[below(6)] = below(2) ? 2e15 : -1e300;
+            }
+            encode_edge(m, &edge);
+        }
+        m->reason = PGEM_REJECT_RANGE;
+        break;
+    case 20: /* a source name that is not printable UTF-8 */
+        edge.source = unprintable_names[below(4)];
+        encode_edge(m, &edge);
+        m->reason = PGEM_REJECT_SOURCE;
+        break;
+    case 21: /* SNAPSHOT with a path out of the snapshot folder (or SNAPSHOT off) */
+        encode_command(m, PGEM_COMMAND_T_SNAPSHOT, escaping_paths[below(4)]);
         m->reason = PGEM_REJECT_COMMAND;
         break;
     default: /* truncated command */

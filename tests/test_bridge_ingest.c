@@ -1,5 +1,6 @@
 /* The bridge's reception state machine: decoding, validation, replays, conflicts, pending
- * edges, capacity, commands and determinism, on messages encoded with the lcm-gen types. */
+ * edges (ageing and fairness), sources, the admit hook, capacity, commands and determinism, on
+ * messages encoded with the lcm-gen types. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -34,11 +35,15 @@ static void record(void *user, const pgem_item_t *item)
     sink->items[sink->count++] = *item;
 }
 
+/* The receive time every message is fed with (microseconds). */
+static int64_t test_clock = 0;
+
 static pgem_ingest_t *make_ingest(int dimension, uint32_t poses, uint32_t edges,
                                   uint32_t pending, sink_t *sink)
 {
     memset(sink, 0, sizeof *sink);
-    pgem_ingest_config_t config = {dimension, poses, edges, pending, 4};
+    test_clock = 0;
+    pgem_ingest_config_t config = {dimension, poses, edges, pending, 4, 0, 1};
     pgem_ingest_t *ingest = pgem_ingest_create(&config, record, sink);
     assert_non_null(ingest);
     return ingest;
@@ -115,7 +120,7 @@ static wire_t command(int8_t what, const char *path)
 static pgem_ingest_result_t feed(pgem_ingest_t *ingest, pgem_role_t role, wire_t w)
 {
     pgem_ingest_result_t result;
-    pgem_ingest_message(ingest, role, w.bytes, w.size, &result);
+    pgem_ingest_message(ingest, role, w.bytes, w.size, test_clock, &result);
     return result;
 }
 
@@ -366,7 +371,7 @@ static void test_garbage_and_truncation(void **state)
     /* every strict prefix, and one extra byte, is a decode error and changes nothing */
     for (size_t size = 0; size < good.size; ++size) {
         pgem_ingest_result_t r;
-        pgem_ingest_message(ingest, PGEM_ROLE_EDGE, good.bytes, size, &r);
+        pgem_ingest_message(ingest, PGEM_ROLE_EDGE, good.bytes, size, test_clock, &r);
         assert_int_equal(r.verdict, PGEM_VERDICT_REJECTED);
         assert_int_equal(r.reason, PGEM_REJECT_DECODE);
     }
@@ -527,9 +532,9 @@ static void test_commands(void **state)
     pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_COMMAND, command(PGEM_COMMAND_T_OPTIMIZE, ""));
     assert_int_equal(r.verdict, PGEM_VERDICT_COMMAND);
     assert_int_equal(r.command, PGEM_COMMAND_T_OPTIMIZE);
-    r = feed(ingest, PGEM_ROLE_COMMAND, command(PGEM_COMMAND_T_SNAPSHOT, "/tmp/x.g2o"));
+    r = feed(ingest, PGEM_ROLE_COMMAND, command(PGEM_COMMAND_T_SNAPSHOT, "map-1_x.g2o"));
     assert_int_equal(r.verdict, PGEM_VERDICT_COMMAND);
-    assert_string_equal(r.path, "/tmp/x.g2o");
+    assert_string_equal(r.path, "map-1_x.g2o");
     expect_rejected(ingest, PGEM_ROLE_COMMAND, command(PGEM_COMMAND_T_SNAPSHOT, ""),
                     PGEM_REJECT_COMMAND);
     expect_rejected(ingest, PGEM_ROLE_COMMAND, command(9, ""), PGEM_REJECT_COMMAND);
@@ -583,6 +588,329 @@ static int compare_items(const void *a, const void *b)
         return x->from < y->from ? -1 : 1;
     }
     return 0;
+}
+
+/* Issue 17: a loop closure with dx = 1e160 was admitted and journaled, and no solve finished
+ * again, also after a restart. Translations and information beyond the core's limits are
+ * refused (reason range) by name, and reserve nothing. */
+static void test_magnitudes_beyond_the_limits(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 10, 10, 4, &sink);
+    feed(ingest, PGEM_ROLE_POSE, pose2(0, 0, 0, 0));
+    feed(ingest, PGEM_ROLE_POSE, pose2(3000, 1, 0, 0));
+    pgem_edge2_t e = edge2_msg(9, 3000, 0);
+    e.measurement[0] = 1e160;
+    pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
+    assert_int_equal(r.reason, PGEM_REJECT_RANGE);
+    assert_string_equal(r.message, "edge 3000 -> 0 (source 'fe', sequence 9): the measurement's x "
+                                   "is 1e+160 m, beyond the translation limit of 1e8 m");
+    r = feed(ingest, PGEM_ROLE_POSE, pose2(5, 0, -2e8, 0));
+    assert_int_equal(r.reason, PGEM_REJECT_RANGE);
+    assert_string_equal(r.message, "2D pose 5: the estimate's y is -2e+08 m, beyond the "
+                                   "translation limit of 1e8 m");
+    e = edge2_msg(10, 3000, 0);
+    e.information[4] = -3e15; /* yt */
+    r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
+    assert_int_equal(r.reason, PGEM_REJECT_RANGE);
+    assert_non_null(strstr(r.message, "information entry 1,2 is -3e+15, beyond the information "
+                                      "limit of 1e15"));
+    pgem_pose3_t p;
+    memset(&p, 0, sizeof p);
+    p.source = default_source;
+    p.pose[2] = 1e9;
+    p.pose[6] = 1.0;
+    wire_t w;
+    w.size = (size_t)pgem_pose3_t_encode(w.bytes, 0, sizeof w.bytes, &p);
+    pgem_ingest_t *ingest3 = make_ingest(3, 4, 4, 4, &sink);
+    expect_rejected(ingest3, PGEM_ROLE_POSE, w, PGEM_REJECT_RANGE);
+    pgem_ingest_destroy(ingest3);
+    /* at the limits: accepted, the same sequence number still free */
+    e = edge2_msg(9, 3000, 0);
+    e.measurement[0] = 1e8;
+    e.information[0] = 1e15;
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e)).verdict,
+                     PGEM_VERDICT_ACCEPTED);
+    pgem_ingest_counts_t counts;
+    pgem_ingest_counts(ingest, &counts);
+    assert_int_equal(counts.rejected[PGEM_REJECT_RANGE], 3);
+    assert_int_equal(counts.accepted_edges, 1);
+    pgem_ingest_destroy(ingest);
+}
+
+/* Issue 17: a source name that is not UTF-8 was kept, and pgem-lcm-dump's JSON no longer
+ * parsed; a newline in it forged log lines. Names must be printable UTF-8; the message shows
+ * a refused one escaped. */
+static void test_source_names_are_printable_utf8(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 10, 10, 4, &sink);
+    feed(ingest, PGEM_ROLE_POSE, pose2(0, 0, 0, 0));
+    feed(ingest, PGEM_ROLE_POSE, pose2(1, 1, 0, 0));
+    char *bad[] = {(char *)"fe\xff", (char *)"fe\nrejected (x): forged", (char *)"a\xc3",
+                   (char *)"\xc0\xaf", (char *)"rtl\xe2\x80\xae\145vil", (char *)"del\x7f",
+                   (char *)"c1\xc2\x85", (char *)"\xed\xa0\x80"};
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; ++k) {
+        pgem_edge2_t e = edge2_msg((int64_t)k, 0, 1);
+        e.source = bad[k];
+        pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
+        assert_int_equal(r.reason, PGEM_REJECT_SOURCE);
+        assert_null(strchr(r.message, '\n'));
+        assert_non_null(strstr(r.message, "is not printable UTF-8"));
+    }
+    pgem_edge2_t e = edge2_msg(0, 0, 1);
+    e.source = bad[1];
+    pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
+    assert_non_null(strstr(r.message, "edge 0 -> 1 (source 'fe\\x0arejected (x): forged', "
+                                      "sequence 0): source name 'fe\\x0arejected"));
+    e.source = bad[0];
+    r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
+    assert_string_equal(r.message, "edge 0 -> 1 (source 'fe\\xff', sequence 0): source name "
+                                   "'fe\\xff' is not printable UTF-8 (byte 2, 0xff): names appear "
+                                   "in logs and JSON");
+    assert_int_equal(pgem_ingest_source_count(ingest), 0);
+    char good[] = "Roboter-M\xc3\xbcnchen \xe6\x9c\xba\xf0\x9f\xa4\x96";
+    e.source = good;
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e)).verdict,
+                     PGEM_VERDICT_ACCEPTED);
+    assert_string_equal(pgem_ingest_source_name(ingest, 0), good);
+    pgem_ingest_destroy(ingest);
+}
+
+/* Issue 17: kind -1 was reported as "kind 255" (the wire's int8 read as unsigned). */
+static void test_kind_named_as_sent(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 10, 10, 4, &sink);
+    pgem_edge2_t e = edge2_msg(0, 0, 1);
+    e.kind = -1;
+    pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
+    assert_int_equal(r.reason, PGEM_REJECT_KIND);
+    assert_non_null(strstr(r.message, ": kind -1 is neither ODOMETRY (0) nor LOOP (1)"));
+    pgem_ingest_destroy(ingest);
+}
+
+/* Issue 17: SNAPSHOT took any path from the network, so any sender could overwrite any file the
+ * bridge could write. It is off unless the bridge has a snapshot folder, and then takes a
+ * plain file name only. */
+static void test_snapshot_takes_a_plain_name(void **state)
+{
+    (void)state;
+    sink_t sink;
+    memset(&sink, 0, sizeof sink);
+    pgem_ingest_config_t off = {2, 4, 4, 4, 4, 0, 0};
+    pgem_ingest_t *ingest = pgem_ingest_create(&off, record, &sink);
+    pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_COMMAND, command(PGEM_COMMAND_T_SNAPSHOT, "map.g2o"));
+    assert_int_equal(r.reason, PGEM_REJECT_COMMAND);
+    assert_non_null(strstr(r.message, "SNAPSHOT is off: start the bridge with --snapshot-dir"));
+    pgem_ingest_destroy(ingest);
+    ingest = make_ingest(2, 4, 4, 4, &sink);
+    const char *refused[] = {"/etc/passwd", "../map.g2o", "a/b", ".hidden", "..", "map g2o",
+                             "map\n", "caf\xc3\xa9", ""};
+    for (size_t k = 0; k < sizeof refused / sizeof refused[0]; ++k) {
+        r = feed(ingest, PGEM_ROLE_COMMAND, command(PGEM_COMMAND_T_SNAPSHOT, refused[k]));
+        assert_int_equal(r.verdict, PGEM_VERDICT_REJECTED);
+        assert_int_equal(r.reason, PGEM_REJECT_COMMAND);
+        assert_null(strchr(r.message, '\n'));
+    }
+    char longest[PGEM_SNAPSHOT_NAME_MAX + 2];
+    memset(longest, 'a', sizeof longest);
+    longest[PGEM_SNAPSHOT_NAME_MAX] = '\0';
+    assert_true(pgem_snapshot_name_ok(longest));
+    longest[PGEM_SNAPSHOT_NAME_MAX] = 'a';
+    longest[PGEM_SNAPSHOT_NAME_MAX + 1] = '\0';
+    assert_false(pgem_snapshot_name_ok(longest));
+    assert_true(pgem_snapshot_name_ok("Map_2024-01.01.g2o"));
+    pgem_ingest_destroy(ingest);
+}
+
+/* The admit hook (the bridge's journal): a refusal is reason journal, and nothing changes, so
+ * the front-end's resend is accepted once the journal takes it. */
+typedef struct gate {
+    int refuse;   /* refuse everything offered */
+    int offered;  /* messages offered */
+} gate_t;
+
+static int gate_admit(void *user, const void *data, size_t size, char *message,
+                      size_t message_size)
+{
+    gate_t *gate = user;
+    assert_non_null(data);
+    assert_true(size > 8);
+    gate->offered++;
+    if (gate->refuse) {
+        snprintf(message, message_size, "j.lcmlog: write failed: No space left on device");
+        return -1;
+    }
+    return 0;
+}
+
+static void test_admit_hook_refusal_changes_nothing(void **state)
+{
+    (void)state;
+    sink_t sink;
+    gate_t gate = {1, 0};
+    pgem_ingest_t *ingest = make_ingest(2, 10, 10, 4, &sink);
+    pgem_ingest_set_admit(ingest, gate_admit, &gate);
+    pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_POSE, pose2(0, 0, 0, 0));
+    assert_int_equal(r.reason, PGEM_REJECT_JOURNAL);
+    assert_string_equal(r.message, "2D pose 0: not accepted, it could not be journaled "
+                                   "(j.lcmlog: write failed: No space left on device); nothing "
+                                   "changed, resend it");
+    expect_rejected(ingest, PGEM_ROLE_EDGE, edge2(0, 0, 1), PGEM_REJECT_JOURNAL); /* pending */
+    expect_rejected(ingest, PGEM_ROLE_COMMAND, command(PGEM_COMMAND_T_RESET, ""),
+                    PGEM_REJECT_JOURNAL);
+    /* what does not change the graph is not offered */
+    expect_rejected(ingest, PGEM_ROLE_EDGE, edge2(1, 1, 1), PGEM_REJECT_SELF_LOOP);
+    assert_int_equal(feed(ingest, PGEM_ROLE_COMMAND, command(PGEM_COMMAND_T_OPTIMIZE, "")).verdict,
+                     PGEM_VERDICT_COMMAND);
+    assert_int_equal(gate.offered, 3);
+    assert_int_equal(sink.count, 0);
+    pgem_ingest_counts_t counts;
+    pgem_ingest_counts(ingest, &counts);
+    assert_true(counts.accepted_poses == 0 && counts.accepted_edges == 0 && counts.pending == 0);
+    assert_int_equal(counts.rejected[PGEM_REJECT_JOURNAL], 3);
+    assert_int_equal(pgem_ingest_source_count(ingest), 0);
+    /* the journal has room again: the resends land, none of them a replay */
+    gate.refuse = 0;
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(0, 0, 1)).pending, 1);
+    assert_int_equal(feed(ingest, PGEM_ROLE_POSE, pose2(0, 0, 0, 0)).verdict, PGEM_VERDICT_ACCEPTED);
+    assert_int_equal(feed(ingest, PGEM_ROLE_POSE, pose2(1, 1, 0, 0)).verdict, PGEM_VERDICT_ACCEPTED);
+    assert_int_equal(sink.count, 3);
+    pgem_ingest_counts(ingest, &counts);
+    assert_true(counts.accepted_poses == 2 && counts.accepted_edges == 1 && counts.replays == 0);
+    pgem_ingest_destroy(ingest);
+}
+
+/* Issue 17: 4096 edges to poses that never come filled the pending list for good. An edge now
+ * waits at most the pending timeout: then it expires, named and counted, its capacity and key
+ * are free (a resend is a new edge) and the accepted count gives it back. */
+static void test_pending_edges_expire(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 10, 3, 2, &sink);
+    feed(ingest, PGEM_ROLE_POSE, pose2(0, 0, 0, 0));
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(0, 0, 7)).pending, 1);
+    test_clock = 30000000;
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(1, 0, 8)).pending, 1);
+    expect_rejected(ingest, PGEM_ROLE_EDGE, edge2(2, 0, 9), PGEM_REJECT_PENDING_FULL);
+    pgem_ingest_counts_t counts;
+    test_clock = PGEM_PENDING_TIMEOUT_DEFAULT; /* exactly the timeout: still waiting */
+    assert_int_equal(pgem_ingest_expire(ingest, test_clock), 0);
+    test_clock = PGEM_PENDING_TIMEOUT_DEFAULT + 1;
+    assert_int_equal(pgem_ingest_expire(ingest, test_clock), 1);
+    assert_string_equal(pgem_ingest_last_expiry(ingest),
+                        "edge 0 -> 7 (source 'fe', sequence 0) expired: it waited 60.0 s for "
+                        "pose 7 (--pending-timeout 60 s)");
+    pgem_ingest_counts(ingest, &counts);
+    assert_int_equal(counts.pending, 1);
+    assert_int_equal(counts.accepted_edges, 1);
+    assert_int_equal(counts.rejected[PGEM_REJECT_EXPIRED], 1);
+    assert_int_equal(counts.received, counts.accepted_poses + counts.accepted_edges +
+                                          counts.replays + counts.rejected[PGEM_REJECT_PENDING_FULL] +
+                                          counts.rejected[PGEM_REJECT_EXPIRED]);
+    /* a message expires what is due before it is handled */
+    test_clock = 30000000 + PGEM_PENDING_TIMEOUT_DEFAULT + 1;
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(2, 0, 9)).pending, 1);
+    pgem_ingest_counts(ingest, &counts);
+    assert_int_equal(counts.rejected[PGEM_REJECT_EXPIRED], 2);
+    /* the expired edge is not a replay when it comes back, and lands once its pose does */
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(0, 0, 7)).verdict, PGEM_VERDICT_ACCEPTED);
+    feed(ingest, PGEM_ROLE_POSE, pose2(7, 0, 0, 0));
+    assert_int_equal(sink.items[sink.count - 1].sequence, 0);
+    pgem_ingest_destroy(ingest);
+}
+
+/* A sender that floods the pending list only displaces its own edges: when the list is full, a
+ * source holding fewer waiting edges takes the place of the oldest edge of the one holding the
+ * most, so both end with an equal share. */
+static void test_pending_flood_is_shared_fairly(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 40, 40, 8, &sink);
+    char flood[] = "flood";
+    for (int k = 0; k < 8; ++k) {
+        pgem_edge2_t e = edge2_msg(k, 100 + k, 200 + k);
+        e.source = flood;
+        assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e)).pending, 1);
+    }
+    pgem_edge2_t e = edge2_msg(8, 100, 300);
+    e.source = flood;
+    pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
+    assert_int_equal(r.reason, PGEM_REJECT_PENDING_FULL);
+    /* a legitimate front-end's out-of-order edges still wait, up to half the list */
+    for (int k = 0; k < 5; ++k) {
+        r = feed(ingest, PGEM_ROLE_EDGE, edge2(k, k, k + 1));
+        if (k < 4) {
+            assert_int_equal(r.pending, 1);
+            assert_non_null(strstr(pgem_ingest_last_expiry(ingest),
+                                   "(source 'flood', sequence "));
+        } else {
+            assert_int_equal(r.reason, PGEM_REJECT_PENDING_FULL);
+        }
+    }
+    r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e)); /* the flood gets no more room */
+    assert_int_equal(r.reason, PGEM_REJECT_PENDING_FULL);
+    pgem_ingest_counts_t counts;
+    pgem_ingest_counts(ingest, &counts);
+    assert_int_equal(counts.pending, 8);
+    assert_int_equal(counts.rejected[PGEM_REJECT_EXPIRED], 4);
+    /* the oldest flood edges went first: 0..3 are free again, 4..7 still wait */
+    e = edge2_msg(0, 100, 200);
+    e.source = flood;
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e)).reason, PGEM_REJECT_PENDING_FULL);
+    e = edge2_msg(4, 104, 204);
+    e.source = flood;
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e)).verdict, PGEM_VERDICT_REPLAY);
+    for (int id = 0; id < 5; ++id) {
+        feed(ingest, PGEM_ROLE_POSE, pose2(id, id, 0, 0));
+    }
+    pgem_ingest_counts(ingest, &counts);
+    assert_int_equal(counts.pending, 4); /* the front-end's four edges went into the graph */
+    assert_int_equal(sink.count, 9);
+    pgem_ingest_destroy(ingest);
+}
+
+/* The source table holds sources with an edge in the graph or waiting: one whose edges all
+ * expired without ever reaching the graph leaves it, so names that never complete cannot
+ * fill it for good; one with an edge in the graph stays. */
+static void test_sources_age_out(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 10, 10, 8, &sink); /* 4 sources */
+    feed(ingest, PGEM_ROLE_POSE, pose2(0, 0, 0, 0));
+    feed(ingest, PGEM_ROLE_POSE, pose2(1, 1, 0, 0));
+    char names[5][8] = {"kept", "h1", "h2", "h3", "late"};
+    pgem_edge2_t e = edge2_msg(0, 0, 1);
+    e.source = names[0];
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e)).verdict, PGEM_VERDICT_ACCEPTED);
+    for (int s = 1; s < 4; ++s) {
+        e = edge2_msg(0, 0, 50 + s); /* waits for a pose that never comes */
+        e.source = names[s];
+        assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e)).pending, 1);
+    }
+    e = edge2_msg(0, 0, 1);
+    e.source = names[4];
+    expect_rejected(ingest, PGEM_ROLE_EDGE, encode_edge2(&e), PGEM_REJECT_SOURCE);
+    e = edge2_msg(1, 1, 60);
+    e.source = names[0];
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e)).pending, 1);
+    test_clock = PGEM_PENDING_TIMEOUT_DEFAULT + 1;
+    assert_int_equal(pgem_ingest_expire(ingest, test_clock), 4);
+    assert_int_equal(pgem_ingest_source_count(ingest), 1); /* "kept" has an edge in the graph */
+    assert_string_equal(pgem_ingest_source_name(ingest, 0), "kept");
+    e = edge2_msg(0, 0, 1);
+    e.source = names[4];
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e)).verdict, PGEM_VERDICT_ACCEPTED);
+    assert_string_equal(pgem_ingest_source_name(ingest, 1), "late");
+    assert_int_equal(sink.items[sink.count - 1].source, 1);
+    pgem_ingest_destroy(ingest);
 }
 
 static void test_order_and_replay_determinism(void **state)
@@ -663,6 +991,14 @@ int main(void)
         cmocka_unit_test(test_capacity),
         cmocka_unit_test(test_ids_at_the_ends_of_the_range),
         cmocka_unit_test(test_commands),
+        cmocka_unit_test(test_magnitudes_beyond_the_limits),
+        cmocka_unit_test(test_source_names_are_printable_utf8),
+        cmocka_unit_test(test_kind_named_as_sent),
+        cmocka_unit_test(test_snapshot_takes_a_plain_name),
+        cmocka_unit_test(test_admit_hook_refusal_changes_nothing),
+        cmocka_unit_test(test_pending_edges_expire),
+        cmocka_unit_test(test_pending_flood_is_shared_fairly),
+        cmocka_unit_test(test_sources_age_out),
         cmocka_unit_test(test_order_and_replay_determinism),
         cmocka_unit_test(test_any_role_ignores_other_types),
     };

@@ -1,5 +1,6 @@
-/* The bridge's journal: round trip, torn tails, damage, and compatibility both ways with
- * LCM's own log reader and writer (lcm-logger / lcm-logplayer's format). */
+/* The bridge's journal: round trip, torn tails, damage, files that are not journals, failed
+ * appends taken back, and compatibility both ways with LCM's own log reader and writer
+ * (lcm-logger / lcm-logplayer's format). */
 #define _POSIX_C_SOURCE 200809L
 #include <setjmp.h>
 #include <stdarg.h>
@@ -7,7 +8,9 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <signal.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -163,14 +166,112 @@ static void test_damage_is_skipped_and_reported(void **state)
     pgem_journal_close(journal);
     FILE *file = fopen(path, "r+b");
     assert_non_null(file);
-    fseek(file, 0, SEEK_SET);
-    fputc(0x00, file); /* break the first record's sync word */
+    fseek(file, 28 + 3 + 1, SEEK_SET);
+    fputc(0x00, file); /* break the second record's sync word */
     fclose(file);
     journal = reopen(path, &seen, &info);
     assert_int_equal(seen.count, 2);
-    assert_int_equal(seen.utime[0], 1001);
+    assert_int_equal(seen.utime[0], 1000);
+    assert_int_equal(seen.utime[1], 1002);
     assert_true(info.skipped_bytes > 0);
     pgem_journal_close(journal);
+}
+
+static off_t file_size(const char *path)
+{
+    struct stat st;
+    assert_int_equal(stat(path, &st), 0);
+    return st.st_size;
+}
+
+/* Issue 17: `--journal some.g2o` emptied the file ("cut 171 bytes of a torn last record") and
+ * started. A file that is not empty and does not start with an LCM log record, or is not a
+ * regular file, is refused, and not a byte of it changes. A prefix of a record (the first one,
+ * torn by a kill) is still a journal. */
+static void test_not_a_journal_is_refused(void **state)
+{
+    (void)state;
+    char path[512];
+    char message[512];
+    path_for(path, sizeof path, "journal_not_a_log.g2o");
+    const char text[] = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n";
+    FILE *file = fopen(path, "wb");
+    assert_non_null(file);
+    fputs(text, file);
+    fclose(file);
+    pgem_journal_t *journal = pgem_journal_open(path, 0, NULL, NULL, NULL, message,
+                                                sizeof message);
+    assert_null(journal);
+    assert_non_null(strstr(message, "journal_not_a_log.g2o is not an LCM log (its first bytes "
+                                    "are not an LCM log record, 56 45 52 54...): refusing to use "
+                                    "it as a journal, nothing was changed"));
+    assert_int_equal(file_size(path), (off_t)(sizeof text - 1));
+    /* the sync word, then a header no LCM log has (a channel of 2^31 bytes) */
+    static const unsigned char lying[28] = {0xED, 0xA1, 0xDA, 0x01, 0, 0, 0, 0, 0, 0, 0, 0,
+                                            0, 0, 0, 0, 0, 0, 0, 0, 0x80, 0, 0, 0, 0, 0, 0, 1};
+    file = fopen(path, "wb");
+    fwrite(lying, 1, sizeof lying, file);
+    fputs(text, file);
+    fclose(file);
+    assert_null(pgem_journal_open(path, 0, NULL, NULL, NULL, message, sizeof message));
+    assert_non_null(strstr(message, "is not an LCM log"));
+    assert_int_equal(file_size(path), (off_t)(sizeof lying + sizeof text - 1));
+    /* a folder and a device */
+    const char *dir = getenv("PGEM_TEST_TMP");
+    assert_null(pgem_journal_open(dir != NULL ? dir : "/tmp", 0, NULL, NULL, NULL, message,
+                                  sizeof message));
+    assert_null(pgem_journal_open("/dev/null", 0, NULL, NULL, NULL, message, sizeof message));
+    assert_non_null(strstr(message, "/dev/null: not a regular file"));
+    /* three bytes of a sync word: the first record, torn; cut, and the journal starts */
+    file = fopen(path, "wb");
+    fwrite(lying, 1, 3, file);
+    fclose(file);
+    seen_t seen;
+    pgem_journal_info_t info;
+    journal = reopen(path, &seen, &info);
+    assert_int_equal(info.torn_bytes, 3);
+    assert_int_equal(seen.count, 0);
+    pgem_journal_close(journal);
+    assert_int_equal(file_size(path), 0);
+    remove(path);
+}
+
+/* Issue 17: on a full disk the bridge acknowledged edges its journal did not hold. An append
+ * that fails (here past a file size limit, as a full disk fails it) leaves no part of its
+ * record in the file, says why, and the next append succeeds once there is room. */
+static void test_failed_append_is_taken_back(void **state)
+{
+    (void)state;
+    char path[512];
+    char message[256];
+    path_for(path, sizeof path, "journal_full.lcmlog");
+    seen_t seen;
+    pgem_journal_info_t info;
+    pgem_journal_t *journal = reopen(path, &seen, &info);
+    append_records(journal, 0, 5);
+    off_t whole = file_size(path);
+    struct rlimit saved;
+    assert_int_equal(getrlimit(RLIMIT_FSIZE, &saved), 0);
+    struct rlimit small = saved;
+    small.rlim_cur = (rlim_t)whole + 40; /* room for part of the next record only */
+    void (*previous)(int) = signal(SIGXFSZ, SIG_IGN);
+    assert_int_equal(setrlimit(RLIMIT_FSIZE, &small), 0);
+    unsigned char data[64];
+    memset(data, 5, sizeof data);
+    int failed = pgem_journal_append(journal, "CH2", data, 60, 1005, message, sizeof message);
+    assert_int_equal(setrlimit(RLIMIT_FSIZE, &saved), 0);
+    signal(SIGXFSZ, previous);
+    assert_int_equal(failed, -1);
+    assert_non_null(strstr(message, "journal_full.lcmlog: write failed: File too large"));
+    assert_int_equal(file_size(path), whole);
+    assert_int_equal(pgem_journal_records(journal), 5);
+    append_records(journal, 5, 1); /* room again */
+    pgem_journal_close(journal);
+    journal = reopen(path, &seen, &info);
+    expect_records(&seen, 6);
+    assert_int_equal(info.torn_bytes, 0);
+    pgem_journal_close(journal);
+    remove(path);
 }
 
 static void test_lcm_reads_the_journal(void **state)
@@ -267,7 +368,7 @@ static int bridge_stop(void)
 typedef struct bridge_run {
     pgem_bridge_options_t options;
     int status;
-    char message[256];
+    char message[1024];
 } bridge_run_t;
 
 static void *bridge_thread(void *user)
@@ -390,16 +491,236 @@ static void test_status_counts_only_journaled(void **state)
     assert_int_equal(watch.ahead, 0);
 }
 
+/* The latest status of a bridge, for the full-journal test. */
+typedef struct latest {
+    pthread_mutex_t lock;
+    int64_t received;
+    int64_t accepted;         /* poses and edges */
+    int64_t journal_records;
+    int64_t refused;          /* rejected, reason journal */
+    int64_t ahead;            /* statuses that acknowledged more than the journal held */
+    char message[400];
+} latest_t;
+
+static void on_latest(const lcm_recv_buf_t *buffer, const char *channel,
+                      const pgem_status_t *status, void *user)
+{
+    (void)buffer;
+    (void)channel;
+    latest_t *latest = user;
+    pthread_mutex_lock(&latest->lock);
+    latest->received = status->received;
+    latest->accepted = status->accepted_poses + status->accepted_edges;
+    latest->journal_records = status->journal_records;
+    latest->ahead += latest->accepted > status->journal_records;
+    latest->refused = 0;
+    for (int32_t r = 0; r < status->num_reasons; ++r) {
+        if (strcmp(status->reasons[r], "journal") == 0) {
+            latest->refused = status->rejected[r];
+        }
+    }
+    snprintf(latest->message, sizeof latest->message, "%s", status->message);
+    pthread_mutex_unlock(&latest->lock);
+}
+
+/* Waits up to a minute for the latest status to have received `received` messages. */
+static void wait_received(latest_t *latest, int64_t received)
+{
+    for (int wait = 0; wait < 1200; ++wait) {
+        pthread_mutex_lock(&latest->lock);
+        int done = latest->received >= received;
+        pthread_mutex_unlock(&latest->lock);
+        if (done) {
+            return;
+        }
+        struct timespec tick = {0, 50000000L};
+        nanosleep(&tick, NULL);
+    }
+    fail_msg("no status counted %lld received messages", (long long)received);
+}
+
+static void publish_poses(lcm_t *lcm, int64_t first, int64_t count)
+{
+    static char source[] = "fe";
+    for (int64_t id = first; id < first + count; ++id) {
+        pgem_pose2_t pose;
+        memset(&pose, 0, sizeof pose);
+        pose.source = source;
+        pose.id = id;
+        pose.pose[0] = (double)id;
+        assert_int_equal(pgem_pose2_t_publish(lcm, "PGEM_POSE2", &pose), 0);
+    }
+}
+
+/* Issue 17: on a full journal disk the status said 600 accepted where the journal held 520
+ * records, and a restart brought back fewer than acknowledged. A message the journal cannot
+ * take is now refused (reason journal) and changes nothing: the status never counts more than
+ * the journal holds, says why, and the front-end's resend is accepted once there is room. */
+static void test_full_journal_refuses_and_recovers(void **state)
+{
+    (void)state;
+    char path[512];
+    path_for(path, sizeof path, "pgem_test_full.lcmlog");
+    lcm_t *lcm = lcm_create("memq://");
+    assert_non_null(lcm);
+    latest_t latest;
+    memset(&latest, 0, sizeof latest);
+    pthread_mutex_init(&latest.lock, NULL);
+    pgem_status_t_subscription_t *subscription =
+        pgem_status_t_subscribe(lcm, "PGEM_STATUS", on_latest, &latest);
+    bridge_run_t run;
+    memset(&run, 0, sizeof run);
+    run.options.lcm = lcm;
+    run.options.journal = path;
+    run.options.max_poses = 1000;
+    run.options.status_period = 1e-3;
+    pgem_bridge_defaults(&run.options);
+    bridge_stop_flag = 0;
+    pthread_t thread;
+    assert_int_equal(pthread_create(&thread, NULL, bridge_thread, &run), 0);
+    struct timespec pause = {0, 50000000L};
+    nanosleep(&pause, NULL);
+    publish_poses(lcm, 0, 100);
+    wait_received(&latest, 100);
+    /* the disk is full: a file size limit at the journal's size fails every append */
+    struct rlimit saved;
+    assert_int_equal(getrlimit(RLIMIT_FSIZE, &saved), 0);
+    struct rlimit full = saved;
+    full.rlim_cur = (rlim_t)file_size(path);
+    void (*previous)(int) = signal(SIGXFSZ, SIG_IGN);
+    assert_int_equal(setrlimit(RLIMIT_FSIZE, &full), 0);
+    publish_poses(lcm, 100, 50);
+    wait_received(&latest, 150);
+    nanosleep(&pause, NULL); /* a status after the last message */
+    pthread_mutex_lock(&latest.lock);
+    int64_t accepted_full = latest.accepted;
+    int64_t refused = latest.refused;
+    char during[sizeof latest.message];
+    memcpy(during, latest.message, sizeof during);
+    pthread_mutex_unlock(&latest.lock);
+    /* room again: the front-end resends what was not acknowledged */
+    assert_int_equal(setrlimit(RLIMIT_FSIZE, &saved), 0);
+    signal(SIGXFSZ, previous);
+    publish_poses(lcm, 100, 50);
+    wait_received(&latest, 200);
+    nanosleep(&pause, NULL);
+    bridge_stop_flag = 1;
+    pthread_join(thread, NULL);
+    assert_int_equal(run.status, 0);
+    print_message("full journal: %lld accepted, %lld refused; then %lld accepted, %lld journal "
+                  "records; %lld statuses ahead of the journal; status: %s\n",
+                  (long long)accepted_full, (long long)refused, (long long)latest.accepted,
+                  (long long)latest.journal_records, (long long)latest.ahead, during);
+    assert_int_equal(accepted_full, 100);
+    assert_int_equal(refused, 50);
+    assert_non_null(strstr(during, "rejected (journal): 2D pose 149: not accepted, it could not "
+                                   "be journaled ("));
+    assert_non_null(strstr(during, "write failed: File too large); nothing changed, resend it"));
+    assert_int_equal(latest.accepted, 150);
+    assert_int_equal(latest.journal_records, 150);
+    assert_int_equal(latest.ahead, 0);
+    /* a restart on the journal has everything that was acknowledged */
+    seen_t seen;
+    pgem_journal_info_t info;
+    char message[256];
+    memset(&seen, 0, sizeof seen);
+    pgem_journal_t *journal = pgem_journal_open(path, 0, NULL, NULL, &info, message,
+                                                sizeof message);
+    assert_non_null(journal);
+    assert_int_equal(info.records, 150);
+    assert_int_equal(info.torn_bytes, 0);
+    pgem_journal_close(journal);
+    pgem_status_t_unsubscribe(lcm, subscription);
+    lcm_destroy(lcm);
+    pthread_mutex_destroy(&latest.lock);
+    remove(path);
+}
+
+/* Log lines of a bridge, counted. */
+typedef struct lines {
+    int count;
+    int refused;  /* "journal record refused on replay" lines */
+} lines_t;
+
+static void count_line(void *user, const char *line)
+{
+    lines_t *lines = user;
+    lines->count++;
+    lines->refused += strstr(line, "refused on replay") != NULL;
+}
+
+/* Issue 17: restarted with a smaller --max-poses, a bridge printed a line for each of 17,332
+ * records it refused and then claimed all 64,282 replayed, running with part of its map. A
+ * journal whose records do not fit the bridge's capacities or dimension stops the start, says
+ * how many and why in one message, and is left as it was. */
+static void test_journal_that_does_not_fit(void **state)
+{
+    (void)state;
+    char path[512];
+    char message[512];
+    path_for(path, sizeof path, "pgem_test_fit.lcmlog");
+    pgem_journal_t *journal = pgem_journal_open(path, 0, NULL, NULL, NULL, message,
+                                                sizeof message);
+    assert_non_null(journal);
+    static char source[] = "fe";
+    for (int64_t id = 0; id < 100; ++id) {
+        pgem_pose2_t pose;
+        memset(&pose, 0, sizeof pose);
+        pose.source = source;
+        pose.id = id;
+        unsigned char bytes[256];
+        int size = pgem_pose2_t_encode(bytes, 0, sizeof bytes, &pose);
+        assert_int_equal(pgem_journal_append(journal, "PGEM_POSE2", bytes, (size_t)size, id,
+                                             message, sizeof message), 0);
+    }
+    pgem_journal_close(journal);
+    off_t size = file_size(path);
+    for (int dimension = 2; dimension <= 3; ++dimension) {
+        lines_t lines = {0, 0};
+        bridge_run_t run;
+        memset(&run, 0, sizeof run);
+        run.options.lcm = lcm_create("memq://");
+        run.options.journal = path;
+        run.options.dimension = dimension;
+        run.options.max_poses = dimension == 2 ? 40 : 1000;
+        run.options.log = count_line;
+        run.options.log_user = &lines;
+        pgem_bridge_defaults(&run.options);
+        bridge_stop_flag = 1;
+        run.status = pgem_bridge_run(&run.options, bridge_stop, run.message, sizeof run.message);
+        lcm_destroy(run.options.lcm);
+        print_message("%dD: %s (%d log lines, %d refusals logged)\n", dimension, run.message,
+                      lines.count, lines.refused);
+        assert_int_equal(run.status, -1);
+        assert_non_null(strstr(run.message, dimension == 2
+                                                ? "60 of its 100 records do not fit this bridge "
+                                                  "(capacity 60; the first, capacity: 2D pose 40: "
+                                                  "the bridge holds its maximum of 40 poses"
+                                                : "100 of its 100 records do not fit this bridge "
+                                                  "(dimension 100; the first, dimension: a 2D pose "
+                                                  "reached a 3D bridge)"));
+        assert_non_null(strstr(run.message, "start it with the --dimension, --max-poses and "
+                                            "--max-edges the journal was written with"));
+        assert_true(lines.refused <= 20);
+        assert_int_equal(file_size(path), size);
+    }
+    remove(path);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip),
         cmocka_unit_test(test_torn_tail_is_cut),
         cmocka_unit_test(test_damage_is_skipped_and_reported),
+        cmocka_unit_test(test_not_a_journal_is_refused),
+        cmocka_unit_test(test_failed_append_is_taken_back),
         cmocka_unit_test(test_lcm_reads_the_journal),
         cmocka_unit_test(test_journal_reads_lcm_logs),
         cmocka_unit_test(test_open_errors),
         cmocka_unit_test(test_status_counts_only_journaled),
+        cmocka_unit_test(test_full_journal_refuses_and_recovers),
+        cmocka_unit_test(test_journal_that_does_not_fit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -50,6 +50,23 @@ pgem_fails(1 nan "pgem: nan.g2o:3: EDGE_SE2 field 5 (dth) is not a finite number
 file(WRITE "${WORK}/overflow.g2o" "VERTEX_SE2 0 0 1e999 0\n")
 pgem_fails(1 overflow "pgem: overflow.g2o:1: VERTEX_SE2 field 3 (y) is not a finite number"
            optimize overflow.g2o)
+# issue 17: one finite but huge loop closure (dx = 1e160) was read, and every solve failed
+# with an infinite chi2 while `stats` said ok; numbers beyond the core's limits are refused by name
+file(WRITE "${WORK}/far_loop.g2o" "${PAIR}EDGE_SE2 0 1 1 0 0 ${I2}\nEDGE_SE2 1 0 1e160 0 0 ${I2}\n")
+foreach(command optimize stats)
+  pgem_fails(1 far_loop_${command} "far_loop.g2o:4: EDGE_SE2 field 3 (dx) is 1e160, beyond the translation limit (at most 1e8 m, PGEM_TRANSLATION_LIMIT)"
+             ${command} far_loop.g2o)
+endforeach()
+file(WRITE "${WORK}/far_pose.g2o" "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1e308 0 0\nEDGE_SE2 0 1 1 0 0 ${I2}\n")
+pgem_fails(1 far_pose "pgem stats: far_pose.g2o:2: VERTEX_SE2 field 2 (x) is 1e308, beyond the translation limit"
+           stats far_pose.g2o)
+# at the limits the graph solves, and a chi2 of 1e31 prints as a number, not 32 digits
+file(WRITE "${WORK}/at_limits.g2o" "${PAIR}EDGE_SE2 0 1 1e8 0 0 1e15 0 0 1e15 0 1e15\n")
+pgem_ok(at_limits optimize at_limits.g2o)
+string(REGEX MATCH "chi2 [0-9]\\.[0-9]+e\\+3[01] -> [0-9.e+-]+ in" at_limits_chi2 "${at_limits_out}")
+if(NOT at_limits_chi2)
+  fail("at_limits: no chi2 in exponent form in:\n${at_limits_out}")
+endif()
 file(WRITE "${WORK}/truncated.g2o" "${PAIR}EDGE_SE2 0 1 1 0 0 100 0 0 100")
 pgem_fails(1 truncated "pgem: truncated.g2o:3: EDGE_SE2 has 9 fields, expected 11 (field 10 (I23) is missing)"
            optimize truncated.g2o)
@@ -63,10 +80,11 @@ file(WRITE "${WORK}/unknown.g2o" "${PAIR}EDGE_SE2 0 1 1 0 0 ${I2}\nEDGE_SE2 1 7 
 pgem_fails(1 unknown "pgem: unknown.g2o:4: edge 1 -> 7 names id 7, which has no VERTEX line"
            optimize unknown.g2o)
 file(WRITE "${WORK}/self.g2o" "${PAIR}EDGE_SE2 0 1 1 0 0 ${I2}\nEDGE_SE2 1 1 0 0 0 ${I2}\n")
-pgem_fails(1 self "pgem: self.g2o:4: edge 1 -> 1: an edge must join two different poses (edge 1 -> 1)"
+# the edge is named once (issue 17: "edge 1 -> 1: ... (edge 1 -> 1)")
+pgem_fails(1 self "pgem: self.g2o:4: an edge must join two different poses (edge 1 -> 1)\n"
            optimize self.g2o)
 file(WRITE "${WORK}/not_pd.g2o" "${PAIR}EDGE_SE2 0 1 1 0 0 100 0 0 100 0 -400\n")
-pgem_fails(1 not_pd "pgem: not_pd.g2o:3: edge 0 -> 1: information is not positive definite (pivot 2 is not positive) (edge 0 -> 1)"
+pgem_fails(1 not_pd "pgem: not_pd.g2o:3: information is not positive definite (pivot 2 is not positive) (edge 0 -> 1)\n"
            optimize not_pd.g2o)
 file(WRITE "${WORK}/past_top.g2o" "VERTEX_SE2 18446744073709551616 0 0 0\n")
 pgem_fails(1 past_top "pgem: past_top.g2o:1: VERTEX_SE2 field 1 (id) is not an unsigned 64-bit id: '18446744073709551616'"
@@ -81,6 +99,23 @@ file(WRITE "${WORK}/at_limit.g2o" "${PAIR}#${long}\nEDGE_SE2 0 1 1 0 0 ${I2}\n")
 pgem_ok(at_limit optimize at_limit.g2o --quiet)
 file(WRITE "${WORK}/past_limit.g2o" "${PAIR}#${long}x\nEDGE_SE2 0 1 1 0 0 ${I2}\n")
 pgem_fails(1 past_limit "pgem: past_limit.g2o:3: line is longer than 65536 bytes" optimize past_limit.g2o)
+# a line that never ends (a device, a pipe) is refused once it is known to be too long or to hold
+# a NUL, not read to its end: the commands below ran until killed before
+if(EXISTS /dev/zero)
+  execute_process(COMMAND "${PGEM}" stats /dev/zero WORKING_DIRECTORY "${WORK}" TIMEOUT 20
+                  RESULT_VARIABLE code ERROR_VARIABLE err OUTPUT_QUIET)
+  if(NOT code STREQUAL "1")
+    fail("endless_nul: pgem stats /dev/zero: exit ${code}, expected 1 within 20 s\n${err}")
+  endif()
+  contains(endless_nul "${err}" "pgem stats: /dev/zero:1: line contains a NUL byte (binary data?)")
+  execute_process(COMMAND sh -c "tr '\\000' x < /dev/zero | '${PGEM}' optimize /dev/stdin"
+                  WORKING_DIRECTORY "${WORK}" TIMEOUT 20 RESULT_VARIABLE code ERROR_VARIABLE err
+                  OUTPUT_QUIET)
+  if(NOT code STREQUAL "1")
+    fail("endless_line: an endless line on stdin: exit ${code}, expected 1 within 20 s\n${err}")
+  endif()
+  contains(endless_line "${err}" "pgem: /dev/stdin:1: line is longer than 65536 bytes")
+endif()
 
 # ---- ids at the top of the 64-bit range are ordinary ids ----------------------------------------
 file(WRITE "${WORK}/top_ids.g2o"
@@ -97,10 +132,15 @@ contains(top_ids "${top_written}" "EDGE_SE2 18446744073709551615 922337203685477
 file(WRITE "${WORK}/split.g2o" "${PAIR}VERTEX_SE2 5 5 0 0\nVERTEX_SE2 6 6 0 0\n"
            "EDGE_SE2 0 1 1 0 0 ${I2}\nEDGE_SE2 5 6 1 0 0 ${I2}\n")
 set(part_message "pose 5 is in a part of the graph with no held pose (a fixed pose, or the first pose added when none is fixed): no edge, or only pruned loop closures, join it to one")
+# the failure goes to stderr, as every error (issue 17: it was on stdout, among the progress)
 pgem_expect(1 split optimize split.g2o -o split_out.g2o)
-contains(split "${split_out}" "failed: ${part_message}; the estimate is the one before the solve")
+contains(split "${split_err}" "pgem: solve failed: ${part_message}; the estimate is the one before the solve")
+string(FIND "${split_out}" "failed" on_stdout)
+if(NOT on_stdout EQUAL -1)
+  fail("split: the failure is on stdout:\n${split_out}")
+endif()
 pgem_expect(1 split_lm optimize split.g2o --solver lm -o split_out.g2o)
-contains(split_lm "${split_lm_out}" "failed: ${part_message}")
+contains(split_lm "${split_lm_err}" "pgem: solve failed: ${part_message}")
 if(EXISTS "${WORK}/split_out.g2o")
   fail("split: an output was written for a failed solve")
 endif()
@@ -127,7 +167,50 @@ file(WRITE "${WORK}/em_split.g2o" "${em_text}")
 foreach(solver gn lm)
   pgem_fails(1 em_split_${solver} "pgem: robust solve failed: pose 100 is in a part of the graph with no held pose"
              optimize em_split.g2o --robust em --solver ${solver} --quiet)
+  # issue 17: the summary of a failed solve read "0 of 0 loop closures pruned ... -> 0.000000"
+  contains(em_split_${solver} "${em_split_${solver}_out}" "em: failed after ")
+  string(FIND "${em_split_${solver}_out}" "-> 0.000000" wrong)
+  if(NOT wrong EQUAL -1)
+    fail("em_split_${solver}: the failed solve reports a final chi2:\n${em_split_${solver}_out}")
+  endif()
 endforeach()
+
+# ---- output files are written whole or not at all ----------------------------------------------
+# issue 17: `pgem optimize X -o X` on a full disk left X cut mid-line (exit 3). A file size limit
+# (ulimit -f, SIGXFSZ ignored) fails the write as a full disk does: X must stay as it was, and
+# no temporary file may be left beside it.
+pgem_ok(inplace_make simulate --poses 2000 --seed 3 -o inplace.g2o)
+file(SHA256 "${WORK}/inplace.g2o" inplace_before)
+execute_process(COMMAND sh -c "trap '' XFSZ; ulimit -f 100; exec '${PGEM}' optimize inplace.g2o -o inplace.g2o --quiet"
+                WORKING_DIRECTORY "${WORK}" RESULT_VARIABLE code ERROR_VARIABLE err OUTPUT_QUIET)
+if(NOT code STREQUAL "3")
+  fail("inplace: optimize -o onto its input past a file size limit: exit ${code}, expected 3\n${err}")
+endif()
+contains(inplace "${err}" "pgem: inplace.g2o: write failed: File too large (the file is as it was)")
+file(SHA256 "${WORK}/inplace.g2o" inplace_after)
+if(NOT inplace_before STREQUAL inplace_after)
+  fail("inplace: the input was changed by a failed write onto it")
+endif()
+file(GLOB inplace_left "${WORK}/.inplace.g2o.*")
+if(inplace_left)
+  fail("inplace: temporary files left behind: ${inplace_left}")
+endif()
+# with room it is replaced; written through a symbolic link, the link stays and its file changes
+pgem_ok(inplace_room optimize inplace.g2o -o inplace.g2o --quiet)
+file(SHA256 "${WORK}/inplace.g2o" inplace_solved)
+if(inplace_solved STREQUAL inplace_before)
+  fail("inplace: optimize -o onto its input did not write the result")
+endif()
+file(CREATE_LINK inplace.g2o "${WORK}/link.g2o" SYMBOLIC)
+pgem_ok(through_link optimize windows.g2o -o link.g2o --quiet)
+if(NOT IS_SYMLINK "${WORK}/link.g2o")
+  fail("through_link: the symbolic link was replaced by a file")
+endif()
+file(STRINGS "${WORK}/inplace.g2o" through_link_lines)
+list(LENGTH through_link_lines through_link_count)
+if(NOT through_link_count EQUAL 5) # windows.g2o's 3 poses and 2 edges
+  fail("through_link: the link's file has ${through_link_count} lines, not windows.g2o's result")
+endif()
 
 # ---- more poses than an instance can hold ------------------------------------------------------
 # 4000001 vertex lines (94 MiB), made by seq and sed; also a read large enough to show progress

@@ -188,12 +188,110 @@ static void test_edge_errors_change_nothing(void **state)
     pgem_destroy(graph);
 }
 
+/* Issue 17: one finite but huge loop closure (dx = 1e160) made every later solve's chi2
+ * infinite, so nothing solved again. Translations beyond PGEM_TRANSLATION_LIMIT and
+ * information entries beyond PGEM_INFORMATION_LIMIT are refused by name, changing nothing;
+ * at the limits a graph still solves, and EM prunes the most extreme loop it can be given. */
+static void test_magnitude_limits(void **state)
+{
+    (void)state;
+    const double past = nextafter(PGEM_TRANSLATION_LIMIT, (double)INFINITY);
+    double information[9], z[3] = {1, 0, 0}, stored[3];
+    test_diagonal_information(3, 1.0, information);
+    pgem_t *graph = test_create(2, 8, 8);
+    const double far_pose[3] = {0.0, -past, 0.0};
+    assert_int_equal(pgem_add_pose(graph, 3, far_pose), PGEM_ERR_OUT_OF_RANGE);
+    assert_string_equal(pgem_last_error(graph), "pose: field y is beyond the translation limit "
+                                                "(|x|, |y|, |z| at most 1e8 m, "
+                                                "PGEM_TRANSLATION_LIMIT) (pose id 3)");
+    assert_int_equal(pgem_pose_count(graph), 0);
+    const double at_limit[3] = {PGEM_TRANSLATION_LIMIT, -PGEM_TRANSLATION_LIMIT, 1e300};
+    assert_int_equal(pgem_add_pose(graph, 9, at_limit), PGEM_OK); /* angles are wrapped */
+    const double moved[3] = {past, 0.0, 0.0};
+    assert_int_equal(pgem_set_pose(graph, 9, moved), PGEM_ERR_OUT_OF_RANGE);
+    assert_int_equal(pgem_get_pose(graph, 9, stored), PGEM_OK);
+    assert_true(stored[0] == at_limit[0] && stored[1] == at_limit[1]);
+    pgem_destroy(graph);
+
+    graph = test_create(2, 8, 8);
+    for (pgem_id_t id = 0; id < 5; id++) {
+        const double pose[3] = {(double)id, 0.0, 0.0};
+        assert_int_equal(pgem_add_pose(graph, id, pose), PGEM_OK);
+    }
+    for (pgem_id_t id = 0; id < 4; id++) {
+        assert_int_equal(pgem_add_edge(graph, id, id + 1, z, information, PGEM_EDGE_ODOMETRY,
+                                       NULL), PGEM_OK);
+    }
+    const double huge_loop[3] = {1e160, 0.0, 0.0};
+    assert_int_equal(pgem_add_edge(graph, 4, 0, huge_loop, information, PGEM_EDGE_LOOP, NULL),
+                     PGEM_ERR_OUT_OF_RANGE);
+    assert_string_equal(pgem_last_error(graph),
+                        "measurement: field x is beyond the translation limit (|x|, |y|, |z| at "
+                        "most 1e8 m, PGEM_TRANSLATION_LIMIT) (edge 4 -> 0)");
+    double strong[9];
+    test_diagonal_information(3, nextafter(PGEM_INFORMATION_LIMIT, (double)INFINITY), strong);
+    assert_int_equal(pgem_add_edge(graph, 4, 0, z, strong, PGEM_EDGE_LOOP, NULL),
+                     PGEM_ERR_OUT_OF_RANGE);
+    assert_string_equal(pgem_last_error(graph),
+                        "information(0,0) is beyond the information limit (|entry| at most 1e15, "
+                        "PGEM_INFORMATION_LIMIT) (edge 4 -> 0)");
+    assert_int_equal(pgem_edge_count(graph), 4);
+    /* the worst loop closure within the limits: the solves stay finite, and EM prunes it */
+    test_diagonal_information(3, PGEM_INFORMATION_LIMIT, strong);
+    const double worst[3] = {PGEM_TRANSLATION_LIMIT, -PGEM_TRANSLATION_LIMIT, 3.0};
+    assert_int_equal(pgem_add_edge(graph, 4, 0, worst, strong, PGEM_EDGE_LOOP, NULL), PGEM_OK);
+    assert_true(isfinite(pgem_total_chi2(graph)));
+    pgem_robust_options_t options = {0};
+    options.kernel = PGEM_KERNEL_EM;
+    pgem_robust_summary_t summary;
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_true(isfinite(summary.initial_chi2) && summary.final_chi2 < 1e-12);
+    assert_int_equal(summary.pruned, 1);
+    pgem_edge_view_t view;
+    assert_int_equal(pgem_edge_at(graph, 4, &view), PGEM_OK);
+    assert_false(view.active);
+    pgem_destroy(graph);
+}
+
+/* The checks a caller can run before adding: the same verdicts, the offending value's place. */
+static void test_pose_and_information_checks(void **state)
+{
+    (void)state;
+    int field = 99;
+    const double good3[7] = {1e8, -1e8, 1e8, 0, 0, 0, 1};
+    assert_int_equal(pgem_pose_check(good3, 3, &field), PGEM_OK);
+    assert_int_equal(field, -1);
+    const double far3[7] = {0, 0, -2e8, 0, 0, 0, 1};
+    assert_int_equal(pgem_pose_check(far3, 3, &field), PGEM_ERR_OUT_OF_RANGE);
+    assert_int_equal(field, 2);
+    const double nan3[7] = {2e8, 0, 0, (double)NAN, 0, 0, 1}; /* NaN is reported first */
+    assert_int_equal(pgem_pose_check(nan3, 3, &field), PGEM_ERR_NOT_FINITE);
+    assert_int_equal(field, 3);
+    const double half3[7] = {0, 0, 0, 0, 0, 0, 0.5};
+    assert_int_equal(pgem_pose_check(half3, 3, &field), PGEM_ERR_ROTATION);
+    assert_int_equal(field, 3);
+    const double huge_q[7] = {0, 0, 0, 1e200, 1e200, 0, 0}; /* its norm overflows */
+    assert_int_equal(pgem_pose_check(huge_q, 3, NULL), PGEM_ERR_ROTATION);
+    const double far2[3] = {0, 1e9, 0};
+    assert_int_equal(pgem_pose_check(far2, 2, &field), PGEM_ERR_OUT_OF_RANGE);
+    assert_int_equal(field, 1);
+    assert_int_equal(pgem_pose_check(far2, 4, &field), PGEM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pgem_pose_check(NULL, 2, &field), PGEM_ERR_INVALID_ARGUMENT);
+    double m[9] = {1, 0, 0, 0, 1, -2e15, 0, -2e15, 1};
+    int entry = -1;
+    assert_int_equal(pgem_information_check(m, 3, &entry), PGEM_ERR_OUT_OF_RANGE);
+    assert_int_equal(entry, 5);
+    m[5] = m[7] = (double)INFINITY; /* not finite comes first */
+    assert_int_equal(pgem_information_check(m, 3, &entry), PGEM_ERR_NOT_FINITE);
+    assert_int_equal(entry, 5);
+}
+
 static void test_error_names(void **state)
 {
     (void)state;
     assert_string_equal(pgem_error_name(PGEM_ERR_CAPACITY), "PGEM_ERR_CAPACITY");
     assert_string_equal(pgem_error_name(12345), "PGEM_ERR_UNKNOWN_CODE");
-    for (int code = 0; code >= PGEM_ERR_DIMENSION; code--) {
+    for (int code = 0; code >= PGEM_ERR_OUT_OF_RANGE; code--) {
         assert_string_not_equal(pgem_error_name(code), "PGEM_ERR_UNKNOWN_CODE");
         assert_true(strlen(pgem_error_description(code)) > 3);
     }
@@ -287,6 +385,8 @@ int main(void)
         cmocka_unit_test(test_pose_errors_change_nothing),
         cmocka_unit_test(test_quaternion_checks),
         cmocka_unit_test(test_edge_errors_change_nothing),
+        cmocka_unit_test(test_magnitude_limits),
+        cmocka_unit_test(test_pose_and_information_checks),
         cmocka_unit_test(test_error_names),
         cmocka_unit_test(test_chi2_of_edges),
         cmocka_unit_test(test_information_check),

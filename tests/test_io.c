@@ -1,5 +1,5 @@
 /* Tests of pgem I/O: g2o / TORO reading, writing, error messages, chain guess and datasets. */
-#define _POSIX_C_SOURCE 200809L
+#define _GNU_SOURCE /* fopencookie: streams that never end */
 
 #include "test_io_util.h"
 
@@ -220,7 +220,7 @@ static void test_round_trip_g2o_2d(void **state)
     char path[512];
     char message[512];
     const double p0[3] = {1.0 / 3.0, -0.0, 4.9406564584124654e-324};
-    const double p1[3] = {1e300, -2.5e-17, PI};
+    const double p1[3] = {-1e8, -2.5e-17, 1e300}; /* the translation limit; angles have none */
     const double p2[3] = {-123456.789012345678, 0.1, -3.0};
     const double z0[3] = {0.1 + 0.2, 1.0 / 7.0, 7.0}; /* unwrapped angle kept as written */
     const double z1[3] = {-1e-5, 2.0 / 3.0, -PI};
@@ -445,6 +445,31 @@ static void test_error_numbers(void **state)
                  "toro_info.graph:3:", "EDGE2 field 10 (Ixt) is not a number");
 }
 
+/* Issue 17: a loop closure with dx = 1e160 was read and loaded, and every solve of the graph
+ * then failed with an infinite chi2. Numbers beyond the core's magnitude limits are refused by
+ * the reader, naming the field; the limits themselves are read. */
+static void test_error_magnitudes(void **state)
+{
+    pgem_io_graph_t graph;
+    (void)state;
+    expect_error("far_loop.g2o", HEAD2 "EDGE_SE2 0 1 1 0 0" INFO2 "\nEDGE_SE2 1 0 1e160 0 0" INFO2 "\n",
+                 PGEM_ERR_OUT_OF_RANGE, "far_loop.g2o:4:",
+                 "EDGE_SE2 field 3 (dx) is 1e160, beyond the translation limit (at most 1e8 m, "
+                 "PGEM_TRANSLATION_LIMIT)");
+    expect_error("far_pose.g2o", "VERTEX_SE2 0 0 -1.5e8 0\n", PGEM_ERR_OUT_OF_RANGE,
+                 "far_pose.g2o:1:", "VERTEX_SE2 field 3 (y) is -1.5e8, beyond the translation");
+    expect_error("far_3d.g2o", "VERTEX_SE3:QUAT 0 0 0 1e300 0 0 0 1\n", PGEM_ERR_OUT_OF_RANGE,
+                 "far_3d.g2o:1:", "VERTEX_SE3:QUAT field 4 (z) is 1e300");
+    expect_error("strong.g2o", HEAD2 "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 2e15\n", PGEM_ERR_OUT_OF_RANGE,
+                 "strong.g2o:3:", "EDGE_SE2 field 11 (I33) is 2e15, beyond the information limit "
+                 "(at most 1e15, PGEM_INFORMATION_LIMIT)");
+    expect_error("strong.graph", "VERTEX2 0 0 0 0\nVERTEX2 1 0 0 0\nEDGE2 0 1 1 0 0 1 0 1 1 -1e16 0\n",
+                 PGEM_ERR_OUT_OF_RANGE, "strong.graph:3:", "EDGE2 field 10 (Ixt) is -1e16");
+    read_ok("limits.g2o", HEAD2 "EDGE_SE2 0 1 1e8 -1e8 1e300 1e15 -1e15 0 1e15 0 1e15\n", &graph);
+    assert_int_equal(graph.edge_count, 1);
+    pgem_io_graph_free(&graph);
+}
+
 static void test_error_ids(void **state)
 {
     (void)state;
@@ -545,6 +570,55 @@ static void test_error_long_line(void **state)
                      PGEM_ERR_PARSE);
     assert_contains(message, "long.g2o:2:");
     assert_graph_empty(&graph);
+}
+
+/* A stream that never ends: every read gets `fill` bytes, up to `limit` in all (then the end,
+ * so a reader that reads to the end still finishes); `served` counts what was handed out. */
+typedef struct endless {
+    char fill;
+    size_t served;
+    size_t limit;
+} endless_t;
+
+static ssize_t endless_read(void *cookie, char *buffer, size_t size)
+{
+    endless_t *endless = (endless_t *)cookie;
+    size_t left = endless->limit - endless->served;
+    size_t given = size < left ? size : left;
+    memset(buffer, endless->fill, given);
+    endless->served += given;
+    return (ssize_t)given;
+}
+
+/* Reads an endless stream of `fill` bytes; returns the status, *served the bytes it took. */
+static int read_endless(char fill, size_t *served, char *message, size_t message_size)
+{
+    endless_t endless = {fill, 0, (size_t)64 << 20};
+    cookie_io_functions_t functions = {endless_read, NULL, NULL, NULL};
+    pgem_io_graph_t graph;
+    FILE *stream = fopencookie(&endless, "r", functions);
+    assert_non_null(stream);
+    int status = pgem_io_read_stream(stream, "endless", PGEM_FORMAT_AUTO, &graph, message,
+                                     message_size);
+    fclose(stream);
+    assert_graph_empty(&graph);
+    *served = endless.served;
+    return status;
+}
+
+/* A line with no end (a pipe, /dev/zero) is refused as soon as it is known to be too long or
+ * to hold a NUL, not read to its end first (before: 64 MiB here, forever from /dev/zero). */
+static void test_endless_line_stops_at_the_limit(void **state)
+{
+    char message[512];
+    size_t served = 0;
+    (void)state;
+    assert_int_equal(read_endless('x', &served, message, sizeof message), PGEM_ERR_PARSE);
+    assert_contains(message, "endless:1: line is longer than 65536 bytes");
+    assert_true(served <= (size_t)4 << 16); /* the reader's chunks plus stdio's buffer */
+    assert_int_equal(read_endless('\0', &served, message, sizeof message), PGEM_ERR_PARSE);
+    assert_contains(message, "endless:1: line contains a NUL byte");
+    assert_true(served <= (size_t)4 << 16);
 }
 
 static void test_error_nul_and_missing_file(void **state)
@@ -890,17 +964,22 @@ static void test_chain_3d(void **state)
 static void test_chain_guess_not_finite(void **state)
 {
     (void)state;
+    /* each measurement within the translation limit, their sum beyond it */
     expect_error("chain_inf.g2o",
-                 "EDGE_SE2 0 1 1e308 0 0" INFO2 "\nEDGE_SE2 1 2 1e308 0 0" INFO2 "\n",
-                 PGEM_ERR_PARSE, "chain_inf.g2o:2:",
+                 "EDGE_SE2 0 1 9e7 0 0" INFO2 "\nEDGE_SE2 1 2 9e7 0 0" INFO2 "\n",
+                 PGEM_ERR_OUT_OF_RANGE, "chain_inf.g2o:2:",
                  "edge 1 -> 2: the pose guessed for id 2 by composing the measurements from "
-                 "id 1 is not finite");
+                 "id 1 is beyond the translation limit");
     /* walked backwards: pose(from) = pose(to) * z^-1 */
     expect_error("chain_inf_back.g2o",
-                 "EDGE_SE2 9 0 -1e308 0 0" INFO2 "\nEDGE_SE2 10 9 -1e308 0 0" INFO2 "\n",
-                 PGEM_ERR_PARSE, "chain_inf_back.g2o:2:",
+                 "EDGE_SE2 9 0 -9e7 0 0" INFO2 "\nEDGE_SE2 10 9 -9e7 0 0" INFO2 "\n",
+                 PGEM_ERR_OUT_OF_RANGE, "chain_inf_back.g2o:2:",
                  "edge 10 -> 9: the pose guessed for id 10 by composing the measurements from "
-                 "id 9 is not finite");
+                 "id 9 is beyond the translation limit");
+    /* 1e308 twice was the overflow this test was written for: the reader refuses 1e308 now */
+    expect_error("chain_overflow.g2o", "EDGE_SE2 0 1 1e308 0 0" INFO2 "\n", PGEM_ERR_OUT_OF_RANGE,
+                 "chain_overflow.g2o:1:", "EDGE_SE2 field 3 (dx) is 1e308, beyond the "
+                 "translation limit (at most 1e8 m, PGEM_TRANSLATION_LIMIT)");
 }
 
 /* Found by fuzzing: a measurement quaternion too large to normalise (its norm overflows)
@@ -922,7 +1001,8 @@ static void test_chain_guess_huge_quaternion(void **state)
     pgem_t *instance = NULL;
     assert_int_equal(pgem_create(&instance, &config), PGEM_OK);
     assert_int_equal(pgem_io_load(&graph, instance, message, sizeof message), PGEM_ERR_ROTATION);
-    assert_contains(message, "chain_huge_q.g2o:1: edge 0 -> 1:");
+    assert_contains(message, "chain_huge_q.g2o:1: measurement: quaternion (qx qy qz qw) norm is not "
+                             "within 1% of 1 (edge 0 -> 1)");
     pgem_destroy(instance);
     pgem_io_graph_free(&graph);
 }
@@ -1187,23 +1267,25 @@ static void test_load_errors(void **state)
     char message[512];
     (void)state;
     expect_load_error("bad_info.g2o", HEAD2 "\nEDGE_SE2 0 1 1 0 0 1 0 0 -1 0 1\n",
-                      PGEM_ERR_INFORMATION, "bad_info.g2o:4: edge 0 -> 1: ");
+                      PGEM_ERR_INFORMATION, "bad_info.g2o:4: information is not positive "
+                      "definite (pivot 1 is not positive) (edge 0 -> 1)");
     expect_load_error("bad_quat.g2o",
                       "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT 1 0 0 0 0 0 0 1.05\n",
-                      PGEM_ERR_ROTATION, "bad_quat.g2o:2: pose 1: ");
+                      PGEM_ERR_ROTATION, "bad_quat.g2o:2: pose: quaternion (qx qy qz qw) norm is "
+                      "not within 1% of 1 (pose id 1)");
     expect_load_error("self.g2o", HEAD2 "EDGE_SE2 1 1 0 0 0" INFO2 "\n", PGEM_ERR_SELF_LOOP,
-                      "self.g2o:3: edge 1 -> 1: ");
+                      "self.g2o:3: an edge must join two different poses (edge 1 -> 1)");
     expect_load_error("zero_info.g2o", HEAD2 "EDGE_SE2 0 1 1 0 0 0 0 0 0 0 0\n",
                       PGEM_ERR_INFORMATION,
-                      "zero_info.g2o:3: edge 0 -> 1: information is not positive definite "
-                      "(pivot 0 is not positive)");
+                      "zero_info.g2o:3: information is not positive definite "
+                      "(pivot 0 is not positive) (edge 0 -> 1)");
     expect_load_error("indefinite.g2o", HEAD2 "EDGE_SE2 0 1 1 0 0 1 2 0 1 0 1\n",
                       PGEM_ERR_INFORMATION, "(pivot 1 is not positive)");
     expect_load_error("neg_info_3d.g2o",
                       "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT 1 0 0 0 0 0 0 1\n"
                       "EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 -1\n",
-                      PGEM_ERR_INFORMATION, "neg_info_3d.g2o:3: edge 0 -> 1: information is not "
-                      "positive definite (pivot 5 is not positive)");
+                      PGEM_ERR_INFORMATION, "neg_info_3d.g2o:3: information is not "
+                      "positive definite (pivot 5 is not positive) (edge 0 -> 1)");
     /* a graph larger than the instance's room: refused before anything is added */
     read_ok("too_big.g2o", HEAD2 "VERTEX_SE2 2 0 0 0\nEDGE_SE2 0 1 1 0 0" INFO2 "\n", &graph);
     memset(&config, 0, sizeof config);
@@ -1254,10 +1336,12 @@ int main(void)
         cmocka_unit_test(test_information_order_3d),
         cmocka_unit_test(test_error_field_count),
         cmocka_unit_test(test_error_numbers),
+        cmocka_unit_test(test_error_magnitudes),
         cmocka_unit_test(test_error_ids),
         cmocka_unit_test(test_error_dimension),
         cmocka_unit_test(test_error_duplicate_and_unknown_ids),
         cmocka_unit_test(test_error_long_line),
+        cmocka_unit_test(test_endless_line_stops_at_the_limit),
         cmocka_unit_test(test_error_nul_and_missing_file),
         cmocka_unit_test(test_empty_and_garbage),
         cmocka_unit_test(test_read_stream),

@@ -2,6 +2,7 @@
  * estimate, the fill budget, callbacks, fixed poses and re-analysis on topology change. */
 #include <stdio.h>
 
+#include "internal.h" /* to put an estimate out of range behind the API */
 #include "test_util.h"
 
 #define RING 60
@@ -151,15 +152,24 @@ static void test_singular_restores_estimate(void **state)
     pgem_destroy(graph);
 }
 
+/* The input limits keep every chi2 finite at the inputs (the API refuses 1e200 m and an
+ * information of 1e300, test_graph); an estimate that has gone out of range all the same (a
+ * diverged step, here written behind the API's back) must still fail cleanly. */
 static void test_non_finite_chi2_fails_cleanly(void **state)
 {
     (void)state;
-    double huge[9], a[3] = {0, 0, 0}, b[3] = {1e200, 0, 0}, z[3] = {0, 0, 0};
+    double huge[9], a[3] = {0, 0, 0}, b[3] = {1e200, 0, 0}, z[3] = {0, 0, 0}, one[9];
     test_diagonal_information(3, 1e300, huge);
+    test_diagonal_information(3, 1.0, one);
     pgem_t *graph = test_create(2, 2, 1);
     assert_int_equal(pgem_add_pose(graph, 0, a), PGEM_OK);
-    assert_int_equal(pgem_add_pose(graph, 1, b), PGEM_OK);
-    assert_int_equal(pgem_add_edge(graph, 0, 1, z, huge, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    assert_int_equal(pgem_add_pose(graph, 1, b), PGEM_ERR_OUT_OF_RANGE);
+    assert_int_equal(pgem_add_pose(graph, 1, z), PGEM_OK);
+    assert_int_equal(pgem_add_edge(graph, 0, 1, z, huge, PGEM_EDGE_ODOMETRY, NULL),
+                     PGEM_ERR_OUT_OF_RANGE);
+    assert_int_equal(pgem_add_edge(graph, 0, 1, z, one, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    memcpy(graph->pose + 3, b, sizeof b);
+    memcpy(graph->edge_information, huge, sizeof huge);
     pgem_summary_t summary;
     assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_ERR_NUMERIC);
     assert_int_equal(summary.usable, 0);
@@ -291,6 +301,58 @@ static void test_empty_graph(void **state)
     pgem_destroy(graph);
 }
 
+/* pgem_check_solvable answers as pgem_optimize would before its first iteration, on every
+ * kind of graph it refuses, and changes nothing (issue 17: `pgem stats` said ok for graphs
+ * `optimize` refused). */
+static void expect_same_verdict(pgem_t *graph, int expected, const char *fragment)
+{
+    double before[3 * 4], after[3 * 4];
+    uint32_t poses = pgem_pose_count(graph);
+    for (uint32_t i = 0; i < poses; i++) {
+        pgem_pose_at(graph, i, NULL, before + 3 * i, NULL);
+    }
+    assert_int_equal(pgem_check_solvable(graph), expected);
+    if (fragment != NULL) {
+        assert_non_null(strstr(pgem_last_error(graph), fragment));
+    }
+    for (uint32_t i = 0; i < poses; i++) {
+        pgem_pose_at(graph, i, NULL, after + 3 * i, NULL);
+    }
+    assert_memory_equal(before, after, sizeof(double) * 3 * poses);
+    pgem_summary_t summary;
+    assert_int_equal(pgem_optimize(graph, NULL, &summary), expected);
+}
+
+static void test_check_solvable(void **state)
+{
+    (void)state;
+    double information[9], z[3] = {1.0, 0.0, 0.0};
+    test_diagonal_information(3, 1.0, information);
+    assert_int_equal(pgem_check_solvable(NULL), PGEM_ERR_INVALID_ARGUMENT);
+    pgem_t *graph = test_create(2, 4, 4);
+    const double origin[3] = {0.0, 0.0, 0.0};
+    assert_int_equal(pgem_add_pose(graph, 0, origin), PGEM_OK);
+    expect_same_verdict(graph, PGEM_ERR_EMPTY, "no edges"); /* one vertex */
+    assert_int_equal(pgem_add_pose(graph, 1, z), PGEM_OK);
+    assert_int_equal(pgem_add_edge(graph, 0, 1, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    assert_int_equal(pgem_fix_pose(graph, 0, 1), PGEM_OK);
+    assert_int_equal(pgem_fix_pose(graph, 1, 1), PGEM_OK);
+    expect_same_verdict(graph, PGEM_ERR_EMPTY, "every pose is fixed");
+    assert_int_equal(pgem_fix_pose(graph, 1, 0), PGEM_OK);
+    const double two[3] = {2.0, 0.0, 0.0}, three[3] = {3.0, 0.0, 0.0};
+    assert_int_equal(pgem_add_pose(graph, 2, two), PGEM_OK);
+    assert_int_equal(pgem_add_pose(graph, 3, three), PGEM_OK);
+    assert_int_equal(pgem_add_edge(graph, 2, 3, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    expect_same_verdict(graph, PGEM_ERR_NOT_POSITIVE_DEFINITE, "pose 2 is in a part of the graph");
+    assert_int_equal(pgem_add_edge(graph, 1, 2, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    expect_same_verdict(graph, PGEM_OK, NULL);
+    assert_string_equal(pgem_last_error(graph), "");
+    /* an estimate gone out of range behind the API's back (as in the test above) */
+    graph->pose[3] = 1e300;
+    expect_same_verdict(graph, PGEM_ERR_NUMERIC, "not finite");
+    pgem_destroy(graph);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -304,6 +366,7 @@ int main(void)
         cmocka_unit_test(test_callback_can_stop),
         cmocka_unit_test(test_analysis_once_per_topology),
         cmocka_unit_test(test_empty_graph),
+        cmocka_unit_test(test_check_solvable),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

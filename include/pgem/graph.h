@@ -29,36 +29,62 @@ typedef enum pgem_edge_kind {
 /** A 3D quaternion whose norm is off 1 by more than this is refused; others are normalised. */
 #define PGEM_QUAT_NORM_TOLERANCE 0.01
 
+/** Magnitude limits on what goes into a graph: a pose's or measurement's x, y (and z) at most
+ * PGEM_TRANSLATION_LIMIT metres in magnitude, every information entry at most
+ * PGEM_INFORMATION_LIMIT. Beyond them a call fails with PGEM_ERR_OUT_OF_RANGE. Within them
+ * the chi2 of a graph at its inputs is below 1e45 (16 M edges), far from the double range
+ * (1.8e308), so no finite input can make a solve start non-finite; 1e8 m holds every frame
+ * on Earth (UTM, ECEF), and 1e15 is a standard deviation of 32 nm (the shared datasets reach
+ * 2.7e12). 2D angles are wrapped, 3D quaternions normalised: neither needs a limit. A solve
+ * that would leave a pose past the translation limit has diverged and fails (pgem_optimize). */
+#define PGEM_TRANSLATION_LIMIT 1e8
+#define PGEM_INFORMATION_LIMIT 1e15
+
 /** Adds a pose with its initial estimate: 2D [x, y, theta], 3D [x, y, z, qx, qy, qz, qw].
  * A 3D quaternion is normalised; one whose norm is off 1 by more than 1% is rejected.
- * Errors: CAPACITY, DUPLICATE_ID, NOT_FINITE, ROTATION. */
+ * Errors: CAPACITY, DUPLICATE_ID, NOT_FINITE, OUT_OF_RANGE (|x|, |y| or |z| above
+ * PGEM_TRANSLATION_LIMIT), ROTATION. */
 int pgem_add_pose(pgem_t *graph, pgem_id_t id, const double *pose);
 
 /** Adds an edge: a measurement of pose `to` in the frame of pose `from` (same layout as a pose)
  * with its information matrix, full row-major n x n (n = 3 in 2D, 6 in 3D; in 3D the order is
  * x, y, z then the quaternion-vector rotation error). On success *edge_index (if not NULL)
  * receives the edge's index (edges are numbered 0, 1, ... in the order added).
- * Errors: CAPACITY, UNKNOWN_ID, SELF_LOOP, NOT_FINITE, INFORMATION (asymmetric or not
- * positive definite), ROTATION, INVALID_ARGUMENT (kind). */
+ * Errors: CAPACITY, UNKNOWN_ID, SELF_LOOP, NOT_FINITE, OUT_OF_RANGE (a translation above
+ * PGEM_TRANSLATION_LIMIT or an information entry above PGEM_INFORMATION_LIMIT), INFORMATION
+ * (asymmetric or not positive definite), ROTATION, INVALID_ARGUMENT (kind). */
 int pgem_add_edge(pgem_t *graph, pgem_id_t from, pgem_id_t to, const double *measurement,
                   const double *information, pgem_edge_kind_t kind, uint32_t *edge_index);
 
 /**
  * The check pgem_add_edge applies to an n x n row-major information matrix (n = 3 or 6), for
  * callers that validate before adding (file checkers, generators): PGEM_OK,
- * PGEM_ERR_NOT_FINITE (an entry is NaN/Inf), or PGEM_ERR_INFORMATION (not symmetric within
- * 1e-9 of its largest entry, or a Cholesky pivot not above n * DBL_EPSILON * that entry).
- * entry (may be NULL) receives the row-major index of the offending entry: the non-finite
- * one, (i, j) with i < j of an asymmetric pair, or the failing pivot's diagonal entry.
- * Needs no instance and allocates nothing.
+ * PGEM_ERR_NOT_FINITE (an entry is NaN/Inf), PGEM_ERR_OUT_OF_RANGE (an entry's magnitude is
+ * above PGEM_INFORMATION_LIMIT), or PGEM_ERR_INFORMATION (not symmetric within 1e-9 of its
+ * largest entry, or a Cholesky pivot not above n * DBL_EPSILON * that entry), checked in that
+ * order. entry (may be NULL) receives the row-major index of the offending entry: the
+ * non-finite or too large one, (i, j) with i < j of an asymmetric pair, or the failing
+ * pivot's diagonal entry. Needs no instance and allocates nothing.
  */
 int pgem_information_check(const double *information, int n, int *entry);
+
+/**
+ * The check pgem_add_pose and pgem_set_pose apply to a pose, and pgem_add_edge to a
+ * measurement (same layout, dimension 2 or 3), for callers that validate before adding:
+ * PGEM_OK, PGEM_ERR_NOT_FINITE (a value is NaN/Inf), PGEM_ERR_OUT_OF_RANGE (|x|, |y| or |z|
+ * above PGEM_TRANSLATION_LIMIT), or PGEM_ERR_ROTATION (3D: the quaternion's norm off 1 by
+ * more than PGEM_QUAT_NORM_TOLERANCE), checked in that order; PGEM_ERR_INVALID_ARGUMENT for
+ * a NULL pose or another dimension. field (may be NULL) receives the index of the offending
+ * value (3 for a 3D rotation), else -1. Needs no instance and allocates nothing.
+ */
+int pgem_pose_check(const double *pose, int dimension, int *field);
 
 /** Holds a pose constant during optimisation (fixed != 0) or frees it. If no pose is fixed
  * when optimising, the first pose added is held (the gauge). Errors: UNKNOWN_ID. */
 int pgem_fix_pose(pgem_t *graph, pgem_id_t id, int fixed);
 
-/** Reads or overwrites a pose estimate. Errors: UNKNOWN_ID (and for set: NOT_FINITE, ROTATION). */
+/** Reads or overwrites a pose estimate. Errors: UNKNOWN_ID (and for set: NOT_FINITE,
+ * OUT_OF_RANGE, ROTATION). */
 int pgem_get_pose(const pgem_t *graph, pgem_id_t id, double *pose);
 int pgem_set_pose(pgem_t *graph, pgem_id_t id, const double *pose);
 

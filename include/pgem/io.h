@@ -64,7 +64,8 @@ typedef struct pgem_io_graph {
 /** Reads a graph file. Blank lines and lines starting with '#' are ignored. Poses without a
  * VERTEX line get an initial guess composed from the edges (odometry chain first). On error
  * returns PGEM_ERR_IO / PGEM_ERR_PARSE / PGEM_ERR_DIMENSION / PGEM_ERR_UNKNOWN_ID /
- * PGEM_ERR_DUPLICATE_ID (or PGEM_ERR_OUT_OF_MEMORY), writes "FILE:LINE: what is wrong" into
+ * PGEM_ERR_DUPLICATE_ID / PGEM_ERR_OUT_OF_RANGE (or PGEM_ERR_OUT_OF_MEMORY), writes
+ * "FILE:LINE: what is wrong" into
  * message, and leaves *graph empty.
  * - *graph is overwritten, not freed: release a graph read earlier with pgem_io_graph_free.
  * - An empty file (or one with only blank, comment or unknown lines) is a valid empty graph
@@ -74,10 +75,14 @@ typedef struct pgem_io_graph {
  *   in unknown_lines, not an error. FIX takes one or more ids (as g2o writes it).
  * - A file with edge lines but no VERTEX line gets one pose per referenced id, ordered by id;
  *   if some ids have VERTEX lines, an edge naming an id without one is PGEM_ERR_UNKNOWN_ID.
- * - Lines are limited to 65536 bytes; a NUL byte in a line is PGEM_ERR_PARSE.
+ * - Lines are limited to 65536 bytes; a NUL byte in a line is PGEM_ERR_PARSE. Either stops
+ *   the read where it is found (a stream that never ends a line is not read to its end).
  * - LF and CRLF line ends are accepted, and a UTF-8 byte order mark at the start of the file
  *   is skipped. The memory a read takes depends on the graph, not on the file's size: blank,
  *   comment and unknown lines cost nothing.
+ * - A translation beyond PGEM_TRANSLATION_LIMIT or an information value beyond
+ *   PGEM_INFORMATION_LIMIT (pgem/graph.h) is PGEM_ERR_OUT_OF_RANGE, naming the field: a graph
+ *   that reads loads (capacity and the core's other checks aside) with a finite chi2.
  * FORMATS.md at the repository root lists every accepted line. */
 int pgem_io_read(const char *path, pgem_format_t format, pgem_io_graph_t *graph,
                  char *message, size_t message_size);
@@ -126,6 +131,27 @@ int pgem_io_write_stream(FILE *stream, pgem_format_t format, const pgem_io_graph
  * state" (state "accepted" or "pruned"), after a "#" header line. The format `pgem optimize
  * --weights` writes and `pgem eval --weights` reads. PGEM_ERR_IO if a write failed. */
 int pgem_io_write_weights(FILE *stream, const pgem_t *instance);
+
+/** Text from outside (a message, a file) for a log line or a JSON string. The length in bytes
+ * (1 to 4) of the UTF-8 character at text, of at most `length` bytes, with its code point in
+ * *codepoint; 0 when the bytes there are not one (a stray or missing continuation byte, an
+ * overlong form, a surrogate, past U+10FFFF), *codepoint then the first byte. */
+size_t pgem_io_utf8_next(const char *text, size_t length, uint32_t *codepoint);
+
+/** 1 when a code point shows as text on a line: not a control character (C0, DEL, C1), a
+ * line or paragraph separator (U+2028, U+2029), a bidirectional embedding, override or
+ * isolate (U+202A-U+202E, U+2066-U+2069) that could disguise a log line, or U+FEFF. */
+int pgem_io_printable(uint32_t codepoint);
+
+/** 1 when every character of text is valid UTF-8 and printable (the rule the LCM bridge
+ * applies to the names it keeps); *bad (may be NULL) receives the offset of the first byte
+ * that is not, else the length. */
+int pgem_io_text_printable(const char *text, size_t *bad);
+
+/** Copies text into out (out_size > 0 bytes, always NUL-terminated, never cut inside an
+ * escape): printable UTF-8 as it is, a backslash as \\, every other byte as \xNN. A name from
+ * the network printed this way cannot forge a log line or a terminal's state. Returns out. */
+char *pgem_io_escape(char *out, size_t out_size, const char *text);
 
 #ifdef __cplusplus
 }

@@ -85,12 +85,22 @@ typedef struct pgem_summary {
  * robust weight (1 unless the robust layer set it); pruned loops are left out.
  * On failure (NOT_POSITIVE_DEFINITE, NUMERIC, FILL_BUDGET, EMPTY, OUT_OF_MEMORY) the poses are
  * restored to what they were before the call, summary->usable is 0 and the message says why.
- * options and summary may be NULL. */
+ * A solve that would leave a pose beyond PGEM_TRANSLATION_LIMIT has diverged: NUMERIC, so an
+ * instance never holds a pose it would refuse as input. options and summary may be NULL. */
 int pgem_optimize(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary);
 
 /** Runs the symbolic analysis for the current topology now (otherwise the next pgem_optimize
  * does). Useful to move CSparse's symbolic allocation out of a time-critical loop. */
 int pgem_analyze(pgem_t *graph);
+
+/** The checks pgem_optimize makes before its first iteration, without solving: an edge and a
+ * free pose to solve (EMPTY), the factor within the fill budget (FILL_BUDGET), every part of
+ * the graph held by a fixed pose or the first pose (NOT_POSITIVE_DEFINITE, naming a pose of
+ * the part), and a finite chi2 at the current estimate (NUMERIC). PGEM_OK means the solve
+ * will start; the message says why not otherwise. Runs the symbolic analysis as pgem_analyze
+ * does (its allocation, with the system CSparse); the estimate and weights are not touched.
+ * A file checker (`pgem stats`) uses it to refuse what `pgem optimize` would refuse. */
+int pgem_check_solvable(pgem_t *graph);
 
 /** Name of a termination reason ("chi2-converged", ...); never NULL. */
 const char *pgem_termination_name(pgem_termination_t termination);

@@ -2,11 +2,13 @@
  * (drain the queue into the core, decide when to solve, publish). */
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "bridge_internal.h"
 #include "pgem_command_t.h"
@@ -32,10 +34,13 @@ void pgem_bridge_defaults(pgem_bridge_options_t *options)
         options->max_edges = DEFAULT_EDGES_PER_POSE * options->max_poses;
     }
     pgem_ingest_config_t ingest = {options->dimension, options->max_poses, options->max_edges,
-                                   options->max_pending, options->max_sources};
+                                   options->max_pending, options->max_sources, 0, 0};
     pgem_ingest_config_resolve(&ingest);
     options->max_pending = ingest.max_pending;
     options->max_sources = ingest.max_sources;
+    if (!(options->pending_timeout > 0.0)) {
+        options->pending_timeout = (double)PGEM_PENDING_TIMEOUT_DEFAULT * 1e-6;
+    }
     if (!(options->debounce > 0.0)) {
         options->debounce = 0.01;
     }
@@ -96,16 +101,53 @@ static void log_rejection(bridge_t *bridge, const pgem_ingest_result_t *result)
     }
 }
 
-/* Journals what changed the graph; a failed write is reported, and the item still goes to
- * the solver (it is accepted; only its durability is lost). */
-static void journal_accepted(bridge_t *bridge, const char *channel, const void *data,
-                             size_t size, int64_t utime)
+/* The ingest's admit hook: a message that would change the graph is journaled before anything
+ * changes, so what the status acknowledges is always in the journal, and a message the journal
+ * cannot take (a full disk, an I/O error) is refused and changes nothing: the front-end's
+ * resend is accepted once the journal has room. Called from pgem_ingest_message with L held;
+ * the write runs without it (nothing of the ingest changes meanwhile: this thread is its only
+ * writer, and the solver only reads source names and the queue's visible part). */
+static int journal_admit(void *user, const void *data, size_t size, char *message,
+                         size_t message_size)
 {
-    char message[512];
-    if (pgem_journal_append(bridge->journal, channel, data, size, utime, message,
-                            sizeof message) != 0) {
-        bridge_note(bridge, "journal: %s", message);
+    bridge_t *bridge = user;
+    pthread_mutex_unlock(&bridge->lock);
+    int status = pgem_journal_append(bridge->journal, bridge->channel, data, size, bridge->utime,
+                                     message, message_size);
+    pthread_mutex_lock(&bridge->lock);
+    return status;
+}
+
+/* Edges that expired (waited too long for their poses, or made room in a full list), from
+ * count `before` to `after`: the latest is noted while fewer than 20 have expired, then once
+ * per thousand, like rejections. */
+static void log_expiries(bridge_t *bridge, int64_t before, int64_t after, const char *latest)
+{
+    if (after <= before) {
+        return;
     }
+    int64_t first = bridge->expiries_logged + 1;
+    bridge->expiries_logged += after - before;
+    int64_t last = bridge->expiries_logged;
+    if (first <= REJECTIONS_LOGGED || last / 1000 > (first - 1) / 1000) {
+        bridge_note(bridge, "%s%s", latest, after - before > 1 ? " (and earlier ones)" : "");
+    }
+}
+
+/* Expires what has waited too long by now, for a bridge that receives nothing (the ingest
+ * does it at every message otherwise). Takes L. */
+static void expire_quietly(bridge_t *bridge)
+{
+    char latest[sizeof bridge->last_message] = "";
+    pthread_mutex_lock(&bridge->lock);
+    int64_t before = bridge->counts.rejected[PGEM_REJECT_EXPIRED];
+    if (pgem_ingest_expire(bridge->ingest, bridge_utime()) > 0) {
+        pgem_ingest_counts(bridge->ingest, &bridge->counts);
+        snprintf(latest, sizeof latest, "%s", pgem_ingest_last_expiry(bridge->ingest));
+    }
+    int64_t after = bridge->counts.rejected[PGEM_REJECT_EXPIRED];
+    pthread_mutex_unlock(&bridge->lock);
+    log_expiries(bridge, before, after, latest);
 }
 
 static void on_message(const lcm_recv_buf_t *buffer, const char *channel, void *user)
@@ -113,29 +155,20 @@ static void on_message(const lcm_recv_buf_t *buffer, const char *channel, void *
     bridge_t *bridge = user;
     pgem_ingest_result_t result;
     pgem_role_t role = role_of_channel(bridge, channel);
+    char latest[sizeof bridge->last_message] = "";
     pthread_mutex_lock(&bridge->lock);
-    pgem_ingest_message(bridge->ingest, role, buffer->data, buffer->data_size, &result);
-    pthread_mutex_unlock(&bridge->lock);
-
-    int changed = result.verdict == PGEM_VERDICT_ACCEPTED ||
-                  (result.verdict == PGEM_VERDICT_COMMAND &&
-                   result.command == PGEM_COMMAND_T_RESET);
-    if (changed && bridge->journal != NULL) {
-        journal_accepted(bridge, channel, buffer->data, buffer->data_size, buffer->recv_utime);
-    }
-    if (result.verdict == PGEM_VERDICT_REJECTED) {
-        log_rejection(bridge, &result);
-    } else if (result.verdict == PGEM_VERDICT_COMMAND) {
-        static const char *const names[] = {"", "OPTIMIZE", "RESET", "SNAPSHOT"};
-        bridge_log(bridge, "command %s%s%s", names[result.command],
-                   result.path[0] != '\0' ? " " : "", result.path);
-    }
-
-    pthread_mutex_lock(&bridge->lock);
+    int64_t expired = bridge->counts.rejected[PGEM_REJECT_EXPIRED];
+    bridge->channel = channel;
+    bridge->utime = buffer->recv_utime;
+    pgem_ingest_message(bridge->ingest, role, buffer->data, buffer->data_size,
+                        buffer->recv_utime, &result);
     bridge->visible = bridge->tail;
     pgem_ingest_counts(bridge->ingest, &bridge->counts);
     if (bridge->journal != NULL) {
         bridge->journal_records = pgem_journal_records(bridge->journal);
+    }
+    if (bridge->counts.rejected[PGEM_REJECT_EXPIRED] > expired) {
+        snprintf(latest, sizeof latest, "%s", pgem_ingest_last_expiry(bridge->ingest));
     }
     if (result.verdict == PGEM_VERDICT_REJECTED) {
         snprintf(bridge->last_message, sizeof bridge->last_message, "rejected (%s): %.340s",
@@ -149,18 +182,41 @@ static void on_message(const lcm_recv_buf_t *buffer, const char *channel, void *
         }
     }
     pthread_cond_signal(&bridge->wake);
+    int64_t expired_now = bridge->counts.rejected[PGEM_REJECT_EXPIRED];
     pthread_mutex_unlock(&bridge->lock);
+
+    log_expiries(bridge, expired, expired_now, latest);
+    if (result.verdict == PGEM_VERDICT_REJECTED) {
+        log_rejection(bridge, &result);
+    } else if (result.verdict == PGEM_VERDICT_COMMAND) {
+        static const char *const names[] = {"", "OPTIMIZE", "RESET", "SNAPSHOT"};
+        bridge_log(bridge, "command %s%s%s", names[result.command],
+                   result.path[0] != '\0' ? " " : "", result.path);
+    }
 }
 
+/* A journal record, replayed at start through the same ingest (no admit hook: it is in the
+ * journal). Refusals are counted by reason and the first 20 logged; start() decides. */
 static void on_journal_record(void *user, const char *channel, const void *data, size_t size,
                               int64_t utime)
 {
     (void)channel;
-    (void)utime;
     bridge_t *bridge = user;
     pgem_ingest_result_t result;
-    pgem_ingest_message(bridge->ingest, PGEM_ROLE_ANY, data, size, &result);
-    if (result.verdict == PGEM_VERDICT_REJECTED) {
+    pgem_ingest_message(bridge->ingest, PGEM_ROLE_ANY, data, size, utime, &result);
+    if (result.verdict != PGEM_VERDICT_REJECTED) {
+        return;
+    }
+    int64_t refused = 0;
+    for (int r = 0; r < PGEM_REJECT_COUNT; ++r) {
+        refused += bridge->replay_refused[r];
+    }
+    bridge->replay_refused[result.reason]++;
+    if (refused == 0) {
+        snprintf(bridge->replay_first, sizeof bridge->replay_first, "%s: %.320s",
+                 pgem_reject_name(result.reason), result.message);
+    }
+    if (refused < REJECTIONS_LOGGED) {
         bridge_log(bridge, "journal record refused on replay (%s): %s",
                    pgem_reject_name(result.reason), result.message);
     }
@@ -321,11 +377,78 @@ static void *solver_main(void *user)
 
 /* ---- start, run, stop ---------------------------------------------------------------------- */
 
+/* After the journal's replay: its records refused for the bridge's dimension or capacities
+ * mean the options differ from the ones the journal was written with, and starting would drop
+ * part of the map, so the start fails (the journal is left as it is). Other refusals (messages
+ * a front-end got wrong, in an lcm-logger recording used as a seed) are counted and named. */
+static int journal_report(bridge_t *bridge, const pgem_journal_info_t *info, char *message,
+                          size_t message_size)
+{
+    const pgem_bridge_options_t *o = &bridge->options;
+    const int64_t *refused = bridge->replay_refused;
+    int64_t total = 0;
+    char reasons[512] = "";
+    for (int r = 0; r < PGEM_REJECT_COUNT; ++r) {
+        if (refused[r] > 0) {
+            size_t used = strlen(reasons);
+            snprintf(reasons + used, sizeof reasons - used, "%s%s %lld", used > 0 ? ", " : "",
+                     pgem_reject_name((pgem_reject_t)r), (long long)refused[r]);
+            total += refused[r];
+        }
+    }
+    if (refused[PGEM_REJECT_CAPACITY] > 0 || refused[PGEM_REJECT_DIMENSION] > 0) {
+        snprintf(message, message_size,
+                 "journal %s: %lld of its %lld records do not fit this bridge (%s; the first, "
+                 "%s): start it with the --dimension, --max-poses and --max-edges the journal "
+                 "was written with, or with a new journal (this one is left as it is)",
+                 o->journal, (long long)total, (long long)info->records, reasons,
+                 bridge->replay_first);
+        return -1;
+    }
+    const pgem_ingest_counts_t counts = bridge->counts;
+    bridge_log(bridge, "journal %s: %lld records replayed (%lld poses, %lld edges)", o->journal,
+               (long long)(info->records - total), (long long)counts.accepted_poses,
+               (long long)counts.accepted_edges);
+    if (total > 0) {
+        bridge_note(bridge, "journal %s: %lld more records refused on replay (%s)", o->journal,
+                    (long long)total, reasons);
+    }
+    if (info->torn_bytes > 0 || info->skipped_bytes > 0) {
+        bridge_note(bridge, "journal %s: cut %lld bytes of a torn last record, skipped "
+                    "%lld damaged bytes", o->journal, (long long)info->torn_bytes,
+                    (long long)info->skipped_bytes);
+    }
+    return 0;
+}
+
+static int open_journal(bridge_t *bridge, char *message, size_t message_size)
+{
+    const pgem_bridge_options_t *o = &bridge->options;
+    pgem_journal_info_t info;
+    bridge->journal = pgem_journal_open(o->journal, o->journal_sync, on_journal_record, bridge,
+                                        &info, message, message_size);
+    if (bridge->journal == NULL) {
+        return -1;
+    }
+    bridge->recovered = info.records;
+    bridge->visible = bridge->tail;
+    bridge->recovery_pending = info.records > 0;
+    pgem_ingest_counts(bridge->ingest, &bridge->counts);
+    bridge->journal_records = info.records;
+    if (journal_report(bridge, &info, message, message_size) != 0) {
+        return -1;
+    }
+    pgem_ingest_set_admit(bridge->ingest, journal_admit, bridge);
+    return 0;
+}
+
 static int start(bridge_t *bridge, char *message, size_t message_size)
 {
     const pgem_bridge_options_t *o = &bridge->options;
     pgem_ingest_config_t ingest_config = {o->dimension, o->max_poses, o->max_edges,
-                                          o->max_pending, o->max_sources};
+                                          o->max_pending, o->max_sources,
+                                          (int64_t)(o->pending_timeout * 1e6),
+                                          o->snapshot_dir != NULL};
     bridge->ingest = pgem_ingest_create(&ingest_config, emit, bridge);
     bridge->queue_capacity = (uint64_t)o->max_poses + o->max_edges + BATCH;
     bridge->queue = calloc((size_t)bridge->queue_capacity, sizeof *bridge->queue);
@@ -337,27 +460,16 @@ static int start(bridge_t *bridge, char *message, size_t message_size)
     if (bridge_graph_init(bridge, message, message_size) != 0) {
         return -1;
     }
-    if (o->journal != NULL) {
-        pgem_journal_info_t info;
-        bridge->journal = pgem_journal_open(o->journal, o->journal_sync, on_journal_record,
-                                            bridge, &info, message, message_size);
-        if (bridge->journal == NULL) {
+    if (o->snapshot_dir != NULL) {
+        bridge->snapshot_dir = open(o->snapshot_dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+        if (bridge->snapshot_dir < 0) {
+            snprintf(message, message_size, "--snapshot-dir %s: cannot open the folder: %s",
+                     o->snapshot_dir, strerror(errno));
             return -1;
         }
-        bridge->recovered = info.records;
-        bridge->visible = bridge->tail;
-        bridge->recovery_pending = info.records > 0;
-        pgem_ingest_counts(bridge->ingest, &bridge->counts);
-        bridge->journal_records = info.records;
-        const pgem_ingest_counts_t counts = bridge->counts;
-        bridge_log(bridge, "journal %s: %lld records replayed (%lld poses, %lld edges)",
-                   o->journal, (long long)info.records, (long long)counts.accepted_poses,
-                   (long long)counts.accepted_edges);
-        if (info.torn_bytes > 0 || info.skipped_bytes > 0) {
-            bridge_note(bridge, "journal %s: cut %lld bytes of a torn last record, skipped "
-                        "%lld damaged bytes", o->journal, (long long)info.torn_bytes,
-                        (long long)info.skipped_bytes);
-        }
+    }
+    if (o->journal != NULL && open_journal(bridge, message, message_size) != 0) {
+        return -1;
     }
     bridge->lcm = o->lcm != NULL ? o->lcm : lcm_create(o->url);
     if (bridge->lcm == NULL) {
@@ -380,6 +492,9 @@ static int start(bridge_t *bridge, char *message, size_t message_size)
 
 static void finish(bridge_t *bridge)
 {
+    if (bridge->snapshot_dir >= 0) {
+        close(bridge->snapshot_dir);
+    }
     if (bridge->lcm != NULL && bridge->lcm != bridge->options.lcm) {
         lcm_destroy(bridge->lcm);
     }
@@ -400,6 +515,7 @@ int pgem_bridge_run(const pgem_bridge_options_t *options, int (*stop)(void), cha
         return -1;
     }
     bridge->options = *options;
+    bridge->snapshot_dir = -1;
     pgem_bridge_defaults(&bridge->options);
     pthread_mutex_init(&bridge->lock, NULL);
     pthread_condattr_t attributes;
@@ -430,6 +546,7 @@ int pgem_bridge_run(const pgem_bridge_options_t *options, int (*stop)(void), cha
     while (!stop()) {
         double now = bridge_now();
         if (now >= next_status) {
+            expire_quietly(bridge);
             bridge_publish_status(bridge);
             next_status = now + o->status_period;
         }

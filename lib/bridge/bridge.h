@@ -31,6 +31,8 @@ typedef struct pgem_bridge_options {
     uint32_t fill_budget;      /* 0: the core's default */
     uint32_t max_pending;      /* edges that may wait for their poses (0: 4096) */
     uint32_t max_sources;      /* front-ends (0: 64) */
+    double pending_timeout;    /* s an edge may wait for its poses before it expires
+                                  (default 60) */
     double debounce;           /* s to wait after a new loop closure for more (default 0.01) */
     double max_rate;           /* solves per second at most (default 20) */
     double max_delay;          /* s a loop closure may wait for its solve while more keep
@@ -41,6 +43,8 @@ typedef struct pgem_bridge_options {
                                   incremental loop solves) the settle solve (default 0.5) */
     const char *journal;       /* journal path; NULL for none */
     int journal_sync;          /* fdatasync every record */
+    const char *snapshot_dir;  /* the folder SNAPSHOT commands write into; NULL: SNAPSHOT is
+                                  refused (a message names a file in it, never a path) */
     pgem_robust_options_t robust;  /* kernel 0 means EM with its defaults */
     pgem_bridge_log_fn log;    /* progress lines (NULL: silent) */
     void *log_user;
@@ -53,7 +57,8 @@ void pgem_bridge_defaults(pgem_bridge_options_t *options);
 /* Runs until stop() returns non-zero (polled at least every 100 ms), then finishes
  * cleanly: the solve in progress is interrupted, a last status is published, the journal is
  * closed. Returns 0, or -1 with message when the bridge could not start (LCM URL, journal,
- * memory). */
+ * snapshot folder, memory). A journal that is not an LCM log, or whose records do not fit the
+ * bridge's dimension and capacities, is refused, unchanged. */
 int pgem_bridge_run(const pgem_bridge_options_t *options, int (*stop)(void), char *message,
                     size_t message_size);
 

@@ -25,6 +25,12 @@ typedef struct bridge {
     pgem_ingest_t *ingest;
     pgem_journal_t *journal;
     int64_t recovered;
+    const char *channel;       /* the message being handled: its channel and receive time, */
+    int64_t utime;             /* for the journal record the admit hook writes */
+    int64_t replay_refused[PGEM_REJECT_COUNT]; /* journal records refused on replay, by reason */
+    char replay_first[384];    /* the first of them, in words */
+    int64_t expiries_logged;
+    int snapshot_dir;          /* open folder for SNAPSHOT, -1 none */
     /* (L) The ingest's counters as of the last message handled to the end (journaled and
      * visible to the solver). The status reports these, never the live ones: the solver
      * publishes a status after each solve, and a count taken while the reception thread is

@@ -2,9 +2,11 @@
  * snapshots. Only the solver thread calls these. */
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "bridge_internal.h"
 #include "pgem/io.h"
@@ -353,6 +355,19 @@ static int keep_going(const pgem_robust_progress_t *progress, void *user)
     return bridge->stopping ? 1 : 0;
 }
 
+/* A successful solve's degenerate outcome in words (the graph's stats message and the
+ * status), empty when loop closures were accepted. */
+static void describe_outcome(const pgem_robust_summary_t *summary, char *text, size_t size)
+{
+    if (summary->outcome == PGEM_ROBUST_ALL_REJECTED) {
+        snprintf(text, size, "warning: all %u loop closures rejected: the map is the odometry's "
+                             "alone", summary->loops);
+    } else if (summary->outcome == PGEM_ROBUST_MOST_REJECTED) {
+        snprintf(text, size, "warning: %u of %u loop closures rejected (more than 90%%)",
+                 summary->rejected, summary->loops);
+    }
+}
+
 void bridge_graph_solve(bridge_t *bridge, const char *trigger)
 {
     pthread_mutex_lock(&bridge->lock);
@@ -379,6 +394,7 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     if (status == PGEM_OK) {
         bridge->solved_poses = pgem_pose_count(bridge->core);
         memset(bridge->anchored, 0, bridge->solved_poses);
+        describe_outcome(&summary, why, sizeof why);
     } else {
         snprintf(why, sizeof why, "%s: %s", pgem_error_name(status),
                  pgem_last_error(bridge->core));
@@ -399,6 +415,9 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
                    pgem_pose_count(bridge->core), summary.loops, summary.pruned,
                    summary.final_chi2, summary.rounds, 1e-3 * (double)micros,
                    parts > 1 ? " (graph in several parts: each held at its smallest id)" : "");
+        if (why[0] != '\0') {
+            bridge_note(bridge, "solve %lld: %s", (long long)bridge->solve_id, why);
+        }
     } else {
         bridge_note(bridge, "solve %lld (%s) failed: %s", (long long)bridge->solve_id, trigger,
                     why);
@@ -502,42 +521,72 @@ void bridge_graph_publish(bridge_t *bridge, const char *trigger,
     }
 }
 
-void bridge_graph_snapshot(bridge_t *bridge, const char *path)
+/* What a snapshot file holds, written to a stream. */
+typedef int (*snapshot_writer_fn)(FILE *stream, const pgem_t *core);
+
+static int write_graph(FILE *stream, const pgem_t *core)
+{
+    pgem_io_graph_t graph;
+    int status = pgem_io_from_instance(core, &graph);
+    if (status == PGEM_OK) {
+        status = pgem_io_write_stream(stream, PGEM_FORMAT_G2O, &graph);
+        pgem_io_graph_free(&graph);
+    }
+    return status;
+}
+
+/* Writes NAME in the snapshot folder: a new hidden temporary file (O_EXCL | O_NOFOLLOW, so
+ * nothing planted there is followed or reused), synced, then renamed over NAME (a rename
+ * replaces a symlink at NAME, it never writes through one). 0, or -1 with message. */
+static int snapshot_file(const bridge_t *bridge, const char *name, snapshot_writer_fn writer,
+                         char *message, size_t message_size)
+{
+    int dir = bridge->snapshot_dir;
+    char temporary[PGEM_SNAPSHOT_NAME_MAX + 64];
+    int fd = -1;
+    for (unsigned attempt = 0; fd < 0 && attempt < 100; ++attempt) {
+        snprintf(temporary, sizeof temporary, ".%s.%ld.%u.tmp", name, (long)getpid(), attempt);
+        fd = openat(dir, temporary, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+        if (fd < 0 && errno != EEXIST) {
+            break;
+        }
+    }
+    if (fd < 0) {
+        snprintf(message, message_size, "%s: cannot create a temporary file: %s", name,
+                 strerror(errno));
+        return -1;
+    }
+    FILE *stream = fdopen(fd, "w");
+    int failed = stream == NULL || writer(stream, bridge->core) != PGEM_OK ||
+                 fflush(stream) != 0 || fsync(fd) != 0;
+    int saved = errno;
+    if (stream != NULL ? fclose(stream) != 0 : close(fd) != 0) {
+        failed = 1;
+        saved = errno;
+    }
+    if (!failed && renameat(dir, temporary, dir, name) != 0) {
+        failed = 1;
+        saved = errno;
+    }
+    if (failed) {
+        unlinkat(dir, temporary, 0);
+        snprintf(message, message_size, "%s: cannot write: %s", name, strerror(saved));
+        return -1;
+    }
+    return 0;
+}
+
+void bridge_graph_snapshot(bridge_t *bridge, const char *name)
 {
     char message[PGEM_PATH_MAX + 512] = "";
-    char temporary[PGEM_PATH_MAX + 16];
-    char weights[PGEM_PATH_MAX + 16];
-    snprintf(temporary, sizeof temporary, "%s.tmp", path);
-    snprintf(weights, sizeof weights, "%s.weights", path);
-    pgem_io_graph_t graph;
-    int status = pgem_io_from_instance(bridge->core, &graph);
-    if (status == PGEM_OK) {
-        status = pgem_io_write(temporary, PGEM_FORMAT_G2O, &graph, message, sizeof message);
-        pgem_io_graph_free(&graph);
+    char weights[PGEM_SNAPSHOT_NAME_MAX + 16];
+    snprintf(weights, sizeof weights, "%s.weights", name);
+    if (snapshot_file(bridge, name, write_graph, message, sizeof message) == 0 &&
+        snapshot_file(bridge, weights, pgem_io_write_weights, message, sizeof message) == 0) {
+        bridge_note(bridge, "snapshot: %s/%s (%u poses, %u edges) and %s",
+                    bridge->options.snapshot_dir, name, pgem_pose_count(bridge->core),
+                    pgem_edge_count(bridge->core), weights);
     } else {
-        snprintf(message, sizeof message, "out of memory");
-    }
-    if (status == PGEM_OK && rename(temporary, path) != 0) {
-        snprintf(message, sizeof message, "%s: cannot rename into place: %s", path,
-                 strerror(errno));
-        status = PGEM_ERR_IO;
-    }
-    if (status == PGEM_OK) {
-        FILE *file = fopen(weights, "w");
-        int failed = file == NULL || pgem_io_write_weights(file, bridge->core) != PGEM_OK;
-        if (file != NULL && fclose(file) != 0) {
-            failed = 1;
-        }
-        if (failed) {
-            snprintf(message, sizeof message, "%s: cannot write: %s", weights, strerror(errno));
-            status = PGEM_ERR_IO;
-        }
-    }
-    if (status == PGEM_OK) {
-        bridge_note(bridge, "snapshot: %s (%u poses, %u edges) and %s", path,
-                    pgem_pose_count(bridge->core), pgem_edge_count(bridge->core), weights);
-    } else {
-        remove(temporary);
-        bridge_note(bridge, "snapshot failed: %s", message);
+        bridge_note(bridge, "snapshot failed: %s/%s", bridge->options.snapshot_dir, message);
     }
 }

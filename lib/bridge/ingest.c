@@ -1,4 +1,5 @@
-/* Reception state machine: decode, validate, deduplicate, hold edges for missing poses, emit. */
+/* Reception state machine: decode, validate, deduplicate, hold edges for missing poses (ageing
+ * them out), offer changes to the admit hook, emit. */
 #include "ingest.h"
 
 #include <math.h>
@@ -6,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pgem/io.h"
 #include "pgem_command_t.h"
 #include "pgem_edge2_t.h"
 #include "pgem_edge3_t.h"
@@ -14,10 +16,12 @@
 
 #define DEFAULT_MAX_PENDING 4096u
 #define DEFAULT_MAX_SOURCES 64u
+#define NONE UINT32_MAX /* end of a waiting list */
 
 static const char *const reject_names[PGEM_REJECT_COUNT] = {
     "decode", "dimension", "not_finite", "information", "rotation", "self_loop", "kind",
-    "source", "conflict", "capacity", "pending_full", "command", "core"};
+    "source", "conflict", "capacity", "pending_full", "command", "core", "range", "journal",
+    "expired"};
 
 const char *pgem_reject_name(pgem_reject_t reason)
 {
@@ -37,21 +41,50 @@ typedef struct table {
     size_t mask;
 } table_t;
 
+/* An edge waiting for its poses: in the list of every waiting edge and in its source's, both
+ * in arrival order (doubly linked through slot indices, NONE at the ends). */
+typedef struct waiting {
+    pgem_item_t item;
+    int64_t since;          /* when it arrived (the message's utime) */
+    uint32_t prev;
+    uint32_t next;
+    uint32_t source_prev;
+    uint32_t source_next;
+} waiting_t;
+
+/* One front-end. A slot is free when its name is empty. */
+typedef struct source {
+    char name[PGEM_SOURCE_MAX];
+    int64_t last;            /* highest sequence admitted since the last reset, -1 none
+                                (named in conflict messages) */
+    uint32_t waiting;        /* its edges in the pending list */
+    uint32_t oldest;         /* the first of them, NONE */
+    uint32_t newest;         /* the last of them, NONE */
+    uint8_t emitted;         /* an edge of it went into the graph: its slot stays */
+} source_t;
+
 struct pgem_ingest {
     pgem_ingest_config_t config;
     pgem_emit_fn emit;
     void *user;
+    pgem_admit_fn admit;
+    void *admit_user;
     table_t poses;            /* key (id, 0) */
     table_t edges;            /* key (source, sequence) */
-    pgem_item_t *pending;     /* edges waiting for poses, in arrival order */
+    waiting_t *pending;       /* max_pending slots */
+    uint32_t *free_slots;     /* stack of unused pending slots */
+    uint32_t free_count;
+    uint32_t oldest;          /* first waiting edge in arrival order, NONE */
+    uint32_t newest;          /* last, NONE */
     uint32_t pending_count;
     uint32_t admitted_poses;  /* capacity reserved since the last reset */
     uint32_t admitted_edges;  /* includes pending edges */
-    char (*sources)[PGEM_SOURCE_MAX];
-    int64_t *source_last;     /* per source: highest sequence admitted since the last reset,
-                                 -1 none (named in conflict messages) */
-    uint32_t source_count;
+    source_t *sources;
+    uint32_t source_count;    /* slots in use or freed below the highest in use */
+    const void *data;         /* the message being handled, for the admit hook */
+    size_t size;
     pgem_ingest_counts_t counts;
+    char last_expiry[384];
 };
 
 static int table_init(table_t *table, uint32_t capacity)
@@ -92,6 +125,29 @@ static slot_t *table_find(const table_t *table, uint64_t a, uint64_t b)
     }
 }
 
+/* Removes a used slot, moving later keys of its probe run back so every key stays reachable
+ * from its home slot (linear probing's deletion, no tombstones). */
+static void table_remove(table_t *table, slot_t *slot)
+{
+    size_t hole = (size_t)(slot - table->slots);
+    size_t next = hole;
+    for (;;) {
+        next = (next + 1) & table->mask;
+        slot_t *candidate = &table->slots[next];
+        if (!candidate->used) {
+            break;
+        }
+        size_t home = (size_t)mix(candidate->key_a, candidate->key_b) & table->mask;
+        /* it stays when its home lies cyclically in (hole, next] */
+        int stays = hole <= next ? (hole < home && home <= next) : (hole < home || home <= next);
+        if (!stays) {
+            table->slots[hole] = *candidate;
+            hole = next;
+        }
+    }
+    table->slots[hole].used = 0;
+}
+
 /* FNV-1a over the bytes of the fields that make an item's content. */
 static uint64_t fnv(uint64_t hash, const void *data, size_t size)
 {
@@ -128,6 +184,26 @@ void pgem_ingest_config_resolve(pgem_ingest_config_t *config)
     if (config->max_sources > UINT16_MAX) {
         config->max_sources = UINT16_MAX;
     }
+    if (config->pending_timeout <= 0) {
+        config->pending_timeout = PGEM_PENDING_TIMEOUT_DEFAULT;
+    }
+}
+
+/* Every pending slot free, no edge waiting. */
+static void pending_clear(pgem_ingest_t *ingest)
+{
+    for (uint32_t k = 0; k < ingest->config.max_pending; ++k) {
+        ingest->free_slots[k] = ingest->config.max_pending - 1 - k;
+    }
+    ingest->free_count = ingest->config.max_pending;
+    ingest->oldest = NONE;
+    ingest->newest = NONE;
+    ingest->pending_count = 0;
+    for (uint32_t s = 0; s < ingest->source_count; ++s) {
+        ingest->sources[s].waiting = 0;
+        ingest->sources[s].oldest = NONE;
+        ingest->sources[s].newest = NONE;
+    }
 }
 
 pgem_ingest_t *pgem_ingest_create(const pgem_ingest_config_t *config, pgem_emit_fn emit,
@@ -146,14 +222,15 @@ pgem_ingest_t *pgem_ingest_create(const pgem_ingest_config_t *config, pgem_emit_
     ingest->emit = emit;
     ingest->user = user;
     ingest->pending = calloc(ingest->config.max_pending, sizeof *ingest->pending);
+    ingest->free_slots = calloc(ingest->config.max_pending, sizeof *ingest->free_slots);
     ingest->sources = calloc(ingest->config.max_sources, sizeof *ingest->sources);
-    ingest->source_last = calloc(ingest->config.max_sources, sizeof *ingest->source_last);
     if (!table_init(&ingest->poses, config->max_poses) ||
         !table_init(&ingest->edges, config->max_edges) || ingest->pending == NULL ||
-        ingest->sources == NULL || ingest->source_last == NULL) {
+        ingest->free_slots == NULL || ingest->sources == NULL) {
         pgem_ingest_destroy(ingest);
         return NULL;
     }
+    pending_clear(ingest);
     return ingest;
 }
 
@@ -163,10 +240,16 @@ void pgem_ingest_destroy(pgem_ingest_t *ingest)
         free(ingest->poses.slots);
         free(ingest->edges.slots);
         free(ingest->pending);
+        free(ingest->free_slots);
         free(ingest->sources);
-        free(ingest->source_last);
         free(ingest);
     }
+}
+
+void pgem_ingest_set_admit(pgem_ingest_t *ingest, pgem_admit_fn admit, void *user)
+{
+    ingest->admit = admit;
+    ingest->admit_user = user;
 }
 
 void pgem_ingest_counts(const pgem_ingest_t *ingest, pgem_ingest_counts_t *counts)
@@ -182,7 +265,12 @@ uint32_t pgem_ingest_source_count(const pgem_ingest_t *ingest)
 
 const char *pgem_ingest_source_name(const pgem_ingest_t *ingest, uint32_t index)
 {
-    return index < ingest->source_count ? ingest->sources[index] : "";
+    return index < ingest->source_count ? ingest->sources[index].name : "";
+}
+
+const char *pgem_ingest_last_expiry(const pgem_ingest_t *ingest)
+{
+    return ingest->last_expiry;
 }
 
 void pgem_upper_to_full(const double *upper, int n, double *full)
@@ -197,6 +285,16 @@ void pgem_upper_to_full(const double *upper, int n, double *full)
     }
 }
 
+int pgem_snapshot_name_ok(const char *name)
+{
+    size_t length = name != NULL ? strlen(name) : 0;
+    if (length == 0 || length > PGEM_SNAPSHOT_NAME_MAX || name[0] == '.') {
+        return 0;
+    }
+    return strspn(name, "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789._-") ==
+           length;
+}
+
 static void reject(pgem_ingest_t *ingest, pgem_ingest_result_t *result, pgem_reject_t reason)
 {
     result->verdict = PGEM_VERDICT_REJECTED;
@@ -204,44 +302,69 @@ static void reject(pgem_ingest_t *ingest, pgem_ingest_result_t *result, pgem_rej
     ingest->counts.rejected[reason]++;
 }
 
-/* ---- checks shared by poses and edges ---------------------------------------------------- */
-
-/* The index of the first value that is NaN or Inf, or -1. */
-static int first_not_finite(const double *values, int count)
+/* The admit hook's verdict on the message being handled: 1 to go ahead, or 0 with the
+ * rejection (reason journal) filled. Called after every check, before any change. */
+static int admitted(pgem_ingest_t *ingest, const char *what, pgem_ingest_result_t *result)
 {
-    for (int i = 0; i < count; ++i) {
-        if (!isfinite(values[i])) {
-            return i;
-        }
+    char why[256] = "";
+    if (ingest->admit == NULL ||
+        ingest->admit(ingest->admit_user, ingest->data, ingest->size, why, sizeof why) == 0) {
+        return 1;
     }
-    return -1;
+    snprintf(result->message, sizeof result->message,
+             "%s: not accepted, it could not be journaled (%s); nothing changed, resend it", what,
+             why[0] != '\0' ? why : "the journal refused it");
+    reject(ingest, result, PGEM_REJECT_JOURNAL);
+    return 0;
 }
+
+/* ---- checks shared by poses and edges ---------------------------------------------------- */
 
 static const char *const value_names_2d[] = {"x", "y", "theta"};
 static const char *const value_names_3d[] = {"x", "y", "z", "qx", "qy", "qz", "qw"};
 
-static int quaternion_ok(const double *pose7)
+/* A number as the fewest digits that read back as it (1e+160, not 1.0000000000000001e+160). */
+static void shortest(char *out, size_t size, double value)
 {
-    const double *q = pose7 + 3;
-    double norm = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-    return fabs(norm - 1.0) <= PGEM_QUAT_NORM_TOLERANCE;
+    for (int digits = 1; digits <= 17; ++digits) {
+        snprintf(out, size, "%.*g", digits, value);
+        if (strtod(out, NULL) == value) {
+            return;
+        }
+    }
 }
 
-/* The index of a source name: a known source's, or for a new one the index it will take if
- * its edge is admitted (a rejected message must not use up the source table). -1 (result
- * filled) when the name is refused or the table is full. */
+/* The index of a source name: a known source's, or for a new one the slot it will take if its
+ * edge is admitted (a rejected message must not use up the source table). -1 (result filled)
+ * when the name is refused or the table is full. */
 static int source_index(pgem_ingest_t *ingest, const char *name, pgem_ingest_result_t *result)
 {
     size_t length = name != NULL ? strlen(name) : 0;
+    size_t bad = 0;
+    char shown[128];
     if (length == 0 || length >= PGEM_SOURCE_MAX) {
         snprintf(result->message, sizeof result->message,
                  "source name must have 1 to %d bytes, got %zu", PGEM_SOURCE_MAX - 1, length);
         return -1;
     }
+    if (!pgem_io_text_printable(name, &bad)) {
+        snprintf(result->message, sizeof result->message,
+                 "source name '%s' is not printable UTF-8 (byte %zu, 0x%02x): names appear in "
+                 "logs and JSON", pgem_io_escape(shown, sizeof shown, name), bad,
+                 (unsigned)(unsigned char)name[bad]);
+        return -1;
+    }
+    int free_slot = -1;
     for (uint32_t i = 0; i < ingest->source_count; ++i) {
-        if (strcmp(ingest->sources[i], name) == 0) {
+        if (strcmp(ingest->sources[i].name, name) == 0) {
             return (int)i;
         }
+        if (free_slot < 0 && ingest->sources[i].name[0] == '\0') {
+            free_slot = (int)i;
+        }
+    }
+    if (free_slot >= 0) {
+        return free_slot;
     }
     if (ingest->source_count == ingest->config.max_sources) {
         snprintf(result->message, sizeof result->message,
@@ -252,34 +375,68 @@ static int source_index(pgem_ingest_t *ingest, const char *name, pgem_ingest_res
     return (int)ingest->source_count;
 }
 
-/* Admits an edge's source: a new name takes the index source_index gave it. */
+/* Admits an edge's source: a new name takes the slot source_index gave it. */
 static void source_admit(pgem_ingest_t *ingest, uint32_t index, const char *name,
                          int64_t sequence)
 {
-    if (index == ingest->source_count && name != NULL) { /* source_index refused NULL */
-        memcpy(ingest->sources[index], name, strlen(name) + 1);
-        ingest->source_last[index] = -1;
-        ingest->source_count++;
+    source_t *source = &ingest->sources[index];
+    if (source->name[0] == '\0' && name != NULL) { /* source_index refused NULL */
+        memset(source, 0, sizeof *source);
+        memcpy(source->name, name, strlen(name) + 1);
+        source->last = -1;
+        source->oldest = NONE;
+        source->newest = NONE;
+        if (index == ingest->source_count) {
+            ingest->source_count++;
+        }
     }
-    if (sequence > ingest->source_last[index]) {
-        ingest->source_last[index] = sequence;
+    if (sequence > source->last) {
+        source->last = sequence;
     }
 }
 
-/* A pose estimate or a measurement: finite, and in 3D a unit quaternion. Returns 1, or 0 with
- * the message and the rejection filled. */
+/* A source that never had an edge in the graph and has none waiting leaves the table. */
+static void source_release(pgem_ingest_t *ingest, uint32_t index)
+{
+    source_t *source = &ingest->sources[index];
+    if (source->waiting > 0 || source->emitted) {
+        return;
+    }
+    memset(source, 0, sizeof *source);
+    source->last = -1;
+    source->oldest = NONE;
+    source->newest = NONE;
+    while (ingest->source_count > 0 && ingest->sources[ingest->source_count - 1].name[0] == '\0') {
+        ingest->source_count--;
+    }
+}
+
+/* A pose estimate or a measurement: the core's pose check (finite, translation within
+ * PGEM_TRANSLATION_LIMIT, in 3D a unit quaternion). Returns 1, or 0 with the message and the
+ * rejection filled. */
 static int values_ok(pgem_ingest_t *ingest, const double *values, const char *what,
                      const char *noun, pgem_ingest_result_t *result)
 {
     int dimension = ingest->config.dimension;
-    int bad = first_not_finite(values, PGEM_POSE_SIZE(dimension));
-    if (bad >= 0) {
+    int bad = -1;
+    int status = pgem_pose_check(values, dimension, &bad);
+    const char *field = bad < 0 ? "" : dimension == 3 ? value_names_3d[bad] : value_names_2d[bad];
+    if (status == PGEM_ERR_NOT_FINITE) {
         snprintf(result->message, sizeof result->message, "%s: NaN or Inf in the %s (field %s)",
-                 what, noun, dimension == 3 ? value_names_3d[bad] : value_names_2d[bad]);
+                 what, noun, field);
         reject(ingest, result, PGEM_REJECT_NOT_FINITE);
         return 0;
     }
-    if (dimension == 3 && !quaternion_ok(values)) {
+    if (status == PGEM_ERR_OUT_OF_RANGE) {
+        char value[32];
+        shortest(value, sizeof value, values[bad]);
+        snprintf(result->message, sizeof result->message,
+                 "%s: the %s's %s is %s m, beyond the translation limit of 1e8 m", what, noun,
+                 field, value);
+        reject(ingest, result, PGEM_REJECT_RANGE);
+        return 0;
+    }
+    if (status != PGEM_OK) {
         snprintf(result->message, sizeof result->message,
                  "%s: quaternion norm off 1 by more than %g", what, PGEM_QUAT_NORM_TOLERANCE);
         reject(ingest, result, PGEM_REJECT_ROTATION);
@@ -292,7 +449,7 @@ static int values_ok(pgem_ingest_t *ingest, const double *values, const char *wh
  * conflict (same key, other content) or a full capacity (admitted == limit) ends here: NULL,
  * with the result filled. */
 static slot_t *claim(pgem_ingest_t *ingest, table_t *table, uint64_t a, uint64_t b,
-                     uint64_t content, uint32_t admitted, uint32_t limit, const char *what,
+                     uint64_t content, uint32_t admitted_count, uint32_t limit, const char *what,
                      const char *conflict, const char *items, pgem_ingest_result_t *result)
 {
     slot_t *slot = table_find(table, a, b);
@@ -306,7 +463,7 @@ static slot_t *claim(pgem_ingest_t *ingest, table_t *table, uint64_t a, uint64_t
         reject(ingest, result, PGEM_REJECT_CONFLICT);
         return NULL;
     }
-    if (admitted >= limit) {
+    if (admitted_count >= limit) {
         snprintf(result->message, sizeof result->message,
                  "%s: the bridge holds its maximum of %u %s (--max-%s)", what, (unsigned)limit,
                  items, items);
@@ -329,22 +486,153 @@ static int pose_known(const pgem_ingest_t *ingest, pgem_id_t id)
     return table_find(&ingest->poses, id, 0)->used;
 }
 
-/* ---- poses ------------------------------------------------------------------------------- */
+/* ---- the pending list ------------------------------------------------------------------- */
+
+/* Appends an edge to the waiting lists (a free slot exists: the caller checked). */
+static void pending_add(pgem_ingest_t *ingest, const pgem_item_t *item, int64_t since)
+{
+    uint32_t k = ingest->free_slots[--ingest->free_count];
+    waiting_t *entry = &ingest->pending[k];
+    source_t *source = &ingest->sources[item->source];
+    entry->item = *item;
+    entry->since = since;
+    entry->prev = ingest->newest;
+    entry->next = NONE;
+    entry->source_prev = source->newest;
+    entry->source_next = NONE;
+    if (ingest->newest != NONE) {
+        ingest->pending[ingest->newest].next = k;
+    } else {
+        ingest->oldest = k;
+    }
+    ingest->newest = k;
+    if (source->newest != NONE) {
+        ingest->pending[source->newest].source_next = k;
+    } else {
+        source->oldest = k;
+    }
+    source->newest = k;
+    source->waiting++;
+    ingest->pending_count++;
+}
+
+/* Takes an edge out of the waiting lists and frees its slot. */
+static void pending_remove(pgem_ingest_t *ingest, uint32_t k)
+{
+    waiting_t *entry = &ingest->pending[k];
+    source_t *source = &ingest->sources[entry->item.source];
+    if (entry->prev != NONE) {
+        ingest->pending[entry->prev].next = entry->next;
+    } else {
+        ingest->oldest = entry->next;
+    }
+    if (entry->next != NONE) {
+        ingest->pending[entry->next].prev = entry->prev;
+    } else {
+        ingest->newest = entry->prev;
+    }
+    if (entry->source_prev != NONE) {
+        ingest->pending[entry->source_prev].source_next = entry->source_next;
+    } else {
+        source->oldest = entry->source_next;
+    }
+    if (entry->source_next != NONE) {
+        ingest->pending[entry->source_next].source_prev = entry->source_prev;
+    } else {
+        source->newest = entry->source_prev;
+    }
+    source->waiting--;
+    ingest->pending_count--;
+    ingest->free_slots[ingest->free_count++] = k;
+}
+
+/* "edge F -> T (source 'S', sequence Q)" for messages; the name is escaped, so this also
+ * serves a name that was refused. */
+static void edge_what(char *what, size_t size, const pgem_item_t *item, const char *source)
+{
+    char shown[128];
+    snprintf(what, size, "edge %llu -> %llu (source '%s', sequence %lld)",
+             (unsigned long long)item->from, (unsigned long long)item->to,
+             pgem_io_escape(shown, sizeof shown, source != NULL ? source : ""),
+             (long long)item->sequence);
+}
+
+/* An accepted edge leaves without reaching the graph: its key and capacity are freed (a later
+ * resend is a new edge), it moves from the accepted count to `expired`, and a source that
+ * never had an edge in the graph goes when its last waiting edge does. */
+static void pending_expire(pgem_ingest_t *ingest, uint32_t k, const char *why)
+{
+    waiting_t *entry = &ingest->pending[k];
+    uint32_t source = entry->item.source;
+    char what[200];
+    edge_what(what, sizeof what, &entry->item, ingest->sources[source].name);
+    snprintf(ingest->last_expiry, sizeof ingest->last_expiry, "%s expired: %s", what, why);
+    table_remove(&ingest->edges, table_find(&ingest->edges, source, (uint64_t)entry->item.sequence));
+    pending_remove(ingest, k);
+    ingest->admitted_edges--;
+    ingest->counts.accepted_edges--;
+    ingest->counts.rejected[PGEM_REJECT_EXPIRED]++;
+    source_release(ingest, source);
+}
+
+/* Microseconds from since to now, 0 when the clock went back (no overflow for any times). */
+static uint64_t age(int64_t since, int64_t now)
+{
+    return now > since ? (uint64_t)now - (uint64_t)since : 0u;
+}
+
+uint32_t pgem_ingest_expire(pgem_ingest_t *ingest, int64_t utime)
+{
+    uint32_t expired = 0;
+    while (ingest->oldest != NONE && age(ingest->pending[ingest->oldest].since, utime) >
+                                         (uint64_t)ingest->config.pending_timeout) {
+        const pgem_item_t *item = &ingest->pending[ingest->oldest].item;
+        char why[160];
+        snprintf(why, sizeof why, "it waited %.1f s for pose %llu (--pending-timeout %.0f s)",
+                 (double)age(ingest->pending[ingest->oldest].since, utime) * 1e-6,
+                 (unsigned long long)(pose_known(ingest, item->from) ? item->to : item->from),
+                 (double)ingest->config.pending_timeout * 1e-6);
+        pending_expire(ingest, ingest->oldest, why);
+        expired++;
+    }
+    return expired;
+}
+
+/* When the list is full, the edge that makes room for one of `source` (its slot may be new):
+ * the oldest waiting edge of the source holding the most, if that source holds more than
+ * `source` does. NONE when no source does: the newcomer is refused. So a sender that floods
+ * the list only ever displaces its own edges. */
+static uint32_t pending_victim(const pgem_ingest_t *ingest, uint32_t source)
+{
+    uint32_t most = 0;
+    uint32_t holder = NONE;
+    for (uint32_t s = 0; s < ingest->source_count; ++s) {
+        if (ingest->sources[s].waiting > most) {
+            most = ingest->sources[s].waiting;
+            holder = s;
+        }
+    }
+    uint32_t own = source < ingest->source_count ? ingest->sources[source].waiting : 0;
+    return holder != NONE && most > own ? ingest->sources[holder].oldest : NONE;
+}
 
 /* Edges in the pending list whose poses are all known now leave it, in arrival order. */
 static void release_pending(pgem_ingest_t *ingest)
 {
-    uint32_t kept = 0;
-    for (uint32_t i = 0; i < ingest->pending_count; ++i) {
-        pgem_item_t *item = &ingest->pending[i];
+    uint32_t k = ingest->oldest;
+    while (k != NONE) {
+        uint32_t next = ingest->pending[k].next;
+        const pgem_item_t *item = &ingest->pending[k].item;
         if (pose_known(ingest, item->from) && pose_known(ingest, item->to)) {
+            ingest->sources[item->source].emitted = 1;
             ingest->emit(ingest->user, item);
-        } else {
-            ingest->pending[kept++] = *item;
+            pending_remove(ingest, k);
         }
+        k = next;
     }
-    ingest->pending_count = kept;
 }
+
+/* ---- poses ------------------------------------------------------------------------------- */
 
 static void admit_pose(pgem_ingest_t *ingest, const pgem_item_t *item, const char *what,
                        pgem_ingest_result_t *result)
@@ -356,7 +644,7 @@ static void admit_pose(pgem_ingest_t *ingest, const pgem_item_t *item, const cha
     slot_t *slot = claim(ingest, &ingest->poses, item->from, 0, content, ingest->admitted_poses,
                          ingest->config.max_poses, what,
                          "the pose already exists with another estimate", "poses", result);
-    if (slot == NULL) {
+    if (slot == NULL || !admitted(ingest, what, result)) {
         return;
     }
     take(slot, item->from, 0, content);
@@ -373,55 +661,76 @@ static void admit_pose(pgem_ingest_t *ingest, const pgem_item_t *item, const cha
 static void explain_conflict(const pgem_ingest_t *ingest, uint32_t source, const char *what,
                              pgem_ingest_result_t *result)
 {
-    long long last = (long long)ingest->source_last[source];
+    long long last = (long long)ingest->sources[source].last;
     snprintf(result->message, sizeof result->message,
              "%s: other content under a sequence number this source used (its highest is %lld):"
              " a restarted front-end must number on from %lld or use a new source name", what,
              last, last + 1);
 }
 
-static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *source,
-                       pgem_ingest_result_t *result)
+/* The checks of an edge's own values: 1, or 0 with the rejection filled. wire_kind is the
+ * int8 of the message (an item holds it as unsigned). */
+static int edge_values_ok(pgem_ingest_t *ingest, const pgem_item_t *item, int wire_kind,
+                          const char *what, pgem_ingest_result_t *result)
 {
-    int dimension = ingest->config.dimension;
-    int n = PGEM_TANGENT_SIZE(dimension);
-    char what[200];
-    snprintf(what, sizeof what, "edge %llu -> %llu (source '%.63s', sequence %lld)",
-             (unsigned long long)item->from, (unsigned long long)item->to,
-             source != NULL ? source : "", (long long)item->sequence);
-    int index = source_index(ingest, source, result);
-    if (index < 0) {
-        reject(ingest, result, PGEM_REJECT_SOURCE);
-        return;
-    }
-    item->source = (uint16_t)index;
+    int n = PGEM_TANGENT_SIZE(ingest->config.dimension);
     if (item->from == item->to) {
         snprintf(result->message, sizeof result->message, "%s: a self-loop", what);
         reject(ingest, result, PGEM_REJECT_SELF_LOOP);
-        return;
+        return 0;
     }
-    if (item->kind != PGEM_EDGE_ODOMETRY && item->kind != PGEM_EDGE_LOOP) {
+    if (wire_kind != PGEM_EDGE_ODOMETRY && wire_kind != PGEM_EDGE_LOOP) {
         snprintf(result->message, sizeof result->message,
-                 "%s: kind %d is neither ODOMETRY (0) nor LOOP (1)", what, (int)item->kind);
+                 "%s: kind %d is neither ODOMETRY (0) nor LOOP (1)", what, wire_kind);
         reject(ingest, result, PGEM_REJECT_KIND);
-        return;
+        return 0;
     }
     if (!values_ok(ingest, item->value, what, "measurement", result)) {
-        return;
+        return 0;
     }
     double full[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     pgem_upper_to_full(item->information, n, full);
     int entry = 0;
     int check = pgem_information_check(full, n, &entry);
+    if (check == PGEM_ERR_OUT_OF_RANGE) {
+        char value[32];
+        shortest(value, sizeof value, full[entry]);
+        snprintf(result->message, sizeof result->message,
+                 "%s: information entry %d,%d is %s, beyond the information limit of 1e15", what,
+                 entry / n, entry % n, value);
+        reject(ingest, result, PGEM_REJECT_RANGE);
+        return 0;
+    }
     if (check != PGEM_OK) {
         int not_finite = check == PGEM_ERR_NOT_FINITE;
         snprintf(result->message, sizeof result->message, "%s: information %s (entry %d,%d)",
                  what, not_finite ? "has NaN or Inf" : "is not positive definite", entry / n,
                  entry % n);
         reject(ingest, result, not_finite ? PGEM_REJECT_NOT_FINITE : PGEM_REJECT_INFORMATION);
+        return 0;
+    }
+    return 1;
+}
+
+static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *source,
+                       int wire_kind, int64_t utime, pgem_ingest_result_t *result)
+{
+    char what[200];
+    edge_what(what, sizeof what, item, source);
+    int index = source_index(ingest, source, result);
+    if (index < 0) {
+        char why[sizeof result->message];
+        memcpy(why, result->message, sizeof why);
+        snprintf(result->message, sizeof result->message, "%s: %.180s", what, why);
+        reject(ingest, result, PGEM_REJECT_SOURCE);
         return;
     }
-    uint64_t content = item_content(item, dimension);
+    item->source = (uint16_t)index;
+    if (!edge_values_ok(ingest, item, wire_kind, what, result)) {
+        return;
+    }
+    item->kind = (uint8_t)wire_kind;
+    uint64_t content = item_content(item, ingest->config.dimension);
     slot_t *slot = claim(ingest, &ingest->edges, item->source, (uint64_t)item->sequence, content,
                          ingest->admitted_edges, ingest->config.max_edges, what,
                          "this source already sent this sequence number with other content",
@@ -433,21 +742,42 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
         return;
     }
     int ready = pose_known(ingest, item->from) && pose_known(ingest, item->to);
+    uint32_t victim = NONE;
     if (!ready && ingest->pending_count >= ingest->config.max_pending) {
-        snprintf(result->message, sizeof result->message,
-                 "%s: waits for a pose and %u edges already wait (--max-pending)", what,
-                 (unsigned)ingest->config.max_pending);
-        reject(ingest, result, PGEM_REJECT_PENDING_FULL);
+        victim = pending_victim(ingest, item->source);
+        if (victim == NONE) {
+            snprintf(result->message, sizeof result->message,
+                     "%s: waits for a pose and %u edges already wait, no source holding more of "
+                     "them than this one (--max-pending)", what,
+                     (unsigned)ingest->config.max_pending);
+            reject(ingest, result, PGEM_REJECT_PENDING_FULL);
+            return;
+        }
+    }
+    if (!admitted(ingest, what, result)) {
         return;
+    }
+    if (victim != NONE) {
+        char why[200];
+        uint32_t holder = ingest->pending[victim].item.source;
+        snprintf(why, sizeof why, "the pending list was full (--max-pending %u) and its source "
+                 "held the most waiting edges (%u): room for a source with fewer",
+                 (unsigned)ingest->config.max_pending,
+                 (unsigned)ingest->sources[holder].waiting);
+        pending_expire(ingest, victim, why);
+        /* the expiry may have freed a source slot and moved keys: look both up again */
+        item->source = (uint16_t)source_index(ingest, source, result);
+        slot = table_find(&ingest->edges, item->source, (uint64_t)item->sequence);
     }
     take(slot, item->source, (uint64_t)item->sequence, content);
     source_admit(ingest, item->source, source, item->sequence);
     ingest->admitted_edges++;
     ingest->counts.accepted_edges++;
     if (ready) {
+        ingest->sources[item->source].emitted = 1;
         ingest->emit(ingest->user, item);
     } else {
-        ingest->pending[ingest->pending_count++] = *item;
+        pending_add(ingest, item, utime);
         result->pending = 1;
     }
 }
@@ -503,16 +833,37 @@ static void reset(pgem_ingest_t *ingest)
 {
     table_clear(&ingest->poses);
     table_clear(&ingest->edges);
-    ingest->pending_count = 0;
+    pending_clear(ingest);
     ingest->admitted_poses = 0;
     ingest->admitted_edges = 0;
-    for (uint32_t i = 0; i < ingest->source_count; ++i) {
-        ingest->source_last[i] = -1;
+    for (uint32_t i = ingest->source_count; i-- > 0;) {
+        ingest->sources[i].last = -1;
+        source_release(ingest, i); /* one that only ever had waiting edges */
     }
     pgem_item_t item;
     memset(&item, 0, sizeof item);
     item.type = PGEM_ITEM_RESET;
     ingest->emit(ingest->user, &item);
+}
+
+/* SNAPSHOT's file name: allowed at all, and a plain name. 1, or 0 with the rejection filled. */
+static int snapshot_ok(pgem_ingest_t *ingest, const char *name, pgem_ingest_result_t *result)
+{
+    char shown[128];
+    if (!ingest->config.snapshots) {
+        snprintf(result->message, sizeof result->message,
+                 "SNAPSHOT is off: start the bridge with --snapshot-dir DIR to have it write "
+                 "snapshots there");
+    } else if (!pgem_snapshot_name_ok(name)) {
+        snprintf(result->message, sizeof result->message,
+                 "SNAPSHOT takes a file name of 1 to %d bytes of A-Z a-z 0-9 . _ - (not "
+                 "starting with '.'), written in the bridge's --snapshot-dir; got '%s'",
+                 PGEM_SNAPSHOT_NAME_MAX, pgem_io_escape(shown, sizeof shown, name));
+    } else {
+        return 1;
+    }
+    reject(ingest, result, PGEM_REJECT_COMMAND);
+    return 0;
 }
 
 static void handle_command(pgem_ingest_t *ingest, const void *data, size_t size,
@@ -527,21 +878,19 @@ static void handle_command(pgem_ingest_t *ingest, const void *data, size_t size,
     }
     ingest->counts.commands++;
     result->command = (int)command.command; /* a signed 8-bit code on the wire */
-    size_t length = command.path != NULL ? strlen(command.path) : 0;
-    if (command.command == PGEM_COMMAND_T_SNAPSHOT && (length == 0 || length >= PGEM_PATH_MAX)) {
-        snprintf(result->message, sizeof result->message,
-                 "SNAPSHOT needs a path of 1 to %d bytes, got %zu", PGEM_PATH_MAX - 1, length);
-        reject(ingest, result, PGEM_REJECT_COMMAND);
-    } else if (command.command == PGEM_COMMAND_T_OPTIMIZE ||
-               command.command == PGEM_COMMAND_T_SNAPSHOT ||
-               command.command == PGEM_COMMAND_T_RESET) {
-        result->verdict = PGEM_VERDICT_COMMAND;
-        if (length > 0 && length < PGEM_PATH_MAX) {
-            memcpy(result->path, command.path, length + 1);
+    const char *path = command.path != NULL ? command.path : "";
+    if (command.command == PGEM_COMMAND_T_SNAPSHOT) {
+        if (snapshot_ok(ingest, path, result)) {
+            result->verdict = PGEM_VERDICT_COMMAND;
+            memcpy(result->path, path, strlen(path) + 1);
         }
-        if (command.command == PGEM_COMMAND_T_RESET) {
+    } else if (command.command == PGEM_COMMAND_T_RESET) {
+        if (admitted(ingest, "RESET", result)) {
+            result->verdict = PGEM_VERDICT_COMMAND;
             reset(ingest);
         }
+    } else if (command.command == PGEM_COMMAND_T_OPTIMIZE) {
+        result->verdict = PGEM_VERDICT_COMMAND;
     } else {
         snprintf(result->message, sizeof result->message,
                  "unknown command %d (OPTIMIZE 1, RESET 2, SNAPSHOT 3)", (int)command.command);
@@ -569,13 +918,13 @@ static void reject_undecoded(pgem_ingest_t *ingest, const void *data, size_t siz
     }
 }
 
-/* The fields an edge2_t and an edge3_t share, into an item. */
+/* The fields an edge2_t and an edge3_t share, into an item (the kind is checked as the int8
+ * it is on the wire before it is stored). */
 #define EDGE_INTO_ITEM(edge, item)                                              \
     do {                                                                        \
         (item).from = (pgem_id_t)(edge).from;                                   \
         (item).to = (pgem_id_t)(edge).to;                                       \
         (item).sequence = (edge).sequence;                                      \
-        (item).kind = (uint8_t)(edge).kind;                                     \
         memcpy((item).value, (edge).measurement, sizeof (edge).measurement);    \
         memcpy((item).information, (edge).information, sizeof (edge).information); \
     } while (0)
@@ -621,7 +970,7 @@ static void handle_pose(pgem_ingest_t *ingest, const void *data, size_t size,
                      "pose", result);
 }
 
-static void handle_edge(pgem_ingest_t *ingest, const void *data, size_t size,
+static void handle_edge(pgem_ingest_t *ingest, const void *data, size_t size, int64_t utime,
                         pgem_ingest_result_t *result)
 {
     pgem_item_t item;
@@ -631,7 +980,7 @@ static void handle_edge(pgem_ingest_t *ingest, const void *data, size_t size,
         pgem_edge2_t edge;
         if (DECODE(pgem_edge2_t, data, size, STRING_AFTER_UTIME, EDGE2_TAIL, &edge)) {
             EDGE_INTO_ITEM(edge, item);
-            admit_edge(ingest, &item, edge.source, result);
+            admit_edge(ingest, &item, edge.source, edge.kind, utime, result);
             pgem_edge2_t_decode_cleanup(&edge);
             return;
         }
@@ -639,7 +988,7 @@ static void handle_edge(pgem_ingest_t *ingest, const void *data, size_t size,
         pgem_edge3_t edge;
         if (DECODE(pgem_edge3_t, data, size, STRING_AFTER_UTIME, EDGE3_TAIL, &edge)) {
             EDGE_INTO_ITEM(edge, item);
-            admit_edge(ingest, &item, edge.source, result);
+            admit_edge(ingest, &item, edge.source, edge.kind, utime, result);
             pgem_edge3_t_decode_cleanup(&edge);
             return;
         }
@@ -666,9 +1015,10 @@ static pgem_role_t role_of(const void *data, size_t size)
 }
 
 void pgem_ingest_message(pgem_ingest_t *ingest, pgem_role_t role, const void *data, size_t size,
-                         pgem_ingest_result_t *result)
+                         int64_t utime, pgem_ingest_result_t *result)
 {
     memset(result, 0, sizeof *result);
+    pgem_ingest_expire(ingest, utime);
     if (role == PGEM_ROLE_ANY) {
         role = role_of(data, size);
         if (role == PGEM_ROLE_ANY) {
@@ -676,14 +1026,18 @@ void pgem_ingest_message(pgem_ingest_t *ingest, pgem_role_t role, const void *da
             return;
         }
     }
+    ingest->data = data;
+    ingest->size = size;
     if (role == PGEM_ROLE_COMMAND) {
         handle_command(ingest, data, size, result);
-        return;
-    }
-    ingest->counts.received++;
-    if (role == PGEM_ROLE_POSE) {
-        handle_pose(ingest, data, size, result);
     } else {
-        handle_edge(ingest, data, size, result);
+        ingest->counts.received++;
+        if (role == PGEM_ROLE_POSE) {
+            handle_pose(ingest, data, size, result);
+        } else {
+            handle_edge(ingest, data, size, utime, result);
+        }
     }
+    ingest->data = NULL;
+    ingest->size = 0;
 }

@@ -1,15 +1,22 @@
 /* The bridge's reception side, as a deterministic state machine with no LCM runtime, threads,
  * clocks or I/O: raw message bytes in, verdicts and graph items out.
  *
- * Every message is decoded and checked before anything changes (finite numbers, information
- * positive definite, unit quaternion, not a self-loop, known kind, the bridge's dimension).
- * Poses are keyed by id and edges by (source, sequence): an exact repeat is a replay and is
- * ignored; the same key with other content is a conflict and is rejected. An edge whose poses
- * have not arrived waits in a bounded pending list and is released, in arrival order, when
- * they have. Capacity is reserved when a message is admitted, so an admitted item always fits
- * the core. Admitted items leave through the emit callback in the order the solver must add
- * them; feeding the same accepted messages in the same order (the journal) rebuilds exactly
- * the same sequence of items. All memory is allocated once, in pgem_ingest_create. */
+ * Every message is decoded and checked before anything changes (finite numbers within the
+ * core's magnitude limits, information positive definite, unit quaternion, not a self-loop,
+ * known kind, the bridge's dimension, a source name of printable UTF-8). Poses are keyed by id
+ * and edges by (source, sequence): an exact repeat is a replay and is ignored; the same key
+ * with other content is a conflict and is rejected. An edge whose poses have not arrived waits
+ * in a bounded pending list and is released, in arrival order, when they have; one that waits
+ * longer than the pending timeout expires (counted, named, its key and capacity freed), and a
+ * full list makes room by expiring the oldest edge of the source that holds the most, so no
+ * sender can keep the list for itself. A source that never had an edge in the graph leaves
+ * the source table when its last waiting edge expires. Capacity is reserved when a message is
+ * admitted, so an admitted item always fits the core. A message that would change the state
+ * is first offered to the admit hook (the bridge's journal): a refusal there changes nothing.
+ * Admitted items leave through the emit callback in the order the solver must add them;
+ * feeding the same accepted messages in the same order with the same times (the journal)
+ * rebuilds exactly the same sequence of items. All memory is allocated once, in
+ * pgem_ingest_create. */
 #ifndef PGEM_BRIDGE_INGEST_H
 #define PGEM_BRIDGE_INGEST_H
 
@@ -27,12 +34,19 @@ typedef enum pgem_reject {
     PGEM_REJECT_ROTATION,      /* quaternion norm off 1 by more than 1% */
     PGEM_REJECT_SELF_LOOP,     /* from == to */
     PGEM_REJECT_KIND,          /* kind neither ODOMETRY nor LOOP */
-    PGEM_REJECT_SOURCE,        /* source name empty or too long, or too many sources */
+    PGEM_REJECT_SOURCE,        /* source name empty, too long or not printable UTF-8, or too
+                                  many sources */
     PGEM_REJECT_CONFLICT,      /* pose id or (source, sequence) seen with other content */
     PGEM_REJECT_CAPACITY,      /* pose or edge capacity of the bridge reached */
     PGEM_REJECT_PENDING_FULL,  /* the edge waits for a pose and the pending list is full */
-    PGEM_REJECT_COMMAND,       /* unknown command, or a snapshot without a path */
+    PGEM_REJECT_COMMAND,       /* unknown command; SNAPSHOT off, or not a plain file name */
     PGEM_REJECT_CORE,          /* the core refused an admitted item (a bug if ever seen) */
+    PGEM_REJECT_RANGE,         /* a translation or information entry beyond the core's limits
+                                  (PGEM_TRANSLATION_LIMIT, PGEM_INFORMATION_LIMIT) */
+    PGEM_REJECT_JOURNAL,       /* the admit hook refused it (the journal could not write it) */
+    PGEM_REJECT_EXPIRED,       /* an accepted edge that waited past the pending timeout for
+                                  its poses, or made room in a full pending list: it left the
+                                  accepted count for this one */
     PGEM_REJECT_COUNT
 } pgem_reject_t;
 
@@ -80,17 +94,27 @@ typedef enum pgem_verdict {
 } pgem_verdict_t;
 
 #define PGEM_PATH_MAX 1024
+#define PGEM_SNAPSHOT_NAME_MAX 200 /* bytes of a SNAPSHOT file name (room for .weights) */
 
 typedef struct pgem_ingest_result {
     pgem_verdict_t verdict;
     pgem_reject_t reason;      /* when rejected */
     int pending;               /* accepted edge that waits for a pose */
     int command;               /* when a command: pgem_command_t's constant */
-    char path[PGEM_PATH_MAX];  /* SNAPSHOT path */
+    char path[PGEM_PATH_MAX];  /* SNAPSHOT file name (checked: see pgem_snapshot_name_ok) */
     char message[384];         /* rejected: what was wrong, naming ids, source and sequence */
 } pgem_ingest_result_t;
 
 typedef void (*pgem_emit_fn)(void *user, const pgem_item_t *item);
+
+/* Offered every message that would change the state (an accepted pose or edge, a RESET), with
+ * its bytes, before anything changes: 0 lets it in; anything else refuses it with reason
+ * `journal` and the message the hook wrote, and nothing changes (its key stays free, so a
+ * resend can be accepted). */
+typedef int (*pgem_admit_fn)(void *user, const void *data, size_t size, char *message,
+                             size_t message_size);
+
+#define PGEM_PENDING_TIMEOUT_DEFAULT INT64_C(60000000) /* us an edge may wait: one minute */
 
 typedef struct pgem_ingest_config {
     int dimension;           /* 2 or 3 */
@@ -98,13 +122,17 @@ typedef struct pgem_ingest_config {
     uint32_t max_edges;
     uint32_t max_pending;    /* edges allowed to wait for poses; 0 means 4096 */
     uint32_t max_sources;    /* front-ends; 0 means 64 */
+    int64_t pending_timeout; /* microseconds an edge may wait for its poses; 0 means
+                                PGEM_PENDING_TIMEOUT_DEFAULT */
+    int snapshots;           /* SNAPSHOT commands allowed (the bridge has a snapshot folder) */
 } pgem_ingest_config_t;
 
 /* Counters (status_t's fields). */
 typedef struct pgem_ingest_counts {
     int64_t received;          /* pose and edge messages */
     int64_t accepted_poses;
-    int64_t accepted_edges;
+    int64_t accepted_edges;    /* admitted, less those that expired since (so received is
+                                  always accepted + replays + rejected) */
     int64_t replays;
     int64_t commands;
     int64_t rejected[PGEM_REJECT_COUNT];
@@ -113,8 +141,8 @@ typedef struct pgem_ingest_counts {
 
 typedef struct pgem_ingest pgem_ingest_t;
 
-/* Fills the defaults of max_pending and max_sources (0 means 4096 and 64) and caps
- * max_sources at 65535 (an item carries a 16-bit source index). */
+/* Fills the defaults of max_pending, max_sources and pending_timeout (0 means 4096, 64 and one
+ * minute) and caps max_sources at 65535 (an item carries a 16-bit source index). */
 void pgem_ingest_config_resolve(pgem_ingest_config_t *config);
 
 /* NULL when out of memory or the config is invalid. */
@@ -122,15 +150,32 @@ pgem_ingest_t *pgem_ingest_create(const pgem_ingest_config_t *config, pgem_emit_
                                   void *user);
 void pgem_ingest_destroy(pgem_ingest_t *ingest);
 
-/* Handles one message. Never fails as a call: every outcome is in *result. */
+/* The admit hook (NULL: everything that passes the checks is admitted). */
+void pgem_ingest_set_admit(pgem_ingest_t *ingest, pgem_admit_fn admit, void *user);
+
+/* Handles one message that arrived at `utime` (microseconds; LCM's receive time, or a journal
+ * record's): first expires the edges that have waited longer than the pending timeout by then.
+ * Never fails as a call: every outcome is in *result. */
 void pgem_ingest_message(pgem_ingest_t *ingest, pgem_role_t role, const void *data, size_t size,
-                         pgem_ingest_result_t *result);
+                         int64_t utime, pgem_ingest_result_t *result);
+
+/* Expires what has waited too long by `utime` without a message (a quiet bridge still lets
+ * them go). Returns how many expired. */
+uint32_t pgem_ingest_expire(pgem_ingest_t *ingest, int64_t utime);
+
+/* The latest expiry in words, naming the edge and why ("" before the first). */
+const char *pgem_ingest_last_expiry(const pgem_ingest_t *ingest);
 
 void pgem_ingest_counts(const pgem_ingest_t *ingest, pgem_ingest_counts_t *counts);
 
-/* The source table (names in order of first appearance); index from pgem_item_t.source. */
+/* The source table (names in order of first appearance); index from pgem_item_t.source. A slot
+ * freed by expiry names "" until a new source takes it. */
 uint32_t pgem_ingest_source_count(const pgem_ingest_t *ingest);
 const char *pgem_ingest_source_name(const pgem_ingest_t *ingest, uint32_t index);
+
+/* A SNAPSHOT file name the bridge accepts: 1 to PGEM_SNAPSHOT_NAME_MAX bytes of [A-Za-z0-9._-],
+ * not starting with '.': no folder, no way out of the snapshot folder, no hidden file. */
+int pgem_snapshot_name_ok(const char *name);
 
 /* Expands an upper triangle (row by row) into a full row-major n x n matrix. */
 void pgem_upper_to_full(const double *upper, int n, double *full);

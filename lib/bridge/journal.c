@@ -19,6 +19,7 @@
 struct pgem_journal {
     int fd;
     int sync;
+    char broken[256];       /* why appends stopped for good ("" while they work) */
     int64_t records;
     int64_t next_event;
     unsigned char *buffer;  /* one record being written or read */
@@ -171,6 +172,47 @@ static off_t replay(pgem_journal_t *journal, off_t file_size, pgem_journal_recor
     return good_end;
 }
 
+/* A file to take as a journal: a regular file, empty or starting with an LCM log record (or
+ * with a prefix of one, which is a record torn by a kill before it was whole). Anything else
+ * (a g2o file given by mistake, a device) is refused before a byte of it is changed: the torn
+ * tail cut would otherwise empty it. 0, or -1 with the message. */
+static int journal_acceptable(const pgem_journal_t *journal, const struct stat *st,
+                              char *message, size_t message_size)
+{
+    unsigned char head[HEADER_BYTES];
+    uint32_t channel_length = 0;
+    uint32_t data_length = 0;
+    if (!S_ISREG(st->st_mode)) {
+        snprintf(message, message_size, "%s: not a regular file: refusing it as a journal",
+                 journal->path);
+        return -1;
+    }
+    if (st->st_size == 0) {
+        return 0;
+    }
+    ssize_t got = read_at(journal->fd, head, sizeof head, 0);
+    if (got < 0) {
+        snprintf(message, message_size, "%s: cannot read the journal: %s", journal->path,
+                 strerror(errno));
+        return -1;
+    }
+    static const unsigned char sync_word[4] = {0xED, 0xA1, 0xDA, 0x01};
+    size_t compared = got < 4 ? (size_t)got : 4;
+    int damaged = memcmp(head, sync_word, compared) != 0 ||
+                  (got == HEADER_BYTES &&
+                   header_at(head, 0, st->st_size, &channel_length, &data_length) < 0);
+    if (damaged) {
+        snprintf(message, message_size,
+                 "%s is not an LCM log (its first bytes are not an LCM log record, %02x %02x "
+                 "%02x %02x...): refusing to use it as a journal, nothing was changed (give a "
+                 "new file name, or a journal or lcm-logger recording)", journal->path,
+                 got > 0 ? head[0] : 0u, got > 1 ? head[1] : 0u, got > 2 ? head[2] : 0u,
+                 got > 3 ? head[3] : 0u);
+        return -1;
+    }
+    return 0;
+}
+
 pgem_journal_t *pgem_journal_open(const char *path, int sync, pgem_journal_record_fn on_record,
                                   void *user, pgem_journal_info_t *info, char *message,
                                   size_t message_size)
@@ -193,6 +235,10 @@ pgem_journal_t *pgem_journal_open(const char *path, int sync, pgem_journal_recor
     struct stat st;
     if (journal->fd < 0 || fstat(journal->fd, &st) != 0) {
         snprintf(message, message_size, "%s: cannot open the journal: %s", path, strerror(errno));
+        pgem_journal_close(journal);
+        return NULL;
+    }
+    if (journal_acceptable(journal, &st, message, message_size) != 0) {
         pgem_journal_close(journal);
         return NULL;
     }
@@ -219,9 +265,25 @@ pgem_journal_t *pgem_journal_open(const char *path, int sync, pgem_journal_recor
     return journal;
 }
 
+/* Takes a record that did not make it back out of the file, so the journal holds exactly what
+ * was acknowledged; when even that fails, no later append is trusted. */
+static void journal_undo(pgem_journal_t *journal, off_t start, const char *why)
+{
+    if (start < 0 || ftruncate(journal->fd, start) != 0 || lseek(journal->fd, start, SEEK_SET) < 0) {
+        snprintf(journal->broken, sizeof journal->broken,
+                 "a failed record could not be taken back (%s; truncate: %s)", why,
+                 strerror(errno));
+    }
+}
+
 int pgem_journal_append(pgem_journal_t *journal, const char *channel, const void *data,
                         size_t size, int64_t utime, char *message, size_t message_size)
 {
+    if (journal->broken[0] != '\0') {
+        snprintf(message, message_size, "%s: no more records since %s: restart the bridge "
+                 "once the disk is sound", journal->path, journal->broken);
+        return -1;
+    }
     size_t channel_length = strlen(channel);
     if (channel_length == 0 || channel_length >= CHANNEL_MAX || size > PGEM_JOURNAL_RECORD_MAX) {
         snprintf(message, message_size, "%s: record too large for the journal", journal->path);
@@ -248,20 +310,22 @@ int pgem_journal_append(pgem_journal_t *journal, const char *channel, const void
             continue;
         }
         if (wrote <= 0) {
-            int saved = errno;
-            /* Leave no partial record behind: the next append starts clean. */
-            if (start >= 0 && ftruncate(journal->fd, start) == 0) {
-                (void)lseek(journal->fd, start, SEEK_SET);
-            }
-            snprintf(message, message_size, "%s: write failed: %s", journal->path,
-                     wrote < 0 ? strerror(saved) : "no progress");
+            const char *why = wrote < 0 ? strerror(errno) : "no progress";
+            snprintf(message, message_size, "%s: write failed: %s", journal->path, why);
+            journal_undo(journal, start, why); /* no partial record: the next append is clean */
             return -1;
         }
         done += (size_t)wrote;
     }
     if (journal->sync && fdatasync(journal->fd) != 0) {
-        snprintf(message, message_size, "%s: fdatasync failed: %s", journal->path,
-                 strerror(errno));
+        /* After a failed sync the kernel may have dropped the dirty pages: the disk's state is
+         * unknown, so the record is taken back and no later one trusted. */
+        const char *why = strerror(errno);
+        snprintf(message, message_size, "%s: fdatasync failed: %s", journal->path, why);
+        journal_undo(journal, start, why);
+        if (journal->broken[0] == '\0') {
+            snprintf(journal->broken, sizeof journal->broken, "fdatasync failed (%s)", why);
+        }
         return -1;
     }
     journal->records++;

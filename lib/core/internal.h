@@ -261,15 +261,25 @@ typedef struct pgem_innovation {
  * pruned); its marginal from the sparse inverse (from_inverse) or by a solve with L. */
 void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double inflation,
                           int from_inverse, pgem_innovation_t *out);
+/* For a pruned loop, after pgem_linear_invert: 1 if it passes `gate` however the map predicts
+ * it (its chi2 and its predicted error are below it), -1 if it fails it however (its chi2 and
+ * a lower bound of its innovation are above it), 0 if only the innovation can tell;
+ * *distance is the measure that decided (robust/innovation.c). */
+int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, double *distance);
 /* EM's E-step (robust/estep.c): every loop's distance (every loop, pruned ones included, in
  * the consistency test: gating), then the weights; returns the largest weight change. */
-void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int gating);
+void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int gating,
+                       double gate);
 double pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options);
 /* H^-1 on the factor's pattern, over the factor (linalg/inverse.c); then the marginal of two
  * poses joined by a block of the pattern (PGEM_ERR_INVALID_ARGUMENT if they are not). */
 void pgem_linear_invert(pgem_t *graph);
 int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
                                  const double *a_to, double *out);
+/* The same without the cross term: A_f Z_ff A_f^T + A_t Z_tt A_t^T, which is at least half of
+ * A H^-1 A^T (for any pair of poses, on the pattern or not). */
+void pgem_linear_marginal_diagonal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
+                                   const double *a_to, double *out);
 
 /* Weighted chi2 (edges not pruned, robust weights) under the current estimate. */
 double pgem_weighted_chi2(const pgem_t *graph);

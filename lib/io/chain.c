@@ -126,11 +126,13 @@ static void io_unit_measurement(int dimension, const double *measurement, double
     }
 }
 
+/* Finite, and its translation within the core's limit (which the load would refuse). */
 static int io_pose_finite(const pgem_io_graph_t *graph, size_t node)
 {
     int k;
+    const double *pose = graph->poses[node].pose;
     for (k = 0; k < PGEM_POSE_SIZE(graph->dimension); ++k) {
-        if (!isfinite(graph->poses[node].pose[k])) {
+        if (!isfinite(pose[k]) || (k < graph->dimension && fabs(pose[k]) > PGEM_TRANSLATION_LIMIT)) {
             return 0;
         }
     }
@@ -138,8 +140,8 @@ static int io_pose_finite(const pgem_io_graph_t *graph, size_t node)
 }
 
 /* pose(to) = pose(from) * z, or pose(from) = pose(to) * z^-1 when walking an edge backwards.
- * The first edge whose composition is not finite (measurements near the double range) is
- * remembered: the graph cannot be read with such a guess. */
+ * The first edge whose composition is not finite or beyond the translation limit (long chains
+ * of large measurements) is remembered: the graph cannot be read with such a guess. */
 static void io_walk_edge(io_tree_t *tree, size_t edge, size_t node, size_t next)
 {
     pgem_io_graph_t *graph = tree->graph;
@@ -256,10 +258,10 @@ int io_chain_poses(io_reader_t *reader)
     if (tree.overflowed) {
         const pgem_io_graph_t *graph = reader->graph;
         const pgem_io_edge_t *edge = &graph->edges[tree.overflow_edge];
-        return io_fail(reader, edge->line, PGEM_ERR_PARSE,
+        return io_fail(reader, edge->line, PGEM_ERR_OUT_OF_RANGE,
                        "edge %llu -> %llu: the pose guessed for id %llu by composing the "
-                       "measurements from id %llu is not finite (no VERTEX lines; "
-                       "measurements too large)",
+                       "measurements from id %llu is beyond the translation limit (at most "
+                       "1e8 m, PGEM_TRANSLATION_LIMIT; no VERTEX lines, measurements too large)",
                        (unsigned long long)edge->from, (unsigned long long)edge->to,
                        (unsigned long long)graph->poses[tree.overflow_node].id,
                        (unsigned long long)graph->poses[tree.overflow_start].id);

@@ -1,6 +1,8 @@
 /* pgem I/O lines: reads one line of any length up to IO_LINE_MAX into a growing buffer. The
  * stream is read in chunks and each line found with memchr: a byte-by-byte getc took 5 ns a
- * byte, 5 s for a 1 GiB file. */
+ * byte, 5 s for a 1 GiB file. A line that is already too long or holds a NUL byte ends the
+ * read where that is known, so an endless stream without a line end (/dev/zero, a pipe) fails
+ * after a chunk or two instead of being read to its end. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -84,8 +86,8 @@ int io_read_line(FILE *stream, io_line_t *line)
         }
         line->chunk_start += size + (newline != NULL);
         line->consumed += size + (newline != NULL);
-        if (newline != NULL) {
-            break;
+        if (newline != NULL || has_nul || total > IO_LINE_MAX + 1u) {
+            break; /* the line is whole, or its verdict is known: read no further */
         }
     }
     if (line->chunk == NULL) {

@@ -53,9 +53,8 @@ static int io_load_poses(const pgem_io_graph_t *graph, pgem_t *instance, char *m
     for (i = 0; i < graph->pose_count; ++i) {
         const pgem_io_pose_t *pose = &graph->poses[i];
         int status = pgem_add_pose(instance, pose->id, pose->pose);
-        if (status != PGEM_OK) {
-            return io_load_failed(graph, pose->line, status, message, message_size,
-                                  "pose %llu: %s", (unsigned long long)pose->id,
+        if (status != PGEM_OK) { /* the core's message names the pose */
+            return io_load_failed(graph, pose->line, status, message, message_size, "%s",
                                   pgem_last_error(instance));
         }
     }
@@ -70,10 +69,9 @@ static int io_load_edges(const pgem_io_graph_t *graph, pgem_t *instance, char *m
         const pgem_io_edge_t *edge = &graph->edges[i];
         int status = pgem_add_edge(instance, edge->from, edge->to, edge->measurement,
                                    edge->information, edge->kind, NULL);
-        if (status != PGEM_OK) {
-            return io_load_failed(graph, edge->line, status, message, message_size,
-                                  "edge %llu -> %llu: %s", (unsigned long long)edge->from,
-                                  (unsigned long long)edge->to, pgem_last_error(instance));
+        if (status != PGEM_OK) { /* the core's message names the edge */
+            return io_load_failed(graph, edge->line, status, message, message_size, "%s",
+                                  pgem_last_error(instance));
         }
     }
     return PGEM_OK;

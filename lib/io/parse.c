@@ -1,4 +1,5 @@
 /* pgem I/O parse: turns one line of a g2o or TORO file into a pose, edge or FIX entry. */
+#include <math.h>
 #include <string.h>
 
 #include "io_internal.h"
@@ -163,6 +164,43 @@ static int io_parse_values(const io_reader_t *reader, const io_tag_t *tag, char 
     return status;
 }
 
+/* A number beyond the core's magnitude limits (pgem/graph.h): the reader refuses its line, so a
+ * file that reads always loads and solves with a finite chi2. index counts the numbers after
+ * the ids; fields[0] is the tag. */
+static int io_beyond_limit(const io_reader_t *reader, const io_tag_t *tag, char **fields,
+                           size_t index, int translation)
+{
+    char shown[48];
+    size_t field = tag->id_fields + index;
+    io_copy_printable(shown, sizeof shown, fields[field + 1]);
+    return io_fail(reader, reader->line, PGEM_ERR_OUT_OF_RANGE,
+                   "%s field %lu (%s) is %s, beyond the %s limit (%s)", tag->name,
+                   (unsigned long)(field + 1), tag->field_names[field], shown,
+                   translation ? "translation" : "information",
+                   translation ? "at most 1e8 m, PGEM_TRANSLATION_LIMIT"
+                               : "at most 1e15, PGEM_INFORMATION_LIMIT");
+}
+
+/* The translation of a pose or measurement, and an edge's information values, within limits. */
+static int io_check_magnitudes(const io_reader_t *reader, const io_tag_t *tag, char **fields,
+                               const io_values_t *values)
+{
+    size_t k;
+    size_t pose_size = (size_t)PGEM_POSE_SIZE(tag->dimension);
+    for (k = 0; k < (size_t)tag->dimension; ++k) {
+        if (!(fabs(values->numbers[k]) <= PGEM_TRANSLATION_LIMIT)) {
+            return io_beyond_limit(reader, tag, fields, k, 1);
+        }
+    }
+    for (k = pose_size; tag->kind == IO_EDGE && k < pose_size + io_info_values(tag->dimension);
+         ++k) {
+        if (!(fabs(values->numbers[k]) <= PGEM_INFORMATION_LIMIT)) {
+            return io_beyond_limit(reader, tag, fields, k, 0);
+        }
+    }
+    return PGEM_OK;
+}
+
 static int io_out_of_memory(const io_reader_t *reader)
 {
     return io_fail(reader, reader->line, PGEM_ERR_OUT_OF_MEMORY, "out of memory");
@@ -261,6 +299,9 @@ static int io_parse_pose_or_edge(io_reader_t *reader, const io_tag_t *tag, char 
     }
     if (status == PGEM_OK) {
         status = io_parse_values(reader, tag, fields, &values);
+    }
+    if (status == PGEM_OK) {
+        status = io_check_magnitudes(reader, tag, fields, &values);
     }
     if (status != PGEM_OK) {
         return status;

@@ -4,16 +4,21 @@
  * message built from fields in the input and encoded with the lcm-gen encoders (ids, values,
  * information, kinds, sources, commands, so the state machine is reached), such a message
  * then damaged (truncated, extended, a byte flipped, a lying string length), or an exact
- * repeat of an earlier record. Checks:
+ * repeat of an earlier record. Message k arrives at time k (microseconds), the header picks a
+ * pending timeout of a few messages, whether SNAPSHOT is on and whether the admit hook (the
+ * journal) refuses some messages. Checks:
  * - every message gets exactly one verdict and one counter moves for it: accepted (pose or
  *   edge), replay, rejected with a reason and a message, a command, or ignored (channel "any"
- *   only); `received` counts the pose and edge channels' messages;
+ *   only), besides edges that expired (they move from accepted to `expired`); `received`
+ *   counts the pose and edge channels' messages;
+ * - a message the admit hook refused changed nothing but its own counter;
  * - the pending list and the capacity reservations stay within their limits;
  * - every emitted item fits a core instance of the bridge's capacities (pgem_add_pose,
  *   pgem_add_edge and pgem_fix_pose accept it; RESET starts a new one): an admitted item is
  *   never refused by the core;
- * - feeding only the accepted messages and RESET commands again, in order, to a new state
- *   machine on channel "any" (what the journal replay does) emits exactly the same items. */
+ * - feeding only the accepted messages and RESET commands again, in order and with their
+ *   times, to a new state machine on channel "any" with no admit hook (what the journal replay
+ *   does) emits exactly the same items. */
 #include "fuzz.h"
 #include "fuzz_input.h"
 #include "ingest.h"
@@ -110,6 +115,7 @@ static void sink_init(sink_t *sink, const pgem_ingest_config_t *config)
 
 typedef struct message {
     pgem_role_t role;
+    int64_t utime;  /* when it arrived */
     uint8_t bytes[MESSAGE_MAX];
     size_t size;
 } message_t;
@@ -265,6 +271,9 @@ typedef struct run {
     message_t journal[MAX_MESSAGES];  /* accepted messages and RESET commands, in order */
     uint32_t journal_count;
     int64_t command_channel_rejections;
+    unsigned refusals;                /* 0: the admit hook takes everything; else it refuses
+                                         the messages whose number is 0 mod refusals + 1 */
+    int refused_now;                  /* the hook refused the message being fed */
 } run_t;
 
 static run_t run;
@@ -282,8 +291,10 @@ static int read_record(fuzz_input_t *in, message_t *m)
     int64_t utime = (int64_t)run.message_count + 1;
     if (form == FORM_REPEAT && run.message_count > 0) {
         *m = run.messages[fuzz_byte(in) % run.message_count];
+        m->utime = utime;
         return 1;
     }
+    m->utime = utime;
     if (form == FORM_RAW || form == FORM_REPEAT) {
         size_t length = fuzz_byte(in);
         length |= (size_t)fuzz_byte(in) << 8;
@@ -321,16 +332,23 @@ static int64_t rejected_total(const pgem_ingest_counts_t *counts)
     return total;
 }
 
-/* One counter moved for the verdict, and only that one. */
+/* One counter moved for the verdict, and only that one (edges that expired meanwhile moved
+ * from accepted to expired). */
 static void check_counts(const pgem_ingest_counts_t *a, const pgem_ingest_counts_t *b,
                          const pgem_ingest_result_t *result, pgem_role_t role)
 {
+    int64_t expired = b->rejected[PGEM_REJECT_EXPIRED] - a->rejected[PGEM_REJECT_EXPIRED];
     int64_t received = b->received - a->received;
     int64_t accepted = (b->accepted_poses - a->accepted_poses) +
-                       (b->accepted_edges - a->accepted_edges);
+                       (b->accepted_edges - a->accepted_edges) + expired;
     int64_t replays = b->replays - a->replays;
     int64_t commands = b->commands - a->commands;
-    int64_t rejected = rejected_total(b) - rejected_total(a);
+    int64_t rejected = rejected_total(b) - rejected_total(a) - expired;
+    FUZZ_CHECK(expired >= 0);
+    FUZZ_CHECK(result->verdict != PGEM_VERDICT_REJECTED ||
+               result->reason != PGEM_REJECT_EXPIRED);
+    FUZZ_CHECK(run.refused_now == (result->verdict == PGEM_VERDICT_REJECTED &&
+                                   result->reason == PGEM_REJECT_JOURNAL));
     FUZZ_CHECK(received == 0 || received == 1);
     switch (result->verdict) {
     case PGEM_VERDICT_ACCEPTED:
@@ -345,10 +363,13 @@ static void check_counts(const pgem_ingest_counts_t *a, const pgem_ingest_counts
         FUZZ_CHECK((unsigned)result->reason < PGEM_REJECT_COUNT);
         FUZZ_CHECK(accepted == 0 && replays == 0 && rejected == 1);
         FUZZ_CHECK(b->rejected[result->reason] - a->rejected[result->reason] == 1);
-        FUZZ_CHECK(commands == (result->reason == PGEM_REJECT_COMMAND));
-        if (received == 0) { /* the command channel: undecodable or a bad command */
+        FUZZ_CHECK(commands == (result->reason == PGEM_REJECT_COMMAND ||
+                                (result->reason == PGEM_REJECT_JOURNAL && received == 0)));
+        if (received == 0) { /* the command channel: undecodable, a bad command, a RESET the
+                                journal refused */
             FUZZ_CHECK(result->reason == PGEM_REJECT_DECODE ||
-                       result->reason == PGEM_REJECT_COMMAND);
+                       result->reason == PGEM_REJECT_COMMAND ||
+                       result->reason == PGEM_REJECT_JOURNAL);
             run.command_channel_rejections++;
         }
         FUZZ_CHECK(result->message[0] != '\0');
@@ -380,14 +401,30 @@ static void check_limits(const sink_t *sink, const pgem_ingest_counts_t *counts)
     FUZZ_CHECK(sink->edges_since_reset + counts->pending <= run.config.max_edges);
 }
 
+/* The admit hook: refuses every (refusals + 1)-th message offered, as a full journal would. */
+static int admit(void *user, const void *data, size_t size, char *message, size_t message_size)
+{
+    (void)user;
+    FUZZ_CHECK(data != NULL && size >= 8);
+    if (run.refusals != 0 && run.message_count % (run.refusals + 1u) == 0) {
+        run.refused_now = 1;
+        snprintf(message, message_size, "the journal is full");
+        return -1;
+    }
+    return 0;
+}
+
 static void feed(pgem_ingest_t *ingest, sink_t *sink, const message_t *m)
 {
     pgem_ingest_counts_t before, after;
     pgem_ingest_result_t result;
+    uint32_t emitted = sink->count;
     pgem_ingest_counts(ingest, &before);
-    pgem_ingest_message(ingest, m->role, m->bytes, m->size, &result);
+    run.refused_now = 0;
+    pgem_ingest_message(ingest, m->role, m->bytes, m->size, m->utime, &result);
     pgem_ingest_counts(ingest, &after);
     check_counts(&before, &after, &result, m->role);
+    FUZZ_CHECK(!run.refused_now || sink->count == emitted);
     check_limits(sink, &after);
     if (result.verdict == PGEM_VERDICT_ACCEPTED ||
         (result.verdict == PGEM_VERDICT_COMMAND && result.command == PGEM_COMMAND_T_RESET)) {
@@ -409,7 +446,7 @@ static void check_journal_replay(const sink_t *live)
     for (uint32_t i = 0; i < run.journal_count; ++i) {
         pgem_ingest_result_t result;
         pgem_ingest_message(ingest, PGEM_ROLE_ANY, run.journal[i].bytes, run.journal[i].size,
-                            &result);
+                            run.journal[i].utime, &result);
         FUZZ_CHECK(result.verdict == PGEM_VERDICT_ACCEPTED ||
                    result.verdict == PGEM_VERDICT_COMMAND);
     }
@@ -443,9 +480,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     run.config.max_edges = 1u + (uint32_t)h1 % 24u;
     run.config.max_pending = 1u + (uint32_t)h2 % 8u;
     run.config.max_sources = 1u + (uint32_t)(h2 >> 3) % 4u;
+    run.config.pending_timeout = 4 + (int64_t)((h2 >> 5) & 7u) * 8; /* in messages */
+    run.config.snapshots = (h0 >> 5) & 1u;
+    run.refusals = (h0 >> 6) & 3u;
     sink_init(&sink, &run.config);
     pgem_ingest_t *ingest = pgem_ingest_create(&run.config, emit, &sink);
     FUZZ_CHECK(ingest != NULL);
+    pgem_ingest_set_admit(ingest, admit, NULL);
     sink.ingest = ingest;
     message_t m;
     while (run.message_count < MAX_MESSAGES && read_record(&in, &m)) {

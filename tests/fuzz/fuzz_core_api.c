@@ -260,7 +260,7 @@ static void op_add_pose(run_t *run, fuzz_input_t *in)
     int status = pgem_add_pose(run->graph, id, pose);
     end_call(run, status);
     FUZZ_CHECK(ONE_OF(status, PGEM_ERR_CAPACITY, PGEM_ERR_DUPLICATE_ID, PGEM_ERR_NOT_FINITE,
-                      PGEM_ERR_ROTATION));
+                      PGEM_ERR_OUT_OF_RANGE, PGEM_ERR_ROTATION));
     if (status != PGEM_OK) {
         check_unchanged(run, 1);
         return;
@@ -294,8 +294,8 @@ static void op_add_edge(run_t *run, fuzz_input_t *in)
                                (pgem_edge_kind_t)kind, &index);
     end_call(run, status);
     FUZZ_CHECK(ONE_OF(status, PGEM_ERR_CAPACITY, PGEM_ERR_UNKNOWN_ID, PGEM_ERR_SELF_LOOP,
-                      PGEM_ERR_NOT_FINITE, PGEM_ERR_INFORMATION, PGEM_ERR_ROTATION,
-                      PGEM_ERR_INVALID_ARGUMENT));
+                      PGEM_ERR_NOT_FINITE, PGEM_ERR_OUT_OF_RANGE, PGEM_ERR_INFORMATION,
+                      PGEM_ERR_ROTATION, PGEM_ERR_INVALID_ARGUMENT));
     if (status != PGEM_OK) {
         FUZZ_CHECK(index == UINT32_MAX);
         check_unchanged(run, 1);
@@ -338,7 +338,8 @@ static void op_set_pose(run_t *run, fuzz_input_t *in)
     start_call(run, "set_pose", 0);
     int status = pgem_set_pose(run->graph, id, pose);
     end_call(run, status);
-    FUZZ_CHECK(ONE_OF(status, PGEM_ERR_UNKNOWN_ID, PGEM_ERR_NOT_FINITE, PGEM_ERR_ROTATION));
+    FUZZ_CHECK(ONE_OF(status, PGEM_ERR_UNKNOWN_ID, PGEM_ERR_NOT_FINITE, PGEM_ERR_OUT_OF_RANGE,
+                      PGEM_ERR_ROTATION));
     if (status == PGEM_OK) {
         uint32_t index = 0;
         FUZZ_CHECK(pgem_pose_index(run->graph, id, &index) == PGEM_OK);

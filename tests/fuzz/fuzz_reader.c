@@ -64,6 +64,17 @@ static int has_pose(const pgem_io_graph_t *graph, pgem_id_t id)
     return 0;
 }
 
+/* The core's magnitude limits hold: a translation's first `axes` values and information. */
+static int within_limits(const double *values, size_t count, size_t axes, double limit)
+{
+    for (size_t i = 0; i < count && i < axes; ++i) {
+        if (!(fabs(values[i]) <= limit)) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
 static int all_finite(const double *values, size_t count)
 {
     for (size_t i = 0; i < count; ++i) {
@@ -82,6 +93,8 @@ static void check_poses(const pgem_io_graph_t *graph)
         const pgem_io_pose_t *pose = &graph->poses[i];
         FUZZ_CHECK((pose->line == 0) == (graph->chained_poses > 0));
         FUZZ_CHECK(all_finite(pose->pose, pose_size));
+        FUZZ_CHECK(within_limits(pose->pose, pose_size, (size_t)graph->dimension,
+                                 PGEM_TRANSLATION_LIMIT));
         if (graph->chained_poses > 0 && graph->dimension == 3) { /* composed unit rotations */
             const double *q = pose->pose + 3;
             FUZZ_CHECK(fabs(sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]) - 1.0) < 1e-6);
@@ -103,6 +116,9 @@ static void check_edges(const pgem_io_graph_t *graph)
         FUZZ_CHECK(edge->kind == (gap == 1 ? PGEM_EDGE_ODOMETRY : PGEM_EDGE_LOOP));
         FUZZ_CHECK(all_finite(edge->measurement, (size_t)PGEM_POSE_SIZE(graph->dimension)));
         FUZZ_CHECK(all_finite(edge->information, n * n));
+        FUZZ_CHECK(within_limits(edge->measurement, (size_t)PGEM_POSE_SIZE(graph->dimension),
+                                 (size_t)graph->dimension, PGEM_TRANSLATION_LIMIT));
+        FUZZ_CHECK(within_limits(edge->information, n * n, n * n, PGEM_INFORMATION_LIMIT));
         for (size_t i = 0; i < n; ++i) {
             for (size_t j = 0; j < i; ++j) {
                 FUZZ_CHECK(memcmp(&edge->information[i * n + j], &edge->information[j * n + i],
@@ -314,7 +330,8 @@ static void load_and_solve(const pgem_io_graph_t *graph, pgem_method_t method)
 static int error_has_line(int status)
 {
     return status == PGEM_ERR_PARSE || status == PGEM_ERR_DIMENSION ||
-           status == PGEM_ERR_DUPLICATE_ID || status == PGEM_ERR_UNKNOWN_ID;
+           status == PGEM_ERR_DUPLICATE_ID || status == PGEM_ERR_UNKNOWN_ID ||
+           status == PGEM_ERR_OUT_OF_RANGE;
 }
 
 void fuzz_reader_run(const uint8_t *data, size_t size, pgem_format_t format, const char *name)

@@ -338,77 +338,7 @@ int pgem_lcm_stop_signal(void)
     return (int)pgem_lcm_stop;
 }
 
-/* ---- Files ------------------------------------------------------------------------------ */
-
-int pgem_lcm_file_open(pgem_lcm_file_t *file, const char *tool, const char *path)
-{
-    static const char suffix[] = ".tmp";
-    memset(file, 0, sizeof *file);
-    file->tool = tool;
-    file->path = path;
-    file->temporary = malloc(strlen(path) + sizeof suffix);
-    if (file->temporary == NULL) {
-        fprintf(stderr, "%s: out of memory\n", tool);
-        return -1;
-    }
-    strcpy(file->temporary, path);
-    strcat(file->temporary, suffix);
-    file->stream = fopen(file->temporary, "w");
-    if (file->stream == NULL) {
-        fprintf(stderr, "%s: %s: cannot open for writing: %s\n", tool, file->temporary,
-                strerror(errno));
-        free(file->temporary);
-        file->temporary = NULL;
-        return -1;
-    }
-    return 0;
-}
-
-int pgem_lcm_file_commit(pgem_lcm_file_t *file, int failed)
-{
-    const char *step = NULL;
-    int error = 0;
-    if (failed || ferror(file->stream)) {
-        step = "write";
-        error = errno;
-    } else if (fflush(file->stream) != 0) {
-        step = "write";
-        error = errno;
-    } else if (fsync(fileno(file->stream)) != 0 && errno != EINVAL && errno != EROFS) {
-        step = "fsync"; /* EINVAL, EROFS: a file that cannot be synced (e.g. a pipe) */
-        error = errno;
-    }
-    if (fclose(file->stream) != 0 && step == NULL) {
-        step = "close";
-        error = errno;
-    }
-    if (step == NULL && rename(file->temporary, file->path) != 0) {
-        fprintf(stderr, "%s: cannot rename %s to %s: %s\n", file->tool, file->temporary,
-                file->path, strerror(errno));
-        step = "";
-    } else if (step != NULL) {
-        fprintf(stderr, "%s: %s: %s failed: %s\n", file->tool, file->temporary, step,
-                error != 0 ? strerror(error) : "unknown error");
-    }
-    if (step != NULL) {
-        remove(file->temporary);
-    }
-    free(file->temporary);
-    file->temporary = NULL;
-    file->stream = NULL;
-    return step == NULL ? 0 : -1;
-}
-
 /* ---- Output ----------------------------------------------------------------------------- */
-
-void pgem_lcm_json_number(FILE *out, double value)
-{
-    if (isfinite(value)) {
-        fprintf(out, "%.17g", value);
-    } else {
-        fputs("null", out);
-    }
-}
 
 int64_t pgem_lcm_status_rejected(const pgem_status_t *status)
 {
@@ -427,7 +357,7 @@ void pgem_lcm_json_status(FILE *out, const pgem_status_t *s)
             (long long)s->accepted_poses, (long long)s->accepted_edges, (long long)s->replays);
     for (int32_t r = 0; r < s->num_reasons; r++) {
         fputs(r > 0 ? "," : "", out);
-        pgem_cli_json_string_to(out, s->reasons[r] != NULL ? s->reasons[r] : "");
+        pgem_json_string(out, s->reasons[r] != NULL ? s->reasons[r] : "");
         fprintf(out, ":%lld", (long long)s->rejected[r]);
     }
     fprintf(out, "},\"pending\":%d,\"queued\":%d,\"poses\":%d,\"edges\":%d,\"loops\":%d,"
@@ -438,7 +368,7 @@ void pgem_lcm_json_status(FILE *out, const pgem_status_t *s)
             (int)s->pruned, (int)s->max_poses, (int)s->max_edges, (int)s->max_pending,
             (long long)s->solves, s->solving ? "true" : "false", (long long)s->commands,
             (long long)s->journal_records, (long long)s->recovered);
-    pgem_cli_json_string_to(out, s->message != NULL ? s->message : "");
+    pgem_json_string(out, s->message != NULL ? s->message : "");
     fputc('}', out);
 }
 
@@ -450,8 +380,9 @@ void pgem_lcm_print_status(FILE *out, const pgem_status_t *s)
     const char *separator = " (";
     for (int32_t r = 0; r < s->num_reasons; r++) {
         if (s->rejected[r] != 0) {
-            fprintf(out, "%s%s %lld", separator, s->reasons[r] != NULL ? s->reasons[r] : "?",
-                    (long long)s->rejected[r]);
+            char reason[64]; /* from the network: escaped */
+            pgem_io_escape(reason, sizeof reason, s->reasons[r] != NULL ? s->reasons[r] : "?");
+            fprintf(out, "%s%s %lld", separator, reason, (long long)s->rejected[r]);
             separator = ", ";
         }
     }

@@ -1,7 +1,7 @@
 /* Shared pieces of the LCM tools (pgem-lcm-bridge, pgem-lcm-send, pgem-lcm-dump): the common
  * options (--url, --channel-prefix, --*-channel), opening LCM, clocks, a clean stop on SIGINT
- * and SIGTERM, waiting for and dispatching messages, files written atomically and status_t
- * as text or JSON. Every function that can fail prints "TOOL: what went wrong" to stderr,
+ * and SIGTERM, waiting for and dispatching messages, and status_t as text or JSON (files are
+ * written with pgem_cli_file_t, whole or not at all). Every function that can fail prints "TOOL: what went wrong" to stderr,
  * where TOOL is the program name it is given. */
 #ifndef PGEM_LCM_TOOL_H
 #define PGEM_LCM_TOOL_H
@@ -126,29 +126,7 @@ int pgem_lcm_catch_signals(const char *tool);
 /* The signal number that asked for a stop, or 0. */
 int pgem_lcm_stop_signal(void);
 
-/* ---- Files ------------------------------------------------------------------------------ */
-
-/* A text file written atomically: to PATH.tmp, renamed over PATH when complete, so readers
- * (and a process killed mid-write) never see a partial PATH. */
-typedef struct pgem_lcm_file {
-    FILE *stream;          /* write here between open and commit */
-    const char *tool;
-    const char *path;
-    char *temporary;       /* PATH.tmp (heap) */
-} pgem_lcm_file_t;
-
-/* Opens PATH.tmp for writing. Returns 0, or -1 after printing why. */
-int pgem_lcm_file_open(pgem_lcm_file_t *file, const char *tool, const char *path);
-
-/* Flushes, syncs and closes the stream and renames PATH.tmp to PATH. With `failed` set (an
- * earlier write failed), or when any step fails, prints why, removes PATH.tmp and leaves PATH
- * as it was. Returns 0 or -1; the file is closed either way. */
-int pgem_lcm_file_commit(pgem_lcm_file_t *file, int failed);
-
 /* ---- Output ----------------------------------------------------------------------------- */
-
-/* A JSON number: %.17g, or null when not finite. */
-void pgem_lcm_json_number(FILE *out, double value);
 
 /* A status_t as one JSON object (no newline): every field by its .lcm name, except reasons
  * and rejected, which become one object "rejected": {reason: count, ...}. */

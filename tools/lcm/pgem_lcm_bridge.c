@@ -28,6 +28,10 @@ static void usage(FILE *out, const pgem_lcm_options_t *lcm)
             "  --journal PATH         append-only journal (LCM log format); an existing one\n"
             "                         is replayed first, so a restarted bridge has its graph\n"
             "  --journal-sync         fdatasync every journal record (survives power loss)\n"
+            "  --snapshot-dir DIR     let SNAPSHOT commands write FILE and FILE.weights into\n"
+            "                         DIR (FILE a plain name; default: SNAPSHOT is refused)\n"
+            "  --pending-timeout S    an edge waits at most S seconds for its poses, then it\n"
+            "                         expires (60)\n"
             "  --debounce S           quiet time after a loop closure before solving (0.01)\n"
             "  --max-delay S          longest a loop closure waits while more arrive (0.1)\n"
             "  --max-rate HZ          solves per second at most (20)\n"
@@ -40,6 +44,11 @@ static void usage(FILE *out, const pgem_lcm_options_t *lcm)
             "  --max-em-iterations N  E/M iterations per round (default 5)\n"
             "  --gate G               consistency-test chi2 threshold (default 99.9%% quantile)\n"
             "  --literal              the paper's EM as published (no polish or gate)\n"
+            "  --distance D           innovation (default: loops tested against what the map\n"
+            "                         predicts for them) or point (the paper's chi2)\n"
+            "  --odometry-inflation K innovation: the map's covariance counts K times (4)\n"
+            "  --predictable-rotation R  innovation: a loop is tested by its innovation when\n"
+            "                         the map predicts its rotation to R radians (0.1)\n"
             "  --quiet                no progress lines on stderr\n");
     pgem_lcm_options_help(out, lcm);
     fprintf(out, "Exit status: 0 after a clean stop, 1 if the bridge could not start, 2 usage.\n");
@@ -63,7 +72,8 @@ typedef enum value_kind {
     ITERATIONS,  /* an integer, at least 1 */
     POSITIVE,    /* a positive number */
     PATH,        /* a file name */
-    DIMENSION    /* 2 or 3 */
+    DIMENSION,   /* 2 or 3 */
+    DISTANCE     /* innovation or point */
 } value_kind_t;
 
 typedef struct valued_option {
@@ -82,6 +92,8 @@ static const valued_option_t valued_options[] = {
     {"--max-pending", COUNT, FIELD(max_pending)},
     {"--max-sources", COUNT, FIELD(max_sources)},
     {"--journal", PATH, FIELD(journal)},
+    {"--snapshot-dir", PATH, FIELD(snapshot_dir)},
+    {"--pending-timeout", POSITIVE, FIELD(pending_timeout)},
     {"--debounce", POSITIVE, FIELD(debounce)},
     {"--max-delay", POSITIVE, FIELD(max_delay)},
     {"--max-rate", POSITIVE, FIELD(max_rate)},
@@ -92,6 +104,9 @@ static const valued_option_t valued_options[] = {
     {"--m-step-iterations", ITERATIONS, FIELD(robust.m_step_iterations)},
     {"--max-em-iterations", ITERATIONS, FIELD(robust.max_em_iterations)},
     {"--gate", POSITIVE, FIELD(robust.gate)},
+    {"--distance", DISTANCE, FIELD(robust.distance)},
+    {"--odometry-inflation", POSITIVE, FIELD(robust.odometry_inflation)},
+    {"--predictable-rotation", POSITIVE, FIELD(robust.predictable_rotation)},
 };
 
 #define VALUED_COUNT (sizeof valued_options / sizeof valued_options[0])
@@ -105,10 +120,9 @@ static int parse_value(void *user, const char *name, const char *value)
         option++; /* the parser only passes names from the table */
     }
     char *field = (char *)&p->options + option->offset;
-    uint32_t number = 0;
     switch (option->kind) {
     case COUNT:
-        return pgem_cli_parse_u32(name, value, (uint32_t *)(void *)field);
+        return pgem_cli_parse_u32(TOOL, name, value, (uint32_t *)(void *)field);
     case ITERATIONS:
         return pgem_cli_parse_at_least(TOOL, name, value, 1, "iteration",
                                        (uint32_t *)(void *)field);
@@ -122,13 +136,23 @@ static int parse_value(void *user, const char *name, const char *value)
         *(const char **)(void *)field = value;
         return 1;
     case DIMENSION:
-        if (value == NULL || !pgem_cli_parse_u32(name, value, &number) ||
-            (number != 2 && number != 3)) {
+        if (value == NULL || (strcmp(value, "2") != 0 && strcmp(value, "3") != 0)) {
             fprintf(stderr, TOOL ": --dimension takes 2 or 3, got '%s'\n",
                     value != NULL ? value : "");
             return 0;
         }
-        p->options.dimension = (int)number;
+        p->options.dimension = value[0] - '0';
+        return 1;
+    case DISTANCE:
+        if (value != NULL && strcmp(value, "innovation") == 0) {
+            p->options.robust.distance = PGEM_DISTANCE_INNOVATION;
+        } else if (value != NULL && strcmp(value, "point") == 0) {
+            p->options.robust.distance = PGEM_DISTANCE_POINT;
+        } else {
+            fprintf(stderr, TOOL ": --distance takes innovation or point, got '%s'\n",
+                    value != NULL ? value : "");
+            return 0;
+        }
         return 1;
     }
     return 0;

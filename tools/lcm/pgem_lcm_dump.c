@@ -262,15 +262,19 @@ static int32_t dump_pruned(const pgem_graph_t *graph)
     return pruned;
 }
 
-/* "graph 12: 3500 poses, 2461 loops (100 pruned), chi2 7223.14, solve 38 ms" */
+/* "graph 12: 3500 poses, 2461 loops (100 pruned), chi2 7223.14, solve 38 ms", then the
+ * solve's message: why it is not usable, or its warning */
 static void dump_graph_line(const pgem_graph_t *graph)
 {
     double milliseconds = (double)graph->stats.solve_time_us / 1000.0;
-    fprintf(stderr, "graph %lld: %d poses, %d loops (%d pruned), chi2 %.2f, solve %.*f ms%s%s\n",
+    char chi2[PGEM_CLI_NUMBER_MAX];
+    char why[256]; /* from the network: escaped */
+    pgem_io_escape(why, sizeof why, graph->stats.message == NULL ? "" : graph->stats.message);
+    fprintf(stderr, "graph %lld: %d poses, %d loops (%d pruned), chi2 %s, solve %.*f ms%s%s\n",
             (long long)graph->stats.solve_id, (int)graph->num_poses, (int)graph->num_loops,
-            (int)dump_pruned(graph), graph->stats.chi2, milliseconds < 10.0 ? 1 : 0,
-            milliseconds, graph->stats.usable ? "" : ", not usable: ",
-            graph->stats.usable ? "" : graph->stats.message);
+            (int)dump_pruned(graph), pgem_cli_number(chi2, sizeof chi2, graph->stats.chi2, 2),
+            milliseconds < 10.0 ? 1 : 0, milliseconds,
+            !graph->stats.usable ? ", not usable: " : why[0] != '\0' ? "; " : "", why);
 }
 
 /* ---- Writing ---------------------------------------------------------------------------- */
@@ -279,7 +283,7 @@ static void dump_graph_line(const pgem_graph_t *graph)
 static int dump_write_g2o(const pgem_graph_t *graph, const char *path)
 {
     pgem_io_graph_t poses;
-    pgem_lcm_file_t file;
+    pgem_cli_file_t file;
     memset(&poses, 0, sizeof poses);
     poses.dimension = graph->dimension;
     poses.pose_count = (size_t)graph->num_poses;
@@ -292,10 +296,10 @@ static int dump_write_g2o(const pgem_graph_t *graph, const char *path)
         poses.poses[k].id = (pgem_id_t)(uint64_t)graph->ids[k];
         memcpy(poses.poses[k].pose, graph->poses[k], (size_t)graph->pose_size * sizeof(double));
     }
-    int status = pgem_lcm_file_open(&file, DUMP_TOOL, path);
+    int status = pgem_cli_file_open(&file, DUMP_TOOL, path);
     if (status == 0) {
         int failed = pgem_io_write_stream(file.stream, PGEM_FORMAT_G2O, &poses) != PGEM_OK;
-        status = pgem_lcm_file_commit(&file, failed);
+        status = (pgem_cli_file_commit(&file, failed) == PGEM_EXIT_OK ? 0 : -1);
     }
     free(poses.poses);
     return status;
@@ -304,8 +308,8 @@ static int dump_write_g2o(const pgem_graph_t *graph, const char *path)
 /* One line per loop closure, the format of pgem optimize --weights. */
 static int dump_write_weights(const pgem_graph_t *graph, const char *path)
 {
-    pgem_lcm_file_t file;
-    if (pgem_lcm_file_open(&file, DUMP_TOOL, path) != 0) {
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, DUMP_TOOL, path) != 0) {
         return -1;
     }
     fprintf(file.stream, "# from to weight state (one line per loop closure)\n");
@@ -315,19 +319,19 @@ static int dump_write_weights(const pgem_graph_t *graph, const char *path)
                 (unsigned long long)(uint64_t)loop->to, loop->weight,
                 loop->state == PGEM_LOOP_T_PRUNED ? "pruned" : "accepted");
     }
-    return pgem_lcm_file_commit(&file, 0);
+    return (pgem_cli_file_commit(&file, 0) == PGEM_EXIT_OK ? 0 : -1);
 }
 
 static void dump_json_stats(FILE *out, const pgem_solve_stats_t *stats)
 {
     fprintf(out, "{\"solve_id\":%lld,\"trigger\":", (long long)stats->solve_id);
-    pgem_cli_json_string_to(out, stats->trigger != NULL ? stats->trigger : "");
+    pgem_json_string(out, stats->trigger != NULL ? stats->trigger : "");
     fprintf(out, ",\"usable\":%s,\"message\":", stats->usable ? "true" : "false");
-    pgem_cli_json_string_to(out, stats->message != NULL ? stats->message : "");
+    pgem_json_string(out, stats->message != NULL ? stats->message : "");
     fputs(",\"initial_chi2\":", out);
-    pgem_lcm_json_number(out, stats->initial_chi2);
+    pgem_json_number(out, stats->initial_chi2, 17);
     fputs(",\"chi2\":", out);
-    pgem_lcm_json_number(out, stats->chi2);
+    pgem_json_number(out, stats->chi2, 17);
     fprintf(out, ",\"em_rounds\":%d,\"em_iterations\":%d,\"gn_iterations\":%d,"
                  "\"solve_time_us\":%lld,\"poses\":%d,\"edges\":%d,\"loops\":%d,\"pruned\":%d}",
             (int)stats->em_rounds, (int)stats->em_iterations, (int)stats->gn_iterations,
@@ -339,8 +343,8 @@ static void dump_json_stats(FILE *out, const pgem_solve_stats_t *stats)
 static int dump_write_json(const dump_state_t *state, const char *path)
 {
     const pgem_graph_t *graph = state->graph;
-    pgem_lcm_file_t file;
-    if (pgem_lcm_file_open(&file, DUMP_TOOL, path) != 0) {
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, DUMP_TOOL, path) != 0) {
         return -1;
     }
     FILE *out = file.stream;
@@ -351,24 +355,24 @@ static int dump_write_json(const dump_state_t *state, const char *path)
             (unsigned long long)state->graphs);
     for (int32_t s = 0; s < graph->num_sources; s++) {
         fputs(s > 0 ? "," : "", out);
-        pgem_cli_json_string_to(out, graph->sources[s] != NULL ? graph->sources[s] : "");
+        pgem_json_string(out, graph->sources[s] != NULL ? graph->sources[s] : "");
         fprintf(out, ":%lld", (long long)graph->last_sequence[s]);
     }
     fputs("},\"stats\":", out);
     dump_json_stats(out, &graph->stats);
     fputs("}\n", out);
-    return pgem_lcm_file_commit(&file, 0);
+    return (pgem_cli_file_commit(&file, 0) == PGEM_EXIT_OK ? 0 : -1);
 }
 
 static int dump_write_status(const pgem_status_t *status, const char *path)
 {
-    pgem_lcm_file_t file;
-    if (pgem_lcm_file_open(&file, DUMP_TOOL, path) != 0) {
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, DUMP_TOOL, path) != 0) {
         return -1;
     }
     pgem_lcm_json_status(file.stream, status);
     fputc('\n', file.stream);
-    return pgem_lcm_file_commit(&file, 0);
+    return (pgem_cli_file_commit(&file, 0) == PGEM_EXIT_OK ? 0 : -1);
 }
 
 /* Writes the graph files asked for from the latest graph. Returns a PGEM_EXIT_* code. */

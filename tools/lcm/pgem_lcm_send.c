@@ -746,8 +746,8 @@ static double send_nearest_rank(const double *sorted, size_t count, unsigned per
 static int send_latency_csv(const send_args_t *args, const send_context_t *context)
 {
     const send_latency_t *latency = &context->latency;
-    pgem_lcm_file_t file;
-    if (pgem_lcm_file_open(&file, SEND_TOOL, args->latency) != 0) {
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, SEND_TOOL, args->latency) != 0) {
         return -1;
     }
     int failed = fprintf(file.stream, "sequence,from,to,latency_ms,solve_id\n") < 0;
@@ -766,7 +766,7 @@ static int send_latency_csv(const send_args_t *args, const send_context_t *conte
             failed |= fputs(",\n", file.stream) < 0;
         }
     }
-    return pgem_lcm_file_commit(&file, failed);
+    return (pgem_cli_file_commit(&file, failed) == PGEM_EXIT_OK ? 0 : -1);
 }
 
 /* Prints "latency: N loop closures seen of M, median ..." (the latencies in ms, nearest

@@ -22,8 +22,10 @@ double pgem_cli_now(void);
 /* The tools apply the core's rule for 3D quaternions. */
 #define PGEM_CLI_QUAT_TOLERANCE PGEM_QUAT_NORM_TOLERANCE
 
-/* Parses a non-negative integer option value; prints an error and returns 0 on failure. */
-int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value);
+/* Parses a non-negative integer option value; prints "PREFIX: OPTION needs a non-negative
+ * integer, got 'TEXT'" and returns 0 on failure. */
+int pgem_cli_parse_u32(const char *prefix, const char *option, const char *text,
+                       uint32_t *value);
 
 /* As pgem_cli_parse_u32, and at least `least`: below it prints "PREFIX: OPTION needs at least
  * LEAST WHAT, got N" and returns 0. */
@@ -57,18 +59,34 @@ int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel);
 int pgem_cli_read_graph(const char *prefix, const char *path, unsigned flags,
                         pgem_io_graph_t *graph);
 
-/* Writes a file graph as g2o; prints "PREFIX: message" on failure. Returns a PGEM_EXIT_*
- * code. */
+/* Writes a file graph as g2o (through pgem_cli_file_t); prints "PREFIX: ..." on failure.
+ * Returns a PGEM_EXIT_* code. */
 int pgem_cli_write_graph(const char *prefix, const pgem_io_graph_t *graph, const char *path);
 
-/* Opens a text file for writing; prints "PREFIX: PATH: cannot open for writing: reason" and
- * returns NULL on failure. */
-FILE *pgem_cli_create(const char *prefix, const char *path);
+/* An output file written whole or not at all (cli_file.c): the stream writes a new temporary
+ * file beside PATH (.NAME.XXXXXX in its folder), which replaces PATH when it is complete and
+ * synced, so a failure (a full disk) leaves PATH as it was and `-o` onto the input cannot
+ * destroy it. A PATH that is a symbolic link keeps it (its target is replaced); one that is a
+ * device or a pipe (/dev/stdout) is written directly. */
+typedef struct pgem_cli_file {
+    FILE *stream;        /* write here between open and commit */
+    const char *prefix;  /* for messages: "pgem", "pgem-lcm-dump", ... */
+    const char *path;    /* as given */
+    char *target;        /* the file the rename replaces (heap; NULL when written directly) */
+    char *temporary;     /* the file written (heap; NULL when written directly) */
+} pgem_cli_file_t;
 
-/* Closes a file from pgem_cli_create. When failed is set (an earlier write failed) or the
- * close fails, prints "PREFIX: PATH: write failed: reason" and returns PGEM_EXIT_IO; else
- * PGEM_EXIT_OK. */
-int pgem_cli_finish(const char *prefix, const char *path, FILE *file, int failed);
+/* Returns 0, or -1 after printing "PREFIX: PATH: cannot ...: reason". */
+int pgem_cli_file_open(pgem_cli_file_t *file, const char *prefix, const char *path);
+
+/* Flushes, syncs and closes the stream and renames the temporary file over PATH. With
+ * `failed` set (an earlier write failed), or when a step fails, prints "PREFIX: PATH: STEP
+ * failed: reason (the file is as it was)", removes the temporary file and returns
+ * PGEM_EXIT_IO; else PGEM_EXIT_OK. The file is closed either way. */
+int pgem_cli_file_commit(pgem_cli_file_t *file, int failed);
+
+/* Closes the stream and removes the temporary file: PATH stays as it was (nothing printed). */
+void pgem_cli_file_discard(pgem_cli_file_t *file);
 
 /* Writes one line per loop closure, "from to weight state"; prints errors; 0 on success. */
 int pgem_cli_write_weights(const pgem_t *instance, const char *path);
@@ -82,6 +100,12 @@ int pgem_cli_write_weights(const pgem_t *instance, const char *path);
  * Prints errors to stderr. Returns PGEM_OK or an error code. */
 int pgem_cli_load(const pgem_io_graph_t *file, const char *path, uint32_t threads,
                   pgem_t **instance, double *analysis_seconds);
+
+/* As pgem_cli_load, with what went wrong in message instead of on stderr (a core message
+ * without "PATH: " when path is NULL). */
+int pgem_cli_load_quietly(const pgem_io_graph_t *file, const char *path, uint32_t threads,
+                          pgem_t **instance, double *analysis_seconds, char *message,
+                          size_t message_size);
 
 /* The instance's edges, as it holds them, into file, the graph it was loaded from (the same
  * edges in the same order); 0 if file does not match. */
@@ -124,14 +148,24 @@ void pgem_cli_sort_pairs(pgem_cli_pair_t *pairs, size_t count);
 size_t pgem_cli_pair_run_end(const pgem_cli_pair_t *pairs, size_t count, size_t first,
                              pgem_id_t from, pgem_id_t to);
 
+/* A value for a text line with `decimals` after the point (%.*f), or in exponent form (%.*e)
+ * from 1e15 on, where %f would print up to 309 digits (a chi2 of 1e308). Returns out. */
+#define PGEM_CLI_NUMBER_MAX 40 /* bytes a pgem_cli_number buffer needs */
+const char *pgem_cli_number(char *out, size_t size, double value, int decimals);
+
 /* "s" unless count is 1. */
 const char *pgem_cli_plural(size_t count);
 
-/* Writes text to stdout as a JSON string: quoted, with '"', '\\' and control bytes escaped. */
-void pgem_cli_json_string(const char *text);
+/* JSON (cli_json.c), the one writer every --json output goes through. A number with `digits`
+ * significant digits (%.*g: 10 for the CLI's summaries, 17 for values that must read back
+ * exactly), or with `decimals` after the point (%.*f: seconds); null when it is NaN or
+ * infinite, which JSON cannot hold. */
+void pgem_json_number(FILE *out, double value, int digits);
+void pgem_json_fixed(FILE *out, double value, int decimals);
 
-/* As pgem_cli_json_string, to a stream. */
-void pgem_cli_json_string_to(FILE *out, const char *text);
+/* A JSON string: quoted, '"', '\\' and control bytes escaped, and each byte that is not part
+ * of valid UTF-8 as \ufffd (a name from the network cannot break the document). */
+void pgem_json_string(FILE *out, const char *text);
 
 int pgem_cmd_optimize(int argc, char **argv);
 int pgem_cmd_simulate(int argc, char **argv);

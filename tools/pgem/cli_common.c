@@ -18,14 +18,15 @@ double pgem_cli_now(void)
     return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
 }
 
-int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value)
+int pgem_cli_parse_u32(const char *prefix, const char *option, const char *text,
+                       uint32_t *value)
 {
     char *end = NULL;
     errno = 0;
     unsigned long parsed = text != NULL ? strtoul(text, &end, 10) : 0;
     if (text == NULL || *text == '\0' || *text == '-' || *end != '\0' || errno != 0 ||
         parsed > UINT32_MAX) {
-        fprintf(stderr, "pgem: %s needs a non-negative integer, got '%s'\n", option,
+        fprintf(stderr, "%s: %s needs a non-negative integer, got '%s'\n", prefix, option,
                 text != NULL ? text : "");
         return 0;
     }
@@ -36,7 +37,7 @@ int pgem_cli_parse_u32(const char *option, const char *text, uint32_t *value)
 int pgem_cli_parse_at_least(const char *prefix, const char *option, const char *text,
                             uint32_t least, const char *what, uint32_t *value)
 {
-    if (!pgem_cli_parse_u32(option, text, value)) {
+    if (!pgem_cli_parse_u32(prefix, option, text, value)) {
         return 0;
     }
     if (*value < least) {
@@ -113,50 +114,34 @@ int pgem_cli_read_graph(const char *prefix, const char *path, unsigned flags,
 
 int pgem_cli_write_graph(const char *prefix, const pgem_io_graph_t *graph, const char *path)
 {
-    char message[1024];
-    if (pgem_io_write(path, PGEM_FORMAT_G2O, graph, message, sizeof message) != PGEM_OK) {
-        fprintf(stderr, "%s: %s\n", prefix, message);
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, prefix, path) != 0) {
         return PGEM_EXIT_IO;
     }
-    return PGEM_EXIT_OK;
-}
-
-FILE *pgem_cli_create(const char *prefix, const char *path)
-{
-    FILE *file = fopen(path, "w");
-    if (file == NULL) {
-        fprintf(stderr, "%s: %s: cannot open for writing: %s\n", prefix, path, strerror(errno));
+    int status = pgem_io_write_stream(file.stream, PGEM_FORMAT_G2O, graph);
+    if (status == PGEM_ERR_DIMENSION) { /* a graph no file format holds: nothing to write */
+        fprintf(stderr, "%s: %s: the graph has no dimension to write\n", prefix, path);
     }
-    return file;
-}
-
-int pgem_cli_finish(const char *prefix, const char *path, FILE *file, int failed)
-{
-    if (fclose(file) != 0 || failed) {
-        fprintf(stderr, "%s: %s: write failed: %s\n", prefix, path, strerror(errno));
-        return PGEM_EXIT_IO;
-    }
-    return PGEM_EXIT_OK;
+    return pgem_cli_file_commit(&file, status != PGEM_OK);
 }
 
 static int pgem_cli_try_load(const pgem_io_graph_t *file, const pgem_config_t *config,
-                             pgem_t **instance)
+                             pgem_t **instance, char *message, size_t message_size)
 {
-    char message[1024];
     if (file->pose_count > PGEM_MAX_POSES_LIMIT || file->edge_count > PGEM_MAX_EDGES_LIMIT) {
-        fprintf(stderr, "pgem: %s: %zu poses and %zu edges: more than an instance holds (at "
-                        "most %u poses and %u edges)\n", file->source, file->pose_count,
-                file->edge_count, PGEM_MAX_POSES_LIMIT, PGEM_MAX_EDGES_LIMIT);
+        snprintf(message, message_size, "%s: %zu poses and %zu edges: more than an instance "
+                 "holds (at most %u poses and %u edges)", file->source, file->pose_count,
+                 file->edge_count, PGEM_MAX_POSES_LIMIT, PGEM_MAX_EDGES_LIMIT);
         return PGEM_ERR_CAPACITY;
     }
     int status = pgem_create(instance, config);
     if (status != PGEM_OK) {
-        fprintf(stderr, "pgem: cannot create an instance: %s\n", pgem_error_description(status));
+        snprintf(message, message_size, "cannot create an instance: %s",
+                 pgem_error_description(status));
         return status;
     }
-    status = pgem_io_load(file, *instance, message, sizeof message);
+    status = pgem_io_load(file, *instance, message, message_size);
     if (status != PGEM_OK) {
-        fprintf(stderr, "pgem: %s\n", message);
         pgem_destroy(*instance);
         *instance = NULL;
     }
@@ -172,8 +157,9 @@ static int pgem_cli_analyze(pgem_t *instance, double *seconds)
     return status;
 }
 
-int pgem_cli_load(const pgem_io_graph_t *file, const char *path, uint32_t threads,
-                  pgem_t **instance, double *analysis_seconds)
+int pgem_cli_load_quietly(const pgem_io_graph_t *file, const char *path, uint32_t threads,
+                          pgem_t **instance, double *analysis_seconds, char *message,
+                          size_t message_size)
 {
     double seconds = 0.0, more = 0.0;
     if (analysis_seconds != NULL) {
@@ -188,7 +174,7 @@ int pgem_cli_load(const pgem_io_graph_t *file, const char *path, uint32_t thread
     pgem_config_t probe_config = config;
     probe_config.fill_budget = 1u;
     pgem_t *probe = NULL;
-    int status = pgem_cli_try_load(file, &probe_config, &probe);
+    int status = pgem_cli_try_load(file, &probe_config, &probe, message, message_size);
     if (status != PGEM_OK || pgem_edge_count(probe) == 0u) {
         *instance = probe;
         return status;
@@ -204,8 +190,8 @@ int pgem_cli_load(const pgem_io_graph_t *file, const char *path, uint32_t thread
         config.fill_budget = stats.factor_nonzeros;
         status = pgem_create(instance, &config);
         if (status != PGEM_OK) {
-            fprintf(stderr, "pgem: cannot create an instance for a factor of %u nonzeros: %s\n",
-                    stats.factor_nonzeros, pgem_error_description(status));
+            snprintf(message, message_size, "cannot create an instance for a factor of %u "
+                     "nonzeros: %s", stats.factor_nonzeros, pgem_error_description(status));
             *instance = NULL;
             pgem_destroy(probe);
             return status;
@@ -222,7 +208,20 @@ int pgem_cli_load(const pgem_io_graph_t *file, const char *path, uint32_t thread
         *analysis_seconds = seconds + more;
     }
     if (status != PGEM_OK && *instance != NULL) {
-        fprintf(stderr, "pgem: %s: %s\n", path, pgem_last_error(*instance));
+        snprintf(message, message_size, "%s%s%s", path != NULL ? path : "",
+                 path != NULL ? ": " : "", pgem_last_error(*instance));
+    }
+    return status;
+}
+
+int pgem_cli_load(const pgem_io_graph_t *file, const char *path, uint32_t threads,
+                  pgem_t **instance, double *analysis_seconds)
+{
+    char message[1024];
+    int status = pgem_cli_load_quietly(file, path, threads, instance, analysis_seconds, message,
+                                       sizeof message);
+    if (status != PGEM_OK) {
+        fprintf(stderr, "pgem: %s\n", message);
     }
     return status;
 }
@@ -274,21 +273,22 @@ static int pgem_cli_refill(const pgem_t *instance, pgem_io_graph_t *file)
     return 1;
 }
 
-/* The poses (and FIX lines) of graph, then the edge lines already formatted. */
+/* The poses (and FIX lines) of graph, then the edge lines already formatted, written whole or
+ * not at all (pgem_cli_file_t). */
 static int pgem_cli_write_poses_then(const pgem_io_graph_t *graph, const char *path,
                                      const char *edge_text, size_t edge_bytes)
 {
-    FILE *stream = pgem_cli_create("pgem", path);
-    if (stream == NULL) {
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, "pgem", path) != 0) {
         return PGEM_EXIT_IO;
     }
     static char buffer[1u << 18]; /* as pgem_io_write's: one write call per 256 KiB */
-    (void)setvbuf(stream, buffer, _IOFBF, sizeof buffer);
+    (void)setvbuf(file.stream, buffer, _IOFBF, sizeof buffer);
     pgem_io_graph_t poses = *graph;
     poses.edge_count = 0;
-    int failed = pgem_io_write_stream(stream, PGEM_FORMAT_G2O, &poses) != PGEM_OK;
-    failed = failed || fwrite(edge_text, 1, edge_bytes, stream) != edge_bytes;
-    return pgem_cli_finish("pgem", path, stream, failed);
+    int failed = pgem_io_write_stream(file.stream, PGEM_FORMAT_G2O, &poses) != PGEM_OK;
+    failed = failed || fwrite(edge_text, 1, edge_bytes, file.stream) != edge_bytes;
+    return pgem_cli_file_commit(&file, failed);
 }
 
 int pgem_cli_write(const pgem_t *instance, pgem_io_graph_t *file, const char *path,
@@ -327,12 +327,12 @@ int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel)
 
 int pgem_cli_write_weights(const pgem_t *instance, const char *path)
 {
-    FILE *file = pgem_cli_create("pgem", path);
-    if (file == NULL) {
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, "pgem", path) != 0) {
         return -1;
     }
-    int failed = pgem_io_write_weights(file, instance) != PGEM_OK;
-    return pgem_cli_finish("pgem", path, file, failed) == PGEM_EXIT_OK ? 0 : -1;
+    int failed = pgem_io_write_weights(file.stream, instance) != PGEM_OK;
+    return pgem_cli_file_commit(&file, failed) == PGEM_EXIT_OK ? 0 : -1;
 }
 
 double pgem_cli_uniform(uint64_t *state)
@@ -348,26 +348,6 @@ double pgem_cli_gaussian(uint64_t *state)
 {
     double u = pgem_cli_uniform(state), v = pgem_cli_uniform(state);
     return sqrt(-2.0 * log(u + 1e-300)) * cos(6.283185307179586 * v);
-}
-
-void pgem_cli_json_string_to(FILE *out, const char *text)
-{
-    fputc('"', out);
-    for (const unsigned char *c = (const unsigned char *)text; *c != '\0'; c++) {
-        if (*c == '"' || *c == '\\') {
-            fprintf(out, "\\%c", *c);
-        } else if (*c < 0x20u) {
-            fprintf(out, "\\u%04x", (unsigned)*c);
-        } else {
-            fputc(*c, out);
-        }
-    }
-    fputc('"', out);
-}
-
-void pgem_cli_json_string(const char *text)
-{
-    pgem_cli_json_string_to(stdout, text);
 }
 
 static int pgem_cli_compare_ids(const void *a, const void *b)
@@ -432,6 +412,13 @@ size_t pgem_cli_pair_run_end(const pgem_cli_pair_t *pairs, size_t count, size_t 
         first++;
     }
     return first;
+}
+
+const char *pgem_cli_number(char *out, size_t size, double value, int decimals)
+{
+    snprintf(out, size, fabs(value) < 1e15 || !isfinite(value) ? "%.*f" : "%.*e", decimals,
+             value);
+    return out;
 }
 
 const char *pgem_cli_plural(size_t count)

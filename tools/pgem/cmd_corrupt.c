@@ -81,13 +81,13 @@ static int corrupt_parse(int argc, char **argv, corrupt_args_t *args)
                 fprintf(stderr, "pgem corrupt: --policy takes random, local, random-grouped or local-grouped\n");
             }
         } else if (ok && strcmp(arg, "--count") == 0) {
-            ok = have_count = pgem_cli_parse_u32(arg, value, &args->count);
+            ok = have_count = pgem_cli_parse_u32("pgem", arg, value, &args->count);
         } else if (ok && strcmp(arg, "--group-size") == 0) {
             ok = pgem_cli_parse_at_least("pgem corrupt", arg, value, 1u, "loop", &args->group_size);
         } else if (ok && strcmp(arg, "--information") == 0) {
             args->information = value;
         } else if (ok && strcmp(arg, "--seed") == 0) {
-            ok = have_seed = pgem_cli_parse_u32(arg, value, &args->seed);
+            ok = have_seed = pgem_cli_parse_u32("pgem", arg, value, &args->seed);
         } else {
             fprintf(stderr, "pgem corrupt: unknown or incomplete option '%s' (see --help)\n", arg);
             ok = 0;
@@ -274,20 +274,22 @@ int pgem_cmd_corrupt(int argc, char **argv)
         return PGEM_EXIT_USAGE;
     }
     snprintf(outliers_path, sizeof outliers_path, "%s.outliers", args.output);
-    FILE *outliers = pgem_cli_create("pgem corrupt", outliers_path);
-    if (outliers == NULL) {
+    pgem_cli_file_t outliers;
+    if (pgem_cli_file_open(&outliers, "pgem corrupt", outliers_path) != 0) {
         pgem_io_graph_free(&graph);
         return PGEM_EXIT_IO;
     }
-    status = corrupt_apply(&args, args.information != NULL ? information : NULL, &graph, outliers);
-    int closed = pgem_cli_finish("pgem corrupt", outliers_path, outliers, 0);
-    status = status != PGEM_EXIT_OK ? status : closed;
+    status = corrupt_apply(&args, args.information != NULL ? information : NULL, &graph,
+                           outliers.stream);
     if (status == PGEM_EXIT_OK) {
         status = pgem_cli_write_graph("pgem corrupt", &graph, args.output);
     }
     if (status != PGEM_EXIT_OK) {
-        remove(outliers_path); /* a failed run leaves no list of loops that were never written */
+        pgem_cli_file_discard(&outliers); /* no list of loops that were never written */
     } else {
+        status = pgem_cli_file_commit(&outliers, 0);
+    }
+    if (status == PGEM_EXIT_OK) {
         printf("%s: added %u false loop closures (%s, seed %u) -> %s, %s\n", args.input, args.count,
                corrupt_policy_names[args.policy], args.seed, args.output, outliers_path);
     }

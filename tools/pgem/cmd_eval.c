@@ -155,14 +155,11 @@ static int eval_parse(int argc, char **argv, eval_args_t *args)
     return eval_check_args(args);
 }
 
-/* ,"key":value with %.10g, or null for a value JSON cannot hold. */
+/* ,"key":value with 10 digits (null for a value JSON cannot hold). */
 static void eval_json_number(const char *key, double value)
 {
-    if (isfinite(value)) {
-        printf(",\"%s\":%.10g", key, value);
-    } else {
-        printf(",\"%s\":null", key);
-    }
+    printf(",\"%s\":", key);
+    pgem_json_number(stdout, value, 10);
 }
 
 static void eval_json_list(const char *key, const eval_loop_t *loops, size_t count, int is_false)
@@ -188,9 +185,9 @@ static void eval_print_json(const eval_args_t *args, const eval_trajectory_t *t,
                             const eval_scores_t *scores, const eval_loop_t *loops)
 {
     printf("{\"result\":");
-    pgem_cli_json_string(args->result);
+    pgem_json_string(stdout, args->result);
     printf(",\"reference\":");
-    pgem_cli_json_string(args->reference);
+    pgem_json_string(stdout, args->reference);
     printf(",\"dimension\":%d,\"poses_matched\":%zu,\"poses_only_result\":%zu,"
            "\"poses_only_reference\":%zu",
            t->dimension, t->matched, t->only_result, t->only_reference);

@@ -111,7 +111,7 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
             }
             k++;
         } else if (strcmp(arg, "--max-iterations") == 0) {
-            if (!pgem_cli_parse_u32(arg, value, &args->max_iterations)) {
+            if (!pgem_cli_parse_u32("pgem", arg, value, &args->max_iterations)) {
                 return PGEM_EXIT_USAGE;
             }
             k++;
@@ -131,12 +131,12 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
             }
             k++;
         } else if (strcmp(arg, "--m-step-iterations") == 0) {
-            if (!pgem_cli_parse_u32(arg, value, &args->robust.m_step_iterations)) {
+            if (!pgem_cli_parse_u32("pgem", arg, value, &args->robust.m_step_iterations)) {
                 return PGEM_EXIT_USAGE;
             }
             k++;
         } else if (strcmp(arg, "--max-em-iterations") == 0) {
-            if (!pgem_cli_parse_u32(arg, value, &args->robust.max_em_iterations)) {
+            if (!pgem_cli_parse_u32("pgem", arg, value, &args->robust.max_em_iterations)) {
                 return PGEM_EXIT_USAGE;
             }
             k++;
@@ -219,9 +219,10 @@ static int pgem_progress_line(const pgem_iteration_t *iteration, void *user)
     pgem_optimize_progress_t *progress = user;
     progress->shown = 0.0;
     if (!progress->quiet) {
-        fprintf(progress->out, "%5u %18.6f %12.4e %10.4f%s\n", iteration->iteration,
-                iteration->chi2, iteration->step_norm, pgem_cli_now() - progress->start,
-                iteration->accepted ? "" : "  (rejected)");
+        char chi2[PGEM_CLI_NUMBER_MAX];
+        fprintf(progress->out, "%5u %18s %12.4e %10.4f%s\n", iteration->iteration,
+                pgem_cli_number(chi2, sizeof chi2, iteration->chi2, 6), iteration->step_norm,
+                pgem_cli_now() - progress->start, iteration->accepted ? "" : "  (rejected)");
         fflush(progress->out);
     }
     return 0;
@@ -323,6 +324,37 @@ static void pgem_block_parts(const pgem_t *graph, uint32_t fill_budget, pgem_blo
     parts->factor = (size_t)(per_nonzero * (double)fill_budget + 0.5);
 }
 
+/* ,"solve_seconds":..,"analysis_seconds":.. (to the microsecond). */
+static void pgem_print_json_seconds(double seconds, double analysis_seconds)
+{
+    printf(",\"solve_seconds\":");
+    pgem_json_fixed(stdout, seconds, 6);
+    printf(",\"analysis_seconds\":");
+    pgem_json_fixed(stdout, analysis_seconds, 6);
+}
+
+/* "initial_chi2":..,"final_chi2":..,"solve_seconds":..,"analysis_seconds":.. (chi2 to 10
+ * digits, null when not finite). */
+static void pgem_print_json_timing(double initial, double final, double seconds,
+                                   double analysis_seconds)
+{
+    printf("\"initial_chi2\":");
+    pgem_json_number(stdout, initial, 10);
+    printf(",\"final_chi2\":");
+    pgem_json_number(stdout, final, 10);
+    pgem_print_json_seconds(seconds, analysis_seconds);
+}
+
+/* "block_bytes":..,"block_bytes_per_pose":..,"block_bytes_per_edge":..,"block_bytes_factor":..}
+ * and the line end: the end of both summaries. */
+static void pgem_print_json_block(const pgem_memory_stats_t *stats, const pgem_block_parts_t *parts,
+                                  uint32_t threads)
+{
+    printf("\"block_bytes\":%zu,\"block_bytes_per_pose\":%zu,\"block_bytes_per_edge\":%zu,"
+           "\"block_bytes_factor\":%zu,\"threads\":%u}\n",
+           stats->block_bytes, parts->per_pose, parts->per_edge, parts->factor, threads);
+}
+
 static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, const pgem_t *graph,
                                const pgem_summary_t *summary, double seconds, int status)
 {
@@ -332,30 +364,33 @@ static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, cons
     pgem_block_parts(graph, stats.factor_budget, &parts);
     if (args->json) {
         printf("{\"input\":");
-        pgem_cli_json_string(args->input);
+        pgem_json_string(stdout, args->input);
         printf(",\"method\":\"%s\",\"status\":\"%s\",\"termination\":\"%s\","
-               "\"iterations\":%u,\"initial_chi2\":%.10g,\"final_chi2\":%.10g,"
-               "\"solve_seconds\":%.6f,\"analysis_seconds\":%.6f,\"usable\":%s,\"estimate_changed\":%s,"
-               "\"poses\":%u,\"edges\":%u,\"unknowns\":%u,\"factor_nonzeros\":%u,"
-               "\"block_bytes\":%zu,\"block_bytes_per_pose\":%zu,\"block_bytes_per_edge\":%zu,"
-               "\"block_bytes_factor\":%zu,\"threads\":%u}\n",
+               "\"iterations\":%u,",
                pgem_method_name(args->method), pgem_error_name(status),
-               pgem_termination_name(summary->termination), summary->iterations,
-               summary->initial_chi2, summary->final_chi2, seconds, args->analysis_seconds,
+               pgem_termination_name(summary->termination), summary->iterations);
+        pgem_print_json_timing(summary->initial_chi2, summary->final_chi2, seconds,
+                               args->analysis_seconds);
+        printf(",\"usable\":%s,\"estimate_changed\":%s,"
+               "\"poses\":%u,\"edges\":%u,\"unknowns\":%u,\"factor_nonzeros\":%u,",
                summary->usable ? "true" : "false", summary->estimate_changed ? "true" : "false",
                pgem_pose_count(graph), pgem_edge_count(graph), summary->variables,
-               stats.factor_nonzeros, stats.block_bytes, parts.per_pose, parts.per_edge,
-               parts.factor, args->threads);
+               stats.factor_nonzeros);
+        pgem_print_json_block(&stats, &parts, args->threads);
         return;
     }
-    fprintf(out, "%s: %s after %u iterations; chi2 %.6f -> %.6f in %.4f s\n",
+    char initial[PGEM_CLI_NUMBER_MAX];
+    char final[PGEM_CLI_NUMBER_MAX];
+    fprintf(out, "%s: %s after %u iterations; chi2 %s -> %s in %.4f s\n",
             pgem_method_name(args->method), pgem_termination_name(summary->termination),
-            summary->iterations, summary->initial_chi2, summary->final_chi2, seconds);
+            summary->iterations, pgem_cli_number(initial, sizeof initial, summary->initial_chi2, 6),
+            pgem_cli_number(final, sizeof final, summary->final_chi2, 6), seconds);
     fprintf(out, "  %u unknowns, factor %u nonzeros, memory block %zu bytes%s\n",
             summary->variables, stats.factor_nonzeros, stats.block_bytes,
             summary->estimate_changed ? "" : ", estimate unchanged");
-    if (status != PGEM_OK) {
-        fprintf(out, "  failed: %s; the estimate is the one before the solve\n", pgem_last_error(graph));
+    if (status != PGEM_OK) { /* on stderr, as every error */
+        fprintf(stderr, "pgem: solve failed: %s; the estimate is the one before the solve\n",
+                pgem_last_error(graph));
     }
 }
 
@@ -363,9 +398,11 @@ static int pgem_round_line(const pgem_robust_progress_t *progress, void *user)
 {
     const pgem_optimize_progress_t *state = user;
     if (!state->quiet) {
-        fprintf(state->out, "round %3u: %6u active loops, %6u pruned, chi2 %14.6f, largest weight change %.3g, %.3f s\n",
-                progress->round, progress->active_loops, progress->pruned_loops, progress->chi2,
-                progress->largest_change, pgem_cli_now() - state->start);
+        char chi2[PGEM_CLI_NUMBER_MAX];
+        fprintf(state->out, "round %3u: %6u active loops, %6u pruned, chi2 %14s, largest weight change %.3g, %.3f s\n",
+                progress->round, progress->active_loops, progress->pruned_loops,
+                pgem_cli_number(chi2, sizeof chi2, progress->chi2, 6), progress->largest_change,
+                pgem_cli_now() - state->start);
         fflush(state->out);
     }
     return 0;
@@ -408,30 +445,41 @@ static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *arg
     pgem_block_parts(graph, stats.factor_budget, &parts);
     if (args->json) {
         printf("{\"input\":");
-        pgem_cli_json_string(args->input);
+        pgem_json_string(stdout, args->input);
         printf(",\"robust\":\"%s\",\"status\":\"%s\",\"outcome\":\"%s\",\"rounds\":%u,"
                "\"em_iterations\":%u,\"gn_iterations\":%u,\"loops\":%u,\"pruned\":%u,"
                "\"rejected\":%u,\"non_finite\":%u,\"readmitted\":%u,\"gated\":%u,"
-               "\"initial_chi2\":%.10g,\"final_chi2\":%.10g,\"final_chi2_with_rejected\":%.10g,"
-               "\"estimate_changed\":%s,"
-               "\"solve_seconds\":%.6f,\"analysis_seconds\":%.6f,\"usable\":%s,\"poses\":%u,\"edges\":%u,"
-               "\"analyses\":%u,\"factor_nonzeros\":%u,\"block_bytes\":%zu,"
-               "\"block_bytes_per_pose\":%zu,\"block_bytes_per_edge\":%zu,"
-               "\"block_bytes_factor\":%zu,\"threads\":%u}\n",
+               "\"initial_chi2\":",
                pgem_kernel_name(args->robust.kernel), pgem_error_name(status),
                pgem_robust_outcome_name(summary->outcome), summary->rounds,
                summary->em_iterations, summary->gn_iterations, summary->loops, summary->pruned,
-               summary->rejected, summary->non_finite, summary->readmitted, summary->gated,
-               summary->initial_chi2, summary->final_chi2, summary->final_chi2_all,
-               summary->estimate_changed ? "true" : "false", seconds, args->analysis_seconds, summary->usable ? "true" : "false", pgem_pose_count(graph),
-               pgem_edge_count(graph), stats.analyses, stats.factor_nonzeros, stats.block_bytes,
-               parts.per_pose, parts.per_edge, parts.factor, args->threads);
-    } else {
-        fprintf(out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures rejected (consistency test: %u re-admitted, %u pruned); chi2 %.6f -> %.6f (%.6f with the rejected loops) in %.4f s\n",
+               summary->rejected, summary->non_finite, summary->readmitted, summary->gated);
+        pgem_json_number(stdout, summary->initial_chi2, 10);
+        printf(",\"final_chi2\":");
+        pgem_json_number(stdout, summary->final_chi2, 10);
+        printf(",\"final_chi2_with_rejected\":");
+        pgem_json_number(stdout, summary->final_chi2_all, 10);
+        printf(",\"estimate_changed\":%s", summary->estimate_changed ? "true" : "false");
+        pgem_print_json_seconds(seconds, args->analysis_seconds);
+        printf(",\"usable\":%s,\"poses\":%u,\"edges\":%u,\"analyses\":%u,"
+               "\"factor_nonzeros\":%u,",
+               summary->usable ? "true" : "false", pgem_pose_count(graph),
+               pgem_edge_count(graph), stats.analyses, stats.factor_nonzeros);
+        pgem_print_json_block(&stats, &parts, args->threads);
+    } else if (status == PGEM_OK) {
+        char initial[PGEM_CLI_NUMBER_MAX];
+        char final[PGEM_CLI_NUMBER_MAX];
+        char all[PGEM_CLI_NUMBER_MAX];
+        fprintf(out, "%s: %u rounds, %u E/M iterations, %u GN iterations; %u of %u loop closures rejected (consistency test: %u re-admitted, %u pruned); chi2 %s -> %s (%s with the rejected loops) in %.4f s\n",
                 pgem_kernel_name(args->robust.kernel), summary->rounds, summary->em_iterations,
                 summary->gn_iterations, summary->rejected, summary->loops, summary->readmitted,
-                summary->gated, summary->initial_chi2, summary->final_chi2,
-                summary->final_chi2_all, seconds);
+                summary->gated, pgem_cli_number(initial, sizeof initial, summary->initial_chi2, 6),
+                pgem_cli_number(final, sizeof final, summary->final_chi2, 6),
+                pgem_cli_number(all, sizeof all, summary->final_chi2_all, 6), seconds);
+    } else { /* no rejected counts or final chi2 to report: the solve left nothing behind */
+        fprintf(out, "%s: failed after %u rounds, %u E/M iterations, %u GN iterations in %.4f s\n",
+                pgem_kernel_name(args->robust.kernel), summary->rounds, summary->em_iterations,
+                summary->gn_iterations, seconds);
     }
     if (status == PGEM_OK) {
         pgem_warn_outcome(graph, summary);

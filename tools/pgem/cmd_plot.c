@@ -132,7 +132,7 @@ static int plot_parse(int argc, char **argv, plot_args_t *args)
         }
         if (target != NULL) {
             *target = value;
-        } else if (!pgem_cli_parse_u32(arg, value, &args->width)) {
+        } else if (!pgem_cli_parse_u32("pgem", arg, value, &args->width)) {
             return PGEM_EXIT_USAGE;
         } else if (args->width < PLOT_MIN_WIDTH || args->width > PLOT_MAX_WIDTH) {
             fprintf(stderr, "pgem plot: --width takes %u to %u pixels, got %s\n",
@@ -475,11 +475,11 @@ static int plot_build(const plot_args_t *args, plot_figure_t *figure)
 
 static int plot_write(const plot_args_t *args, const plot_figure_t *figure)
 {
-    FILE *out = pgem_cli_create("pgem plot", args->output);
-    if (out == NULL) {
+    pgem_cli_file_t out;
+    if (pgem_cli_file_open(&out, "pgem plot", args->output) != 0) {
         return PGEM_EXIT_IO;
     }
-    return pgem_cli_finish("pgem plot", args->output, out, plot_write_svg(figure, out) != 0);
+    return pgem_cli_file_commit(&out, plot_write_svg(figure, out.stream) != 0);
 }
 
 int pgem_cmd_plot(int argc, char **argv)

@@ -107,7 +107,7 @@ static int sim_parse(int argc, char **argv, sim_args_t *args)
         } else if (strcmp(arg, "--poses") == 0) {
             ok = pgem_cli_parse_at_least("pgem simulate", arg, value, 2u, "poses", &args->poses);
         } else if (strcmp(arg, "--seed") == 0) {
-            ok = pgem_cli_parse_u32(arg, value, &args->seed);
+            ok = pgem_cli_parse_u32("pgem", arg, value, &args->seed);
         } else if (strcmp(arg, "--sigma-translation") == 0) {
             ok = pgem_cli_parse_number("pgem simulate", arg, value, 0, &args->sigma_translation);
         } else if (strcmp(arg, "--sigma-rotation") == 0) {

@@ -83,7 +83,7 @@ typedef struct stats {
     int level;                   /* 0 ok, else the worst stats_level_t of the reasons */
     size_t reason_count;
     stats_level_t reason_level[STATS_REASONS];
-    char reason[STATS_REASONS][128];
+    char reason[STATS_REASONS][256];
 } stats_t;
 
 static void stats_help(FILE *out)
@@ -500,6 +500,29 @@ static void stats_warnings(stats_t *s)
     }
 }
 
+/* What the file's own counts cannot show: the graph loaded as `pgem optimize` loads it, then
+ * the core's checks before a solve (pgem_check_solvable: an edge and a free pose, every part
+ * held, a finite chi2), so `stats` says problems wherever `optimize` would refuse. */
+static void stats_solvable(stats_t *s)
+{
+    const pgem_io_graph_t *g = s->graph;
+    char message[1024] = "";
+    pgem_t *instance = NULL;
+    if (g->pose_count > 0 && g->edge_count == 0) {
+        stats_reason(s, STATS_PROBLEM, "no edges: nothing to optimize");
+        return;
+    }
+    int status = pgem_cli_load_quietly(g, NULL, 1u, &instance, NULL, message, sizeof message);
+    if (status == PGEM_OK) {
+        status = pgem_check_solvable(instance);
+        snprintf(message, sizeof message, "%s", pgem_last_error(instance));
+    }
+    pgem_destroy(instance);
+    if (status != PGEM_OK) {
+        stats_reason(s, STATS_PROBLEM, "optimize would refuse it: %s", message);
+    }
+}
+
 /* Runs every check; returns PGEM_EXIT_OK or PGEM_EXIT_FAILURE when out of memory. */
 static int stats_measure(stats_t *s)
 {
@@ -526,6 +549,9 @@ static int stats_measure(stats_t *s)
         stats_duplicates(s, pairs);
         stats_isam_check(s);
         stats_problems(s);
+        if (s->level < STATS_PROBLEM) {
+            stats_solvable(s);
+        }
         stats_warnings(s);
     }
     free(ids);
@@ -738,7 +764,8 @@ static void stats_json_box(const char *key, const double *corner, int axes, int 
         return;
     }
     for (int a = 0; a < axes; a++) {
-        printf("%c%.10g", a == 0 ? '[' : ',', corner[a]);
+        putchar(a == 0 ? '[' : ',');
+        pgem_json_number(stdout, corner[a], 10);
     }
     printf("]");
 }
@@ -750,7 +777,7 @@ static void stats_json_reasons(const stats_t *s, const char *key, int warnings)
     for (size_t k = 0; k < s->reason_count; k++) {
         if ((s->reason_level[k] >= STATS_WARNING) == warnings) {
             printf("%s", separator);
-            pgem_cli_json_string(s->reason[k]);
+            pgem_json_string(stdout, s->reason[k]);
             separator = ",";
         }
     }
@@ -762,7 +789,7 @@ static void stats_print_json(const stats_t *s)
     const pgem_io_graph_t *g = s->graph;
     const int have = g->pose_count > 0;
     printf("{\"file\":");
-    pgem_cli_json_string(s->path);
+    pgem_json_string(stdout, s->path);
     printf(",\"dimension\":%d,\"poses\":%zu,\"edges\":%zu,\"odometry\":%zu,\"loops\":%zu,"
            "\"poses_without_vertex\":%zu,\"unknown_lines\":%zu,\"equiv_lines\":%zu,"
            "\"isam_like_edges\":%zu,\"fixed\":%zu",
@@ -776,11 +803,9 @@ static void stats_print_json(const stats_t *s)
     }
     printf(",\"id_gaps\":%zu,\"ids_missing\":%llu,\"degree_min\":%zu", s->id_gaps, s->id_missing,
            s->degree_min);
-    if (have) {
-        printf(",\"degree_mean\":%.10g", (double)s->degree_sum / (double)g->pose_count);
-    } else {
-        printf(",\"degree_mean\":null");
-    }
+    printf(",\"degree_mean\":");
+    pgem_json_number(stdout, have ? (double)s->degree_sum / (double)g->pose_count : (double)NAN,
+                     10);
     printf(",\"degree_max\":%zu,\"degree0\":%zu,\"degree1\":%zu", s->degree_max, s->degree0,
            s->degree1);
     stats_json_list("loop_leaves", &s->loop_leaves);
@@ -801,8 +826,9 @@ static void stats_print_json(const stats_t *s)
     printf(",\"information_ok\":%zu,\"information_asymmetric\":0,"
            "\"information_asymmetric_first\":[]", s->information_ok);
     stats_json_list("information_not_pd", &s->not_pd);
-    printf(",\"angles_out_of_range\":%zu,\"quaternions_off\":%zu,\"quaternion_error_max\":%.10g",
-           s->angles_out, s->quaternions_off + s->bad_quaternions.count, s->quaternion_error);
+    printf(",\"angles_out_of_range\":%zu,\"quaternions_off\":%zu,\"quaternion_error_max\":",
+           s->angles_out, s->quaternions_off + s->bad_quaternions.count);
+    pgem_json_number(stdout, s->quaternion_error, 10);
     stats_json_list("quaternions_refused", &s->bad_quaternions);
     int axes = g->dimension == 3 ? 3 : 2, box = have && s->low[0] <= s->high[0];
     stats_json_box("bbox_min", s->low, axes, box);

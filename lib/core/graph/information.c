@@ -1,4 +1,5 @@
-/* Validation of an information matrix: finite, symmetric and positive definite. */
+/* Validation of an information matrix: finite, within the magnitude limit, symmetric and
+ * positive definite. */
 #include <float.h>
 #include <math.h>
 
@@ -70,6 +71,12 @@ int pgem_information_check(const double *information, int n, int *entry)
             return PGEM_ERR_NOT_FINITE;
         }
     }
+    for (int k = 0; k < n * n; k++) {
+        if (!(fabs(information[k]) <= PGEM_INFORMATION_LIMIT)) {
+            *where = k;
+            return PGEM_ERR_OUT_OF_RANGE;
+        }
+    }
     const double largest = pgem_largest_magnitude(information, n);
     for (int i = 0; i < n; i++) {
         for (int j = i + 1; j < n; j++) {
@@ -97,6 +104,10 @@ int pgem_check_information(pgem_t *graph, const double *information)
     if (status == PGEM_ERR_NOT_FINITE) {
         pgem_message_entry(graph, at);
         pgem_message_text(graph, " is not finite");
+    } else if (status == PGEM_ERR_OUT_OF_RANGE) {
+        pgem_message_entry(graph, at);
+        pgem_message_text(graph, " is beyond the information limit (|entry| at most 1e15, "
+                                 "PGEM_INFORMATION_LIMIT)");
     } else if (at.row != at.column) {
         pgem_message_entry(graph, at);
         pgem_message_text(graph, " differs from ");

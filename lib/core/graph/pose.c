@@ -8,31 +8,68 @@
 static const char *const pgem_pose_fields[2][PGEM_POSE_SIZE_MAX] = {
     {"x", "y", "theta", "", "", "", ""}, {"x", "y", "z", "qx", "qy", "qz", "qw"}};
 
+/* The norm of a quaternion, left as it is. */
+static double pgem_quat_norm(const double *q)
+{
+    double copy[4] = {q[0], q[1], q[2], q[3]};
+    return pgem_quat_normalize(copy);
+}
+
+int pgem_pose_check(const double *pose, int dimension, int *field)
+{
+    int unused = -1;
+    int *where = field != NULL ? field : &unused;
+    *where = -1;
+    if (pose == NULL || (dimension != 2 && dimension != 3)) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    const int size = PGEM_POSE_SIZE(dimension);
+    for (int k = 0; k < size; k++) {
+        if (!isfinite(pose[k])) {
+            *where = k;
+            return PGEM_ERR_NOT_FINITE;
+        }
+    }
+    for (int k = 0; k < dimension; k++) { /* x, y (and z) */
+        if (!(fabs(pose[k]) <= PGEM_TRANSLATION_LIMIT)) {
+            *where = k;
+            return PGEM_ERR_OUT_OF_RANGE;
+        }
+    }
+    /* The norm of finite components can overflow: then it is not within tolerance either. */
+    if (dimension == 3 && !(fabs(pgem_quat_norm(pose + 3) - 1.0) <= PGEM_QUAT_NORM_TOLERANCE)) {
+        *where = 3;
+        return PGEM_ERR_ROTATION;
+    }
+    return PGEM_OK;
+}
+
 int pgem_check_pose(pgem_t *graph, const double *pose, double *normalised, const char *what)
 {
     const char *const *fields = pgem_pose_fields[graph->config.dimension == 3];
-    for (int k = 0; k < graph->pose_size; k++) {
-        if (!isfinite(pose[k])) {
-            pgem_message_clear(graph);
-            pgem_message_text(graph, what);
-            pgem_message_text(graph, ": field ");
-            pgem_message_text(graph, fields[k]);
-            pgem_message_text(graph, " is not finite");
-            return PGEM_ERR_NOT_FINITE;
+    int field = -1;
+    int status = pgem_pose_check(pose, graph->config.dimension, &field);
+    if (status != PGEM_OK) {
+        pgem_message_clear(graph);
+        pgem_message_text(graph, what);
+        if (status == PGEM_ERR_ROTATION) {
+            pgem_message_text(graph, ": quaternion (qx qy qz qw) norm is not within 1% of 1");
+            return status;
         }
-        normalised[k] = pose[k];
+        pgem_message_text(graph, ": field ");
+        pgem_message_text(graph, fields[field > 0 ? field : 0]); /* set with these codes */
+        pgem_message_text(graph, status == PGEM_ERR_NOT_FINITE
+                                     ? " is not finite"
+                                     : " is beyond the translation limit (|x|, |y|, |z| at most "
+                                       "1e8 m, PGEM_TRANSLATION_LIMIT)");
+        return status;
     }
+    memcpy(normalised, pose, (size_t)graph->pose_size * sizeof(double));
     if (graph->config.dimension == 2) {
         normalised[2] = pgem_wrap_angle(pose[2]);
         return PGEM_OK;
     }
-    double norm = pgem_quat_normalize(normalised + 3);
-    if (!(fabs(norm - 1.0) <= PGEM_QUAT_NORM_TOLERANCE)) {
-        pgem_message_clear(graph);
-        pgem_message_text(graph, what);
-        pgem_message_text(graph, ": quaternion (qx qy qz qw) norm is not within 1% of 1");
-        return PGEM_ERR_ROTATION;
-    }
+    pgem_quat_normalize(normalised + 3);
     return PGEM_OK;
 }
 

@@ -270,7 +270,7 @@ static uint32_t pgem_gate(pgem_t *graph, const pgem_robust_options_t *options, d
                           pgem_robust_summary_t *summary)
 {
     uint32_t changed = 0;
-    pgem_em_distances(graph, options, 1);
+    pgem_em_distances(graph, options, 1, gate);
     for (uint32_t k = 0; k < graph->edge_count; k++) {
         if (graph->edge_kind[k] != PGEM_EDGE_LOOP) {
             continue;

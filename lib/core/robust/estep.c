@@ -52,20 +52,23 @@ static void pgem_loop_distance(pgem_t *graph, const pgem_robust_options_t *optio
     }
 }
 
+/* edge_checked while a pruned loop waits for its solve with L. */
+#define PGEM_CHECK_PENDING 2
+
 static int pgem_selected(const pgem_t *graph, uint32_t k, int with_pruned)
 {
     return graph->edge_kind[k] == PGEM_EDGE_LOOP &&
            (with_pruned || graph->edge_active[k] != PGEM_EDGE_PRUNED);
 }
 
-void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int gating)
+void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int gating,
+                       double gate)
 {
-    const int with_pruned = gating;
     const int innovation = options->distance == PGEM_DISTANCE_INNOVATION &&
                            pgem_factor_current(graph) == PGEM_OK;
-    uint32_t on_pattern = 0;
+    uint32_t on_pattern = 0, off_pattern = 0;
     for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (!pgem_selected(graph, k, with_pruned)) {
+        if (!pgem_selected(graph, k, gating)) {
             continue;
         }
         if (!innovation) { /* the point distance, or a singular problem: no covariance */
@@ -74,16 +77,36 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int 
         } else if (pgem_on_pattern(graph, k)) {
             on_pattern++;
         } else {
-            pgem_loop_distance(graph, options, k, gating, 0); /* solves with L: before the inverse */
+            off_pattern++;
         }
     }
-    if (on_pattern == 0u) {
+    if (!innovation || on_pattern + off_pattern == 0u) {
         return;
     }
     pgem_linear_invert(graph);
+    uint32_t unsure = 0;
     for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (pgem_selected(graph, k, with_pruned) && pgem_on_pattern(graph, k)) {
+        if (!pgem_selected(graph, k, gating)) {
+            continue;
+        }
+        if (pgem_on_pattern(graph, k)) {
             pgem_loop_distance(graph, options, k, gating, 1);
+            continue;
+        }
+        /* a pruned loop off the pattern: a solve with L along its poses' paths, unless bounds
+         * from the inverse's diagonal blocks already decide the test */
+        double distance = 0.0;
+        const int screened = pgem_loop_screen(graph, k, options->odometry_inflation, gate, &distance);
+        graph->edge_distance[k] = distance;
+        graph->edge_checked[k] = screened == 0 ? PGEM_CHECK_PENDING : 0;
+        unsure += (uint32_t)(screened == 0);
+    }
+    if (unsure == 0u || pgem_linear_factor(graph) != PGEM_OK) {
+        return; /* (the factor was fine before the inverse: it cannot fail now) */
+    }
+    for (uint32_t k = 0; k < graph->edge_count; k++) {
+        if (graph->edge_kind[k] == PGEM_EDGE_LOOP && graph->edge_checked[k] == PGEM_CHECK_PENDING) {
+            pgem_loop_distance(graph, options, k, gating, 0);
         }
     }
 }
@@ -91,7 +114,7 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int 
 double pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options)
 {
     double largest = 0.0;
-    pgem_em_distances(graph, options, 0);
+    pgem_em_distances(graph, options, 0, 0.0);
     for (uint32_t k = 0; k < graph->edge_count; k++) {
         if (graph->edge_kind[k] != PGEM_EDGE_LOOP || graph->edge_active[k] == PGEM_EDGE_PRUNED) {
             continue;

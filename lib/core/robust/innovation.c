@@ -197,3 +197,66 @@ void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double infla
     }
     out->rotation_sd = pgem_rotation_sd(n, upper, mu0, vectors);
 }
+
+/* p^T (I + m)^-1 p for a symmetric positive semi-definite n x n m, by Cholesky of I + m. */
+static double pgem_shifted_form(int n, const double *m, const double *p)
+{
+    double l[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double y[PGEM_TANGENT_SIZE_MAX] = {0};
+    for (int j = 0; j < n; j++) {
+        for (int i = j; i < n; i++) {
+            double sum = m[i * n + j] + (i == j ? 1.0 : 0.0);
+            for (int c = 0; c < j; c++) {
+                sum -= l[i * n + c] * l[j * n + c];
+            }
+            l[i * n + j] = i == j ? sqrt(sum > 1.0 ? sum : 1.0) : sum / l[j * n + j];
+        }
+    }
+    double form = 0.0;
+    for (int i = 0; i < n; i++) {
+        double sum = p[i];
+        for (int c = 0; c < i; c++) {
+            sum -= l[i * n + c] * y[c];
+        }
+        y[i] = sum / l[i * n + i];
+        form += y[i] * y[i];
+    }
+    return form;
+}
+
+int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, double *distance)
+{
+    const int n = graph->tangent;
+    double e[PGEM_TANGENT_SIZE_MAX] = {0}, predicted[PGEM_TANGENT_SIZE_MAX] = {0};
+    double jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double upper[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double a_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    pgem_edge_error(graph, k, e, jf, jt);
+    pgem_information_root(graph->edge_information + (size_t)k * (size_t)(n * n), n, upper);
+    pgem_upper_times(upper, jf, n, a_from);
+    pgem_upper_times(upper, jt, n, a_to);
+    pgem_predicted_error(graph, k, upper, e, a_from, a_to, predicted);
+    const double chi2 = pgem_edge_mahalanobis(graph, k);
+    double norm = 0.0;
+    for (int r = 0; r < n; r++) {
+        norm += predicted[r] * predicted[r];
+    }
+    if (chi2 < gate && norm < gate) {
+        *distance = chi2 > norm ? chi2 : norm; /* the innovation is at most the norm */
+        return 1;
+    }
+    /* A H^-1 A^T <= 2 (A_f Z_ff A_f^T + A_t Z_tt A_t^T), and the allowance at most kappa */
+    pgem_linear_marginal_diagonal(graph, graph->edge_from[k], graph->edge_to[k], a_from, a_to, m);
+    for (int q = 0; q < n * n; q++) {
+        m[q] *= 2.0 * inflation;
+    }
+    const double lower = pgem_shifted_form(n, m, predicted);
+    if (chi2 >= gate && lower >= gate) {
+        *distance = lower;
+        return -1;
+    }
+    return 0;
+}

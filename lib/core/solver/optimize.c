@@ -41,6 +41,25 @@ int pgem_analyze(pgem_t *graph)
     return pgem_linear_analyze(graph);
 }
 
+int pgem_check_solvable(pgem_t *graph)
+{
+    if (graph == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    int status = pgem_analyze(graph);
+    if (status == PGEM_OK) {
+        status = pgem_linear_check_parts(graph);
+    }
+    if (status == PGEM_OK && !isfinite(pgem_total_chi2(graph))) {
+        status = pgem_fail(graph, PGEM_ERR_NUMERIC, "the chi2 at the current estimate is not "
+                                                    "finite");
+    }
+    if (status == PGEM_OK) {
+        pgem_message_clear(graph);
+    }
+    return status;
+}
+
 static pgem_termination_t pgem_failure_termination(int status)
 {
     switch (status) {
@@ -53,6 +72,27 @@ static pgem_termination_t pgem_failure_termination(int status)
     default:
         return PGEM_TERM_NONE;
     }
+}
+
+/* A solve that moved a pose past the translation limit has diverged (no well-posed graph within
+ * the input limits has its optimum 1e8 m away); keeping it would leave the instance holding
+ * what it refuses as input, and a written result that does not read back. */
+static int pgem_check_solved_poses(pgem_t *graph)
+{
+    for (uint32_t p = 0; p < graph->pose_count; p++) {
+        const double *pose = graph->pose + (size_t)p * (size_t)graph->pose_size;
+        for (int k = 0; k < graph->config.dimension; k++) {
+            if (!(fabs(pose[k]) <= PGEM_TRANSLATION_LIMIT)) {
+                pgem_message_clear(graph);
+                pgem_message_text(graph, "the solve diverged: it moved pose ");
+                pgem_message_u64(graph, graph->pose_id[p]);
+                pgem_message_text(graph, " beyond the translation limit (1e8 m, "
+                                         "PGEM_TRANSLATION_LIMIT)");
+                return PGEM_ERR_NUMERIC;
+            }
+        }
+    }
+    return PGEM_OK;
 }
 
 static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary)
@@ -74,6 +114,9 @@ static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_sum
                  ? pgem_levenberg_marquardt(graph, options, summary)
                  : pgem_gauss_newton(graph, options, summary);
     graph->linear.progress = NULL;
+    if (status == PGEM_OK && (status = pgem_check_solved_poses(graph)) != PGEM_OK) {
+        summary->termination = PGEM_TERM_NUMERIC;
+    }
     if (status != PGEM_OK) {
         memcpy(graph->pose, graph->pose_saved, pose_bytes);
         if (summary->termination == PGEM_TERM_NONE) {
