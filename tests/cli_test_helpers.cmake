@@ -117,14 +117,20 @@ endfunction()
 
 # block_adds_up(<name> <json>): an `optimize --json` summary's block is its poses and edges at
 # block_bytes_per_pose and block_bytes_per_edge, plus block_bytes_factor, plus a rest (the
-# instance, the id map of at most 16 bytes per pose, alignment) that is neither negative nor
-# larger than 16 bytes per pose and 16 KiB.
+# instance, the id map of at most 16 bytes per pose, alignment, and the factorisation's dense
+# workspaces where a small instance gets their floor of 32 KiB per worker rather than their
+# per-pose share) that is neither negative nor larger than 16 bytes per pose, 16 KiB and
+# 32 KiB per thread.
 function(block_adds_up name json)
   foreach(key poses edges block_bytes block_bytes_per_pose block_bytes_per_edge block_bytes_factor)
     json_value("${json}" ${key} ${key})
   endforeach()
+  json_value("${json}" threads threads)
+  if(NOT threads)
+    set(threads 1)
+  endif()
   math(EXPR rest "${block_bytes} - ${poses} * ${block_bytes_per_pose} - ${edges} * ${block_bytes_per_edge} - ${block_bytes_factor}")
-  math(EXPR most "16 * ${poses} + 16384")
+  math(EXPR most "16 * ${poses} + 16384 + 32768 * ${threads}")
   if(block_bytes_per_pose LESS 100 OR block_bytes_per_edge LESS 100 OR block_bytes_factor LESS 8
      OR rest LESS 0 OR rest GREATER most)
     fail("${name}: block ${block_bytes} = ${poses} poses x ${block_bytes_per_pose} + ${edges} edges x ${block_bytes_per_edge} + factor ${block_bytes_factor} + rest ${rest} (expected 0 .. ${most})")

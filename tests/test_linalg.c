@@ -165,6 +165,8 @@ static void check_inverse(int dimension, uint32_t poses, uint32_t loops, uint64_
     pgem_t *graph = random_graph(dimension, poses, loops, seed);
     const int count = factor(graph);
     const int b = graph->linear.block;
+    /* supernodes of several columns: the inverse and the solves read across them */
+    assert_true(graph->linear.factor.super_count < graph->linear.block_count);
     dense_h(graph, h);
     dense_inverse(h, count);
     const double scale = largest_magnitude(h, count * count);
@@ -183,15 +185,14 @@ static void check_inverse(int dimension, uint32_t poses, uint32_t loops, uint64_
     pgem_linear_invert(graph);
     const pgem_linear_t *linear = &graph->linear;
     for (int column = 0; column < linear->block_count; column++) {
+        const pgem_factor_column_t view = pgem_factor_column_view(&linear->factor, column);
         for (int c = 0; c < b; c++) {
-            const double *values = linear->factor_values + linear->factor_colptr[column * b + c];
+            const double *values = view.base[c];
             for (int r = c; r < b; r++) {
                 assert_near(values[r - c], h[(column * b + r) * count + column * b + c], 1e-7 * scale);
             }
-            const int first = linear->factor_block_colptr[column];
-            const int blocks = linear->factor_block_colptr[column + 1] - first;
-            for (int q = 0; q < blocks; q++) {
-                const int row = linear->factor_block_rows[first + q];
+            for (int q = 0; q < view.count; q++) {
+                const int row = pgem_factor_column_row(&view, column, q);
                 for (int r = 0; r < b; r++) {
                     assert_near(values[(b - c) + q * b + r], h[(row * b + r) * count + column * b + c],
                                 1e-7 * scale);

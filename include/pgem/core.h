@@ -26,6 +26,8 @@ extern "C" {
 /** Largest capacities accepted (indices are 32-bit inside the core). */
 #define PGEM_MAX_POSES_LIMIT 4000000u
 #define PGEM_MAX_EDGES_LIMIT 16000000u
+/** Most workers a factorisation can use (config.threads). */
+#define PGEM_MAX_THREADS 64u
 
 /** One configuration decides every size; a zeroed config means defaults. */
 typedef struct pgem_config {
@@ -37,6 +39,11 @@ typedef struct pgem_config {
                               with b = 3 (2D) or 6 (3D).
                               A graph whose factor needs more fails to optimize with
                               PGEM_ERR_FILL_BUDGET and the message gives the number needed. */
+    uint32_t threads;      /**< workers a factorisation can use, 1 .. PGEM_MAX_THREADS; 0 means
+                              1. Each has its own workspace in the block; the threads
+                              themselves come from an executor (pgem_set_executor), e.g. the
+                              hosted thread pool (pgem/threads.h). Results are bit-identical
+                              for any number of workers. */
 } pgem_config_t;
 
 /** An instance: lives entirely inside the caller's memory block. Opaque. */
@@ -50,18 +57,50 @@ int pgem_config_resolve(const pgem_config_t *config, pgem_config_t *resolved);
  * used at any alignment. */
 size_t pgem_memory_size(const pgem_config_t *config);
 
-/** A compile-time upper bound of pgem_memory_size() for explicit capacities (none 0), for
- * static blocks: `static unsigned char block[PGEM_MEMORY_BOUND(2, 500, 600, 16000)];`.
- * Per pose 437 bytes in 2D (997 in 3D), per edge 249 (713), per factor nonzero 8 plus 4 per
- * b x b block (b = 3 or 6), and 2144 for the instance itself and alignment. It includes
- * CSparse's pool of the source-built mode (56 bytes per pose, 24 per edge), so it holds for
- * both modes, on 32- and 64-bit machines; the id map's power-of-two size makes it exceed the
- * exact figure by up to 8 bytes per pose. */
+/** A compile-time upper bound of pgem_memory_size() for explicit capacities (none 0) and one
+ * worker (threads 0 or 1), for static blocks:
+ * `static unsigned char block[PGEM_MEMORY_BOUND(2, 500, 600, 16000)];`.
+ * Per pose 357 bytes in 2D (677 in 3D), per edge 237 (701), per factor nonzero 8 plus 4 per
+ * b x b block (b = 3 or 6), the region the analysis's scratch, the factorisation's dense
+ * workspace and the solves' vectors share (PGEM_SHARED_BYTES) and 2400 for the instance
+ * itself and alignment. It includes CSparse's pool of the source-built mode (56 bytes per
+ * pose, 24 per edge), so it holds for both modes, on 32- and 64-bit machines; the id map's
+ * power-of-two size makes it exceed the exact figure by up to 8 bytes per pose. */
 #define PGEM_MEMORY_BOUND(dimension, max_poses, max_edges, fill_budget)               \
-    ((size_t)(max_poses) * ((dimension) == 3 ? 997u : 437u) +                         \
-     (size_t)(max_edges) * ((dimension) == 3 ? 713u : 249u) +                         \
+    ((size_t)(max_poses) * ((dimension) == 3 ? 677u : 357u) +                         \
+     (size_t)(max_edges) * ((dimension) == 3 ? 701u : 237u) +                         \
      (size_t)(fill_budget) * 8u + (size_t)(fill_budget) / ((dimension) == 3 ? 36u : 9u) * 4u + \
-     2144u)
+     PGEM_SHARED_BYTES(dimension, max_poses, max_edges) + 2400u)
+
+/** Bytes of the shared region: the most of the analysis's scratch (12 per edge, 16 per pose),
+ * the first worker's dense workspace (PGEM_WORK_BYTES) and one pose block of doubles per pose
+ * (72 bytes in 2D, 288 in 3D: the solves after a factorisation). */
+#define PGEM_SHARED_BYTES(dimension, max_poses, max_edges)                                  \
+    PGEM_WORK_MAX_(PGEM_WORK_MAX_((size_t)(max_edges) * 12u + (size_t)(max_poses) * 16u + 24u, \
+                                  PGEM_WORK_BYTES(dimension, max_poses)),                   \
+                   (size_t)(max_poses) * ((dimension) == 3 ? 288u : 72u))
+
+/** PGEM_MEMORY_BOUND for `threads` workers: each one past the first adds its own map of the
+ * block rows (4 bytes per pose) and a smaller dense workspace. */
+#define PGEM_MEMORY_BOUND_THREADS(dimension, max_poses, max_edges, fill_budget, threads)   \
+    (PGEM_MEMORY_BOUND(dimension, max_poses, max_edges, fill_budget) +                       \
+     ((size_t)(threads) > 1u ? (size_t)(threads) - 1u : 0u) *                                \
+         ((size_t)(max_poses) * 4u + PGEM_WORK_BYTES_(dimension, max_poses, 8u) + 64u))
+
+/** Bytes of the first worker's dense workspace: half a pose block of doubles per pose
+ * (b x b / 2; an eighth for the other workers), at least 32 doubles per column of a product of
+ * min(128, unknowns) columns, at most 49152 doubles (384 KiB). */
+#define PGEM_WORK_BYTES(dimension, max_poses) PGEM_WORK_BYTES_(dimension, max_poses, 2u)
+#define PGEM_WORK_BYTES_(dimension, max_poses, share)                                        \
+    (8u * PGEM_WORK_CLAMP_(PGEM_WORK_SHARE_(dimension, max_poses, share),                    \
+                           32u * PGEM_WORK_MIN_(PGEM_WORK_UNKNOWNS_(dimension, max_poses), 128u)))
+#define PGEM_WORK_UNKNOWNS_(dimension, max_poses) ((size_t)(max_poses) * ((dimension) == 3 ? 6u : 3u))
+#define PGEM_WORK_SHARE_(dimension, max_poses, share) \
+    (PGEM_WORK_UNKNOWNS_(dimension, max_poses) * ((dimension) == 3 ? 6u : 3u) / (share))
+#define PGEM_WORK_MIN_(a, b) ((a) < (b) ? (a) : (b))
+#define PGEM_WORK_MAX_(a, b) ((a) > (b) ? (a) : (b))
+#define PGEM_WORK_CLAMP_(share, least) \
+    PGEM_WORK_MIN_((share) < (least) ? (least) : (share), (size_t)49152u)
 
 /** Initialises an instance inside buffer (size bytes, at least pgem_memory_size(config)).
  * On success *instance points into buffer; nothing is allocated, now or later (with the
@@ -90,6 +129,36 @@ const pgem_config_t *pgem_get_config(const pgem_t *instance);
 /** The message of the last failed call on this instance ("" if none): names the ids, the
  * field or the number that was wrong. Valid until the next call on the instance. */
 const char *pgem_last_error(const pgem_t *instance);
+
+/** Work a factorisation hands to several threads: called once for every worker 0 ..
+ * workers-1 with that worker's number. */
+typedef void (*pgem_task_fn)(void *context, uint32_t worker);
+
+/** Runs tasks on threads the caller owns. run(executor, task, context) must call
+ * task(context, w) once for every w in 0 .. workers-1, concurrently, and return when all have
+ * returned (it may run worker 0 on the calling thread). The core never creates threads: a
+ * hosted program uses the thread pool of pgem/threads.h (threads created once, at its
+ * creation), firmware passes none and runs on one. */
+typedef struct pgem_executor {
+    void (*run)(void *executor, pgem_task_fn task, void *context);
+    void *executor;    /**< passed to run */
+    uint32_t workers;  /**< workers run serves, 1 .. config.threads */
+} pgem_executor_t;
+
+/** Lets the instance's factorisations run on executor (copied; NULL: one thread, the caller's).
+ * executor->workers may not exceed config.threads (the workers the block holds workspace
+ * for). The results are bit-identical for every number of workers. Errors: INVALID_ARGUMENT
+ * (no run function, 0 workers or more than config.threads; the executor is left as it was). */
+int pgem_set_executor(pgem_t *instance, const pgem_executor_t *executor);
+
+/** Copies the poses (estimates, held flags), edges (with their robust weights and states) of
+ * `from` into `to`, an instance of the same dimension with no poses yet and room for them,
+ * and hands over from's fill-reducing ordering when from was analysed for the graph it holds,
+ * so to's first analysis does not order again (the result is the same as ordering anew). The
+ * use: size a block exactly - analyse in an instance of any fill budget (PGEM_ERR_FILL_BUDGET
+ * still reports the nonzeros needed in pgem_get_memory_stats), init a block of exactly that
+ * budget, copy. Errors: INVALID_ARGUMENT, DIMENSION, CAPACITY (nothing copied). */
+int pgem_copy(pgem_t *to, const pgem_t *from);
 
 /** Memory diagnostics of an instance. */
 typedef struct pgem_memory_stats {

@@ -139,6 +139,7 @@ struct Config {
     std::uint32_t max_edges = 0;   /**< edge capacity; 0 means 4 * max_poses */
     std::uint32_t fill_budget = 0; /**< nonzeros reserved for the Cholesky factor (12 bytes
                                         each); 0 means 32 * b * b * max_poses, b = 3 or 6 */
+    std::uint32_t threads = 0;     /**< workers a factorisation can use (pgem_config_t); 0 means 1 */
 };
 
 /**
@@ -592,6 +593,7 @@ class Graph {
         out.max_poses = config.max_poses;
         out.max_edges = config.max_edges;
         out.fill_budget = config.fill_budget;
+        out.threads = config.threads;
         return out;
     }
 

@@ -41,6 +41,18 @@ typedef struct pgem_iteration {
 /** Called after every iteration; return non-zero to stop (PGEM_TERM_STOPPED). */
 typedef int (*pgem_iteration_fn)(const pgem_iteration_t *iteration, void *user);
 
+/** What the progress callback sees during a long factorisation. */
+typedef struct pgem_progress {
+    uint32_t iteration;    /**< the iteration under way: 1, 2, ... */
+    double done;           /**< fraction of its factorisation done, 0 .. 1, by multiply-adds
+                                (an estimate while several workers share it) */
+    double multiply_adds;  /**< multiply-adds of one factorisation */
+} pgem_progress_t;
+
+/** Called from the solving thread about every 1/64 of a factorisation of at least 1e8
+ * multiply-adds (some 10 ms and up), so a host can show progress; the core reads no clock. */
+typedef void (*pgem_progress_fn)(const pgem_progress_t *progress, void *user);
+
 /** Solver options; a zeroed struct means the documented defaults. */
 typedef struct pgem_solve_options {
     pgem_method_t method;            /**< default Gauss-Newton */
@@ -52,7 +64,8 @@ typedef struct pgem_solve_options {
     double initial_lambda;           /**< LM: first damping (relative to the largest diagonal
                                         entry of H); 0 means 1e-5 */
     pgem_iteration_fn on_iteration;  /**< may be NULL */
-    void *user;                      /**< passed to on_iteration */
+    void *user;                      /**< passed to on_iteration and on_progress */
+    pgem_progress_fn on_progress;    /**< may be NULL */
 } pgem_solve_options_t;
 
 /** What a solve did. */

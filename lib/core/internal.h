@@ -8,6 +8,7 @@
 #include "pgem/pgem.h"
 #include "pgem/robust.h"
 #include "pgem_cs.h"
+#include "linalg/factor.h"
 
 #define PGEM_MESSAGE_SIZE 256
 
@@ -60,6 +61,9 @@ void pgem_cs_close(pgem_cs_pool_t *pool);
 /* Sparse structure and numeric workspace of the normal equations H dx = -b. */
 typedef struct pgem_linear {
     int valid;                 /* 1 while the structure matches the graph's topology */
+    int ordered;               /* 1 while pose_block holds a fill-reducing ordering of the
+                                  graph's topology (kept when an analysis fails on the fill
+                                  budget, handed over by pgem_copy) */
     int all_edges;             /* 1: the structure also holds pruned (inactive) edges, the
                                   fallback when leaving them out would need more fill */
     int block;             /* scalar size of a pose block: 3 (2D) or 6 (3D) */
@@ -67,39 +71,41 @@ typedef struct pgem_linear {
     int scalar_count;      /* block_count * block */
     int *pose_block;       /* [max_poses] pose index -> permuted block, -1 if held fixed */
     int *edge_offset;      /* [max_edges] offset of the edge's off-diagonal block inside
-                                  its scalar column, -1 if the edge touches a fixed pose */
+                                  its scalar column's off-diagonal part, -1 if the edge
+                                  touches a fixed pose */
     uint8_t *edge_transposed;  /* [max_edges] 1 if the stored block is H_ji, not H_ij */
-    int *block_colptr;     /* [max_poses + 1] block pattern of H (upper, permuted) */
+    int *block_colptr;     /* [max_poses + 1] block pattern of H (strictly lower, permuted) */
     int *block_rows;       /* [max_edges] block row indices of that pattern */
-    int *block_parent;     /* [max_poses] elimination tree of the block pattern */
+    int *block_parent;     /* [max_poses] elimination tree of the block pattern (postordered) */
     int *scratch;          /* [3 * max_edges + 4 * max_poses + 4] symbolic workspace */
-    int *upper_colptr;     /* [max_poses * block + 1] permuted upper triangle of H, scalar
-                                  CSC column pointers; the rows are implied by the block
+    int *lower_start;      /* [max_poses + 1] permuted lower triangle of H: first value of
+                                  each block column (its scalar columns follow each other, see
+                                  pgem_lower_column); the rows are implied by the block
                                   pattern (see linalg/analyze.c), so only values are stored */
-    double *upper_values;      /* [max_edges * b^2 + max_poses * b(b+1)/2] refilled every
+    double *lower_values;      /* [max_edges * b^2 + max_poses * b(b+1)/2] refilled every
                                   iteration */
-    int *factor_colptr;    /* [max_poses * block + 1] L's scalar columns: in column J*b+c
-                                  the diagonal block's rows c..b-1, then b rows for each
-                                  off-diagonal block in factor_block_rows order */
-    int *factor_block_colptr; /* [max_poses + 1] block column J's off-diagonal blocks start
-                                  at factor_block_rows[factor_block_colptr[J]] */
-    int *factor_block_rows; /* [fill_budget / b^2 + 1] block row of each off-diagonal block
-                                  (one index per b x b block, not per scalar) */
-    double *factor_values;     /* [fill_budget] */
-    int factor_nonzeros;   /* nonzeros of L for the current structure */
-    int *reach_stack;      /* [max_poses] cs_ereach output (block rows) */
-    int *reach_mark;       /* [max_poses] cs_ereach marks (restored after each call) */
-    int *fill_next;        /* [max_poses] off-diagonal blocks filled so far per block
-                                  column of L during a factorisation */
-    double *block_work;        /* [max_poses * block * block] one b x b accumulator per
-                                  block row of the factorisation */
+    pgem_factor_t factor;      /* L, supernodal (linalg/factor.h) */
+    const pgem_dense_ops_t *dense; /* the dense kernels this CPU runs (linalg/dense.h) */
     double *rhs;               /* [max_poses * block] -b in permuted order, then the step */
     double *diagonal;          /* [max_poses * block] diagonal of H (LM damping) */
     double *gradient;          /* [max_poses * block] copy of -b kept across LM retries */
     uint32_t analyses;         /* symbolic analyses run so far */
     uint32_t left_out;         /* couplings the last assembly left out of the structure */
     pgem_cs_pool_t cs_pool;    /* CSparse's workspace during analyses */
+    const pgem_solve_options_t *progress; /* the running solve's options (its on_progress),
+                                  NULL outside a solve */
+    uint32_t progress_iteration; /* the iteration the next factorisation belongs to */
 } pgem_linear_t;
+
+/* First value of scalar column c of block column `block` of H's lower triangle: each of the
+ * block's scalar columns holds its diagonal block's rows c .. b-1, then b rows per
+ * off-diagonal block in block_rows order. */
+static inline int pgem_lower_column(const pgem_linear_t *linear, int block, int c)
+{
+    const int b = linear->block;
+    const int off_diagonal = (linear->block_colptr[block + 1] - linear->block_colptr[block]) * b;
+    return linear->lower_start[block] + c * (b + off_diagonal) - c * (c - 1) / 2;
+}
 
 /* States of an edge (edge_active). A dormant loop closure (EM weight below the prune
  * threshold) stays in the problem with its weight, but H's structure is not built for it: its
@@ -144,6 +150,7 @@ struct pgem {
     uint8_t *edge_checked;     /* [max_edges] 1 if the map predicted the loop (innovation) */
 
     pgem_linear_t linear;      /* normal equations */
+    pgem_executor_t executor;  /* threads of the factorisation (run NULL: the caller's only) */
     char message[PGEM_MESSAGE_SIZE]; /* last error message */
 };
 
@@ -212,6 +219,9 @@ static inline int pgem_edge_blocks(const pgem_t *graph, uint32_t k, int *a, int 
 int pgem_pattern_number_free(pgem_t *graph);
 int pgem_pattern_order(pgem_t *graph, int block_count);
 void pgem_pattern_build(pgem_t *graph, int block_count, int *colptr, int *rows, int *work);
+/* The transpose of a block pattern (block_count columns, rows sorted): sorted rows again. */
+void pgem_pattern_transpose(int block_count, const int *colptr, const int *rows, int *out_colptr,
+                            int *out_rows);
 
 /* Linear layer. */
 int pgem_linear_analyze(pgem_t *graph);

@@ -75,6 +75,13 @@ size_t io_split(char *text, char **fields, size_t capacity);
 /* tokens.c: a whole unsigned decimal token (no sign, no overflow). 0 on success, -1 if not. */
 int io_parse_id(const char *token, pgem_id_t *id);
 /* tokens.c: a whole number token. */
+/* numbers.c: strtod's contract (value, end pointer, errno) for every input, plain decimals
+ * parsed exactly and fast. */
+double io_strtod(const char *text, char **end);
+/* numbers.c: the shortest text that strtod reads back to value's bits (up to 24 bytes and a
+ * NUL into out, which holds IO_NUMBER_TEXT); returns its length. */
+#define IO_NUMBER_TEXT 32
+size_t io_format_double(double value, char *out);
 #define IO_NUMBER_OK 0
 #define IO_NUMBER_INVALID 1
 #define IO_NUMBER_NOT_FINITE 2

@@ -60,7 +60,7 @@ int io_parse_number(const char *token, double *value)
     char *end = NULL;
     double parsed;
     errno = 0;
-    parsed = strtod(token, &end);
+    parsed = io_strtod(token, &end);
     if (end == token || *end != '\0') {
         return IO_NUMBER_INVALID;
     }

@@ -1,4 +1,5 @@
-/* pgem I/O write: a file graph as g2o (2D/3D) or TORO (2D) text with round-trip precision. */
+/* pgem I/O write: a file graph as g2o (2D/3D) or TORO (2D) text, every number the shortest text
+ * that reads back to its bits (numbers.c). */
 #include <errno.h>
 #include <stdio.h>
 #include <string.h>
@@ -27,21 +28,64 @@ static io_writer_tags_t io_tags_for(pgem_format_t format, int dimension)
     return tags;
 }
 
-static void io_write_numbers(FILE *stream, const double *values, size_t count)
+/* One line at a time: the tag, ids and numbers are laid out in a buffer and written with one
+ * fwrite (the longest line, EDGE_SE3:QUAT, holds 28 numbers of at most 24 bytes). */
+typedef struct io_line_out {
+    char text[1024];
+    size_t length;
+} io_line_out_t;
+
+static void io_out_text(io_line_out_t *line, const char *text)
+{
+    const size_t length = strlen(text);
+    memcpy(line->text + line->length, text, length);
+    line->length += length;
+}
+
+static void io_out_id(io_line_out_t *line, pgem_id_t id)
+{
+    char digits[24];
+    size_t count = 0;
+    do {
+        digits[count++] = (char)('0' + (int)(id % 10u));
+        id /= 10u;
+    } while (id != 0);
+    line->text[line->length++] = ' ';
+    while (count > 0) {
+        line->text[line->length++] = digits[--count];
+    }
+}
+
+static void io_out_number(io_line_out_t *line, double value)
+{
+    line->text[line->length++] = ' ';
+    line->length += io_format_double(value, line->text + line->length);
+}
+
+static void io_out_end(FILE *stream, io_line_out_t *line)
+{
+    line->text[line->length++] = '\n';
+    (void)fwrite(line->text, 1, line->length, stream);
+    line->length = 0;
+}
+
+static void io_write_numbers(io_line_out_t *line, const double *values, size_t count)
 {
     size_t i;
     for (i = 0; i < count; ++i) {
-        fprintf(stream, " %.17g", values[i]);
+        io_out_number(line, values[i]);
     }
 }
 
 static void io_write_poses(FILE *stream, const pgem_io_graph_t *graph, const char *tag)
 {
     size_t i;
+    io_line_out_t line = {{0}, 0};
     for (i = 0; i < graph->pose_count; ++i) {
-        fprintf(stream, "%s %llu", tag, (unsigned long long)graph->poses[i].id);
-        io_write_numbers(stream, graph->poses[i].pose, (size_t)PGEM_POSE_SIZE(graph->dimension));
-        fputc('\n', stream);
+        io_out_text(&line, tag);
+        io_out_id(&line, graph->poses[i].id);
+        io_write_numbers(&line, graph->poses[i].pose, (size_t)PGEM_POSE_SIZE(graph->dimension));
+        io_out_end(stream, &line);
     }
 }
 
@@ -54,7 +98,7 @@ static void io_write_fixed(FILE *stream, const pgem_io_graph_t *graph)
 }
 
 /* The information values of an edge in the order the format writes them. */
-static void io_write_information(FILE *stream, pgem_format_t format, int dimension,
+static void io_write_information(io_line_out_t *line, pgem_format_t format, int dimension,
                                  const double *information)
 {
     size_t n = (size_t)PGEM_TANGENT_SIZE(dimension);
@@ -63,7 +107,7 @@ static void io_write_information(FILE *stream, pgem_format_t format, int dimensi
         size_t row;
         size_t col;
         io_info_cell(format, dimension, k, &row, &col);
-        fprintf(stream, " %.17g", information[row * n + col]);
+        io_out_number(line, information[row * n + col]);
     }
 }
 
@@ -71,13 +115,15 @@ static void io_write_edges(FILE *stream, pgem_format_t format, const pgem_io_gra
                            const char *tag)
 {
     size_t i;
+    io_line_out_t line = {{0}, 0};
     for (i = 0; i < graph->edge_count; ++i) {
         const pgem_io_edge_t *edge = &graph->edges[i];
-        fprintf(stream, "%s %llu %llu", tag, (unsigned long long)edge->from,
-                (unsigned long long)edge->to);
-        io_write_numbers(stream, edge->measurement, (size_t)PGEM_POSE_SIZE(graph->dimension));
-        io_write_information(stream, format, graph->dimension, edge->information);
-        fputc('\n', stream);
+        io_out_text(&line, tag);
+        io_out_id(&line, edge->from);
+        io_out_id(&line, edge->to);
+        io_write_numbers(&line, edge->measurement, (size_t)PGEM_POSE_SIZE(graph->dimension));
+        io_write_information(&line, format, graph->dimension, edge->information);
+        io_out_end(stream, &line);
     }
 }
 
@@ -157,6 +203,7 @@ int pgem_io_write(const char *path, pgem_format_t format, const pgem_io_graph_t 
                    strerror(errno));
         return PGEM_ERR_IO;
     }
+    (void)setvbuf(stream, NULL, _IOFBF, (size_t)1 << 18); /* a few large writes */
     errno = 0;
     status = pgem_io_write_stream(stream, format, graph);
     if (fclose(stream) != 0 && status == PGEM_OK) {

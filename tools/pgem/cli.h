@@ -8,6 +8,7 @@
 
 #include "pgem/io.h"
 #include "pgem/pgem.h"
+#include "pgem/threads.h"
 
 /* Exit codes (documented in the README). */
 #define PGEM_EXIT_OK 0
@@ -90,20 +91,32 @@ void pgem_cli_file_discard(pgem_cli_file_t *file);
 /* Writes one line per loop closure, "from to weight state"; prints errors; 0 on success. */
 int pgem_cli_write_weights(const pgem_t *instance, const char *path);
 
-/* Creates an instance sized for a file graph and loads it, with the fill budget set to
- * exactly what the symbolic analysis asks for. *analysis_seconds (may be NULL) receives the
- * time of the analysis the instance keeps (a solve that follows does not repeat it).
+/* Graphs from this many poses on get a line on stderr before their (seconds long) analysis. */
+#define PGEM_CLI_ANALYSIS_NOTICE_POSES 20000u
+
+/* Creates an instance sized for a file graph with `threads` workers and loads it, with the
+ * fill budget set to exactly what the symbolic analysis asks for. *analysis_seconds (may be
+ * NULL) receives the time of the analyses (a solve that follows does not repeat them).
  * Prints errors to stderr. Returns PGEM_OK or an error code. */
-int pgem_cli_load(const pgem_io_graph_t *file, const char *path, pgem_t **instance,
-                  double *analysis_seconds);
+int pgem_cli_load(const pgem_io_graph_t *file, const char *path, uint32_t threads,
+                  pgem_t **instance, double *analysis_seconds);
 
 /* As pgem_cli_load, with what went wrong in message instead of on stderr (a core message
  * without "PATH: " when path is NULL). */
-int pgem_cli_load_quietly(const pgem_io_graph_t *file, const char *path, pgem_t **instance,
-                          double *analysis_seconds, char *message, size_t message_size);
+int pgem_cli_load_quietly(const pgem_io_graph_t *file, const char *path, uint32_t threads,
+                          pgem_t **instance, double *analysis_seconds, char *message,
+                          size_t message_size);
 
-/* Writes an instance to a g2o file; prints errors. Returns a PGEM_EXIT_* code. */
-int pgem_cli_write(const pgem_t *instance, const char *path);
+/* The instance's edges, as it holds them, into file, the graph it was loaded from (the same
+ * edges in the same order); 0 if file does not match. */
+int pgem_cli_refill_edges(const pgem_t *instance, pgem_io_graph_t *file);
+
+/* Writes an instance to a g2o file; prints errors. Returns a PGEM_EXIT_* code. file (may be
+ * NULL) is the graph the instance was loaded from, still held: it is overwritten with the
+ * instance's graph and written, instead of a fresh copy. edge_text (may be NULL): the
+ * instance's edge lines, already formatted (write_ahead.h), written after its poses. */
+int pgem_cli_write(const pgem_t *instance, pgem_io_graph_t *file, const char *path,
+                   const char *edge_text, size_t edge_bytes);
 
 /* A pose id and the index of its pose in a file graph. */
 typedef struct pgem_cli_id {

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "write_ahead.h"
 
 /* Command-line choices of one optimize run. */
 typedef struct pgem_optimize_args {
@@ -15,15 +16,21 @@ typedef struct pgem_optimize_args {
     int json;                    /* summary as one JSON object on stdout */
     pgem_robust_options_t robust; /* --robust and its parameters */
     const char *weights;         /* per-loop weights file (NULL: none) */
+    uint32_t threads;            /* factorisation workers (0: the machine's, up to 8) */
     double analysis_seconds;     /* the symbolic analysis run while loading (not in the solve) */
 } pgem_optimize_args_t;
 
 /* What the progress callback needs. */
-typedef struct pgem_progress {
+typedef struct pgem_optimize_progress {
     FILE *out;       /* where progress lines go */
     double start;    /* clock at the start of the solve */
     int quiet;       /* print nothing */
-} pgem_progress_t;
+    double shown;    /* clock of the last factorisation progress line (0: none yet) */
+} pgem_optimize_progress_t;
+
+/* A factorisation progress line once a solve has run this long, then at most this often. */
+#define PGEM_PROGRESS_AFTER_SECONDS 3.0
+#define PGEM_PROGRESS_EVERY_SECONDS 2.0
 
 static void pgem_optimize_help(FILE *out)
 {
@@ -34,7 +41,7 @@ static void pgem_optimize_help(FILE *out)
             "                        [--max-em-iterations N] [--gate X] [--literal]\n"
             "                        [--dormant-threshold D|off] [--distance innovation|point]\n"
             "                        [--odometry-inflation K] [--predictable-rotation R]\n"
-            "                        [--weights FILE] [--quiet] [--json]\n"
+            "                        [--weights FILE] [--threads N] [--quiet] [--json]\n"
             "\n"
             "Reads a g2o (VERTEX_SE2/EDGE_SE2, VERTEX_SE3:QUAT/EDGE_SE3:QUAT, FIX) or TORO 2D\n"
             "(VERTEX2/EDGE2) graph, optimizes it from its own initial estimate and prints one\n"
@@ -70,7 +77,9 @@ static void pgem_optimize_help(FILE *out)
             "  --literal           EM exactly as published: keep the EM weights at the end\n"
             "                      (default: re-solve with accepted loops at weight 1)\n"
             "  --weights FILE      write one line per loop closure: from to weight state\n"
-            "  --quiet             no per-iteration lines\n"
+            "  --threads N         factorisation threads (default: the machine's, at most 8;\n"
+            "                      the result is the same for any N)\n"
+            "  --quiet             no per-iteration or progress lines\n"
             "  --json              print the summary as one JSON object on stdout (progress goes\n"
             "                      to stderr)\n");
 }
@@ -174,6 +183,16 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
             }
             args->weights = value;
             k++;
+        } else if (strcmp(arg, "--threads") == 0) {
+            if (!pgem_cli_parse_at_least("pgem optimize", arg, value, 1u, "thread", &args->threads)) {
+                return PGEM_EXIT_USAGE;
+            }
+            if (args->threads > PGEM_MAX_THREADS) {
+                fprintf(stderr, "pgem optimize: --threads takes at most %u, got %u\n",
+                        PGEM_MAX_THREADS, args->threads);
+                return PGEM_EXIT_USAGE;
+            }
+            k++;
         } else if (strcmp(arg, "--quiet") == 0) {
             args->quiet = 1;
         } else if (strcmp(arg, "--json") == 0) {
@@ -197,7 +216,8 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
 
 static int pgem_progress_line(const pgem_iteration_t *iteration, void *user)
 {
-    const pgem_progress_t *progress = user;
+    pgem_optimize_progress_t *progress = user;
+    progress->shown = 0.0;
     if (!progress->quiet) {
         char chi2[PGEM_CLI_NUMBER_MAX];
         fprintf(progress->out, "%5u %18s %12.4e %10.4f%s\n", iteration->iteration,
@@ -206,6 +226,22 @@ static int pgem_progress_line(const pgem_iteration_t *iteration, void *user)
         fflush(progress->out);
     }
     return 0;
+}
+
+/* During a long factorisation: a line on stderr once the solve has run for a few seconds,
+ * then every few seconds, so a large graph never leaves a silent terminal. */
+static void pgem_factor_progress(const pgem_progress_t *factor, void *user)
+{
+    pgem_optimize_progress_t *progress = user;
+    const double now = pgem_cli_now();
+    if (progress->quiet || now - progress->start < PGEM_PROGRESS_AFTER_SECONDS ||
+        (progress->shown > 0.0 && now - progress->shown < PGEM_PROGRESS_EVERY_SECONDS)) {
+        return;
+    }
+    progress->shown = now;
+    fprintf(stderr, "pgem: iteration %u: factorisation %3.0f%% of %.3g multiply-adds, %.1f s\n",
+            factor->iteration, 100.0 * factor->done, factor->multiply_adds, now - progress->start);
+    fflush(stderr);
 }
 
 static void pgem_describe_input(FILE *out, const char *path, const pgem_io_graph_t *file)
@@ -311,11 +347,12 @@ static void pgem_print_json_timing(double initial, double final, double seconds,
 
 /* "block_bytes":..,"block_bytes_per_pose":..,"block_bytes_per_edge":..,"block_bytes_factor":..}
  * and the line end: the end of both summaries. */
-static void pgem_print_json_block(const pgem_memory_stats_t *stats, const pgem_block_parts_t *parts)
+static void pgem_print_json_block(const pgem_memory_stats_t *stats, const pgem_block_parts_t *parts,
+                                  uint32_t threads)
 {
     printf("\"block_bytes\":%zu,\"block_bytes_per_pose\":%zu,\"block_bytes_per_edge\":%zu,"
-           "\"block_bytes_factor\":%zu}\n",
-           stats->block_bytes, parts->per_pose, parts->per_edge, parts->factor);
+           "\"block_bytes_factor\":%zu,\"threads\":%u}\n",
+           stats->block_bytes, parts->per_pose, parts->per_edge, parts->factor, threads);
 }
 
 static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, const pgem_t *graph,
@@ -339,7 +376,7 @@ static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, cons
                summary->usable ? "true" : "false", summary->estimate_changed ? "true" : "false",
                pgem_pose_count(graph), pgem_edge_count(graph), summary->variables,
                stats.factor_nonzeros);
-        pgem_print_json_block(&stats, &parts);
+        pgem_print_json_block(&stats, &parts, args->threads);
         return;
     }
     char initial[PGEM_CLI_NUMBER_MAX];
@@ -359,7 +396,7 @@ static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, cons
 
 static int pgem_round_line(const pgem_robust_progress_t *progress, void *user)
 {
-    const pgem_progress_t *state = user;
+    const pgem_optimize_progress_t *state = user;
     if (!state->quiet) {
         char chi2[PGEM_CLI_NUMBER_MAX];
         fprintf(state->out, "round %3u: %6u active loops, %6u pruned, chi2 %14s, largest weight change %.3g, %.3f s\n",
@@ -428,7 +465,7 @@ static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *arg
                "\"factor_nonzeros\":%u,",
                summary->usable ? "true" : "false", pgem_pose_count(graph),
                pgem_edge_count(graph), stats.analyses, stats.factor_nonzeros);
-        pgem_print_json_block(&stats, &parts);
+        pgem_print_json_block(&stats, &parts, args->threads);
     } else if (status == PGEM_OK) {
         char initial[PGEM_CLI_NUMBER_MAX];
         char final[PGEM_CLI_NUMBER_MAX];
@@ -455,10 +492,12 @@ static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *arg
 
 /* Runs the robust solve (one line per round) or the plain one (one line per iteration), prints
  * the summary and writes the files asked for. Returns a PGEM_EXIT_* code. */
-static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph)
+/* The solve, then the outputs; file is the graph read (overwritten by the result's). */
+static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph,
+                             pgem_io_graph_t *file)
 {
     const int robust = args->robust.kernel != PGEM_KERNEL_NONE;
-    pgem_progress_t progress = {pgem_progress_stream(args), 0.0, args->quiet};
+    pgem_optimize_progress_t progress = {pgem_progress_stream(args), 0.0, args->quiet, 0.0};
     pgem_robust_options_t robust_options = args->robust;
     pgem_solve_options_t solve = {0};
     pgem_robust_summary_t robust_summary;
@@ -467,6 +506,8 @@ static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph)
     robust_options.on_round = pgem_round_line;
     robust_options.user = &progress;
     solve.max_iterations = args->max_iterations; /* robust: the final solve's limit */
+    solve.on_progress = pgem_factor_progress;
+    solve.user = &progress;
     if (!robust) {
         solve.on_iteration = pgem_progress_line;
         solve.user = &progress;
@@ -474,22 +515,33 @@ static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph)
             fprintf(progress.out, "%5s %18s %12s %10s\n", "iter", "chi2", "step-norm", "seconds");
         }
     }
+    pgem_write_ahead_t ahead; /* the result's edge lines, formatted during the solve */
+    memset(&ahead, 0, sizeof ahead);
+    if (args->output != NULL && pgem_cli_refill_edges(graph, file)) {
+        pgem_write_ahead_start(&ahead, file);
+    }
     progress.start = pgem_cli_now();
     int status = robust ? pgem_robust_optimize(graph, &robust_options, &solve, &robust_summary)
                         : pgem_optimize(graph, &solve, &summary);
     double seconds = pgem_cli_now() - progress.start;
+    pgem_write_ahead_finish(&ahead);
     if (robust) {
         pgem_print_robust_summary(progress.out, args, graph, &robust_summary, seconds, status);
     } else {
         pgem_print_summary(progress.out, args, graph, &summary, seconds, status);
     }
+    int exit_code = PGEM_EXIT_OK;
     if (status != PGEM_OK) {
-        return PGEM_EXIT_FAILURE;
+        exit_code = PGEM_EXIT_FAILURE;
+    } else if (args->weights != NULL && pgem_cli_write_weights(graph, args->weights) != 0) {
+        exit_code = PGEM_EXIT_IO;
+    } else if (args->output != NULL) {
+        const int ahead_usable = ahead.text != NULL && pgem_write_ahead_matches(graph, file);
+        exit_code = pgem_cli_write(graph, file, args->output, ahead_usable ? ahead.text : NULL,
+                                   ahead.size);
     }
-    if (args->weights != NULL && pgem_cli_write_weights(graph, args->weights) != 0) {
-        return PGEM_EXIT_IO;
-    }
-    return args->output != NULL ? pgem_cli_write(graph, args->output) : PGEM_EXIT_OK;
+    pgem_write_ahead_free(&ahead);
+    return exit_code;
 }
 
 /* A file without edges is most likely not the file meant (a wrong path, an empty export,
@@ -527,13 +579,35 @@ int pgem_cmd_optimize(int argc, char **argv)
         return PGEM_EXIT_FAILURE;
     }
     pgem_t *graph = NULL;
-    status = pgem_cli_load(&file, args.input, &graph, &args.analysis_seconds);
-    pgem_io_graph_free(&file);
+    if (args.threads == 0u) {
+        args.threads = pgem_thread_count_online();
+        args.threads = args.threads < 8u ? args.threads : 8u;
+    }
+    status = pgem_cli_load(&file, args.input, args.threads, &graph, &args.analysis_seconds);
+    if (status != PGEM_OK || args.output == NULL) {
+        pgem_io_graph_free(&file); /* kept only to be written over with the result */
+    }
     if (status != PGEM_OK) {
         pgem_destroy(graph);
         return PGEM_EXIT_FAILURE;
     }
-    status = pgem_optimize_run(&args, graph);
+    /* the threads are created once, here, and serve every factorisation of the solve */
+    pgem_thread_pool_t *pool = NULL;
+    if (args.threads > 1u) {
+        const pgem_executor_t executor = pgem_thread_pool_create(args.threads, &pool) == PGEM_OK
+                                             ? pgem_thread_pool_executor(pool)
+                                             : pgem_thread_pool_executor(NULL);
+        if (pool == NULL) {
+            fprintf(stderr, "pgem: could not start %u threads; solving on one\n", args.threads);
+            args.threads = 1u;
+        } else {
+            (void)pgem_set_executor(graph, &executor);
+        }
+    }
+    status = pgem_optimize_run(&args, graph, &file);
+    pgem_io_graph_free(&file);
+    pgem_set_executor(graph, NULL);
+    pgem_thread_pool_destroy(pool);
     pgem_destroy(graph);
     return status;
 }

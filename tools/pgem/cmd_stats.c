@@ -512,7 +512,7 @@ static void stats_solvable(stats_t *s)
         stats_reason(s, STATS_PROBLEM, "no edges: nothing to optimize");
         return;
     }
-    int status = pgem_cli_load_quietly(g, NULL, &instance, NULL, message, sizeof message);
+    int status = pgem_cli_load_quietly(g, NULL, 1u, &instance, NULL, message, sizeof message);
     if (status == PGEM_OK) {
         status = pgem_check_solvable(instance);
         snprintf(message, sizeof message, "%s", pgem_last_error(instance));

@@ -18,6 +18,9 @@ static const char *pgem_config_problem(const pgem_config_t *config)
     if (config->fill_budget > (uint32_t)INT32_MAX) {
         return "config.fill_budget is above INT32_MAX";
     }
+    if (config->threads > PGEM_MAX_THREADS) {
+        return "config.threads is above PGEM_MAX_THREADS";
+    }
     return NULL;
 }
 
@@ -30,6 +33,9 @@ static pgem_config_t pgem_config_defaults(const pgem_config_t *config)
     }
     if (out.max_poses == 0) {
         out.max_poses = PGEM_DEFAULT_MAX_POSES;
+    }
+    if (out.threads == 0) {
+        out.threads = 1;
     }
     if (out.max_edges == 0) {
         uint64_t edges = (uint64_t)out.max_poses * PGEM_DEFAULT_EDGES_PER_POSE;
@@ -91,6 +97,37 @@ static void pgem_carve_graph(pgem_t *graph, pgem_arena_t *arena)
     graph->edge_checked = pgem_arena_take(arena, edges, 1);
 }
 
+static void pgem_carve_factor(pgem_t *graph, pgem_arena_t *arena)
+{
+    pgem_factor_t *factor = &graph->linear.factor;
+    const size_t poses = graph->config.max_poses;
+    const size_t block = (size_t)graph->tangent;
+    factor->super_first = pgem_arena_take(arena, poses + 1u, sizeof(int));
+    factor->block_super = pgem_arena_take(arena, poses, sizeof(int));
+    factor->row_start = pgem_arena_take(arena, poses + 1u, sizeof(int));
+    factor->rows = pgem_arena_take(arena, graph->config.fill_budget / (block * block) + 1u, sizeof(int));
+    factor->value_start = pgem_arena_take(arena, poses + 1u, sizeof(int));
+    factor->values = pgem_arena_take(arena, graph->config.fill_budget, sizeof(double));
+    factor->order = pgem_arena_take(arena, poses, sizeof(int));
+    factor->task_first = pgem_arena_take(arena, poses + 1u, sizeof(int));
+    factor->task_worker = pgem_arena_take(arena, poses, sizeof(int));
+    factor->head = pgem_arena_take(arena, poses, sizeof(int));
+    factor->next = pgem_arena_take(arena, poses, sizeof(int));
+    factor->position = pgem_arena_take(arena, poses, sizeof(int));
+    factor->worker_count = (int)graph->config.threads;
+    factor->workers = pgem_arena_take(arena, graph->config.threads, sizeof(pgem_factor_worker_t));
+    for (uint32_t w = 0; w < graph->config.threads; w++) {
+        const size_t work = pgem_factor_work_doubles(graph->config.max_poses, graph->tangent, (int)w);
+        int *map = pgem_arena_take(arena, poses, sizeof(int));
+        double *doubles = w == 0u ? factor->shared : pgem_arena_take(arena, work, sizeof(double));
+        if (factor->workers != NULL) {
+            factor->workers[w].map = map;
+            factor->workers[w].work = doubles;
+            factor->workers[w].work_doubles = work;
+        }
+    }
+}
+
 static void pgem_carve_linear(pgem_t *graph, pgem_arena_t *arena)
 {
     pgem_linear_t *linear = &graph->linear;
@@ -98,7 +135,7 @@ static void pgem_carve_linear(pgem_t *graph, pgem_arena_t *arena)
     const size_t edges = graph->config.max_edges;
     const size_t block = (size_t)graph->tangent;
     const size_t scalars = poses * block;
-    const size_t upper = edges * block * block + poses * block * (block + 1u) / 2u;
+    const size_t lower = edges * block * block + poses * block * (block + 1u) / 2u;
     linear->block = (int)block;
     linear->pose_block = pgem_arena_take(arena, poses, sizeof(int));
     linear->edge_offset = pgem_arena_take(arena, edges, sizeof(int));
@@ -106,18 +143,14 @@ static void pgem_carve_linear(pgem_t *graph, pgem_arena_t *arena)
     linear->block_colptr = pgem_arena_take(arena, poses + 1u, sizeof(int));
     linear->block_rows = pgem_arena_take(arena, edges, sizeof(int));
     linear->block_parent = pgem_arena_take(arena, poses, sizeof(int));
-    linear->scratch = pgem_arena_take(arena, 3u * edges + 4u * poses + 4u, sizeof(int));
-    linear->upper_colptr = pgem_arena_take(arena, scalars + 1u, sizeof(int));
-    linear->upper_values = pgem_arena_take(arena, upper, sizeof(double));
-    linear->factor_colptr = pgem_arena_take(arena, scalars + 1u, sizeof(int));
-    linear->factor_block_colptr = pgem_arena_take(arena, poses + 1u, sizeof(int));
-    linear->factor_block_rows =
-        pgem_arena_take(arena, graph->config.fill_budget / (block * block) + 1u, sizeof(int));
-    linear->factor_values = pgem_arena_take(arena, graph->config.fill_budget, sizeof(double));
-    linear->reach_stack = pgem_arena_take(arena, poses, sizeof(int));
-    linear->reach_mark = pgem_arena_take(arena, poses, sizeof(int));
-    linear->fill_next = pgem_arena_take(arena, poses, sizeof(int));
-    linear->block_work = pgem_arena_take(arena, scalars * block, sizeof(double));
+    /* the analysis's scratch, worker 0's dense workspace and the solves' vectors in turn */
+    linear->factor.shared_doubles = pgem_factor_shared_doubles(graph->config.max_poses,
+                                                               graph->config.max_edges, (int)block);
+    linear->factor.shared = pgem_arena_take(arena, linear->factor.shared_doubles, sizeof(double));
+    linear->scratch = (int *)(void *)linear->factor.shared;
+    linear->lower_start = pgem_arena_take(arena, poses + 1u, sizeof(int));
+    linear->lower_values = pgem_arena_take(arena, lower, sizeof(double));
+    pgem_carve_factor(graph, arena);
     linear->rhs = pgem_arena_take(arena, scalars, sizeof(double));
     linear->diagonal = pgem_arena_take(arena, scalars, sizeof(double));
     linear->gradient = pgem_arena_take(arena, scalars, sizeof(double));
@@ -235,7 +268,7 @@ int pgem_init_message(pgem_t **instance, const pgem_config_t *config, void *buff
     graph->block_bytes = size;
     graph->used_bytes = arena.used + skip;
     memset(graph->map_slot, 0, ((size_t)graph->map_mask + 1u) * sizeof(uint32_t));
-    memset(graph->linear.reach_mark, 0, (size_t)resolved.max_poses * sizeof(int));
+    graph->linear.dense = pgem_dense_select();
     *instance = graph;
     if (message != NULL && message_size > 0) {
         message[0] = '\0';
@@ -246,6 +279,27 @@ int pgem_init_message(pgem_t **instance, const pgem_config_t *config, void *buff
 int pgem_init(pgem_t **instance, const pgem_config_t *config, void *buffer, size_t size)
 {
     return pgem_init_message(instance, config, buffer, size, NULL, 0);
+}
+
+int pgem_set_executor(pgem_t *instance, const pgem_executor_t *executor)
+{
+    if (instance == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    if (executor == NULL) {
+        memset(&instance->executor, 0, sizeof instance->executor);
+        return PGEM_OK;
+    }
+    if (executor->run == NULL || executor->workers == 0u ||
+        executor->workers > instance->config.threads) {
+        pgem_message_clear(instance);
+        pgem_message_text(instance, "an executor needs a run function and 1 .. config.threads (");
+        pgem_message_u64(instance, instance->config.threads);
+        pgem_message_text(instance, ") workers");
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    instance->executor = *executor;
+    return PGEM_OK;
 }
 
 const pgem_config_t *pgem_get_config(const pgem_t *instance)
@@ -265,7 +319,7 @@ void pgem_get_memory_stats(const pgem_t *instance, pgem_memory_stats_t *stats)
     }
     stats->block_bytes = instance->block_bytes;
     stats->used_bytes = instance->used_bytes;
-    stats->factor_nonzeros = (uint32_t)instance->linear.factor_nonzeros;
+    stats->factor_nonzeros = (uint32_t)instance->linear.factor.nonzeros;
     stats->factor_budget = instance->config.fill_budget;
     stats->analyses = instance->linear.analyses;
     stats->csparse_pool_bytes = instance->linear.cs_pool.size;

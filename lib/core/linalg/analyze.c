@@ -1,10 +1,12 @@
-/* Symbolic analysis, once per topology change: ordering, block elimination tree and column
- * counts (CSparse), then the scalar patterns of H and L and each edge's place in H. */
+/* Symbolic analysis, once per topology change: ordering, postordered block elimination tree
+ * and column counts (CSparse), the supernodes of L (linalg/supernodes.c) and their schedule,
+ * H's lower block pattern and each edge's place in it. */
 #include "internal.h"
 
 void pgem_linear_invalidate(pgem_t *graph)
 {
     graph->linear.valid = 0;
+    graph->linear.ordered = 0;
 }
 
 /* Position of block row `row` inside block column `column` (rows are sorted). */
@@ -25,6 +27,8 @@ static int pgem_block_position(const pgem_linear_t *linear, int row, int column)
     return -1; /* unreachable: every edge block is in the pattern */
 }
 
+/* Each edge's place in H's lower block pattern: the block (larger, smaller) of column
+ * min(a, b); stored as H_{to,from} (transposed) when from < to. */
 static void pgem_analyze_edges(pgem_t *graph)
 {
     pgem_linear_t *linear = &graph->linear;
@@ -34,65 +38,85 @@ static void pgem_analyze_edges(pgem_t *graph)
             linear->edge_offset[k] = -1;
             continue;
         }
-        int row = a < b ? a : b;
-        int column = a < b ? b : a;
+        int row = a < b ? b : a;
+        int column = a < b ? a : b;
         linear->edge_offset[k] = pgem_block_position(linear, row, column) * linear->block;
-        linear->edge_transposed[k] = (uint8_t)(a > b);
+        linear->edge_transposed[k] = (uint8_t)(a < b);
     }
 }
 
-/* Column pointers of H's scalar upper triangle: column J*b+c holds every off-diagonal block
- * row of block column J (b rows each), then rows J*b .. J*b+c of the diagonal block. The rows
- * themselves are never stored: assembly and factorisation address values by block. */
-static void pgem_analyze_upper(pgem_linear_t *linear)
+/* Where each block column of H's lower triangle starts: its b scalar columns hold their
+ * diagonal block's rows c .. b-1 and then b rows per off-diagonal block (pgem_lower_column).
+ * The rows themselves are never stored: assembly and factorisation address values by block. */
+static void pgem_analyze_lower(pgem_linear_t *linear)
 {
     const int b = linear->block;
     int count = 0;
     for (int column = 0; column < linear->block_count; column++) {
-        const int off_diagonal = (linear->block_colptr[column + 1] - linear->block_colptr[column]) * b;
-        for (int c = 0; c < b; c++) {
-            linear->upper_colptr[column * b + c] = count;
-            count += off_diagonal + c + 1;
-        }
+        const int off_diagonal = linear->block_colptr[column + 1] - linear->block_colptr[column];
+        linear->lower_start[column] = count;
+        count += b * (b + 1) / 2 + off_diagonal * b * b;
     }
-    linear->upper_colptr[linear->scalar_count] = count;
+    linear->lower_start[linear->block_count] = count;
 }
 
-static int pgem_clamp_int(int64_t value)
+/* Renumbers the free poses by a postorder of the elimination tree of the ordering's upper
+ * block pattern (colptr, rows): the same fill, and every subtree becomes a range of
+ * consecutive block columns, which supernodes need. block_parent receives the renumbered
+ * tree. work holds block_count ints. */
+static int pgem_analyze_postorder(pgem_t *graph, const cs_di *pattern, int *work)
 {
-    return value > INT32_MAX ? INT32_MAX : (int)value;
-}
-
-/* Block elimination tree and block column counts of L with CSparse; expands the counts to
- * scalar column pointers. Returns nonzeros of L or a negative error. */
-static int64_t pgem_analyze_factor(pgem_linear_t *linear)
-{
-    const int b = linear->block;
+    pgem_linear_t *linear = &graph->linear;
     const int blocks = linear->block_count;
-    cs_di pattern = {linear->block_colptr[blocks], blocks, blocks, linear->block_colptr,
-                     linear->block_rows, NULL, -1};
-    pgem_cs_open(&linear->cs_pool);
-    int *parent = cs_di_etree(&pattern, 0);
+    int *parent = cs_di_etree(pattern, 0);
     int *post = parent != NULL ? cs_di_post(parent, blocks) : NULL;
-    int *counts = post != NULL ? cs_di_counts(&pattern, parent, post, 0) : NULL;
-    int64_t nonzeros = counts != NULL ? 0 : PGEM_ERR_OUT_OF_MEMORY;
-    /* off-diagonal blocks of L: at most fill_budget / b^2 when nonzeros fits the budget (the
-     * caller refuses it otherwise, so clamped values are never used) */
-    int64_t off_diagonal = 0;
-    for (int column = 0; counts != NULL && column < blocks; column++) {
-        linear->block_parent[column] = parent[column];
-        linear->factor_block_colptr[column] = pgem_clamp_int(off_diagonal);
-        off_diagonal += counts[column] - 1;
-        for (int c = 0; c < b; c++) {
-            linear->factor_colptr[column * b + c] = pgem_clamp_int(nonzeros);
-            nonzeros += (int64_t)(counts[column] - 1) * b + (b - c);
+    if (post != NULL) {
+        int *renumbered = work; /* old block column -> its place in the postorder */
+        for (int k = 0; k < blocks; k++) {
+            renumbered[post[k]] = k;
+        }
+        for (int j = 0; j < blocks; j++) {
+            linear->block_parent[renumbered[j]] = parent[j] >= 0 ? renumbered[parent[j]] : -1;
+        }
+        for (uint32_t p = 0; p < graph->pose_count; p++) {
+            const int block = linear->pose_block[p];
+            linear->pose_block[p] = block >= 0 ? renumbered[block] : -1;
         }
     }
-    if (counts != NULL) {
-        linear->factor_block_colptr[blocks] = pgem_clamp_int(off_diagonal);
-    }
-    cs_di_free(parent);
     cs_di_free(post);
+    cs_di_free(parent);
+    return post != NULL ? PGEM_OK : PGEM_ERR_OUT_OF_MEMORY;
+}
+
+/* Postordering, block column counts of L with CSparse, H's lower block pattern and the
+ * supernodal layout. Returns the nonzeros of L or a negative error. */
+static int64_t pgem_analyze_factor(pgem_t *graph)
+{
+    pgem_linear_t *linear = &graph->linear;
+    const int blocks = linear->block_count;
+    int *colptr = linear->scratch;
+    int *rows = colptr + blocks + 1;
+    int *work = rows + graph->edge_count;
+    pgem_pattern_build(graph, blocks, colptr, rows, work);
+    cs_di pattern = {colptr[blocks], blocks, blocks, colptr, rows, NULL, -1};
+    pgem_cs_open(&linear->cs_pool);
+    if (pgem_analyze_postorder(graph, &pattern, work) != PGEM_OK) {
+        pgem_cs_close(&linear->cs_pool);
+        return PGEM_ERR_OUT_OF_MEMORY;
+    }
+    pgem_pattern_build(graph, blocks, colptr, rows, work);
+    pattern.p = colptr;
+    pattern.i = rows;
+    pattern.nzmax = colptr[blocks];
+    for (int k = 0; k < blocks; k++) {
+        work[k] = k; /* the tree is postordered now */
+    }
+    int *counts = cs_di_counts(&pattern, linear->block_parent, work, 0);
+    int64_t nonzeros = PGEM_ERR_OUT_OF_MEMORY;
+    if (counts != NULL) {
+        pgem_pattern_transpose(blocks, colptr, rows, linear->block_colptr, linear->block_rows);
+        nonzeros = pgem_supernodes_analyze(graph, counts);
+    }
     cs_di_free(counts);
     pgem_cs_close(&linear->cs_pool);
     return nonzeros;
@@ -141,13 +165,13 @@ static int pgem_part_root(int *parent, int pose)
  * would meet a zero pivot, but Levenberg-Marquardt's damping hides it and solves a part that
  * floats anywhere; so the rule is checked on the graph before every solve (pruning may split
  * a graph without a new analysis: pruned loops keep their place in H for a while). O(poses +
- * edges), against the assembly's O(edges) dense blocks. The factorisation's scratch
- * (reach_stack, fill_next: max_poses ints each, free between factorisations) holds the
+ * edges), against the assembly's O(edges) dense blocks. The factorisation's lists
+ * (factor.head, factor.next: max_poses ints each, free between factorisations) hold the
  * union-find forest and the held marks. */
 int pgem_linear_check_parts(pgem_t *graph)
 {
-    int *parent = graph->linear.reach_stack;
-    int *held = graph->linear.fill_next;
+    int *parent = graph->linear.factor.head;
+    int *held = graph->linear.factor.next;
     for (uint32_t p = 0; p < graph->pose_count; p++) {
         parent[p] = (int)p;
         held[p] = 0;
@@ -182,28 +206,34 @@ static int pgem_linear_analyze_once(pgem_t *graph)
 {
     pgem_linear_t *linear = &graph->linear;
     linear->valid = 0;
-    linear->factor_nonzeros = 0;
-    int blocks = pgem_pattern_number_free(graph);
-    if (blocks == 0) {
-        return pgem_fail(graph, PGEM_ERR_EMPTY, "every pose is fixed: nothing to optimize");
-    }
-    if (pgem_pattern_order(graph, blocks) != PGEM_OK) {
-        return pgem_fail_workspace(graph, "AMD ordering");
+    linear->factor.nonzeros = 0;
+    int blocks = 0;
+    if (linear->ordered) { /* pgem_copy handed over this graph's ordering */
+        for (uint32_t p = 0; p < graph->pose_count; p++) {
+            blocks += linear->pose_block[p] >= 0;
+        }
+    } else {
+        blocks = pgem_pattern_number_free(graph);
+        if (blocks == 0) {
+            return pgem_fail(graph, PGEM_ERR_EMPTY, "every pose is fixed: nothing to optimize");
+        }
+        if (pgem_pattern_order(graph, blocks) != PGEM_OK) {
+            return pgem_fail_workspace(graph, "AMD ordering");
+        }
     }
     linear->block_count = blocks;
     linear->scalar_count = blocks * linear->block;
-    pgem_pattern_build(graph, blocks, linear->block_colptr, linear->block_rows, linear->scratch);
-    pgem_analyze_edges(graph);
-    pgem_analyze_upper(linear);
-    int64_t nonzeros = pgem_analyze_factor(linear);
+    int64_t nonzeros = pgem_analyze_factor(graph);
     if (nonzeros < 0) {
         return pgem_fail_workspace(graph, "elimination tree and column counts");
     }
-    linear->factor_nonzeros = nonzeros > INT32_MAX ? INT32_MAX : (int)nonzeros;
+    linear->ordered = 1; /* pose_block holds the (postordered) ordering, whatever follows */
     if (nonzeros > (int64_t)graph->config.fill_budget) {
         return pgem_fill_exceeded(graph, nonzeros);
     }
-    linear->factor_colptr[linear->scalar_count] = (int)nonzeros;
+    pgem_analyze_edges(graph);
+    pgem_analyze_lower(linear);
+    pgem_schedule_analyze(linear);
     linear->analyses++;
     linear->valid = 1;
     return PGEM_OK;
@@ -215,7 +245,7 @@ static int pgem_linear_analyze_once(pgem_t *graph)
  * built over every edge instead (the fill the caller sized for). */
 int pgem_linear_analyze(pgem_t *graph)
 {
-    graph->linear.all_edges = 0;
+    graph->linear.all_edges = 0; /* a handed-over ordering (pgem_copy) is never the fallback's */
     int status = pgem_linear_analyze_once(graph);
     if (status == PGEM_ERR_FILL_BUDGET) {
         uint32_t k = 0;
@@ -224,6 +254,7 @@ int pgem_linear_analyze(pgem_t *graph)
         }
         if (k < graph->edge_count) { /* some edge was left out: try the full structure */
             graph->linear.all_edges = 1;
+            graph->linear.ordered = 0;
             status = pgem_linear_analyze_once(graph);
         }
     }

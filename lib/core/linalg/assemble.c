@@ -1,4 +1,4 @@
-/* Linearisation: every edge's blocks added straight into the permuted upper CSC of H through
+/* Linearisation: every edge's blocks added straight into the permuted lower CSC of H through
  * the positions the analysis found, and its gradient into the right-hand side. Pruned edges are
  * left out. A dormant loop closure (EM weight below the dormant threshold) that has no place in
  * the structure adds its gradient and its two diagonal blocks but not the off-diagonal block
@@ -167,45 +167,45 @@ static double pgem_linearise_se3(const pgem_t *graph, uint32_t k, pgem_edge_bloc
     return w * pgem_quadratic_form(o, e, 6);
 }
 
-/* Adds the upper triangle of a symmetric n x n block onto diagonal block `block`, and the
- * gradient into the right-hand side. */
+/* Adds a symmetric n x n block, given by its upper triangle, onto diagonal block `block`
+ * (whose lower triangle H stores), and the gradient into the right-hand side. */
 static inline void pgem_add_diagonal(pgem_linear_t *linear, int n, int block, const double *values,
                                      const double *gradient)
 {
-    const int *colptr = linear->upper_colptr + (ptrdiff_t)block * n;
     double *rhs = linear->rhs + (ptrdiff_t)block * n;
+    const int off_diagonal = (linear->block_colptr[block + 1] - linear->block_colptr[block]) * n;
+    double *column = linear->lower_values + linear->lower_start[block];
     for (int c = 0; c < n; c++) {
-        double *top = linear->upper_values + colptr[c + 1] - (c + 1);
-        for (int r = 0; r < n; r++) { /* r <= c, as a square loop the compiler unrolls */
-            if (r <= c) {
-                top[r] += values[r * n + c];
+        for (int r = 0; r < n; r++) { /* r >= c, as a square loop the compiler unrolls */
+            if (r >= c) {
+                column[r - c] += values[c * n + r];
             }
         }
         rhs[c] -= gradient[c];
+        column += n - c + off_diagonal;
     }
 }
 
-/* Adds an edge's off-diagonal block at `offset` in the columns of `column_block`: from_to as it
- * is, or its transpose when the stored block is H_tf. */
+/* Adds an edge's off-diagonal block at `offset` in the off-diagonal part of the columns of
+ * `column_block`: from_to transposed when the stored block is H_tf (transposed), else as it
+ * is. */
 static inline void pgem_add_off_diagonal(pgem_linear_t *linear, int n, int column_block,
                                          int offset, int transposed, const double *from_to)
 {
-    const int *colptr = linear->upper_colptr + (ptrdiff_t)column_block * n;
-    double *values = linear->upper_values + offset;
-    if (transposed) {
-        for (int c = 0; c < n; c++) {
-            double *top = values + colptr[c];
+    const int off_diagonal =
+        (linear->block_colptr[column_block + 1] - linear->block_colptr[column_block]) * n;
+    double *top = linear->lower_values + linear->lower_start[column_block] + n + offset;
+    for (int c = 0; c < n; c++) {
+        if (transposed) {
             for (int r = 0; r < n; r++) {
                 top[r] += from_to[c * n + r];
             }
-        }
-    } else {
-        for (int c = 0; c < n; c++) {
-            double *top = values + colptr[c];
+        } else {
             for (int r = 0; r < n; r++) {
                 top[r] += from_to[r * n + c];
             }
         }
+        top += n - (c + 1) + off_diagonal; /* the next column's diagonal part is one shorter */
     }
 }
 
@@ -244,13 +244,16 @@ static inline double pgem_assemble_edges(pgem_t *graph, int n)
 double pgem_linear_assemble(pgem_t *graph)
 {
     pgem_linear_t *linear = &graph->linear;
-    memset(linear->upper_values, 0, (size_t)linear->upper_colptr[linear->scalar_count] * sizeof(double));
+    memset(linear->lower_values, 0, (size_t)linear->lower_start[linear->block_count] * sizeof(double));
     memset(linear->rhs, 0, (size_t)linear->scalar_count * sizeof(double));
     linear->left_out = 0;
     const double chi2 = linear->block == 6 ? pgem_assemble_edges(graph, 6)
                                            : pgem_assemble_edges(graph, 3);
-    for (int j = 0; j < linear->scalar_count; j++) {
-        linear->diagonal[j] = linear->upper_values[linear->upper_colptr[j + 1] - 1];
+    for (int block = 0; block < linear->block_count; block++) {
+        for (int c = 0; c < linear->block; c++) {
+            linear->diagonal[block * linear->block + c] =
+                linear->lower_values[pgem_lower_column(linear, block, c)];
+        }
     }
     return chi2;
 }
@@ -258,8 +261,11 @@ double pgem_linear_assemble(pgem_t *graph)
 void pgem_linear_damp(pgem_t *graph, double lambda)
 {
     pgem_linear_t *linear = &graph->linear;
-    for (int j = 0; j < linear->scalar_count; j++) {
-        linear->upper_values[linear->upper_colptr[j + 1] - 1] = linear->diagonal[j] + lambda;
+    for (int block = 0; block < linear->block_count; block++) {
+        for (int c = 0; c < linear->block; c++) {
+            linear->lower_values[pgem_lower_column(linear, block, c)] =
+                linear->diagonal[block * linear->block + c] + lambda;
+        }
     }
 }
 

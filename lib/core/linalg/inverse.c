@@ -1,45 +1,16 @@
 /* The inverse of H on the factor's pattern (the sparse-inverse recursion of Takahashi et al.),
  * written over L in place, and the marginal covariance of two poses read from it. For block
- * column J with off-diagonal block rows R (a clique of the filled graph, so every block of
- * H^-1 between two of them is on the pattern):
+ * column J with off-diagonal block rows R (a clique of the stored pattern, relaxed
+ * amalgamation's zeros included, so every block of H^-1 between two of them is on it; the
+ * columns are read through pgem_factor_column_view, whatever their supernode):
  *     Y = L_RJ L_JJ^-1,   Z_RJ = -Z_RR Y,   Z_JJ = (L_JJ L_JJ^T)^-1 - Y^T Z_RJ,
  * from the last column to the first. After it, L is gone: the next solve factors again. */
 #include <string.h>
 
 #include "internal.h"
 
-/* Element (r, c) of off-diagonal block q of block column J (the factor's layout, see
- * linalg/cholesky.c). */
-static inline double *pgem_off(pgem_linear_t *linear, int b, int column, int q, int r, int c)
-{
-    return linear->factor_values + linear->factor_colptr[column * b + c] + (b - c) +
-           (ptrdiff_t)q * b + r;
-}
-
-/* Element (r, c), r >= c, of the diagonal block of block column J. */
-static inline double *pgem_diag(pgem_linear_t *linear, int b, int column, int r, int c)
-{
-    return linear->factor_values + linear->factor_colptr[column * b + c] + (r - c);
-}
-
-/* Where each scalar column of a block column starts in the factor's values, so that its
- * off-diagonal block q holds element (r, c) at base[c] + (b - c) + q * b + r and its diagonal
- * block element (r, c), r >= c, at base[c] + r - c. */
-typedef struct pgem_column_base {
-    double *base[PGEM_TANGENT_SIZE_MAX];
-} pgem_column_base_t;
-
-static inline pgem_column_base_t pgem_column_base(pgem_linear_t *linear, int b, int column)
-{
-    pgem_column_base_t out = {{NULL}};
-    for (int c = 0; c < b; c++) {
-        out.base[c] = linear->factor_values + linear->factor_colptr[column * b + c];
-    }
-    return out;
-}
-
 /* Off-diagonal block q of a column into a row-major b x b array. */
-static inline void pgem_load_block(const pgem_column_base_t *column, int b, int q, double *out)
+static inline void pgem_load_block(const pgem_factor_column_t *column, int b, int q, double *out)
 {
     for (int c = 0; c < b; c++) {
         const double *values = column->base[c] + (b - c) + (ptrdiff_t)q * b;
@@ -50,7 +21,7 @@ static inline void pgem_load_block(const pgem_column_base_t *column, int b, int 
 }
 
 /* The symmetric diagonal block of a column, whole, into a row-major b x b array. */
-static inline void pgem_load_diagonal(const pgem_column_base_t *column, int b, double *out)
+static inline void pgem_load_diagonal(const pgem_factor_column_t *column, int b, double *out)
 {
     for (int c = 0; c < b; c++) {
         for (int r = c; r < b; r++) {
@@ -62,7 +33,7 @@ static inline void pgem_load_diagonal(const pgem_column_base_t *column, int b, d
 /* Off-diagonal block q of the column -= Z X (transpose 0) or Z^T X (transpose 1), Z and X
  * row-major b x b. */
 static inline void pgem_subtract(int b, const double *z, int transpose, const double *x,
-                                 const pgem_column_base_t *column, int q)
+                                 const pgem_factor_column_t *column, int q)
 {
     double product[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     for (int r = 0; r < b; r++) {
@@ -86,16 +57,14 @@ static inline void pgem_subtract(int b, const double *z, int transpose, const do
 }
 
 /* One block column of the recursion for block size b (a constant at each call). Y (row-major
- * b x b per block row) goes to the factorisation's workspace (one block per pose), Z_RJ is
+ * b x b per block row) goes to the shared region (one block per pose), Z_RJ is
  * accumulated over L_RJ once Y is taken from it. */
 static inline void pgem_invert_column(pgem_linear_t *linear, int b, int column)
 {
     const int bb = b * b;
-    const int first = linear->factor_block_colptr[column];
-    const int count = linear->factor_block_colptr[column + 1] - first;
-    const int *rows = linear->factor_block_rows + first;
-    const pgem_column_base_t self = pgem_column_base(linear, b, column);
-    double *y = linear->block_work; /* [count] blocks */
+    const pgem_factor_column_t self = pgem_factor_column_view(&linear->factor, column);
+    const int count = self.count;
+    double *y = linear->factor.shared; /* [count] blocks: fewer than one per pose */
     double inverse[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     /* L_JJ^-1, lower triangular */
     for (int c = 0; c < b; c++) {
@@ -128,23 +97,22 @@ static inline void pgem_invert_column(pgem_linear_t *linear, int b, int column)
         }
     }
     for (int q = 0; q < count; q++) {
-        const int row = rows[q];
-        const pgem_column_base_t inner = pgem_column_base(linear, b, row);
+        const int row = pgem_factor_column_row(&self, column, q);
+        const pgem_factor_column_t inner = pgem_factor_column_view(&linear->factor, row);
         double block[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
         pgem_load_diagonal(&inner, b, block);
         pgem_subtract(b, block, 0, y + (size_t)q * (size_t)bb, &self, q);
-        const int inner_first = linear->factor_block_colptr[row];
-        const int inner_count = linear->factor_block_colptr[row + 1] - inner_first;
-        const int *inner_rows = linear->factor_block_rows + inner_first;
+        const int inner_count = inner.count;
         int s = 0;
         for (int p = q + 1; p < count; p++) {
-            while (s < inner_count && inner_rows[s] < rows[p]) {
+            const int row_p = pgem_factor_column_row(&self, column, p);
+            while (s < inner_count && pgem_factor_column_row(&inner, row, s) < row_p) {
                 s++;
             }
             if (s == inner_count) {
                 break;
             }
-            if (inner_rows[s] != rows[p]) {
+            if (pgem_factor_column_row(&inner, row, s) != row_p) {
                 continue; /* unreachable: the rows of a column of the filled pattern form a clique */
             }
             pgem_load_block(&inner, b, s, block); /* Z_{R_p, R_q} */
@@ -197,20 +165,25 @@ void pgem_linear_invert(pgem_t *graph)
 }
 
 /* Position of block row `row` among column's off-diagonal blocks, or -1. */
-static int pgem_inverse_position(const pgem_linear_t *linear, int column, int row)
+static int pgem_inverse_position(const pgem_factor_column_t *view, int column, int row)
 {
-    int low = linear->factor_block_colptr[column];
-    int high = linear->factor_block_colptr[column + 1] - 1;
-    const int first = low;
+    if (row <= column) {
+        return -1;
+    }
+    if (row <= column + view->inside) {
+        return row - column - 1;
+    }
+    int low = 0;
+    int high = view->count - view->inside - 1;
     while (low <= high) {
         const int middle = low + (high - low) / 2;
-        const int value = linear->factor_block_rows[middle];
+        const int value = view->below[middle];
         if (value < row) {
             low = middle + 1;
         } else if (value > row) {
             high = middle - 1;
         } else {
-            return middle - first;
+            return view->inside + middle;
         }
     }
     return -1;
@@ -220,13 +193,13 @@ static int pgem_inverse_position(const pgem_linear_t *linear, int column, int ro
 static void pgem_add_diagonal_form(pgem_linear_t *linear, int b, int column, const double *a,
                                    double *out)
 {
+    const pgem_factor_column_t view = pgem_factor_column_view(&linear->factor, column);
     double az[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     for (int r = 0; r < b; r++) {
         for (int c = 0; c < b; c++) {
             double sum = 0.0;
             for (int m = 0; m < b; m++) {
-                const double z = m >= c ? *pgem_diag(linear, b, column, m, c)
-                                        : *pgem_diag(linear, b, column, c, m);
+                const double z = m >= c ? view.base[c][m - c] : view.base[m][c - m];
                 sum += a[r * b + m] * z;
             }
             az[r * b + c] = sum;
@@ -262,7 +235,8 @@ int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, cons
     /* the cross term A_f Z_ft A_t^T and its transpose; Z_ft is stored under the lower block */
     const int low = block_from < block_to ? block_from : block_to;
     const int high = block_from < block_to ? block_to : block_from;
-    const int q = pgem_inverse_position(linear, low, high);
+    const pgem_factor_column_t view = pgem_factor_column_view(&linear->factor, low);
+    const int q = pgem_inverse_position(&view, low, high);
     if (q < 0) {
         return PGEM_ERR_INVALID_ARGUMENT; /* not on the pattern: the caller solves instead */
     }
@@ -273,7 +247,7 @@ int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, cons
         for (int c = 0; c < b; c++) {
             double sum = 0.0;
             for (int m = 0; m < b; m++) {
-                sum += a_high[r * b + m] * *pgem_off(linear, b, low, q, m, c);
+                sum += a_high[r * b + m] * view.base[c][(b - c) + q * b + m];
             }
             az[r * b + c] = sum;
         }

@@ -1,5 +1,5 @@
 /* y = H x with the assembled normal equations (the values the factorisation reads, damping
- * included), over the block pattern of H's upper triangle; no allocation. */
+ * included), over the block pattern of H's lower triangle (pgem_lower_column); no allocation. */
 #include <string.h>
 
 #include "internal.h"
@@ -11,23 +11,24 @@ static inline void pgem_multiply_column(const pgem_linear_t *linear, int b, int 
     const int first = linear->block_colptr[column];
     const int count = linear->block_colptr[column + 1] - first;
     const int *rows = linear->block_rows + first;
+    const int base = column * b;
     for (int c = 0; c < b; c++) {
-        const int j = column * b + c;
-        const double *values = linear->upper_values + linear->upper_colptr[j];
+        const int j = base + c;
+        const double *values = linear->lower_values + pgem_lower_column(linear, column, c);
+        y[j] += values[0] * x[j];
+        for (int r = c + 1; r < b; r++) { /* H(base + r, j) */
+            y[base + r] += values[r - c] * x[j];
+            y[j] += values[r - c] * x[base + r];
+        }
+        const double *off = values + (b - c);
         for (int q = 0; q < count; q++) {
-            const int base = rows[q] * b;
+            const int row = rows[q] * b;
             for (int r = 0; r < b; r++) {
-                const double h = values[q * b + r]; /* H(base + r, j), base + r < j */
-                y[base + r] += h * x[j];
-                y[j] += h * x[base + r];
+                const double h = off[q * b + r]; /* H(row + r, j), row + r > j */
+                y[row + r] += h * x[j];
+                y[j] += h * x[row + r];
             }
         }
-        const double *diagonal = values + (ptrdiff_t)count * b; /* H(column * b + r, j), r <= c */
-        for (int r = 0; r < c; r++) {
-            y[column * b + r] += diagonal[r] * x[j];
-            y[j] += diagonal[r] * x[column * b + r];
-        }
-        y[j] += diagonal[c] * x[j];
     }
 }
 

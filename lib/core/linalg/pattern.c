@@ -1,4 +1,4 @@
-/* Block pattern of H: free-pose numbering, AMD ordering and the sorted upper block pattern. */
+/* Block pattern of H: free-pose numbering, the sorted upper block pattern and its transpose. */
 #include "internal.h"
 
 /* Numbers the free poses 0, 1, ... (-1 for held poses); returns how many are free. */
@@ -83,32 +83,27 @@ void pgem_pattern_build(pgem_t *graph, int block_count, int *colptr, int *rows, 
     pgem_pattern_unique(block_count, colptr, rows);
 }
 
-/* Fill-reducing ordering of the free poses with CSparse AMD on the block graph; renumbers
- * linear->pose_block in the new order. CSparse allocates here: from the heap with the
- * system CSparse, from the block's pool with the source-built one. */
-int pgem_pattern_order(pgem_t *graph, int block_count)
+void pgem_pattern_transpose(int block_count, const int *colptr, const int *rows, int *out_colptr,
+                            int *out_rows)
 {
-    pgem_linear_t *linear = &graph->linear;
-    int *colptr = linear->scratch;
-    int *rows = colptr + block_count + 1;
-    int *work = rows + graph->edge_count;
-    pgem_pattern_build(graph, block_count, colptr, rows, work);
-    cs_di pattern = {colptr[block_count], block_count, block_count, colptr, rows, NULL, -1};
-    pgem_cs_open(&linear->cs_pool);
-    int *order = cs_di_amd(1, &pattern);
-    if (order == NULL) {
-        pgem_cs_close(&linear->cs_pool);
-        return PGEM_ERR_OUT_OF_MEMORY;
+    for (int j = 0; j <= block_count; j++) {
+        out_colptr[j] = 0;
     }
-    int *position = work; /* free index -> position in the ordering */
-    for (int k = 0; k < block_count; k++) {
-        position[order[k]] = k;
+    for (int q = 0; q < colptr[block_count]; q++) {
+        out_colptr[rows[q] + 1]++;
     }
-    cs_di_free(order);
-    pgem_cs_close(&linear->cs_pool);
-    for (uint32_t p = 0; p < graph->pose_count; p++) {
-        int free_index = linear->pose_block[p];
-        linear->pose_block[p] = free_index >= 0 ? position[free_index] : -1;
+    for (int j = 0; j < block_count; j++) {
+        out_colptr[j + 1] += out_colptr[j];
     }
-    return PGEM_OK;
+    /* out_colptr[i] is now where row i's column starts; fill by walking the columns in order,
+     * so each output column's rows come out sorted */
+    for (int j = 0; j < block_count; j++) {
+        for (int q = colptr[j]; q < colptr[j + 1]; q++) {
+            out_rows[out_colptr[rows[q]]++] = j;
+        }
+    }
+    for (int j = block_count; j > 0; j--) {
+        out_colptr[j] = out_colptr[j - 1];
+    }
+    out_colptr[0] = 0;
 }

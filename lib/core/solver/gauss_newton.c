@@ -13,6 +13,7 @@ int pgem_gauss_newton(pgem_t *graph, const pgem_solve_options_t *options, pgem_s
         return pgem_fail_numeric(graph, "initial chi2", 0);
     }
     for (uint32_t iteration = 1; iteration <= options->max_iterations; iteration++) {
+        linear->progress_iteration = iteration;
         int status = pgem_linear_factor(graph);
         summary->factorizations++;
         summary->iterations = iteration;

@@ -116,6 +116,7 @@ int pgem_levenberg_marquardt(pgem_t *graph, const pgem_solve_options_t *options,
     pgem_lm_save(graph);
     for (uint32_t iteration = 1; iteration <= options->max_iterations; iteration++) {
         double step_norm = 0.0;
+        graph->linear.progress_iteration = iteration;
         int accepted = pgem_lm_iteration(graph, &lm, summary, &step_norm);
         summary->iterations = iteration;
         if (accepted < 0) {

@@ -1,8 +1,8 @@
 /* The Newton step: the factor's solve, then, when the assembly left couplings out of the
  * structure (dormant loop closures), conjugate gradients on the whole matrix H + D with the
  * factor of H as preconditioner, so the step is the exact one (to a relative residual of
- * 1e-13) however sparse the factor was kept. No allocation: the vectors live in the
- * factorisation's workspace and the LM gradient copy. */
+ * 1e-13) however sparse the factor was kept. No allocation: the vectors live in the shared
+ * region (linalg/factor.h) and the LM gradient copy. */
 #include <math.h>
 #include <string.h>
 
@@ -37,7 +37,7 @@ int pgem_solve_newton(pgem_t *graph)
     }
     double *x = linear->rhs;
     double *b = linear->gradient; /* LM keeps the same -b there; GN does not use it */
-    double *r = linear->block_work;
+    double *r = linear->factor.shared; /* 3 vectors: b doubles per pose or more */
     double *p = r + count;
     double *q = p + count; /* (H + D) p, then the preconditioned residual */
     memcpy(b, x, (size_t)count * sizeof(double));

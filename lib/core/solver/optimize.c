@@ -102,16 +102,18 @@ static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_sum
     if (status == PGEM_OK) {
         status = pgem_linear_check_parts(graph);
     }
-    summary->factor_nonzeros = (uint32_t)graph->linear.factor_nonzeros;
+    summary->factor_nonzeros = (uint32_t)graph->linear.factor.nonzeros;
     if (status != PGEM_OK) {
         summary->termination = pgem_failure_termination(status);
         return status;
     }
     summary->variables = (uint32_t)graph->linear.scalar_count;
     memcpy(graph->pose_saved, graph->pose, pose_bytes);
+    graph->linear.progress = options; /* the factorisations report to options->on_progress */
     status = options->method == PGEM_LEVENBERG_MARQUARDT
                  ? pgem_levenberg_marquardt(graph, options, summary)
                  : pgem_gauss_newton(graph, options, summary);
+    graph->linear.progress = NULL;
     if (status == PGEM_OK && (status = pgem_check_solved_poses(graph)) != PGEM_OK) {
         summary->termination = PGEM_TERM_NUMERIC;
     }
