@@ -315,7 +315,8 @@ static int online_stream_all(const online_args_t *args, const online_stream_t *s
     if (args->weights != NULL && pgem_cli_write_weights(state->core, args->weights) != 0) {
         return PGEM_EXIT_IO;
     }
-    return args->output != NULL ? pgem_cli_write(state->core, args->output) : PGEM_EXIT_OK;
+    return args->output != NULL ? pgem_cli_write(state->core, NULL, args->output, NULL, 0u)
+                                  : PGEM_EXIT_OK;
 }
 
 /* Capacities for the whole file, sized once, as a robot sizes its block before it starts. */
