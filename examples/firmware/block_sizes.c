@@ -9,7 +9,7 @@
 
 static void row(int dimension, unsigned poses, unsigned edges, unsigned fill)
 {
-    const pgem_config_t config = {dimension, poses, edges, fill, 0};
+    const pgem_config_t config = {dimension, poses, edges, fill, 0, 0};
     const size_t exact = pgem_memory_size(&config);
     const size_t bound = PGEM_MEMORY_BOUND(dimension, poses, edges, fill);
     printf("| %dD | %u | %u | %u | %zu (%.1f KiB) | %zu (%.1f KiB) |\n", dimension, poses, edges,

@@ -9,6 +9,7 @@
 #include "pgem/robust.h"
 #include "pgem_cs.h"
 #include "linalg/factor.h"
+#include "linalg/online.h"
 
 #define PGEM_MESSAGE_SIZE 256
 
@@ -151,6 +152,7 @@ struct pgem {
 
     pgem_linear_t linear;      /* normal equations */
     pgem_executor_t executor;  /* threads of the factorisation (run NULL: the caller's only) */
+    pgem_online_t online;      /* the incremental factor of pgem_update (linalg/online.h) */
     char message[PGEM_MESSAGE_SIZE]; /* last error message */
 };
 

@@ -43,6 +43,7 @@ typedef struct online_state {
     uint32_t solved_poses;        /* poses (by index) in the last successful update */
     int restart_pending;          /* an update failed: the next starts from the raw guesses */
     uint32_t restarts;            /* updates that started from the raw guesses */
+    pgem_update_summary_t step;   /* --mode incremental: the last pgem_update's summary */
 } online_state_t;
 
 /* Creates the instance for capacities (max_poses, max_edges, fill_budget; 0 = the core's
@@ -65,6 +66,8 @@ typedef struct online_mode {
     const char *name;             /* "full", "incremental" */
     online_update_fn update;      /* NULL: not in this build (why says what is missing) */
     const char *why;              /* shown when update is NULL */
+    online_update_fn settle;      /* after the stream (NULL: none): the solve that takes the
+                                     estimate to the optimum; timed apart */
 } online_mode_t;
 
 /* The modes, ending with a {NULL, NULL, NULL} entry. */

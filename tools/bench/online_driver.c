@@ -40,6 +40,7 @@ typedef struct online_run {
     int status;                   /* the last update's status */
     pgem_robust_summary_t last;   /* the last update's summary */
     uint32_t factor_peak;         /* most factor nonzeros after an update */
+    double settle_seconds;        /* the mode's settle solve after the stream (-1: none) */
 } online_run_t;
 
 static void online_usage(FILE *out)
@@ -189,7 +190,11 @@ static void online_update_line(const online_stream_t *stream, const online_state
            s->pruned, s->rejected, s->rounds, s->em_iterations, s->gn_iterations);
     online_json_number("initial_chi2", s->initial_chi2);
     online_json_number("chi2", run->status == PGEM_OK ? s->final_chi2 : ONLINE_NONE);
-    printf(",\"factor_nonzeros\":%u,\"analyses\":%u}\n", stats.factor_nonzeros, stats.analyses);
+    printf(",\"factor_nonzeros\":%u,\"analyses\":%u,\"columns_touched\":%u,\"relinearized\":%u,"
+           "\"rebuilt\":%d,\"loops_accepted\":%u,\"loops_rejected\":%u,\"readmitted\":%u}\n",
+           stats.factor_nonzeros, stats.analyses, state->step.columns_touched,
+           state->step.relinearized, state->step.rebuilt, state->step.loops_accepted,
+           state->step.loops_rejected, state->step.loops_readmitted);
 }
 
 /* The last line: what was streamed, the final update's outcome and the memory. */
@@ -209,6 +214,7 @@ static void online_summary_line(const online_args_t *args, const online_stream_t
            run->updates, run->failed, state->restarts, run->stopped ? "true" : "false");
     online_json_number("time_limit", args->time_limit > 0.0 ? args->time_limit : ONLINE_NONE);
     online_json_number("update_seconds", run->update_seconds);
+    online_json_number("settle_seconds", run->settle_seconds >= 0.0 ? run->settle_seconds : ONLINE_NONE);
     online_json_number("wall_seconds", pgem_cli_now() - run->start);
     printf(",\"status\":\"%s\",\"outcome\":\"%s\",\"loops\":%u,\"pruned\":%u,\"rejected\":%u",
            pgem_error_name(run->status),
@@ -305,6 +311,10 @@ static int online_stream_all(const online_args_t *args, const online_stream_t *s
             break;
         }
     }
+    run.settle_seconds = -1.0;
+    if (run.status == PGEM_OK && args->mode->settle != NULL) {
+        run.status = args->mode->settle(state, &run.last, &run.settle_seconds);
+    }
     online_summary_line(args, stream, state, &run);
     fflush(stdout);
     if (run.status != PGEM_OK) {
@@ -326,6 +336,11 @@ static int online_open(const online_args_t *args, const pgem_io_graph_t *file,
     pgem_config_t config;
     pgem_io_config(file, &config);
     config.fill_budget = args->fill_budget;
+    if (args->mode->settle != NULL) { /* the incremental factor's room: twice the default fill */
+        const uint64_t b = (uint64_t)PGEM_TANGENT_SIZE(config.dimension);
+        const uint64_t fill = 2u * (uint64_t)PGEM_DEFAULT_FILL_PER_POSE * b * b * config.max_poses;
+        config.online_fill = fill > (uint64_t)INT32_MAX ? (uint32_t)INT32_MAX : (uint32_t)fill;
+    }
     return online_state_init(state, &config, args->guess);
 }
 

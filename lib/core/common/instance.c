@@ -21,6 +21,9 @@ static const char *pgem_config_problem(const pgem_config_t *config)
     if (config->threads > PGEM_MAX_THREADS) {
         return "config.threads is above PGEM_MAX_THREADS";
     }
+    if (config->online_fill > (uint32_t)INT32_MAX) {
+        return "config.online_fill is above INT32_MAX";
+    }
     return NULL;
 }
 
@@ -162,6 +165,7 @@ void pgem_carve(pgem_t *graph, pgem_arena_t *arena)
 {
     pgem_carve_graph(graph, arena);
     pgem_carve_linear(graph, arena);
+    pgem_online_carve(graph, arena);
 }
 
 /* Sizes of the instance struct and its arrays for a resolved config (measuring pass). */
