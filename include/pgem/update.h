@@ -23,6 +23,10 @@ typedef struct pgem_update_options {
                                        the last such rebuild, plus reorder_slack; 0 means 1.5 */
     uint32_t reorder_slack;       /**< blocks added to that bound (0 means 64 per 1000 poses
                                        of capacity, at least 256) */
+    double wildfire_threshold;    /**< the back-substitution recomputes a pose's step only when
+                                       the update touched its column or a step it depends on
+                                       changed by more than this (iSAM2's "wildfire"); 0 means
+                                       1e-4; negative: every step, every update */
     uint32_t relinearize_limit;   /**< when more poses than this are due for relinearisation,
                                        the update rebuilds instead (cheaper than that many rank
                                        updates); 0 means 1/20 of the factor's columns, at

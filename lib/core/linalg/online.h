@@ -7,6 +7,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "pgem/geometry.h"
 #include "pgem/update.h"
 
 struct pgem;
@@ -40,7 +41,16 @@ typedef struct pgem_online {
     double *values;           /* [pool_blocks * b * b] */
     double *lin;              /* [max_poses * pose_size] linearisation point of every pose */
     double *delta;            /* [max_poses * b] the step from lin, by column */
-    double *gradient;         /* [max_poses * b] J^T W e at lin, by column */
+    double *forward;          /* [max_poses * b] y with L y = -J^T W e at lin, by column: the
+                                 rotations of the updates carry it along */
+    double beta[PGEM_TANGENT_SIZE_MAX]; /* the right-hand side of the vectors of an update */
+    int *child;               /* [max_poses] first child of a column in the tree, -1 */
+    int *sibling;             /* [max_poses] next child of the same parent, -1 */
+    int *previous;            /* [max_poses] previous child of the same parent, -1 */
+    int root;                 /* first root column, -1 */
+    int *changed;             /* [max_poses] 1: the back-substitution changed the column's step */
+    int *recomputed;          /* [max_poses] columns the last back-substitution recomputed */
+    int recomputed_count;
     double *vector;           /* [max_poses * b * b] a rank-one update's vector (or b of them
                                  interleaved, the marginal's), zero between uses */
     double *edge_weight_in;   /* [max_edges] weight the edge has in the factor (0: not in) */
@@ -72,17 +82,27 @@ int pgem_online_rebuild(struct pgem *graph, int recent);
  * edge k at the poses given (Omega = U^T U): the edge's square-root linearisation. */
 void pgem_online_edge(const struct pgem *graph, uint32_t k, const double *from, const double *to,
                       double weight, double *a_from, double *a_to, double *residual);
-/* L L^T + sign a a^T for the vector in online->vector (non-zero only in the block columns
- * listed, ascending, at most 2 + 1), growing the pattern along the path. PGEM_OK,
- * PGEM_ERR_FILL_BUDGET (the pool is full: online->full), PGEM_ERR_NOT_POSITIVE_DEFINITE (a
- * downdate lost definiteness). The vector is zero afterwards. */
-int pgem_online_rank_one(struct pgem *graph, const int *columns, int column_count, double sign);
+/* L L^T + sign A A^T for the `rank` (1 .. b) vectors in online->vector (interleaved: entry
+ * (scalar s, vector k) at s rank + k; non-zero only in the block columns listed, ascending,
+ * at most 2), growing the pattern along the path. PGEM_OK, PGEM_ERR_FILL_BUDGET (the pool is
+ * full: online->full), PGEM_ERR_NOT_POSITIVE_DEFINITE (a downdate lost definiteness). The
+ * vectors are zero afterwards. */
+int pgem_online_rank_update(struct pgem *graph, const int *columns, int column_count, double sign,
+                            int rank);
 /* Appends a block column for pose p with diagonal block sqrt(seed) I and no rows. */
 int pgem_online_append(struct pgem *graph, uint32_t p, double seed);
 /* Pool block of block row i in column j (its diagonal block for i == j), or -1. */
 int pgem_online_find(const pgem_online_t *online, int j, int i);
-/* delta = -(L L^T)^-1 gradient, by column. */
-void pgem_online_solve(struct pgem *graph);
+/* forward = L^-1 forward over every column (a rebuild's, forward holding -J^T W e). */
+void pgem_online_forward(struct pgem *graph);
+/* delta = L^-T forward from the roots down, recomputing a column when it was touched by this
+ * update or a row's step changed by more than tolerance (negative: every column); the
+ * recomputed columns into online->recomputed. */
+void pgem_online_back(struct pgem *graph, double tolerance);
+/* Column j's parent becomes p (-1: a root), in the tree's child lists. */
+void pgem_online_set_parent(pgem_online_t *online, int j, int p);
+/* The child lists from parent[] for columns 0 .. columns-1. */
+void pgem_online_link_tree(pgem_online_t *online);
 /* Y = L^-1 A^T for A (n x (2 b), row-major, by the two columns ca < cb, either -1 when held):
  * the forward solve along the two paths; returns A H^-1 A^T (n x n, row-major) in out. */
 void pgem_online_marginal(struct pgem *graph, int ca, int cb, const double *a_a, const double *a_b,

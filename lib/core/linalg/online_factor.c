@@ -59,7 +59,9 @@ static int pgem_online_grow(pgem_online_t *online, int j, const int *add, int m)
         }
     }
     online->count[j] = count + m;
-    online->parent[j] = rows[0];
+    if (online->parent[j] != rows[0]) {
+        pgem_online_set_parent(online, j, rows[0]);
+    }
     return PGEM_OK;
 }
 
@@ -106,58 +108,69 @@ int pgem_online_find(const pgem_online_t *online, int j, int i)
     return -1;
 }
 
-/* The rank-one step on block column j: every scalar column's rotation with the vector. */
-static int pgem_online_rotate(pgem_online_t *online, int j, double sign)
+/* The rotations of column j with the `rank` vectors (online->vector, interleaved: entry
+ * (scalar s, vector k) at s rank + k): for each scalar column, vector after vector, which is
+ * the same as one full rank-one update after the other. */
+static int pgem_online_rotate(pgem_online_t *online, int j, double sign, int rank)
 {
-    const int b = online->block;
+    const int b = online->block, count = online->count[j];
+    const size_t stride = (size_t)b * (size_t)rank;
     double *diagonal = pgem_online_block(online, online->start[j]);
-    double *x = online->vector + (size_t)j * (size_t)b;
+    double *x = online->vector + (size_t)j * stride;
+    double *y = online->forward + (size_t)j * (size_t)b;
     for (int c = 0; c < b; c++) {
-        const double xc = x[c];
-        if (xc == 0.0) {
-            continue;
-        }
-        const double pivot = diagonal[c * b + c];
-        const double squared = pivot * pivot + sign * xc * xc;
-        if (!(squared > 0.0) || !isfinite(squared)) {
-            return PGEM_ERR_NOT_POSITIVE_DEFINITE;
-        }
-        const double root = sqrt(squared);
-        const double cosine = root / pivot, sine = xc / pivot;
-        diagonal[c * b + c] = root;
-        for (int r = c + 1; r < b; r++) {
-            const double value = (diagonal[c * b + r] + sign * sine * x[r]) / cosine;
-            x[r] = cosine * x[r] - sine * value;
-            diagonal[c * b + r] = value;
-        }
-        for (int q = 1; q <= online->count[j]; q++) {
-            double *block = pgem_online_block(online, online->start[j] + q) + (size_t)c * (size_t)b;
-            double *y = online->vector + (size_t)online->rows[online->start[j] + q] * (size_t)b;
-            for (int r = 0; r < b; r++) {
-                const double value = (block[r] + sign * sine * y[r]) / cosine;
-                y[r] = cosine * y[r] - sine * value;
-                block[r] = value;
+        for (int k = 0; k < rank; k++) {
+            const double xc = x[c * rank + k];
+            if (xc == 0.0) {
+                continue;
             }
+            const double pivot = diagonal[c * b + c];
+            const double squared = pivot * pivot + sign * xc * xc;
+            if (!(squared > 0.0) || !isfinite(squared)) {
+                return PGEM_ERR_NOT_POSITIVE_DEFINITE;
+            }
+            const double root = sqrt(squared);
+            const double cosine = root / pivot, sine = xc / pivot, up = sign * sine;
+            const double inverse = 1.0 / cosine;
+            diagonal[c * b + c] = root;
+            const double rhs = (y[c] + up * online->beta[k]) * inverse;
+            online->beta[k] = cosine * online->beta[k] - sine * rhs;
+            y[c] = rhs;
+            for (int r = c + 1; r < b; r++) {
+                const double value = (diagonal[c * b + r] + up * x[r * rank + k]) * inverse;
+                x[r * rank + k] = cosine * x[r * rank + k] - sine * value;
+                diagonal[c * b + r] = value;
+            }
+            for (int q = 1; q <= count; q++) {
+                double *block = pgem_online_block(online, online->start[j] + q) + (size_t)c * (size_t)b;
+                double *w = online->vector + (size_t)online->rows[online->start[j] + q] * stride + k;
+                for (int r = 0; r < b; r++) {
+                    const double value = (block[r] + up * w[r * rank]) * inverse;
+                    w[r * rank] = cosine * w[r * rank] - sine * value;
+                    block[r] = value;
+                }
+            }
+            x[c * rank + k] = 0.0;
         }
-        x[c] = 0.0;
     }
     return PGEM_OK;
 }
 
-/* Zeroes the vector from column j up to the root (after a failure part way). */
-static void pgem_online_clear_path(pgem_online_t *online, int j)
+/* Zeroes the vectors from column j up to the root (after a failure part way). */
+static void pgem_online_clear_path(pgem_online_t *online, int j, int rank)
 {
-    const size_t b = (size_t)online->block;
+    const size_t stride = (size_t)online->block * (size_t)rank;
     for (; j >= 0; j = online->parent[j]) {
-        memset(online->vector + (size_t)j * b, 0, b * sizeof(double));
+        memset(online->vector + (size_t)j * stride, 0, stride * sizeof(double));
         for (int q = 1; q <= online->count[j]; q++) {
-            memset(online->vector + (size_t)online->rows[online->start[j] + q] * b, 0,
-                   b * sizeof(double));
+            memset(online->vector + (size_t)online->rows[online->start[j] + q] * stride, 0,
+                   stride * sizeof(double));
         }
     }
 }
 
-int pgem_online_rank_one(pgem_t *graph, const int *columns, int column_count, double sign)
+int pgem_online_rank_update(pgem_t *graph, const int *columns, int column_count, double sign,
+                            int rank)
 {
     pgem_online_t *online = &graph->online;
     int j = columns[0];
@@ -169,7 +182,7 @@ int pgem_online_rank_one(pgem_t *graph, const int *columns, int column_count, do
         }
     }
     while (status == PGEM_OK && j >= 0) {
-        status = pgem_online_rotate(online, j, sign);
+        status = pgem_online_rotate(online, j, sign, rank);
         if (online->touched[j] != online->stamp) {
             online->touched[j] = online->stamp;
             online->last.columns_touched++;
@@ -186,9 +199,9 @@ int pgem_online_rank_one(pgem_t *graph, const int *columns, int column_count, do
             j = p;
         }
     }
-    online->last.rank_updates++;
+    online->last.rank_updates += (uint32_t)rank;
     if (status != PGEM_OK) {
-        pgem_online_clear_path(online, j);
+        pgem_online_clear_path(online, j, rank);
     }
     return status;
 }
@@ -207,7 +220,9 @@ int pgem_online_append(pgem_t *graph, uint32_t p, double seed)
     online->pool_used += (uint32_t)room + 1u;
     online->count[j] = 0;
     online->capacity[j] = room;
-    online->parent[j] = -1;
+    online->parent[j] = -2; /* not linked yet */
+    online->child[j] = -1;
+    pgem_online_set_parent(online, j, -1);
     online->rows[online->start[j]] = j;
     double *diagonal = pgem_online_block(online, online->start[j]);
     memset(diagonal, 0, (size_t)b * (size_t)b * sizeof(double));
@@ -215,7 +230,8 @@ int pgem_online_append(pgem_t *graph, uint32_t p, double seed)
         diagonal[c * b + c] = sqrt(seed);
     }
     memset(online->delta + (size_t)j * (size_t)b, 0, (size_t)b * sizeof(double));
-    memset(online->gradient + (size_t)j * (size_t)b, 0, (size_t)b * sizeof(double));
+    memset(online->forward + (size_t)j * (size_t)b, 0, (size_t)b * sizeof(double));
+    online->changed[j] = 0;
     online->pose_column[p] = j;
     online->column_pose[j] = (int)p;
     online->columns++;
@@ -245,14 +261,11 @@ static void pgem_online_upper_solve(const double *diagonal, int b, double *x)
     }
 }
 
-void pgem_online_solve(pgem_t *graph)
+void pgem_online_forward(pgem_t *graph)
 {
     pgem_online_t *online = &graph->online;
     const int b = online->block;
-    double *y = online->delta;
-    for (int k = 0; k < online->columns * b; k++) {
-        y[k] = -online->gradient[k];
-    }
+    double *y = online->forward;
     for (int j = 0; j < online->columns; j++) {
         double *x = y + (size_t)j * (size_t)b;
         pgem_online_lower_solve(pgem_online_block(online, online->start[j]), b, x);
@@ -266,20 +279,114 @@ void pgem_online_solve(pgem_t *graph)
             }
         }
     }
-    for (int j = online->columns - 1; j >= 0; j--) {
-        double *x = y + (size_t)j * (size_t)b;
-        for (int q = 1; q <= online->count[j]; q++) {
-            const double *block = pgem_online_block(online, online->start[j] + q);
-            const double *source = y + (size_t)online->rows[online->start[j] + q] * (size_t)b;
-            for (int c = 0; c < b; c++) {
-                double sum = 0.0;
-                for (int r = 0; r < b; r++) {
-                    sum += block[c * b + r] * source[r];
-                }
-                x[c] -= sum;
+}
+
+/* Recomputes column j's step; returns its largest change. */
+static double pgem_online_back_column(pgem_online_t *online, int j)
+{
+    const int b = online->block;
+    double x[PGEM_TANGENT_SIZE_MAX];
+    memcpy(x, online->forward + (size_t)j * (size_t)b, (size_t)b * sizeof(double));
+    for (int q = 1; q <= online->count[j]; q++) {
+        const double *block = pgem_online_block(online, online->start[j] + q);
+        const double *source = online->delta + (size_t)online->rows[online->start[j] + q] * (size_t)b;
+        for (int c = 0; c < b; c++) {
+            double sum = 0.0;
+            for (int r = 0; r < b; r++) {
+                sum += block[c * b + r] * source[r];
             }
+            x[c] -= sum;
         }
-        pgem_online_upper_solve(pgem_online_block(online, online->start[j]), b, x);
+    }
+    pgem_online_upper_solve(pgem_online_block(online, online->start[j]), b, x);
+    double largest = 0.0;
+    double *d = online->delta + (size_t)j * (size_t)b;
+    for (int c = 0; c < b; c++) {
+        const double change = fabs(x[c] - d[c]);
+        largest = change > largest ? change : largest;
+        d[c] = x[c];
+    }
+    return largest;
+}
+
+/* 1 if column j must be recomputed: touched by this update, or a row's step changed. */
+static int pgem_online_stale(const pgem_online_t *online, int j)
+{
+    if (online->touched[j] == online->stamp) {
+        return 1;
+    }
+    for (int q = 1; q <= online->count[j]; q++) {
+        if (online->changed[online->rows[online->start[j] + q]]) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
+void pgem_online_back(pgem_t *graph, double tolerance)
+{
+    pgem_online_t *online = &graph->online;
+    int *stack = online->list, top = 0;
+    online->recomputed_count = 0;
+    for (int r = online->root; r >= 0; r = online->sibling[r]) {
+        stack[top++] = r;
+    }
+    /* a column is pushed only after its parent was recomputed (its children are on the stack
+     * above it only when it was), so each column is visited at most once */
+    while (top > 0) {
+        const int j = stack[--top];
+        if (tolerance >= 0.0 && !pgem_online_stale(online, j)) {
+            online->changed[j] = 0;
+            continue;
+        }
+        const double change = pgem_online_back_column(online, j);
+        online->changed[j] = tolerance < 0.0 || change > tolerance;
+        online->recomputed[online->recomputed_count++] = j;
+        for (int c = online->child[j]; c >= 0; c = online->sibling[c]) {
+            stack[top++] = c;
+        }
+    }
+    for (int k = 0; k < online->recomputed_count; k++) {
+        online->changed[online->recomputed[k]] = 0;
+    }
+}
+
+void pgem_online_set_parent(pgem_online_t *online, int j, int p)
+{
+    const int old = online->parent[j];
+    if (old != -2) { /* unlink */
+        if (online->previous[j] >= 0) {
+            online->sibling[online->previous[j]] = online->sibling[j];
+        } else if (old >= 0) {
+            online->child[old] = online->sibling[j];
+        } else {
+            online->root = online->sibling[j];
+        }
+        if (online->sibling[j] >= 0) {
+            online->previous[online->sibling[j]] = online->previous[j];
+        }
+    }
+    int *head = p >= 0 ? &online->child[p] : &online->root;
+    online->previous[j] = -1;
+    online->sibling[j] = *head;
+    if (*head >= 0) {
+        online->previous[*head] = j;
+    }
+    *head = j;
+    online->parent[j] = p;
+}
+
+void pgem_online_link_tree(pgem_online_t *online)
+{
+    online->root = -1;
+    for (int j = 0; j < online->columns; j++) {
+        online->child[j] = -1;
+        online->changed[j] = 0;
+    }
+    for (int j = online->columns - 1; j >= 0; j--) {
+        const int p = online->parent[j];
+        online->parent[j] = -2;
+        pgem_online_set_parent(online, j, p);
     }
 }
 
@@ -375,7 +482,8 @@ void pgem_online_carve(pgem_t *graph, pgem_arena_t *arena)
     int **ints[] = {&online->pose_column, &online->column_pose, &online->parent, &online->start,
                     &online->count, &online->capacity, &online->pose_edge, &online->mark,
                     &online->list, &online->head, &online->next, &online->position,
-                    &online->touched};
+                    &online->touched, &online->child, &online->sibling, &online->previous,
+                    &online->changed, &online->recomputed};
     for (size_t k = 0; k < sizeof ints / sizeof ints[0]; k++) {
         *ints[k] = pgem_arena_take(arena, poses, sizeof(int));
     }
@@ -387,7 +495,7 @@ void pgem_online_carve(pgem_t *graph, pgem_arena_t *arena)
     online->values = pgem_arena_take(arena, (size_t)online->pool_blocks * b * b, sizeof(double));
     online->lin = pgem_arena_take(arena, poses * (size_t)graph->pose_size, sizeof(double));
     online->delta = pgem_arena_take(arena, poses * b, sizeof(double));
-    online->gradient = pgem_arena_take(arena, poses * b, sizeof(double));
+    online->forward = pgem_arena_take(arena, poses * b, sizeof(double));
     online->vector = pgem_arena_take(arena, poses * b * b, sizeof(double));
     if (online->vector != NULL) {
         memset(online->vector, 0, poses * b * b * sizeof(double));

@@ -227,14 +227,14 @@ static int pgem_online_symbolic(pgem_t *graph, int columns)
     return PGEM_OK;
 }
 
-/* Adds H's blocks and the gradient of every edge in the system at lin. */
+/* Adds H's blocks of every edge in the system at lin, and its gradient, negated, into forward. */
 static void pgem_online_assemble(pgem_t *graph, int columns)
 {
     pgem_online_t *online = &graph->online;
     const int b = online->block;
     const size_t bb = (size_t)b * (size_t)b;
     memset(online->values, 0, (size_t)online->pool_used * bb * sizeof(double));
-    memset(online->gradient, 0, (size_t)columns * (size_t)b * sizeof(double));
+    memset(online->forward, 0, (size_t)columns * (size_t)b * sizeof(double));
     double a[2][PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX], r[PGEM_TANGENT_SIZE_MAX];
     for (uint32_t k = 0; k < graph->edge_count; k++) {
         const double w = online->edge_weight_in[k];
@@ -266,10 +266,10 @@ static void pgem_online_assemble(pgem_t *graph, int columns)
                 }
             }
             if (ends[s] >= 0) {
-                double *g = online->gradient + (size_t)ends[s] * (size_t)b;
+                double *g = online->forward + (size_t)ends[s] * (size_t)b;
                 for (int c = 0; c < b; c++) {
                     for (int m = 0; m < b; m++) {
-                        g[c] += a[s][m * b + c] * r[m];
+                        g[c] -= a[s][m * b + c] * r[m];
                     }
                 }
             }
@@ -418,12 +418,14 @@ int pgem_online_rebuild(pgem_t *graph, int recent)
         return status;
     }
     online->packed_blocks = online->pool_used;
+    pgem_online_link_tree(online);
     pgem_online_assemble(graph, columns);
     status = pgem_online_numeric(graph, columns);
     if (status != PGEM_OK) {
         online->columns = 0;
         return status;
     }
+    pgem_online_forward(graph);
     online->last.columns_touched += (uint32_t)columns;
     online->ready = 1;
     return PGEM_OK;

@@ -20,6 +20,7 @@ typedef struct pgem_update_settings {
     double inflation;  /* the map's covariance factor in the innovation */
     int rebuild;       /* rebuild now */
     int movers;        /* more poses to relinearise than this: rebuild instead */
+    double wildfire;   /* back-substitution: a step changing less stops there */
 } pgem_update_settings_t;
 
 static int pgem_update_resolve(pgem_t *graph, const pgem_update_options_t *options,
@@ -31,6 +32,7 @@ static int pgem_update_resolve(pgem_t *graph, const pgem_update_options_t *optio
     if (pgem_check_option(graph, o->relinearize_threshold, "relinearize_threshold") != PGEM_OK ||
         pgem_check_option(graph, o->reorder_growth, "reorder_growth") != PGEM_OK ||
         pgem_check_option(graph, o->gate, "gate") != PGEM_OK ||
+        pgem_check_option(graph, o->wildfire_threshold, "wildfire_threshold") != PGEM_OK ||
         pgem_check_option(graph, o->odometry_inflation, "odometry_inflation") != PGEM_OK) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
@@ -43,6 +45,7 @@ static int pgem_update_resolve(pgem_t *graph, const pgem_update_options_t *optio
     out->gate = o->gate > 0.0 ? o->gate : (graph->tangent == 6 ? 22.458 : 16.266);
     out->inflation = o->odometry_inflation > 0.0 ? o->odometry_inflation : 4.0;
     out->rebuild = o->rebuild != 0;
+    out->wildfire = o->wildfire_threshold != 0.0 ? o->wildfire_threshold : 1e-4;
     const int share = graph->online.columns / 20;
     out->movers = o->relinearize_limit != 0u ? (int)(o->relinearize_limit > 1000000u ? 1000000u : o->relinearize_limit)
                                               : (share > 32 ? share : 32);
@@ -76,8 +79,8 @@ static double pgem_update_weight(const pgem_t *graph, uint32_t k)
     return graph->edge_active[k] == PGEM_EDGE_ACTIVE ? graph->edge_weight[k] : 0.0;
 }
 
-/* Adds (sign 1) or removes (sign -1) an edge linearised at the poses given: its rows as
- * rank-one updates, its gradient. */
+/* Adds (sign 1) or removes (sign -1) an edge linearised at the poses given: its rows as one
+ * rank-b update, their right-hand side carried into forward by the same rotations. */
 static int pgem_update_edge(pgem_t *graph, uint32_t k, const double *from, const double *to,
                             double weight, double sign)
 {
@@ -100,27 +103,18 @@ static int pgem_update_edge(pgem_t *graph, uint32_t k, const double *from, const
         side[0] = 1;
         side[1] = 0;
     }
-    for (int t = 0; t < count; t++) {
-        double *g = online->gradient + (size_t)columns[t] * (size_t)b;
+    for (int row = 0; row < b; row++) { /* the vectors' right-hand side: -sqrt(w) U e */
+        online->beta[row] = -r[row];
+    }
+    for (int t = 0; t < count; t++) { /* the rows of A as b vectors, interleaved */
+        double *x = online->vector + (size_t)columns[t] * (size_t)b * (size_t)b;
         for (int c = 0; c < b; c++) {
-            for (int m = 0; m < b; m++) {
-                g[c] += sign * a[side[t]][m * b + c] * r[m];
+            for (int row = 0; row < b; row++) {
+                x[c * b + row] = a[side[t]][row * b + c];
             }
         }
     }
-    for (int row = 0; row < b; row++) {
-        for (int t = 0; t < count; t++) {
-            double *x = online->vector + (size_t)columns[t] * (size_t)b;
-            for (int c = 0; c < b; c++) {
-                x[c] = a[side[t]][row * b + c];
-            }
-        }
-        const int status = count > 0 ? pgem_online_rank_one(graph, columns, count, sign) : PGEM_OK;
-        if (status != PGEM_OK) {
-            return status;
-        }
-    }
-    return PGEM_OK;
+    return count > 0 ? pgem_online_rank_update(graph, columns, count, sign, b) : PGEM_OK;
 }
 
 static const double *pgem_update_lin(const pgem_t *graph, uint32_t p)
@@ -161,12 +155,14 @@ static int pgem_update_unseed(pgem_t *graph, const int *seeded, int count)
     pgem_online_t *online = &graph->online;
     const int b = online->block;
     for (int s = 0; s < count; s++) {
+        double *x = online->vector + (size_t)seeded[s] * (size_t)b * (size_t)b;
         for (int c = 0; c < b; c++) {
-            online->vector[(size_t)seeded[s] * (size_t)b + (size_t)c] = sqrt(PGEM_ONLINE_SEED);
-            const int status = pgem_online_rank_one(graph, seeded + s, 1, -1.0);
-            if (status != PGEM_OK) {
-                return status;
-            }
+            x[c * b + c] = sqrt(PGEM_ONLINE_SEED);
+            online->beta[c] = 0.0;
+        }
+        const int status = pgem_online_rank_update(graph, seeded + s, 1, -1.0, b);
+        if (status != PGEM_OK) {
+            return status;
         }
     }
     return PGEM_OK;
@@ -187,8 +183,8 @@ static int pgem_update_exceeds(const pgem_online_t *online, int j, double thresh
 static int pgem_update_movers(const pgem_t *graph, double threshold)
 {
     int count = 0;
-    for (int j = 0; j < graph->online.columns; j++) {
-        count += pgem_update_exceeds(&graph->online, j, threshold);
+    for (int q = 0; q < graph->online.recomputed_count; q++) {
+        count += pgem_update_exceeds(&graph->online, graph->online.recomputed[q], threshold);
     }
     return count;
 }
@@ -203,8 +199,11 @@ static int pgem_update_relinearise(pgem_t *graph, double threshold, int *moved)
     const size_t size = (size_t)graph->pose_size;
     int count = 0;
     for (int j = 0; j < online->columns; j++) {
+        online->mark[online->column_pose[j]] = 0;
+    }
+    for (int q = 0; q < online->recomputed_count; q++) { /* the only steps that changed */
+        const int j = online->recomputed[q];
         const int p = online->column_pose[j];
-        online->mark[p] = 0;
         if (pgem_update_exceeds(online, j, threshold)) {
             online->mark[p] = 1;
             online->head[count++] = p;
@@ -429,12 +428,13 @@ static int pgem_update_rebuild(pgem_t *graph, const pgem_update_settings_t *sett
     return status;
 }
 
-/* The estimate: every solved pose at its linearisation point plus its step. */
+/* The estimate: every pose whose step was recomputed at its linearisation point plus it. */
 static void pgem_update_apply(pgem_t *graph)
 {
     pgem_online_t *online = &graph->online;
     const size_t size = (size_t)graph->pose_size, b = (size_t)online->block;
-    for (int j = 0; j < online->columns; j++) {
+    for (int q = 0; q < online->recomputed_count; q++) {
+        const int j = online->recomputed[q];
         const size_t p = (size_t)online->column_pose[j];
         if (b == 6u) {
             pgem_se3_boxplus(online->lin + p * size, online->delta + (size_t)j * b, graph->pose + p * size);
@@ -468,9 +468,10 @@ static int pgem_update_run(pgem_t *graph, const pgem_update_settings_t *settings
         online->ready = 0;
         return status;
     }
-    pgem_online_solve(graph);
-    for (int q = 0; q < online->columns * online->block; q++) {
-        if (!isfinite(online->delta[q])) {
+    pgem_online_back(graph, online->last.rebuilt ? -1.0 : settings->wildfire);
+    for (int q = 0; q < online->recomputed_count; q++) {
+        const double *d = online->delta + (size_t)online->recomputed[q] * (size_t)online->block;
+        if (!isfinite(pgem_norm(d, online->block))) {
             online->ready = 0;
             return pgem_fail(graph, PGEM_ERR_NUMERIC, "the online step is not finite");
         }
