@@ -26,11 +26,11 @@ typedef struct pgem_update_options {
     double wildfire_threshold;    /**< the back-substitution recomputes a pose's step only when
                                        the update touched its column or a step it depends on
                                        changed by more than this (iSAM2's "wildfire"); 0 means
-                                       1e-4; negative: every step, every update */
-    uint32_t relinearize_limit;   /**< when more poses than this are due for relinearisation,
-                                       the update rebuilds instead (cheaper than that many rank
-                                       updates); 0 means 1/20 of the factor's columns, at
-                                       least 32 */
+                                       1e-3 (iSAM2's default); negative: every step, every update */
+    uint32_t relinearize_limit;   /**< the update rebuilds instead of relinearising when the
+                                       rank updates of the poses due would cost more than a
+                                       rebuild (estimated from the paths' blocks) or, if not 0,
+                                       more than this many poses are due */
     uint32_t recent_last;         /**< a rebuild's ordering puts this many of the newest poses
                                        last, in arrival order; 0 means 8 */
     int robust;                   /**< 1: a new loop closure enters only if it passes the

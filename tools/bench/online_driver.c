@@ -41,6 +41,7 @@ typedef struct online_run {
     pgem_robust_summary_t last;   /* the last update's summary */
     uint32_t factor_peak;         /* most factor nonzeros after an update */
     double settle_seconds;        /* the mode's settle solve after the stream (-1: none) */
+    double chi2_before_settle;    /* chi2 of the estimate the updates left (NaN: no settle) */
 } online_run_t;
 
 static void online_usage(FILE *out)
@@ -215,6 +216,7 @@ static void online_summary_line(const online_args_t *args, const online_stream_t
     online_json_number("time_limit", args->time_limit > 0.0 ? args->time_limit : ONLINE_NONE);
     online_json_number("update_seconds", run->update_seconds);
     online_json_number("settle_seconds", run->settle_seconds >= 0.0 ? run->settle_seconds : ONLINE_NONE);
+    online_json_number("chi2_before_settle", run->chi2_before_settle);
     online_json_number("wall_seconds", pgem_cli_now() - run->start);
     printf(",\"status\":\"%s\",\"outcome\":\"%s\",\"loops\":%u,\"pruned\":%u,\"rejected\":%u",
            pgem_error_name(run->status),
@@ -312,7 +314,9 @@ static int online_stream_all(const online_args_t *args, const online_stream_t *s
         }
     }
     run.settle_seconds = -1.0;
+    run.chi2_before_settle = ONLINE_NONE;
     if (run.status == PGEM_OK && args->mode->settle != NULL) {
+        run.chi2_before_settle = pgem_total_chi2(state->core);
         run.status = args->mode->settle(state, &run.last, &run.settle_seconds);
     }
     online_summary_line(args, stream, state, &run);

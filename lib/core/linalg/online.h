@@ -29,6 +29,7 @@ typedef struct pgem_online {
     uint32_t pool_blocks;     /* b x b blocks in the pool */
     uint32_t pool_used;       /* blocks handed out (holes of moved columns included) */
     uint32_t packed_blocks;   /* blocks the last rebuild needed, packed */
+    double rebuild_work;      /* sum over the columns of (blocks)^2 at the last rebuild */
     uint32_t updates;         /* pgem_update calls that changed the factor since the rebuild */
     int full;                 /* 1: a column could not grow (the pool is full): rebuild */
     int *pose_column;         /* [max_poses] block column of each pose, -1 (held, or not yet in) */

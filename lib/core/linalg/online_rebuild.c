@@ -418,6 +418,11 @@ int pgem_online_rebuild(pgem_t *graph, int recent)
         return status;
     }
     online->packed_blocks = online->pool_used;
+    online->rebuild_work = 0.0;
+    for (int j = 0; j < columns; j++) {
+        const double blocks = (double)online->count[j] + 1.0;
+        online->rebuild_work += blocks * blocks;
+    }
     pgem_online_link_tree(online);
     pgem_online_assemble(graph, columns);
     status = pgem_online_numeric(graph, columns);

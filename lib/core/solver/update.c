@@ -19,7 +19,7 @@ typedef struct pgem_update_settings {
     double gate;       /* innovation threshold */
     double inflation;  /* the map's covariance factor in the innovation */
     int rebuild;       /* rebuild now */
-    int movers;        /* more poses to relinearise than this: rebuild instead */
+    int movers;        /* more poses to relinearise than this: rebuild instead (0: by cost) */
     double wildfire;   /* back-substitution: a step changing less stops there */
 } pgem_update_settings_t;
 
@@ -45,10 +45,8 @@ static int pgem_update_resolve(pgem_t *graph, const pgem_update_options_t *optio
     out->gate = o->gate > 0.0 ? o->gate : (graph->tangent == 6 ? 22.458 : 16.266);
     out->inflation = o->odometry_inflation > 0.0 ? o->odometry_inflation : 4.0;
     out->rebuild = o->rebuild != 0;
-    out->wildfire = o->wildfire_threshold != 0.0 ? o->wildfire_threshold : 1e-4;
-    const int share = graph->online.columns / 20;
-    out->movers = o->relinearize_limit != 0u ? (int)(o->relinearize_limit > 1000000u ? 1000000u : o->relinearize_limit)
-                                              : (share > 32 ? share : 32);
+    out->wildfire = o->wildfire_threshold != 0.0 ? o->wildfire_threshold : 1e-3;
+    out->movers = (int)(o->relinearize_limit > 1000000u ? 1000000u : o->relinearize_limit);
     return PGEM_OK;
 }
 
@@ -179,14 +177,33 @@ static int pgem_update_exceeds(const pgem_online_t *online, int j, double thresh
     return threshold < 0.0 ? largest > 0.0 : largest > threshold;
 }
 
-/* Poses the relinearisation would move. */
-static int pgem_update_movers(const pgem_t *graph, double threshold)
+/* 1 if relinearising the poses due costs more than a rebuild: each of their edges is an
+ * update and a downdate along the path from its column, some (blocks on the path) x b^3
+ * flops, against the rebuild's factorisation, some sum of squared column counts x b^3 (the
+ * two estimates are compared as they are, as measured on City10000); or more poses are due
+ * than `limit` (0: no limit). */
+static int pgem_update_costly(const pgem_t *graph, double threshold, int limit)
 {
+    const pgem_online_t *online = &graph->online;
+    double work = 0.0;
     int count = 0;
-    for (int q = 0; q < graph->online.recomputed_count; q++) {
-        count += pgem_update_exceeds(&graph->online, graph->online.recomputed[q], threshold);
+    for (int q = 0; q < online->recomputed_count && work <= online->rebuild_work; q++) {
+        const int j = online->recomputed[q];
+        if (!pgem_update_exceeds(online, j, threshold)) {
+            continue;
+        }
+        count++;
+        int edges = 0;
+        for (int end = online->pose_edge[online->column_pose[j]]; end >= 0; end = online->edge_next[end]) {
+            edges++;
+        }
+        double path = 0.0;
+        for (int i = j; i >= 0 && path * edges <= online->rebuild_work; i = online->parent[i]) {
+            path += (double)online->count[i] + 1.0;
+        }
+        work += 2.0 * path * (double)edges;
     }
-    return count;
+    return work > online->rebuild_work || (limit > 0 && count > limit);
 }
 
 /* Relinearises every pose whose step exceeds the threshold: each of their edges is added at
@@ -452,7 +469,7 @@ static int pgem_update_run(pgem_t *graph, const pgem_update_settings_t *settings
     const int rebuild = !online->ready || settings->rebuild || online->full ||
                         (double)online->pool_used > bound;
     int moved = 0;
-    const int many = !rebuild && pgem_update_movers(graph, settings->threshold) > settings->movers;
+    const int many = !rebuild && pgem_update_costly(graph, settings->threshold, settings->movers);
     int status = rebuild || many ? pgem_update_rebuild(graph, settings)
                                  : pgem_update_relinearise(graph, settings->threshold, &moved);
     if (status == PGEM_OK) {
