@@ -46,6 +46,11 @@ typedef struct pgem_bridge_options {
     const char *snapshot_dir;  /* the folder SNAPSHOT commands write into; NULL: SNAPSHOT is
                                   refused (a message names a file in it, never a path) */
     pgem_robust_options_t robust;  /* kernel 0 means EM with its defaults */
+    int full_solves;           /* 1: every solve re-solves the whole graph with EM (debounced,
+                                  rate-limited), as before the incremental update; 0
+                                  (default): every batch of items gets a pgem_update at once
+                                  (new loop closures through its gate) and is published, and
+                                  the settle solve (EM on everything, after idle_solve) stays */
     pgem_bridge_log_fn log;    /* progress lines (NULL: silent) */
     void *log_user;
 } pgem_bridge_options_t;

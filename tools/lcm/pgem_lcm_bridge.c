@@ -32,9 +32,14 @@ static void usage(FILE *out, const pgem_lcm_options_t *lcm)
             "                         DIR (FILE a plain name; default: SNAPSHOT is refused)\n"
             "  --pending-timeout S    an edge waits at most S seconds for its poses, then it\n"
             "                         expires (60)\n"
-            "  --debounce S           quiet time after a loop closure before solving (0.01)\n"
-            "  --max-delay S          longest a loop closure waits while more arrive (0.1)\n"
-            "  --max-rate HZ          solves per second at most (20)\n"
+            "  --full-solves          re-solve the whole graph with EM on every solve (debounced,\n"
+            "                         rate-limited) instead of an incremental update per batch\n"
+            "                         of messages; the settle solve after idle is the same\n"
+            "  --debounce S           with --full-solves: quiet time after a loop closure\n"
+            "                         before solving (0.01)\n"
+            "  --max-delay S          with --full-solves: longest a loop closure waits while\n"
+            "                         more arrive (0.1)\n"
+            "  --max-rate HZ          with --full-solves: solves per second at most (20)\n"
             "  --status-period S      seconds between status messages (0.5)\n"
             "  --idle-solve S         solve edges not yet solved (odometry only, say) after S\n"
             "                         seconds without new messages (0.5)\n"
@@ -167,6 +172,8 @@ static int parse_flag(void *user, const char *name)
         p->options.journal_sync = 1;
     } else if (strcmp(name, "--literal") == 0) {
         p->options.robust.literal = 1;
+    } else if (strcmp(name, "--full-solves") == 0) {
+        p->options.full_solves = 1;
     } else {
         return 0;
     }

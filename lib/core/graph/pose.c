@@ -136,6 +136,7 @@ int pgem_fix_pose(pgem_t *graph, pgem_id_t id, int fixed)
         graph->pose_fixed[index] = flag;
         graph->fixed_count = flag ? graph->fixed_count + 1u : graph->fixed_count - 1u;
         pgem_linear_invalidate(graph);
+        pgem_online_invalidate(&graph->online);
     }
     pgem_message_clear(graph);
     return PGEM_OK;
@@ -187,6 +188,7 @@ int pgem_set_pose(pgem_t *graph, pgem_id_t id, const double *pose)
     }
     memcpy(graph->pose + (size_t)index * (size_t)graph->pose_size, checked,
            (size_t)graph->pose_size * sizeof(double));
+    pgem_online_pose_moved(&graph->online, (uint32_t)index);
     pgem_message_clear(graph);
     return PGEM_OK;
 }

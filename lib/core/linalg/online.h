@@ -69,6 +69,19 @@ typedef struct pgem_online {
     pgem_update_summary_t last; /* counters of the update under way */
 } pgem_online_t;
 
+/* The estimate changed outside pgem_update (a batch solve, a held pose, reset weights): the
+ * next update rebuilds. For one pose: only if the factor solves for it. */
+static inline void pgem_online_invalidate(pgem_online_t *online)
+{
+    online->ready = 0;
+}
+static inline void pgem_online_pose_moved(pgem_online_t *online, uint32_t pose)
+{
+    if (online->pool_blocks > 0u && pose < online->poses_linked && online->pose_column[pose] >= 0) {
+        online->ready = 0;
+    }
+}
+
 /* Bytes pgem_online_carve takes (measuring when arena->base is NULL). */
 struct pgem_arena;
 void pgem_online_carve(struct pgem *graph, struct pgem_arena *arena);

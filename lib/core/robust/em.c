@@ -63,6 +63,7 @@ void pgem_robust_reset(pgem_t *graph)
         return;
     }
     uint32_t returned = 0;
+    pgem_online_invalidate(&graph->online);
     for (uint32_t k = 0; k < graph->edge_count; k++) {
         returned += graph->edge_active[k] != PGEM_EDGE_ACTIVE;
         graph->edge_weight[k] = 1.0;
@@ -406,6 +407,7 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     if (checked == PGEM_OK) {
         checked = pgem_check_solve_options(graph, solve);
     }
+    pgem_online_invalidate(&graph->online); /* the estimate changes under pgem_update */
     if (checked != PGEM_OK) {
         return checked;
     }
