@@ -171,9 +171,20 @@ static int online_update_incremental(online_state_t *state, pgem_robust_summary_
     memset(&options, 0, sizeof options);
     options.robust = 1;
     memset(summary, 0, sizeof *summary);
+    memset(&state->step, 0, sizeof state->step);
     double start = pgem_cli_now();
-    int status = pgem_update(state->core, &options, &state->step);
+    int status;
+    if (state->restart_pending) { /* as the bridge: after a failure, EM from the stream's guesses */
+        online_restart(state);
+        pgem_robust_options_t robust;
+        memset(&robust, 0, sizeof robust);
+        robust.kernel = PGEM_KERNEL_EM;
+        status = pgem_update_settle(state->core, &robust, summary);
+    } else {
+        status = pgem_update(state->core, &options, &state->step);
+    }
     *seconds = pgem_cli_now() - start;
+    state->restart_pending = status != PGEM_OK;
     if (status == PGEM_OK) { /* new poses are placed from solved ones, as after a full solve */
         state->solved_poses = pgem_pose_count(state->core);
         memset(state->placed, 0, state->solved_poses);
