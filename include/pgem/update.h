@@ -41,7 +41,10 @@ typedef struct pgem_update_options {
                                        pass. 0: every loop enters with its weight. */
     double gate;                  /**< robust: 0 means the 99.9 % chi-square quantile (16.27 in
                                        2D, 22.46 in 3D) */
-    double odometry_inflation;    /**< robust: the map's covariance factor; 0 means 4 */
+    double odometry_inflation;    /**< robust: the map's covariance factor in the gate; 0
+                                       means 1 (the batch consistency test's allowance of 4
+                                       let false loops of M3500 + 100 in while the map was
+                                       still uncertain: the settle solve re-decides anyway) */
     int rebuild;                  /**< 1: rebuild now (after the estimate was changed by
                                        anything but pgem_update: pgem_set_pose, a solve) */
 } pgem_update_options_t;
@@ -78,9 +81,11 @@ typedef struct pgem_update_summary {
 int pgem_update(pgem_t *graph, const pgem_update_options_t *options,
                 pgem_update_summary_t *summary);
 
-/** The batch solve from the incremental estimate: pgem_robust_optimize with robust (EM's
- * pruning and consistency test as offline) or, with robust NULL, pgem_optimize to
- * convergence; the next pgem_update rebuilds from its result. Returns the solve's status. */
+/** The batch solve from the incremental estimate: with robust, every loop closure back in
+ * (pgem_robust_reset: the online gate's decisions are only a start) and pgem_robust_optimize
+ * (EM's rounds, pruning and consistency test as offline, from the online estimate); with robust
+ * NULL, pgem_optimize to convergence. The next pgem_update rebuilds from its result. Returns
+ * the solve's status. */
 struct pgem_robust_options;
 struct pgem_robust_summary;
 int pgem_update_settle(pgem_t *graph, const struct pgem_robust_options *robust,

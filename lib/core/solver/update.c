@@ -43,7 +43,7 @@ static int pgem_update_resolve(pgem_t *graph, const pgem_update_options_t *optio
     out->recent = o->recent_last != 0u ? (int)(o->recent_last > 1000000u ? 1000000u : o->recent_last) : 8;
     out->robust = o->robust != 0;
     out->gate = o->gate > 0.0 ? o->gate : (graph->tangent == 6 ? 22.458 : 16.266);
-    out->inflation = o->odometry_inflation > 0.0 ? o->odometry_inflation : 4.0;
+    out->inflation = o->odometry_inflation > 0.0 ? o->odometry_inflation : 1.0;
     out->rebuild = o->rebuild != 0;
     out->wildfire = o->wildfire_threshold != 0.0 ? o->wildfire_threshold : 1e-3;
     out->movers = (int)(o->relinearize_limit > 1000000u ? 1000000u : o->relinearize_limit);
@@ -542,6 +542,9 @@ int pgem_update_settle(pgem_t *graph, const pgem_robust_options_t *robust,
     }
     if (summary != NULL) {
         memset(summary, 0, sizeof *summary);
+    }
+    if (robust != NULL) {
+        pgem_robust_reset(graph); /* every loop back in: EM decides them all again */
     }
     const int status = robust != NULL ? pgem_robust_optimize(graph, robust, NULL, summary)
                                       : pgem_optimize(graph, NULL, NULL);
