@@ -19,23 +19,11 @@ void pgem_online_edge(const pgem_t *graph, uint32_t k, const double *from, const
     } else {
         pgem_se2_error(from, to, measurement, e, jf, jt);
     }
-    /* Omega = U^T U, U upper triangular (row-major); rows of sqrt(w) U J and sqrt(w) U e */
+    /* Omega = U^T U: Omega's Cholesky factor stored by column is U stored by row (Omega was
+     * checked positive definite when the edge was added); rows of sqrt(w) U J, sqrt(w) U e */
     const double *o = graph->edge_information + (size_t)k * (size_t)(n * n);
-    memset(u, 0, sizeof u);
-    for (int i = 0; i < n; i++) {
-        double d = o[i * n + i];
-        for (int m = 0; m < i; m++) {
-            d -= u[m * n + i] * u[m * n + i];
-        }
-        u[i * n + i] = sqrt(d > 0.0 ? d : 0.0);
-        for (int c = i + 1; c < n; c++) {
-            double s = o[i * n + c];
-            for (int m = 0; m < i; m++) {
-                s -= u[m * n + i] * u[m * n + c];
-            }
-            u[i * n + c] = u[i * n + i] > 0.0 ? s / u[i * n + i] : 0.0;
-        }
-    }
+    memcpy(u, o, (size_t)(n * n) * sizeof(double));
+    (void)pgem_online_cholesky(u, n);
     const double root = sqrt(weight);
     for (int r = 0; r < n; r++) {
         double er = 0.0;
@@ -277,8 +265,7 @@ static void pgem_online_assemble(pgem_t *graph, int columns)
     }
 }
 
-/* Cholesky of a diagonal block in place (lower, by column); 0 if not positive definite. */
-static int pgem_online_chol(double *d, int b)
+int pgem_online_cholesky(double *d, int b)
 {
     for (int c = 0; c < b; c++) {
         double pivot = d[c * b + c];
@@ -350,7 +337,7 @@ static int pgem_online_numeric(pgem_t *graph, int columns)
             d = after;
         }
         double *diagonal = online->values + (size_t)first * bb;
-        if (!pgem_online_chol(diagonal, b)) {
+        if (!pgem_online_cholesky(diagonal, b)) {
             pgem_message_clear(graph);
             pgem_message_text(graph, "the online factor is not positive definite at pose index ");
             pgem_message_u64(graph, (uint64_t)online->column_pose[j]);

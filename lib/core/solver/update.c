@@ -278,31 +278,18 @@ static int pgem_update_relinearise(pgem_t *graph, double threshold, int *moved)
     return PGEM_OK;
 }
 
-/* Solves S x = e for a symmetric positive definite n x n S (row-major, overwritten); returns
- * e^T x, or +inf if S is not positive definite. */
+/* e^T S^-1 e for a symmetric positive definite n x n S (overwritten by its factor), or +inf
+ * if S is not positive definite. */
 static double pgem_update_quadratic(double *s, const double *e, int n)
 {
-    double x[PGEM_TANGENT_SIZE_MAX];
-    for (int c = 0; c < n; c++) {
-        for (int m = 0; m < c; m++) {
-            s[c * n + c] -= s[c * n + m] * s[c * n + m];
-        }
-        if (!(s[c * n + c] > 0.0)) {
-            return INFINITY;
-        }
-        s[c * n + c] = sqrt(s[c * n + c]);
-        for (int r = c + 1; r < n; r++) {
-            for (int m = 0; m < c; m++) {
-                s[r * n + c] -= s[r * n + m] * s[c * n + m];
-            }
-            s[r * n + c] /= s[c * n + c];
-        }
+    if (!pgem_online_cholesky(s, n)) {
+        return INFINITY;
     }
-    double sum = 0.0;
-    for (int r = 0; r < n; r++) { /* x = L^-1 e; e^T S^-1 e = |x|^2 */
+    double x[PGEM_TANGENT_SIZE_MAX], sum = 0.0;
+    for (int r = 0; r < n; r++) { /* x = L^-1 e, L(r, m) at s[m n + r]; e^T S^-1 e = |x|^2 */
         double v = e[r];
         for (int m = 0; m < r; m++) {
-            v -= s[r * n + m] * x[m];
+            v -= s[m * n + r] * x[m];
         }
         x[r] = v / s[r * n + r];
         sum += x[r] * x[r];
