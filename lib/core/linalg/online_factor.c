@@ -497,7 +497,8 @@ void pgem_online_carve(pgem_t *graph, pgem_arena_t *arena)
     online->delta = pgem_arena_take(arena, poses * b, sizeof(double));
     online->forward = pgem_arena_take(arena, poses * b, sizeof(double));
     online->vector = pgem_arena_take(arena, poses * b * b, sizeof(double));
-    if (online->vector != NULL) {
+    if (online->vector != NULL && online->touched != NULL) { /* both start clean */
         memset(online->vector, 0, poses * b * b * sizeof(double));
+        memset(online->touched, 0, poses * sizeof(int));
     }
 }

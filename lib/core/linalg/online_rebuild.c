@@ -411,6 +411,7 @@ int pgem_online_rebuild(pgem_t *graph, int recent)
         online->rebuild_work += blocks * blocks;
     }
     pgem_online_link_tree(online);
+    memset(online->delta, 0, (size_t)columns * (size_t)online->block * sizeof(double));
     pgem_online_assemble(graph, columns);
     status = pgem_online_numeric(graph, columns);
     if (status != PGEM_OK) {
