@@ -145,8 +145,9 @@ static int pgem_online_rotate(pgem_online_t *online, int j, double sign, int ran
                 double *block = pgem_online_block(online, online->start[j] + q) + (size_t)c * (size_t)b;
                 double *w = online->vector + (size_t)online->rows[online->start[j] + q] * stride + k;
                 for (int r = 0; r < b; r++) {
-                    const double value = (block[r] + up * w[r * rank]) * inverse;
-                    w[r * rank] = cosine * w[r * rank] - sine * value;
+                    double *wr = w + (size_t)r * (size_t)rank;
+                    const double value = (block[r] + up * *wr) * inverse;
+                    *wr = cosine * *wr - sine * value;
                     block[r] = value;
                 }
             }

@@ -223,7 +223,8 @@ static void pgem_online_assemble(pgem_t *graph, int columns)
     const size_t bb = (size_t)b * (size_t)b;
     memset(online->values, 0, (size_t)online->pool_used * bb * sizeof(double));
     memset(online->forward, 0, (size_t)columns * (size_t)b * sizeof(double));
-    double a[2][PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX], r[PGEM_TANGENT_SIZE_MAX];
+    double a[2][PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {{0.0}};
+    double r[PGEM_TANGENT_SIZE_MAX] = {0.0};
     for (uint32_t k = 0; k < graph->edge_count; k++) {
         const double w = online->edge_weight_in[k];
         const int ends[2] = {online->pose_column[graph->edge_from[k]],

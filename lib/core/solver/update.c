@@ -62,10 +62,11 @@ static void pgem_update_link(pgem_t *graph)
     }
     online->poses_linked = graph->pose_count;
     for (uint32_t k = online->edges_linked; k < graph->edge_count; k++) {
-        online->edge_next[2u * k] = online->pose_edge[graph->edge_from[k]];
-        online->pose_edge[graph->edge_from[k]] = (int)(2u * k);
-        online->edge_next[2u * k + 1u] = online->pose_edge[graph->edge_to[k]];
-        online->pose_edge[graph->edge_to[k]] = (int)(2u * k + 1u);
+        const size_t end = 2u * (size_t)k;
+        online->edge_next[end] = online->pose_edge[graph->edge_from[k]];
+        online->pose_edge[graph->edge_from[k]] = (int)end;
+        online->edge_next[end + 1u] = online->pose_edge[graph->edge_to[k]];
+        online->pose_edge[graph->edge_to[k]] = (int)(end + 1u);
         online->edge_weight_in[k] = 0.0;
     }
     online->edges_linked = graph->edge_count;
@@ -84,11 +85,12 @@ static int pgem_update_edge(pgem_t *graph, uint32_t k, const double *from, const
 {
     pgem_online_t *online = &graph->online;
     const int b = online->block;
-    double a[2][PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX], r[PGEM_TANGENT_SIZE_MAX];
+    double a[2][PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {{0.0}};
+    double r[PGEM_TANGENT_SIZE_MAX] = {0.0};
     pgem_online_edge(graph, k, from, to, weight, a[0], a[1], r);
     const int ends[2] = {online->pose_column[graph->edge_from[k]],
                          online->pose_column[graph->edge_to[k]]};
-    int columns[2], count = 0, side[2];
+    int columns[2] = {-1, -1}, count = 0, side[2] = {0, 0};
     for (int s = 0; s < 2; s++) {
         if (ends[s] >= 0) {
             columns[count] = ends[s];
@@ -305,8 +307,8 @@ static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation
     const int n = graph->tangent;
     double e[PGEM_TANGENT_SIZE_MAX], jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    double s[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    double covariance[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    double s[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0.0};
+    double covariance[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0.0};
     pgem_edge_error(graph, k, e, jf, jt);
     pgem_online_marginal(graph, online->pose_column[graph->edge_from[k]],
                          online->pose_column[graph->edge_to[k]], jf, jt, n, s);
