@@ -2,8 +2,7 @@
 # followed by the edges it completes, file order within a pose, whatever order the file lists
 # them in), one update per pose or per --every poses, the bridge's placement of new poses
 # (--guess anchored against file), an edge-only file, 3D, the time limit, the files written,
-# and the refusals (--mode incremental in a build without the update call, bad options, bad
-# input).
+# --mode incremental (the core's pgem_update), and the refusals (bad options, bad input).
 # Run by CTest as: cmake -DPGEM=<pgem-online-driver> -DWORK=<scratch folder> -P test_online_driver.cmake
 include("${CMAKE_CURRENT_LIST_DIR}/cli_test_helpers.cmake")
 
@@ -122,12 +121,19 @@ if(NOT EXISTS "${WORK}/limit.g2o" OR NOT EXISTS "${WORK}/limit.txt")
   fail("limit: the files were not written")
 endif()
 
-# ---- refusals ----------------------------------------------------------------------------------
-pgem_fails(2 incremental "--mode incremental: this build has no incremental update" square.g2o
-           --mode incremental)
-if(NOT incremental_out STREQUAL "")
-  fail("incremental: printed on stdout: ${incremental_out}")
+# ---- --mode incremental: pgem_update after every pose, the settle solve after the stream ------
+pgem_ok(incremental square.g2o --mode incremental --quiet -o incremental.g2o)
+driver_lines(incremental)
+update_is(incremental 0 pose 1 edges 1 added 1 loops_added 0 rebuilt 1)
+update_is(incremental 2 pose 3 edges 4 added 2 loops_added 1 rebuilt 0 loops_accepted 1)
+expect("${incremental_summary}" mode incremental updates 4 failed_updates 0 loops 2 pruned 0
+       status PGEM_OK)
+tiny("${incremental_summary}" final_chi2)
+if(NOT EXISTS "${WORK}/incremental.g2o")
+  fail("incremental: the file was not written")
 endif()
+
+# ---- refusals ----------------------------------------------------------------------------------
 pgem_fails(2 mode "--mode takes full or incremental" square.g2o --mode fast)
 pgem_fails(2 every0 "--every needs at least 1 pose" square.g2o --every 0)
 pgem_fails(2 guess "--guess takes anchored or file" square.g2o --guess best)
