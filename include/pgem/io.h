@@ -33,7 +33,8 @@ typedef struct pgem_io_edge {
     pgem_id_t to;                        /**< second pose id */
     double measurement[PGEM_POSE_SIZE_MAX];
     double information[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    pgem_edge_kind_t kind;               /**< |from - to| == 1: odometry, else loop closure */
+    pgem_edge_kind_t kind;               /**< the first edge between ids i and i+1 in file
+                                              order is odometry, the others loop closures */
     unsigned long line;                  /**< line it came from (0 = not from a file) */
 } pgem_io_edge_t;
 
@@ -122,7 +123,10 @@ int pgem_io_from_instance(const pgem_t *instance, pgem_io_graph_t *graph);
 
 /** Writes a file graph (g2o or TORO 2D) with round-trip precision (%.17g): vertices, then the
  * FIX lines (g2o only; TORO has no way to say a pose is fixed, so they are not written), then
- * edges. TORO for a 3D graph is PGEM_ERR_DIMENSION; a failed write is PGEM_ERR_IO. */
+ * edges in graph order, except that between ids i and i+1 the odometry edge is written before
+ * the loop closures, so reading the file back gives every edge its kind (the formats have no
+ * kind field; FORMATS.md). TORO for a 3D graph is PGEM_ERR_DIMENSION; a failed write is
+ * PGEM_ERR_IO, no memory for that order PGEM_ERR_OUT_OF_MEMORY. */
 int pgem_io_write(const char *path, pgem_format_t format, const pgem_io_graph_t *graph,
                   char *message, size_t message_size);
 int pgem_io_write_stream(FILE *stream, pgem_format_t format, const pgem_io_graph_t *graph);
