@@ -42,8 +42,9 @@ int pgem_cli_parse_number(const char *prefix, const char *option, const char *te
 double pgem_cli_uniform(uint64_t *state);
 double pgem_cli_gaussian(uint64_t *state);
 
-/* Parses a robust kernel name (em, cauchy, huber, dcs, none); prints an error on failure. */
-int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel);
+/* Parses a robust kernel name (em, cauchy, huber, dcs, none); prints "PREFIX: --robust takes ..."
+ * on failure. */
+int pgem_cli_parse_kernel(const char *prefix, const char *text, pgem_kernel_t *kernel);
 
 /* pgem_cli_read_graph flags. */
 #define PGEM_CLI_NEED_POSES 1u   /* a graph without poses is an error ("PATH has no poses") */

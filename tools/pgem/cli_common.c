@@ -310,7 +310,7 @@ int pgem_cli_write(const pgem_t *instance, pgem_io_graph_t *file, const char *pa
     return status;
 }
 
-int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel)
+int pgem_cli_parse_kernel(const char *prefix, const char *text, pgem_kernel_t *kernel)
 {
     static const pgem_kernel_t kernels[] = {PGEM_KERNEL_NONE, PGEM_KERNEL_EM, PGEM_KERNEL_CAUCHY,
                                             PGEM_KERNEL_HUBER, PGEM_KERNEL_DCS};
@@ -320,7 +320,7 @@ int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel)
             return 1;
         }
     }
-    fprintf(stderr, "pgem: --robust takes em, cauchy, huber, dcs or none (got '%s')\n",
+    fprintf(stderr, "%s: --robust takes em, cauchy, huber, dcs or none (got '%s')\n", prefix,
             text != NULL ? text : "");
     return 0;
 }

@@ -116,7 +116,7 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
             }
             k++;
         } else if (strcmp(arg, "--robust") == 0) {
-            if (!pgem_cli_parse_kernel(value, &args->robust.kernel)) {
+            if (!pgem_cli_parse_kernel("pgem", value, &args->robust.kernel)) {
                 return PGEM_EXIT_USAGE;
             }
             k++;
