@@ -22,6 +22,11 @@ double pgem_cli_now(void);
 /* The tools apply the core's rule for 3D quaternions. */
 #define PGEM_CLI_QUAT_TOLERANCE PGEM_QUAT_NORM_TOLERANCE
 
+/* Normalises the quaternion q (qx qy qz qw) in place and returns its norm before; *refused is 1
+ * when that norm is off 1 by more than PGEM_CLI_QUAT_TOLERANCE or not finite (what the core
+ * refuses when loading). */
+double pgem_cli_quat_check(double *q, int *refused);
+
 /* Parses a non-negative integer option value; prints "PREFIX: OPTION needs a non-negative
  * integer, got 'TEXT'" and returns 0 on failure. */
 int pgem_cli_parse_u32(const char *prefix, const char *option, const char *text,

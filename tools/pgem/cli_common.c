@@ -10,6 +10,7 @@
 #include <time.h>
 
 #include "cli.h"
+#include "pgem_random.h"
 
 double pgem_cli_now(void)
 {
@@ -310,6 +311,13 @@ int pgem_cli_write(const pgem_t *instance, pgem_io_graph_t *file, const char *pa
     return status;
 }
 
+double pgem_cli_quat_check(double *q, int *refused)
+{
+    const double norm = pgem_quat_normalize(q);
+    *refused = !(fabs(norm - 1.0) <= PGEM_CLI_QUAT_TOLERANCE);
+    return norm;
+}
+
 int pgem_cli_parse_kernel(const char *prefix, const char *text, pgem_kernel_t *kernel)
 {
     static const pgem_kernel_t kernels[] = {PGEM_KERNEL_NONE, PGEM_KERNEL_EM, PGEM_KERNEL_CAUCHY,
@@ -337,17 +345,12 @@ int pgem_cli_write_weights(const pgem_t *instance, const char *path)
 
 double pgem_cli_uniform(uint64_t *state)
 {
-    uint64_t z = (*state += UINT64_C(0x9e3779b97f4a7c15));
-    z = (z ^ (z >> 30)) * UINT64_C(0xbf58476d1ce4e5b9);
-    z = (z ^ (z >> 27)) * UINT64_C(0x94d049bb133111eb);
-    z ^= z >> 31;
-    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
+    return pgem_random_uniform(state);
 }
 
 double pgem_cli_gaussian(uint64_t *state)
 {
-    double u = pgem_cli_uniform(state), v = pgem_cli_uniform(state);
-    return sqrt(-2.0 * log(u + 1e-300)) * cos(6.283185307179586 * v);
+    return pgem_random_gaussian(state);
 }
 
 static int pgem_cli_compare_ids(const void *a, const void *b)

@@ -221,9 +221,10 @@ static void stats_rotation(stats_t *s, const double *value, stats_item_t item)
     }
     double q[4];
     memcpy(q, value + 3, sizeof q);
-    double error = fabs(pgem_quat_normalize(q) - 1.0);
+    int refused;
+    double error = fabs(pgem_cli_quat_check(q, &refused) - 1.0);
     s->quaternion_error = fmax(s->quaternion_error, error);
-    if (error > PGEM_CLI_QUAT_TOLERANCE) {
+    if (refused) {
         stats_list_add(&s->bad_quaternions, item);
     } else if (error > STATS_QUAT_NOTE) {
         s->quaternions_off++;

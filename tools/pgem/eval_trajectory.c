@@ -20,8 +20,9 @@ typedef struct eval_match {
 static int eval_normalize(pgem_io_graph_t *graph)
 {
     for (size_t k = 0; graph->dimension == 3 && k < graph->pose_count; k++) {
-        double norm = pgem_quat_normalize(graph->poses[k].pose + 3);
-        if (!(fabs(norm - 1.0) <= PGEM_CLI_QUAT_TOLERANCE)) {
+        int refused;
+        double norm = pgem_cli_quat_check(graph->poses[k].pose + 3, &refused);
+        if (refused) {
             fprintf(stderr, "pgem: %s:%lu: pose %llu has a quaternion of norm %g (off 1 by "
                             "more than 1%%)\n", graph->source, graph->poses[k].line,
                     (unsigned long long)graph->poses[k].id, norm);
