@@ -10,7 +10,7 @@
 #include "pgem/pgem.h"
 #include "pgem/threads.h"
 
-/* Exit codes (documented in the README). */
+/* Exit codes (documented in docs/CLI.md). */
 #define PGEM_EXIT_OK 0
 #define PGEM_EXIT_FAILURE 1  /* the solve failed or the input was rejected */
 #define PGEM_EXIT_USAGE 2    /* bad command line */
