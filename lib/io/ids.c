@@ -4,12 +4,6 @@
 
 #include "io_internal.h"
 
-/* A vertex id with the line it came from, for sorting. */
-typedef struct io_vertex_id {
-    pgem_id_t id;
-    unsigned long line;
-} io_vertex_id_t;
-
 static int io_compare_ids(const void *a, const void *b)
 {
     pgem_id_t x = *(const pgem_id_t *)a;
@@ -17,14 +11,21 @@ static int io_compare_ids(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-static int io_compare_vertex_ids(const void *a, const void *b)
+static int io_compare_keyed_ids(const void *a, const void *b)
 {
-    const io_vertex_id_t *x = (const io_vertex_id_t *)a;
-    const io_vertex_id_t *y = (const io_vertex_id_t *)b;
+    const io_keyed_id_t *x = (const io_keyed_id_t *)a;
+    const io_keyed_id_t *y = (const io_keyed_id_t *)b;
     if (x->id != y->id) {
         return (x->id > y->id) - (x->id < y->id);
     }
-    return (x->line > y->line) - (x->line < y->line);
+    return (x->at > y->at) - (x->at < y->at);
+}
+
+void io_sort_keyed_ids(io_keyed_id_t *items, size_t count)
+{
+    if (count > 1) {
+        qsort(items, count, sizeof *items, io_compare_keyed_ids);
+    }
 }
 
 void io_sort_ids(pgem_id_t *ids, size_t count)
@@ -57,7 +58,7 @@ int io_find_id(const pgem_id_t *sorted, size_t count, pgem_id_t id, size_t *inde
 
 /* Reports the duplicate seen earliest in the file: the earliest VERTEX line whose id an
  * earlier VERTEX line already had. sorted is ordered by (id, line). */
-static int io_report_duplicate(const io_reader_t *reader, const io_vertex_id_t *sorted,
+static int io_report_duplicate(const io_reader_t *reader, const io_keyed_id_t *sorted,
                                size_t count)
 {
     size_t i;
@@ -65,7 +66,7 @@ static int io_report_duplicate(const io_reader_t *reader, const io_vertex_id_t *
     size_t first;
     for (i = 1; i < count; ++i) {
         if (sorted[i].id == sorted[i - 1].id &&
-            (found == 0 || sorted[i].line < sorted[found].line)) {
+            (found == 0 || sorted[i].at < sorted[found].at)) {
             found = i;
         }
     }
@@ -76,9 +77,9 @@ static int io_report_duplicate(const io_reader_t *reader, const io_vertex_id_t *
     while (first > 0 && sorted[first - 1].id == sorted[found].id) {
         first--;
     }
-    return io_fail(reader, sorted[found].line, PGEM_ERR_DUPLICATE_ID,
+    return io_fail(reader, (unsigned long)sorted[found].at, PGEM_ERR_DUPLICATE_ID,
                    "duplicate VERTEX id %llu (first on line %lu)",
-                   (unsigned long long)sorted[found].id, sorted[first].line);
+                   (unsigned long long)sorted[found].id, (unsigned long)sorted[first].at);
 }
 
 /* Sorted ids of the vertices into *ids (caller frees); duplicate ids are an error. */
@@ -86,7 +87,7 @@ static int io_sorted_vertex_ids(const io_reader_t *reader, pgem_id_t **ids)
 {
     const pgem_io_graph_t *graph = reader->graph;
     size_t count = graph->pose_count;
-    io_vertex_id_t *sorted = (io_vertex_id_t *)malloc(count * sizeof *sorted);
+    io_keyed_id_t *sorted = (io_keyed_id_t *)malloc(count * sizeof *sorted);
     int status;
     size_t i;
     *ids = (pgem_id_t *)calloc(count, sizeof **ids);
@@ -96,9 +97,9 @@ static int io_sorted_vertex_ids(const io_reader_t *reader, pgem_id_t **ids)
     }
     for (i = 0; i < count; ++i) {
         sorted[i].id = graph->poses[i].id;
-        sorted[i].line = graph->poses[i].line;
+        sorted[i].at = (size_t)graph->poses[i].line;
     }
-    qsort(sorted, count, sizeof *sorted, io_compare_vertex_ids);
+    io_sort_keyed_ids(sorted, count);
     status = io_report_duplicate(reader, sorted, count);
     for (i = 0; i < count; ++i) {
         (*ids)[i] = sorted[i].id;

@@ -4,11 +4,8 @@
 
 #include "io_internal.h"
 
-/* An edge between consecutive ids: the smaller id, and where the edge is in the graph. */
-typedef struct io_step {
-    pgem_id_t low;
-    size_t index;
-} io_step_t;
+/* An edge between consecutive ids (a step): the smaller id, and the edge's index in the graph. */
+typedef io_keyed_id_t io_step_t;
 
 /* Ids that differ by exactly one, without unsigned wrap-around (2^64 - 1 and 0 do not). */
 static int io_ids_consecutive(pgem_id_t from, pgem_id_t to)
@@ -24,16 +21,6 @@ static int io_consecutive(const pgem_io_edge_t *edge)
 pgem_edge_kind_t io_edge_kind(pgem_id_t from, pgem_id_t to)
 {
     return io_ids_consecutive(from, to) ? PGEM_EDGE_ODOMETRY : PGEM_EDGE_LOOP;
-}
-
-static int io_compare_steps(const void *a, const void *b)
-{
-    const io_step_t *x = (const io_step_t *)a;
-    const io_step_t *y = (const io_step_t *)b;
-    if (x->low != y->low) {
-        return (x->low > y->low) - (x->low < y->low);
-    }
-    return (x->index > y->index) - (x->index < y->index);
 }
 
 /* The edges between consecutive ids, sorted by pair and then graph order; NULL with *count 0
@@ -57,11 +44,11 @@ static io_step_t *io_sorted_steps(const pgem_io_graph_t *graph, size_t *count)
     for (i = 0; i < graph->edge_count; ++i) {
         const pgem_io_edge_t *edge = &graph->edges[i];
         if (io_consecutive(edge)) {
-            steps[*count].low = edge->from < edge->to ? edge->from : edge->to;
-            steps[(*count)++].index = i;
+            steps[*count].id = edge->from < edge->to ? edge->from : edge->to;
+            steps[(*count)++].at = i;
         }
     }
-    qsort(steps, *count, sizeof *steps, io_compare_steps);
+    io_sort_keyed_ids(steps, *count);
     return steps;
 }
 
@@ -74,8 +61,8 @@ int io_assign_edge_kinds(pgem_io_graph_t *graph)
         return count == 0 ? PGEM_OK : PGEM_ERR_OUT_OF_MEMORY;
     }
     for (k = 0; k < count; ++k) {
-        const int repeat = k > 0 && steps[k].low == steps[k - 1].low;
-        graph->edges[steps[k].index].kind = repeat ? PGEM_EDGE_LOOP : PGEM_EDGE_ODOMETRY;
+        const int repeat = k > 0 && steps[k].id == steps[k - 1].id;
+        graph->edges[steps[k].at].kind = repeat ? PGEM_EDGE_LOOP : PGEM_EDGE_ODOMETRY;
     }
     free(steps);
     return PGEM_OK;
@@ -87,9 +74,9 @@ static int io_loop_before_odometry(const pgem_io_graph_t *graph, const io_step_t
 {
     size_t k;
     for (k = 1; k < count; ++k) {
-        if (steps[k].low == steps[k - 1].low &&
-            graph->edges[steps[k - 1].index].kind == PGEM_EDGE_LOOP &&
-            graph->edges[steps[k].index].kind == PGEM_EDGE_ODOMETRY) {
+        if (steps[k].id == steps[k - 1].id &&
+            graph->edges[steps[k - 1].at].kind == PGEM_EDGE_LOOP &&
+            graph->edges[steps[k].at].kind == PGEM_EDGE_ODOMETRY) {
             return 1;
         }
     }
@@ -106,14 +93,14 @@ static void io_odometry_first(const pgem_io_graph_t *graph, const io_step_t *ste
         size_t slot = first;
         size_t k;
         int pass;
-        while (end < count && steps[end].low == steps[first].low) {
+        while (end < count && steps[end].id == steps[first].id) {
             end++;
         }
         for (pass = 0; pass < 2; ++pass) { /* odometry, then loop closures */
             for (k = first; k < end; ++k) {
-                const int odometry = graph->edges[steps[k].index].kind == PGEM_EDGE_ODOMETRY;
+                const int odometry = graph->edges[steps[k].at].kind == PGEM_EDGE_ODOMETRY;
                 if (odometry == (pass == 0)) {
-                    order[steps[slot++].index] = steps[k].index;
+                    order[steps[slot++].at] = steps[k].at;
                 }
             }
         }
