@@ -11,8 +11,9 @@
 
 #define TOOL "pgem-lcm-bridge"
 
-static void usage(FILE *out, const pgem_lcm_options_t *lcm)
+static void usage(FILE *out, const void *context)
 {
+    const pgem_lcm_options_t *lcm = context;
     fprintf(out,
             "usage: pgem-lcm-bridge [options]\n"
             "Receives poses and edges from front-ends over LCM, optimizes with EM when new loop\n"
@@ -206,7 +207,8 @@ static int parse(int argc, char **argv, parsed_t *p)
     for (size_t v = 0; v < VALUED_COUNT; ++v) {
         names[v] = valued_options[v].name;
     }
-    const pgem_lcm_parser_t parser = {names, VALUED_COUNT, parse_value, parse_flag, NULL, usage};
+    const pgem_cli_parser_t parser = {
+        NULL, names, VALUED_COUNT, parse_value, parse_flag, NULL, usage, NULL, NULL};
     pgem_lcm_options_init(&p->lcm, TOOL, PGEM_LCM_ALL_CHANNELS);
     int status = pgem_lcm_parse_args(&p->lcm, &parser, p, argc, argv);
     if (status != 0) {

@@ -113,8 +113,9 @@ static void send_usage(FILE *out)
             "                     [--status-channel C] [--command-channel C]\n");
 }
 
-static void send_help(FILE *out, const pgem_lcm_options_t *lcm)
+static void send_help(FILE *out, const void *context)
 {
+    const pgem_lcm_options_t *lcm = context;
     send_usage(out);
     fprintf(out,
             "\n"
@@ -249,8 +250,9 @@ static int send_parse(int argc, char **argv, send_args_t *args)
 {
     static const char *const valued[] = {"--rate", "--wait", "--shuffle", "--first",
                                          "--count", "--repeat", "--source", "--latency"};
-    static const pgem_lcm_parser_t parser = {valued, sizeof valued / sizeof valued[0],
-                                             send_parse_value, send_flag, send_input, send_help};
+    static const pgem_cli_parser_t parser = {
+        NULL, valued, sizeof valued / sizeof valued[0], send_parse_value, send_flag, send_input,
+        send_help, NULL, NULL};
     memset(args, 0, sizeof *args);
     pgem_lcm_options_init(&args->lcm, SEND_TOOL,
                           PGEM_LCM_POSE_CHANNEL | PGEM_LCM_EDGE_CHANNEL |

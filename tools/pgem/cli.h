@@ -27,6 +27,44 @@ double pgem_cli_now(void);
  * refuses when loading). */
 double pgem_cli_quat_check(double *q, int *refused);
 
+/* A tool's command line, for pgem_cli_parse_args. */
+typedef struct pgem_cli_parser {
+    const char *tool;          /* name in messages: "pgem optimize", "pgem-lcm-send" */
+    const char *const *valued; /* names of the options that take a value */
+    size_t valued_count;
+    /* One of them with its value (NULL when the command line ends there): 1, or 0 after
+     * printing why the value is wrong. */
+    int (*value)(void *args, const char *name, const char *value);
+    /* A name that may be one of the tool's flags: 1 when it is (and is applied), else 0. */
+    int (*flag)(void *args, const char *name);
+    /* An argument that does not start with '-' (or is "-"): 1, or 0 after printing why it is
+     * refused. NULL: the tool takes none. */
+    int (*positional)(void *args, const char *argument);
+    /* -h or --help: the help, to out. */
+    void (*help)(FILE *out, const void *context);
+    /* Options every tool of a family takes (the LCM tools' --url ...), tried first; NULL: none.
+     * 1 when argv[*k] was one (with its value: *k left on it), 0 when not, -1 after printing a
+     * usage error. */
+    int (*common)(void *context, int argc, char **argv, int *k);
+    void *context; /* for common and help */
+} pgem_cli_parser_t;
+
+/* The argument loop of every tool: the common options, -h/--help (help to stdout), then the
+ * tool's flags, valued options and positional arguments; anything else is "TOOL: unknown
+ * option 'X' (see TOOL --help)" (or "unknown argument"). Returns 0, -1 after --help, or
+ * PGEM_EXIT_USAGE after a usage error was printed. */
+int pgem_cli_parse_args(const pgem_cli_parser_t *parser, void *args, int argc, char **argv);
+
+/* A command's one file argument into *field; a second one is "TOOL: more than one WHAT file
+ * ('X')" and 0. */
+int pgem_cli_one_file(const char *tool, const char *what, const char **field,
+                      const char *argument);
+
+/* An option's text value into *field; without one, "TOOL: NAME needs NOUN" ("a file name",
+ * "a value") and 0. */
+int pgem_cli_text_value(const char *tool, const char *name, const char *value, const char *noun,
+                        const char **field);
+
 /* Parses a non-negative integer option value; prints "PREFIX: OPTION needs a non-negative
  * integer, got 'TEXT'" and returns 0 on failure. */
 int pgem_cli_parse_u32(const char *prefix, const char *option, const char *text,

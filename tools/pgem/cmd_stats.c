@@ -86,8 +86,9 @@ typedef struct stats {
     char reason[STATS_REASONS][256];
 } stats_t;
 
-static void stats_help(FILE *out)
+static void stats_help(FILE *out, const void *context)
 {
+    (void)context;
     fprintf(out,
             "usage: pgem stats GRAPH [--json]\n"
             "\n"
@@ -127,31 +128,42 @@ static void stats_help(FILE *out)
             STATS_SHOWN);
 }
 
+/* What the command line says: the graph file and --json. */
+typedef struct stats_args {
+    const char *path;
+    int json;
+} stats_args_t;
+
+static int stats_flag(void *user, const char *name)
+{
+    stats_args_t *args = user;
+    if (strcmp(name, "--json") != 0) {
+        return 0;
+    }
+    args->json = 1;
+    return 1;
+}
+
+static int stats_positional(void *user, const char *argument)
+{
+    return pgem_cli_one_file("pgem stats", "graph", &((stats_args_t *)user)->path, argument);
+}
+
 /* Returns PGEM_EXIT_OK, an exit code, or -1 after --help. */
 static int stats_parse(int argc, char **argv, const char **path, int *json)
 {
-    *path = NULL;
-    *json = 0;
+    const pgem_cli_parser_t parser = {
+        "pgem stats", NULL, 0, NULL, stats_flag, stats_positional, stats_help, NULL, NULL};
+    stats_args_t args = {NULL, 0};
     if (argc < 2) {
-        stats_help(stderr);
+        stats_help(stderr, NULL);
         return PGEM_EXIT_USAGE;
     }
-    for (int k = 1; k < argc; k++) {
-        const char *arg = argv[k];
-        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
-            stats_help(stdout);
-            return -1;
-        } else if (strcmp(arg, "--json") == 0) {
-            *json = 1;
-        } else if (arg[0] == '-' && arg[1] != '\0') {
-            fprintf(stderr, "pgem stats: unknown option '%s' (see pgem stats --help)\n", arg);
-            return PGEM_EXIT_USAGE;
-        } else if (*path != NULL) {
-            fprintf(stderr, "pgem stats: more than one graph file ('%s')\n", arg);
-            return PGEM_EXIT_USAGE;
-        } else {
-            *path = arg;
-        }
+    const int status = pgem_cli_parse_args(&parser, &args, argc, argv);
+    *path = args.path;
+    *json = args.json;
+    if (status != 0) {
+        return status;
     }
     if (*path == NULL) {
         fprintf(stderr, "pgem stats: no graph file (see pgem stats --help)\n");
