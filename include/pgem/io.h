@@ -106,6 +106,24 @@ int pgem_io_read_stream(FILE *stream, const char *name, pgem_format_t format,
 
 void pgem_io_graph_free(pgem_io_graph_t *graph);
 
+/** A pose id and where its pose is in a file graph's poses (or, inside the reader, the line it
+ * came from): what pgem_io_index_poses sorts, by id and then index. */
+typedef struct pgem_io_pose_index {
+    pgem_id_t id;
+    size_t index;
+} pgem_io_pose_index_t;
+
+/** pgem_io_find_pose: no pose with that id. */
+#define PGEM_IO_NO_POSE ((size_t)-1)
+
+/** The poses of a file graph sorted by id, in a new array of pose_count entries (free it); NULL
+ * when out of memory. */
+pgem_io_pose_index_t *pgem_io_index_poses(const pgem_io_graph_t *graph);
+
+/** The index in the file graph of the pose with this id, from its sorted index (count
+ * entries), or PGEM_IO_NO_POSE. */
+size_t pgem_io_find_pose(const pgem_io_pose_index_t *sorted, size_t count, pgem_id_t id);
+
 /** A config whose capacities fit the graph exactly (dimension, max_poses, max_edges). */
 void pgem_io_config(const pgem_io_graph_t *graph, pgem_config_t *config);
 

@@ -129,11 +129,7 @@ int io_chain_poses(io_reader_t *reader);
 /* ids.c: sorts ids ascending; finds id in sorted ids (1 and *index if found, else 0). */
 void io_sort_ids(pgem_id_t *ids, size_t count);
 int io_find_id(const pgem_id_t *sorted, size_t count, pgem_id_t id, size_t *index);
-/* ids.c: an id with where it came from (a file line, an array index), sorted by both. */
-typedef struct io_keyed_id {
-    pgem_id_t id;
-    size_t at;
-} io_keyed_id_t;
-void io_sort_keyed_ids(io_keyed_id_t *items, size_t count);
+/* ids.c: ids with where they came from (an index, or a file line in `index`), sorted by both. */
+void io_sort_keyed_ids(pgem_io_pose_index_t *items, size_t count);
 
 #endif /* PGEM_IO_INTERNAL_H */

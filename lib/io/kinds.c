@@ -5,7 +5,7 @@
 #include "io_internal.h"
 
 /* An edge between consecutive ids (a step): the smaller id, and the edge's index in the graph. */
-typedef io_keyed_id_t io_step_t;
+typedef pgem_io_pose_index_t io_step_t;
 
 /* Ids that differ by exactly one, without unsigned wrap-around (2^64 - 1 and 0 do not). */
 static int io_ids_consecutive(pgem_id_t from, pgem_id_t to)
@@ -45,7 +45,7 @@ static io_step_t *io_sorted_steps(const pgem_io_graph_t *graph, size_t *count)
         const pgem_io_edge_t *edge = &graph->edges[i];
         if (io_consecutive(edge)) {
             steps[*count].id = edge->from < edge->to ? edge->from : edge->to;
-            steps[(*count)++].at = i;
+            steps[(*count)++].index = i;
         }
     }
     io_sort_keyed_ids(steps, *count);
@@ -62,7 +62,7 @@ int io_assign_edge_kinds(pgem_io_graph_t *graph)
     }
     for (k = 0; k < count; ++k) {
         const int repeat = k > 0 && steps[k].id == steps[k - 1].id;
-        graph->edges[steps[k].at].kind = repeat ? PGEM_EDGE_LOOP : PGEM_EDGE_ODOMETRY;
+        graph->edges[steps[k].index].kind = repeat ? PGEM_EDGE_LOOP : PGEM_EDGE_ODOMETRY;
     }
     free(steps);
     return PGEM_OK;
@@ -75,8 +75,8 @@ static int io_loop_before_odometry(const pgem_io_graph_t *graph, const io_step_t
     size_t k;
     for (k = 1; k < count; ++k) {
         if (steps[k].id == steps[k - 1].id &&
-            graph->edges[steps[k - 1].at].kind == PGEM_EDGE_LOOP &&
-            graph->edges[steps[k].at].kind == PGEM_EDGE_ODOMETRY) {
+            graph->edges[steps[k - 1].index].kind == PGEM_EDGE_LOOP &&
+            graph->edges[steps[k].index].kind == PGEM_EDGE_ODOMETRY) {
             return 1;
         }
     }
@@ -98,9 +98,9 @@ static void io_odometry_first(const pgem_io_graph_t *graph, const io_step_t *ste
         }
         for (pass = 0; pass < 2; ++pass) { /* odometry, then loop closures */
             for (k = first; k < end; ++k) {
-                const int odometry = graph->edges[steps[k].at].kind == PGEM_EDGE_ODOMETRY;
+                const int odometry = graph->edges[steps[k].index].kind == PGEM_EDGE_ODOMETRY;
                 if (odometry == (pass == 0)) {
-                    order[steps[slot++].at] = steps[k].at;
+                    order[steps[slot++].index] = steps[k].index;
                 }
             }
         }

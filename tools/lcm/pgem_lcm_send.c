@@ -315,18 +315,18 @@ static void send_shuffle(send_plan_t *plan, uint64_t seed)
  * the poses needed, and the selected edges ordered by that pose, stably (file order within
  * one pose): `order` gets the edge indices, `needed` marks poses. Returns the edges chosen. */
 static size_t send_order_edges(const pgem_io_graph_t *graph, const send_args_t *args,
-                               const pgem_cli_id_t *ids, size_t *ready, size_t *start,
+                               const pgem_io_pose_index_t *ids, size_t *ready, size_t *start,
                                size_t *order, unsigned char *needed)
 {
     size_t chosen = 0;
     for (size_t e = 0; e < graph->edge_count; e++) {
-        ready[e] = PGEM_CLI_NO_POSE;
+        ready[e] = PGEM_IO_NO_POSE;
         if (!send_selected(args, e)) {
             continue;
         }
-        size_t from = pgem_cli_find_pose(ids, graph->pose_count, graph->edges[e].from);
-        size_t to = pgem_cli_find_pose(ids, graph->pose_count, graph->edges[e].to);
-        if (from == PGEM_CLI_NO_POSE || to == PGEM_CLI_NO_POSE) {
+        size_t from = pgem_io_find_pose(ids, graph->pose_count, graph->edges[e].from);
+        size_t to = pgem_io_find_pose(ids, graph->pose_count, graph->edges[e].to);
+        if (from == PGEM_IO_NO_POSE || to == PGEM_IO_NO_POSE) {
             continue; /* the reader refuses such files; kept safe anyway */
         }
         needed[from] = needed[to] = 1;
@@ -338,7 +338,7 @@ static size_t send_order_edges(const pgem_io_graph_t *graph, const send_args_t *
         start[p + 1u] += start[p]; /* counting sort: start[p] is pose p's first slot */
     }
     for (size_t e = 0; e < graph->edge_count; e++) {
-        if (ready[e] != PGEM_CLI_NO_POSE) {
+        if (ready[e] != PGEM_IO_NO_POSE) {
             order[start[ready[e]]++] = e; /* afterwards start[p] is the end of pose p's run */
         }
     }
@@ -363,12 +363,12 @@ static void send_plan_stream(const pgem_io_graph_t *graph, const send_args_t *ar
 }
 
 /* Marks the poses named by FIX lines. */
-static void send_mark_fixed(const pgem_io_graph_t *graph, const pgem_cli_id_t *ids,
+static void send_mark_fixed(const pgem_io_graph_t *graph, const pgem_io_pose_index_t *ids,
                             unsigned char *fixed)
 {
     for (size_t f = 0; f < graph->fixed_count; f++) {
-        size_t pose = pgem_cli_find_pose(ids, graph->pose_count, graph->fixed[f]);
-        if (pose != PGEM_CLI_NO_POSE) {
+        size_t pose = pgem_io_find_pose(ids, graph->pose_count, graph->fixed[f]);
+        if (pose != PGEM_IO_NO_POSE) {
             fixed[pose] = 1;
         }
     }
@@ -380,7 +380,7 @@ static int send_plan_build(const pgem_io_graph_t *graph, const send_args_t *args
 {
     size_t poses = graph->pose_count, edges = graph->edge_count;
     memset(plan, 0, sizeof *plan);
-    pgem_cli_id_t *ids = pgem_cli_index_poses(graph);
+    pgem_io_pose_index_t *ids = pgem_io_index_poses(graph);
     size_t *ready = malloc((edges + 1u) * sizeof *ready);
     size_t *start = calloc(poses + 1u, sizeof *start);
     size_t *order = malloc((edges + 1u) * sizeof *order);

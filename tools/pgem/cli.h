@@ -162,21 +162,6 @@ int pgem_cli_refill_edges(const pgem_t *instance, pgem_io_graph_t *file);
 int pgem_cli_write(const pgem_t *instance, pgem_io_graph_t *file, const char *path,
                    const char *edge_text, size_t edge_bytes);
 
-/* A pose id and the index of its pose in a file graph. */
-typedef struct pgem_cli_id {
-    pgem_id_t id;
-    size_t index;
-} pgem_cli_id_t;
-
-#define PGEM_CLI_NO_POSE ((size_t)-1) /* pgem_cli_find_pose: no pose with that id */
-
-/* The poses of a file graph sorted by id, in a new array of pose_count entries (the caller
- * frees it); NULL when out of memory (nothing printed). */
-pgem_cli_id_t *pgem_cli_index_poses(const pgem_io_graph_t *graph);
-
-/* The index in the file graph of the pose with this id, from its sorted ids (count entries),
- * or PGEM_CLI_NO_POSE. */
-size_t pgem_cli_find_pose(const pgem_cli_id_t *ids, size_t count, pgem_id_t id);
 
 /* An ordered pair of pose ids and what it belongs to (an edge, a line, a loop). */
 typedef struct pgem_cli_pair {

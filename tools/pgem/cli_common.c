@@ -353,42 +353,6 @@ double pgem_cli_gaussian(uint64_t *state)
     return pgem_random_gaussian(state);
 }
 
-static int pgem_cli_compare_ids(const void *a, const void *b)
-{
-    const pgem_cli_id_t *x = a, *y = b;
-    if (x->id != y->id) {
-        return (x->id > y->id) - (x->id < y->id);
-    }
-    return (x->index > y->index) - (x->index < y->index);
-}
-
-pgem_cli_id_t *pgem_cli_index_poses(const pgem_io_graph_t *graph)
-{
-    pgem_cli_id_t *ids = malloc((graph->pose_count > 0 ? graph->pose_count : 1u) * sizeof *ids);
-    if (ids == NULL) {
-        return NULL;
-    }
-    for (size_t k = 0; k < graph->pose_count; k++) {
-        ids[k] = (pgem_cli_id_t){graph->poses[k].id, k};
-    }
-    qsort(ids, graph->pose_count, sizeof *ids, pgem_cli_compare_ids);
-    return ids;
-}
-
-size_t pgem_cli_find_pose(const pgem_cli_id_t *ids, size_t count, pgem_id_t id)
-{
-    size_t low = 0, high = count;
-    while (low < high) {
-        size_t middle = low + (high - low) / 2u;
-        if (ids[middle].id < id) {
-            low = middle + 1u;
-        } else {
-            high = middle;
-        }
-    }
-    return low < count && ids[low].id == id ? ids[low].index : PGEM_CLI_NO_POSE;
-}
-
 static int pgem_cli_compare_pairs(const void *a, const void *b)
 {
     const pgem_cli_pair_t *x = a, *y = b;

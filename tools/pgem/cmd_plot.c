@@ -29,7 +29,7 @@ typedef struct plot_args {
  * to its positions: p -> R (p - from) + to (the identity unless aligned). */
 typedef struct plot_source {
     pgem_io_graph_t file;
-    pgem_cli_id_t *ids;
+    pgem_io_pose_index_t *ids;
     size_t odometry;             /* odometry edges (0: none) */
     int aligned;
     double rotation[4];
@@ -162,7 +162,7 @@ static int plot_read(const char *path, plot_source_t *source)
     if (status != PGEM_EXIT_OK) {
         return status;
     }
-    source->ids = pgem_cli_index_poses(&source->file);
+    source->ids = pgem_io_index_poses(&source->file);
     if (source->ids == NULL) {
         fprintf(stderr, "pgem plot: out of memory\n");
         return PGEM_EXIT_FAILURE;
@@ -183,8 +183,8 @@ static void plot_release(plot_source_t *source)
 /* The (moved) position of pose id; returns 0 when the graph has no such pose. */
 static int plot_position(const plot_source_t *source, pgem_id_t id, double out[3])
 {
-    size_t index = pgem_cli_find_pose(source->ids, source->file.pose_count, id);
-    if (index == PGEM_CLI_NO_POSE) {
+    size_t index = pgem_io_find_pose(source->ids, source->file.pose_count, id);
+    if (index == PGEM_IO_NO_POSE) {
         return 0;
     }
     const double *pose = source->file.poses[index].pose;

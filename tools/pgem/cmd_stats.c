@@ -244,7 +244,7 @@ static void stats_rotation(stats_t *s, const double *value, stats_item_t item)
 }
 
 /* Ids (range, gaps, from the poses sorted by id), values and bounding box of the poses. */
-static void stats_poses(stats_t *s, const pgem_cli_id_t *ids)
+static void stats_poses(stats_t *s, const pgem_io_pose_index_t *ids)
 {
     const pgem_io_graph_t *g = s->graph;
     const size_t size = (size_t)PGEM_POSE_SIZE(g->dimension);
@@ -292,14 +292,14 @@ static void stats_edge_values(stats_t *s, const pgem_io_edge_t *edge)
 
 /* Kinds, values, degrees and the union-find of every edge (the reader refuses an edge naming
  * a missing pose). */
-static void stats_edges(stats_t *s, const pgem_cli_id_t *ids, size_t *parent, size_t *degree,
+static void stats_edges(stats_t *s, const pgem_io_pose_index_t *ids, size_t *parent, size_t *degree,
                         size_t *incident)
 {
     const pgem_io_graph_t *g = s->graph;
     for (size_t k = 0; k < g->edge_count; k++) {
         const pgem_io_edge_t *edge = &g->edges[k];
-        size_t from = pgem_cli_find_pose(ids, g->pose_count, edge->from);
-        size_t to = pgem_cli_find_pose(ids, g->pose_count, edge->to);
+        size_t from = pgem_io_find_pose(ids, g->pose_count, edge->from);
+        size_t to = pgem_io_find_pose(ids, g->pose_count, edge->to);
         if (edge->kind == PGEM_EDGE_ODOMETRY) {
             s->odometry++;
         } else {
@@ -343,16 +343,16 @@ static void stats_degrees(stats_t *s, const size_t *degree, const size_t *incide
 
 /* Components, their sizes, and which of them hold a fixed pose. size and held have one
  * entry per pose (indexed by root), zeroed. */
-static void stats_components(stats_t *s, const pgem_cli_id_t *ids, size_t *parent, size_t *size,
-                             unsigned char *held)
+static void stats_components(stats_t *s, const pgem_io_pose_index_t *ids, size_t *parent,
+                             size_t *size, unsigned char *held)
 {
     const pgem_io_graph_t *g = s->graph;
     for (size_t k = 0; k < g->pose_count; k++) {
         size[stats_root(parent, k)]++;
     }
     for (size_t k = 0; k < g->fixed_count; k++) {
-        size_t index = pgem_cli_find_pose(ids, g->pose_count, g->fixed[k]);
-        if (index != PGEM_CLI_NO_POSE) {
+        size_t index = pgem_io_find_pose(ids, g->pose_count, g->fixed[k]);
+        if (index != PGEM_IO_NO_POSE) {
             held[stats_root(parent, index)] = 1u;
         }
     }
@@ -543,7 +543,7 @@ static int stats_measure(stats_t *s)
     const pgem_io_graph_t *g = s->graph;
     const size_t poses = g->pose_count > 0 ? g->pose_count : 1u;
     const size_t edges = g->edge_count > 0 ? g->edge_count : 1u;
-    pgem_cli_id_t *ids = pgem_cli_index_poses(g);
+    pgem_io_pose_index_t *ids = pgem_io_index_poses(g);
     size_t *counts = calloc(4u * poses, sizeof *counts); /* parent, degree, incident, size */
     unsigned char *held = calloc(poses, 1u);
     pgem_cli_pair_t *pairs = malloc(edges * sizeof *pairs);

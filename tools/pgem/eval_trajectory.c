@@ -42,7 +42,8 @@ int pgem_eval_read_graph(const char *path, pgem_io_graph_t *graph)
 /* The poses in both graphs, in the reference's order, into *matches (caller frees); res_ids
  * are the poses of res sorted by id. */
 static int eval_match_poses(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
-                            const pgem_cli_id_t *res_ids, eval_match_t **matches, size_t *count)
+                            const pgem_io_pose_index_t *res_ids, eval_match_t **matches,
+                            size_t *count)
 {
     *matches = malloc((ref->pose_count > 0 ? ref->pose_count : 1u) * sizeof **matches);
     *count = 0;
@@ -51,8 +52,8 @@ static int eval_match_poses(const pgem_io_graph_t *ref, const pgem_io_graph_t *r
         return PGEM_EXIT_FAILURE;
     }
     for (size_t k = 0; k < ref->pose_count; k++) {
-        size_t found = pgem_cli_find_pose(res_ids, res->pose_count, ref->poses[k].id);
-        if (found != PGEM_CLI_NO_POSE) {
+        size_t found = pgem_io_find_pose(res_ids, res->pose_count, ref->poses[k].id);
+        if (found != PGEM_IO_NO_POSE) {
             (*matches)[(*count)++] = (eval_match_t){k, found};
         }
     }
@@ -279,7 +280,7 @@ int pgem_eval_trajectory(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
     }
     eval_match_t *matches = NULL;
     size_t count = 0;
-    pgem_cli_id_t *res_ids = pgem_cli_index_poses(res);
+    pgem_io_pose_index_t *res_ids = pgem_io_index_poses(res);
     int status = PGEM_EXIT_FAILURE;
     if (res_ids == NULL) {
         fprintf(stderr, "pgem: out of memory\n");
@@ -305,7 +306,7 @@ int pgem_eval_trajectory(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
 }
 
 int pgem_eval_align(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
-                    const pgem_cli_id_t *res_ids, double rotation[4], double c_ref[3],
+                    const pgem_io_pose_index_t *res_ids, double rotation[4], double c_ref[3],
                     double c_res[3], size_t *matched)
 {
     eval_match_t *matches = NULL;
