@@ -34,6 +34,7 @@
 #include "pgem_command_t.h"
 #include "pgem_edge2_t.h"
 #include "pgem_edge3_t.h"
+#include "pgem_random.h"
 #include "pgem_pose2_t.h"
 #include "pgem_pose3_t.h"
 
@@ -59,11 +60,7 @@ static uint64_t rng_state;
 
 static uint64_t next_random(void)
 {
-    /* splitmix64: small, and the same stream everywhere for a seed */
-    uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
+    return pgem_random_next(&rng_state); /* the same stream everywhere for a seed */
 }
 
 static size_t below(size_t n)

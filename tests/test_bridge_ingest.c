@@ -11,6 +11,7 @@
 
 #include <cmocka.h>
 
+#include "bridge.h"
 #include "ingest.h"
 #include "pgem_command_t.h"
 #include "pgem_edge2_t.h"
@@ -975,6 +976,29 @@ static void test_any_role_ignores_other_types(void **state)
     pgem_ingest_destroy(ingest);
 }
 
+/* The bridge's robust options: zeroed means EM; --robust none (plain) keeps kernel NONE; any
+ * kernel given, and the options beside it, pass through unchanged. */
+static void test_robust_option_defaults(void **state)
+{
+    pgem_bridge_options_t options;
+    (void)state;
+    memset(&options, 0, sizeof options);
+    pgem_bridge_defaults(&options);
+    assert_int_equal(options.robust.kernel, PGEM_KERNEL_EM);
+    memset(&options, 0, sizeof options);
+    options.plain = 1;
+    pgem_bridge_defaults(&options);
+    assert_int_equal(options.robust.kernel, PGEM_KERNEL_NONE);
+    memset(&options, 0, sizeof options);
+    options.robust.kernel = PGEM_KERNEL_DCS;
+    options.robust.restart = 1;
+    options.robust.dormant_threshold = -1.0;
+    pgem_bridge_defaults(&options);
+    assert_int_equal(options.robust.kernel, PGEM_KERNEL_DCS);
+    assert_int_equal(options.robust.restart, 1);
+    assert_true(options.robust.dormant_threshold == -1.0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1001,6 +1025,7 @@ int main(void)
         cmocka_unit_test(test_sources_age_out),
         cmocka_unit_test(test_order_and_replay_determinism),
         cmocka_unit_test(test_any_role_ignores_other_types),
+        cmocka_unit_test(test_robust_option_defaults),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

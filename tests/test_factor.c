@@ -197,6 +197,16 @@ static int slow_machine(void)
     return getenv("PGEM_TEST_VALGRIND") != NULL || getenv("PGEM_TEST_EMULATED") != NULL;
 }
 
+/* Whether the thread pool can start its threads here. Under qemu-user (the aarch64 build's
+ * tests, PGEM_TEST_EMULATED) the first pthread_create of a process never returns: Debian 12's
+ * qemu-aarch64 7.2 hangs so on a five-line program that starts one thread. There the worker
+ * tests run the same schedules through reverse_run, one worker after another, the last first;
+ * the pool's threads run in the native, sanitizer, valgrind, clang and m32 builds. */
+static int threads_can_start(void)
+{
+    return getenv("PGEM_TEST_EMULATED") == NULL;
+}
+
 /* Side of the lattice of the worker tests. */
 static int worker_side(void)
 {
@@ -236,7 +246,7 @@ static void test_workers_give_the_same_bits(void **state)
     const uint32_t counts[] = {2, 3, 4, 7};
     const size_t tried = slow_machine() ? 2u : sizeof counts / sizeof counts[0];
     const size_t poses = (size_t)(worker_side() * worker_side() * worker_side());
-    for (int pool = 0; pool < 2; pool++) {
+    for (int pool = 0; pool < (threads_can_start() ? 2 : 1); pool++) {
         for (size_t k = 0; k < tried; k++) {
             run_result_t many = run_lattice(counts[k], pool);
             assert_int_equal(many.value_count, one.value_count);
@@ -258,8 +268,12 @@ static void test_failure_is_the_same_on_every_worker_count(void **state)
     for (uint32_t workers = 1; workers <= (slow_machine() ? 2u : 4u); workers++) {
         pgem_t *graph = lattice_3d(worker_side(), workers, 9);
         pgem_thread_pool_t *threads = NULL;
-        assert_int_equal(pgem_thread_pool_create(workers, &threads), PGEM_OK);
-        const pgem_executor_t executor = pgem_thread_pool_executor(threads);
+        uint32_t reverse_workers = workers;
+        pgem_executor_t executor = {reverse_run, &reverse_workers, workers};
+        if (threads_can_start()) {
+            assert_int_equal(pgem_thread_pool_create(workers, &threads), PGEM_OK);
+            executor = pgem_thread_pool_executor(threads);
+        }
         assert_int_equal(pgem_set_executor(graph, &executor), PGEM_OK);
         assert_int_equal(pgem_analyze(graph), PGEM_OK);
         (void)pgem_linear_assemble(graph);

@@ -281,6 +281,7 @@ static void test_round_trip_toro(void **state)
     add_pose(&graph, 1, p1);
     add_edge(&graph, 1, 0, z, 2.0);
     add_edge(&graph, 0, 1, z, 0.5);
+    graph.edges[1].kind = PGEM_EDGE_LOOP; /* a second edge between 0 and 1 reads as a loop */
     graph.fixed[graph.fixed_count++] = 0;
     temp_path(path, sizeof path, "rt.graph");
     assert_int_equal(pgem_io_write(path, PGEM_FORMAT_TORO, &graph, message, sizeof message),
@@ -789,6 +790,62 @@ static void test_edge_kinds(void **state)
     assert_int_equal(graph.edges[4].kind, PGEM_EDGE_LOOP);
     assert_int_equal(graph.edges[5].kind, PGEM_EDGE_ODOMETRY);
     pgem_io_graph_free(&graph);
+}
+
+/* Between ids i and i+1 the first edge in file order is odometry and later ones are loop
+ * closures; the writer puts a pair's odometry first, so a loop closure between consecutive
+ * poses keeps its kind through a write and a read (it used to come back as odometry). */
+static void test_consecutive_loop_kinds(void **state)
+{
+    static const pgem_id_t pairs[5][2] = {{1, 2}, {0, 1}, {1, 2}, {2, 3}, {3, 0}};
+    static const pgem_edge_kind_t kinds[5] = {PGEM_EDGE_LOOP, PGEM_EDGE_ODOMETRY,
+                                              PGEM_EDGE_ODOMETRY, PGEM_EDGE_ODOMETRY,
+                                              PGEM_EDGE_LOOP};
+    const double information[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    const double step[3] = {1, 0, 0};
+    pgem_config_t config = {2, 4, 5, 0, 0};
+    pgem_io_graph_t graph;
+    pgem_io_graph_t copy;
+    pgem_t *instance = NULL;
+    char path[512];
+    char message[512];
+    size_t k;
+    (void)state;
+    read_ok("repeat.g2o",
+            "EDGE_SE2 0 1 1 0 0" INFO2 "\nEDGE_SE2 1 0 -1 0 0" INFO2 "\nEDGE_SE2 1 2 1 0 0" INFO2
+            "\nEDGE_SE2 0 1 1 0 0" INFO2 "\n", &graph);
+    assert_int_equal(graph.edges[0].kind, PGEM_EDGE_ODOMETRY);
+    assert_int_equal(graph.edges[1].kind, PGEM_EDGE_LOOP);
+    assert_int_equal(graph.edges[2].kind, PGEM_EDGE_ODOMETRY);
+    assert_int_equal(graph.edges[3].kind, PGEM_EDGE_LOOP);
+    pgem_io_graph_free(&graph);
+
+    assert_int_equal(pgem_create(&instance, &config), PGEM_OK);
+    for (k = 0; k < 4; ++k) {
+        const double pose[3] = {(double)k, 0, 0};
+        assert_int_equal(pgem_add_pose(instance, (pgem_id_t)k, pose), PGEM_OK);
+    }
+    for (k = 0; k < 5; ++k) { /* the loop 1 -> 2 before the odometry 1 -> 2 */
+        assert_int_equal(pgem_add_edge(instance, pairs[k][0], pairs[k][1], step, information,
+                                       kinds[k], NULL),
+                         PGEM_OK);
+    }
+    assert_int_equal(pgem_io_from_instance(instance, &graph), PGEM_OK);
+    temp_path(path, sizeof path, "consecutive_loop.g2o");
+    assert_int_equal(pgem_io_write(path, PGEM_FORMAT_G2O, &graph, message, sizeof message),
+                     PGEM_OK);
+    assert_int_equal(pgem_io_read(path, PGEM_FORMAT_G2O, &copy, message, sizeof message),
+                     PGEM_OK);
+    assert_int_equal(copy.edge_count, 5);
+    for (k = 0; k < 5; ++k) { /* the odometry 1 -> 2 took the loop's place, and back */
+        const size_t from = k == 0 ? 2 : k == 2 ? 0 : k;
+        assert_true(copy.edges[k].from == graph.edges[from].from &&
+                    copy.edges[k].to == graph.edges[from].to);
+        assert_int_equal(copy.edges[k].kind, graph.edges[from].kind);
+    }
+    pgem_io_graph_free(&copy);
+    pgem_io_graph_free(&graph);
+    pgem_destroy(instance);
 }
 
 /* A UTF-8 byte order mark at the start is skipped: without that, the first line's tag was
@@ -1348,6 +1405,7 @@ int main(void)
         cmocka_unit_test(test_crlf_tabs_comments),
         cmocka_unit_test(test_unknown_tags_and_equiv),
         cmocka_unit_test(test_edge_kinds),
+        cmocka_unit_test(test_consecutive_loop_kinds),
         cmocka_unit_test(test_byte_order_mark),
         cmocka_unit_test(test_ids_near_two_to_the_64),
         cmocka_unit_test(test_lines_across_chunks),

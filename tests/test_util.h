@@ -18,6 +18,8 @@
 extern "C" {
 #endif
 #include <cmocka.h>
+
+#include "pgem_random.h"
 #ifdef __cplusplus
 }
 #endif
@@ -53,7 +55,8 @@ extern "C" {
         }                                                                                          \
     } while (0)
 
-/* Deterministic generator (splitmix64) so every run sees the same numbers. */
+/* Deterministic generator (tools/common/pgem_random.h's splitmix64) so every run sees the same
+ * numbers. */
 typedef struct test_rng {
     uint64_t state;  /* advances by the golden-ratio increment */
 } test_rng_t;
@@ -61,16 +64,13 @@ typedef struct test_rng {
 /* The next 64 random bits. */
 static inline uint64_t test_next(test_rng_t *rng)
 {
-    uint64_t z = (rng->state += UINT64_C(0x9e3779b97f4a7c15));
-    z = (z ^ (z >> 30)) * UINT64_C(0xbf58476d1ce4e5b9);
-    z = (z ^ (z >> 27)) * UINT64_C(0x94d049bb133111eb);
-    return z ^ (z >> 31);
+    return pgem_random_next(&rng->state);
 }
 
 /* Uniform in [0, 1): the top 53 bits. */
 static inline double test_uniform(test_rng_t *rng)
 {
-    return (double)(test_next(rng) >> 11) * (1.0 / 9007199254740992.0);
+    return pgem_random_uniform(&rng->state);
 }
 
 /* Uniform in [lo, hi). */
@@ -81,8 +81,7 @@ static inline double test_uniform_in(test_rng_t *rng, double lo, double hi)
 
 static inline double test_gaussian(test_rng_t *rng)
 {
-    double u = test_uniform(rng), v = test_uniform(rng);
-    return sqrt(-2.0 * log(u + 1e-300)) * cos(6.283185307179586 * v);
+    return pgem_random_gaussian(&rng->state);
 }
 
 /* Diagonal information matrix n x n. */

@@ -1,9 +1,13 @@
 /* Prints the pgem block size for given capacities: pgem_memory_size on this machine and the
  * compile-time bound PGEM_MEMORY_BOUND (which also covers 32-bit targets).
- *   block_sizes                      the README's table
- *   block_sizes DIM POSES EDGES FILL one configuration */
+ *   block_sizes                      the table of docs/FIRMWARE.md
+ *   block_sizes DIM POSES EDGES FILL one configuration
+ *   block_sizes --per-item           the bytes one more pose, edge or factor value takes (the
+ *                                    figure DESIGN.md and docs/FIRMWARE.md quote); exit 1 if
+ *                                    one exceeds what PGEM_MEMORY_BOUND allows for it */
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include <pgem/pgem.h>
 
@@ -16,8 +20,45 @@ static void row(int dimension, unsigned poses, unsigned edges, unsigned fill)
            fill, exact, (double)exact / 1024.0, bound, (double)bound / 1024.0);
 }
 
+/* The capacities the per-item figures are measured at: a large graph, so that the fixed costs
+ * (the instance, alignment, the workspace's floor) are out of the differences. */
+#define ITEM_POSES 40000u
+#define ITEM_EDGES 60000u
+#define ITEM_FILL 4000000u
+#define ITEM_STEP 4000u
+
+static size_t item_size(int dimension, unsigned poses, unsigned edges, unsigned fill)
+{
+    const pgem_config_t config = {dimension, poses, edges, fill, 0};
+    return pgem_memory_size(&config);
+}
+
+/* pgem_memory_size's growth per pose, edge and factor value at the capacities above, and the
+ * same for PGEM_MEMORY_BOUND; 1 if the exact growth is within the bound's, else 0. */
+static int per_item(int dimension)
+{
+    const unsigned p = ITEM_POSES, e = ITEM_EDGES, f = ITEM_FILL, s = ITEM_STEP;
+    const size_t base = item_size(dimension, p, e, f);
+    const double pose = (double)(item_size(dimension, p + s, e, f) - base) / s;
+    const double edge = (double)(item_size(dimension, p, e + s, f) - base) / s;
+    const double fill = (double)(item_size(dimension, p, e, f + s) - base) / s;
+    const size_t bound = PGEM_MEMORY_BOUND(dimension, p, e, f);
+    const double bound_pose = (double)(PGEM_MEMORY_BOUND(dimension, p + s, e, f) - bound) / s;
+    const double bound_edge = (double)(PGEM_MEMORY_BOUND(dimension, p, e + s, f) - bound) / s;
+    printf("%dD: %.1f bytes per pose, %.1f per edge, %.2f per factor value (bound %.1f, %.1f)\n",
+           dimension, pose, edge, fill, bound_pose, bound_edge);
+    return pose <= bound_pose && edge <= bound_edge;
+}
+
 int main(int argc, char **argv)
 {
+    if (argc == 2 && strcmp(argv[1], "--per-item") == 0) {
+        printf("pgem_memory_size per item at %u poses, %u edges, %u factor values, one worker\n",
+               ITEM_POSES, ITEM_EDGES, ITEM_FILL);
+        const int ok2 = per_item(2);
+        const int ok3 = per_item(3);
+        return ok2 && ok3 ? 0 : 1;
+    }
     printf("| dimension | poses | edges | fill_budget | pgem_memory_size (this machine) | "
            "PGEM_MEMORY_BOUND |\n|---|---|---|---|---|---|\n");
     if (argc == 5) {
@@ -26,7 +67,7 @@ int main(int argc, char **argv)
         return 0;
     }
     if (argc != 1) {
-        fprintf(stderr, "usage: block_sizes [DIM POSES EDGES FILL]\n");
+        fprintf(stderr, "usage: block_sizes [DIM POSES EDGES FILL | --per-item]\n");
         return 2;
     }
     /* edges = 1.2 x poses; fill = 34 nonzeros per pose in 2D (the firmware example's graph

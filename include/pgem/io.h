@@ -33,7 +33,8 @@ typedef struct pgem_io_edge {
     pgem_id_t to;                        /**< second pose id */
     double measurement[PGEM_POSE_SIZE_MAX];
     double information[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    pgem_edge_kind_t kind;               /**< |from - to| == 1: odometry, else loop closure */
+    pgem_edge_kind_t kind;               /**< the first edge between ids i and i+1 in file
+                                              order is odometry, the others loop closures */
     unsigned long line;                  /**< line it came from (0 = not from a file) */
 } pgem_io_edge_t;
 
@@ -105,6 +106,24 @@ int pgem_io_read_stream(FILE *stream, const char *name, pgem_format_t format,
 
 void pgem_io_graph_free(pgem_io_graph_t *graph);
 
+/** A pose id and where its pose is in a file graph's poses (or, inside the reader, the line it
+ * came from): what pgem_io_index_poses sorts, by id and then index. */
+typedef struct pgem_io_pose_index {
+    pgem_id_t id;
+    size_t index;
+} pgem_io_pose_index_t;
+
+/** pgem_io_find_pose: no pose with that id. */
+#define PGEM_IO_NO_POSE ((size_t)-1)
+
+/** The poses of a file graph sorted by id, in a new array of pose_count entries (free it); NULL
+ * when out of memory. */
+pgem_io_pose_index_t *pgem_io_index_poses(const pgem_io_graph_t *graph);
+
+/** The index in the file graph of the pose with this id, from its sorted index (count
+ * entries), or PGEM_IO_NO_POSE. */
+size_t pgem_io_find_pose(const pgem_io_pose_index_t *sorted, size_t count, pgem_id_t id);
+
 /** A config whose capacities fit the graph exactly (dimension, max_poses, max_edges). */
 void pgem_io_config(const pgem_io_graph_t *graph, pgem_config_t *config);
 
@@ -122,7 +141,10 @@ int pgem_io_from_instance(const pgem_t *instance, pgem_io_graph_t *graph);
 
 /** Writes a file graph (g2o or TORO 2D) with round-trip precision (%.17g): vertices, then the
  * FIX lines (g2o only; TORO has no way to say a pose is fixed, so they are not written), then
- * edges. TORO for a 3D graph is PGEM_ERR_DIMENSION; a failed write is PGEM_ERR_IO. */
+ * edges in graph order, except that between ids i and i+1 the odometry edge is written before
+ * the loop closures, so reading the file back gives every edge its kind (the formats have no
+ * kind field; FORMATS.md). TORO for a 3D graph is PGEM_ERR_DIMENSION; a failed write is
+ * PGEM_ERR_IO, no memory for that order PGEM_ERR_OUT_OF_MEMORY. */
 int pgem_io_write(const char *path, pgem_format_t format, const pgem_io_graph_t *graph,
                   char *message, size_t message_size);
 int pgem_io_write_stream(FILE *stream, pgem_format_t format, const pgem_io_graph_t *graph);

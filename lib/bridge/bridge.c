@@ -56,7 +56,7 @@ void pgem_bridge_defaults(pgem_bridge_options_t *options)
     if (!(options->idle_solve > 0.0)) {
         options->idle_solve = 0.5;
     }
-    if (options->robust.kernel == PGEM_KERNEL_NONE) {
+    if (options->robust.kernel == PGEM_KERNEL_NONE && !options->plain) {
         options->robust.kernel = PGEM_KERNEL_EM;
     }
 }

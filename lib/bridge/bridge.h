@@ -45,7 +45,9 @@ typedef struct pgem_bridge_options {
     int journal_sync;          /* fdatasync every record */
     const char *snapshot_dir;  /* the folder SNAPSHOT commands write into; NULL: SNAPSHOT is
                                   refused (a message names a file in it, never a path) */
-    pgem_robust_options_t robust;  /* kernel 0 means EM with its defaults */
+    pgem_robust_options_t robust;  /* kernel 0 means EM with its defaults, unless plain */
+    int plain;                 /* 1: no robust kernel, every loop closure at weight 1 (kernel
+                                  PGEM_KERNEL_NONE; pgem-lcm-bridge --robust none) */
     int full_solves;           /* 1: every solve re-solves the whole graph with EM (debounced,
                                   rate-limited), as before the incremental update; 0
                                   (default): every batch of items gets a pgem_update at once

@@ -381,7 +381,7 @@ static int update_solve(bridge_t *bridge, pgem_robust_summary_t *summary)
 {
     pgem_update_options_t options;
     memset(&options, 0, sizeof options);
-    options.robust = 1;
+    options.robust = !bridge->options.plain; /* --robust none: every loop closure in */
     options.gate = bridge->options.robust.gate;
     options.odometry_inflation = bridge->options.robust.odometry_inflation;
     int status = pgem_update(bridge->core, &options, NULL);

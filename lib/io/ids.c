@@ -4,12 +4,6 @@
 
 #include "io_internal.h"
 
-/* A vertex id with the line it came from, for sorting. */
-typedef struct io_vertex_id {
-    pgem_id_t id;
-    unsigned long line;
-} io_vertex_id_t;
-
 static int io_compare_ids(const void *a, const void *b)
 {
     pgem_id_t x = *(const pgem_id_t *)a;
@@ -17,14 +11,21 @@ static int io_compare_ids(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-static int io_compare_vertex_ids(const void *a, const void *b)
+static int io_compare_keyed_ids(const void *a, const void *b)
 {
-    const io_vertex_id_t *x = (const io_vertex_id_t *)a;
-    const io_vertex_id_t *y = (const io_vertex_id_t *)b;
+    const pgem_io_pose_index_t *x = (const pgem_io_pose_index_t *)a;
+    const pgem_io_pose_index_t *y = (const pgem_io_pose_index_t *)b;
     if (x->id != y->id) {
         return (x->id > y->id) - (x->id < y->id);
     }
-    return (x->line > y->line) - (x->line < y->line);
+    return (x->index > y->index) - (x->index < y->index);
+}
+
+void io_sort_keyed_ids(pgem_io_pose_index_t *items, size_t count)
+{
+    if (count > 1) {
+        qsort(items, count, sizeof *items, io_compare_keyed_ids);
+    }
 }
 
 void io_sort_ids(pgem_id_t *ids, size_t count)
@@ -32,6 +33,45 @@ void io_sort_ids(pgem_id_t *ids, size_t count)
     if (count > 1) {
         qsort(ids, count, sizeof *ids, io_compare_ids);
     }
+}
+
+pgem_io_pose_index_t *pgem_io_index_poses(const pgem_io_graph_t *graph)
+{
+    const size_t count = graph->pose_count;
+    pgem_io_pose_index_t *sorted =
+        (pgem_io_pose_index_t *)malloc((count > 0 ? count : 1u) * sizeof *sorted);
+    size_t i;
+    if (sorted == NULL) {
+        return NULL;
+    }
+    for (i = 0; i < count; ++i) {
+        sorted[i].id = graph->poses[i].id;
+        sorted[i].index = i;
+    }
+    io_sort_keyed_ids(sorted, count);
+    return sorted;
+}
+
+/* The first of sorted[0, count) whose id is not below id (count when there is none). */
+static size_t io_lower_bound(const pgem_io_pose_index_t *sorted, size_t count, pgem_id_t id)
+{
+    size_t low = 0;
+    size_t high = count;
+    while (low < high) {
+        size_t middle = low + (high - low) / 2;
+        if (sorted[middle].id < id) {
+            low = middle + 1;
+        } else {
+            high = middle;
+        }
+    }
+    return low;
+}
+
+size_t pgem_io_find_pose(const pgem_io_pose_index_t *sorted, size_t count, pgem_id_t id)
+{
+    const size_t at = io_lower_bound(sorted, count, id);
+    return at < count && sorted[at].id == id ? sorted[at].index : PGEM_IO_NO_POSE;
 }
 
 int io_find_id(const pgem_id_t *sorted, size_t count, pgem_id_t id, size_t *index)
@@ -57,7 +97,7 @@ int io_find_id(const pgem_id_t *sorted, size_t count, pgem_id_t id, size_t *inde
 
 /* Reports the duplicate seen earliest in the file: the earliest VERTEX line whose id an
  * earlier VERTEX line already had. sorted is ordered by (id, line). */
-static int io_report_duplicate(const io_reader_t *reader, const io_vertex_id_t *sorted,
+static int io_report_duplicate(const io_reader_t *reader, const pgem_io_pose_index_t *sorted,
                                size_t count)
 {
     size_t i;
@@ -65,7 +105,7 @@ static int io_report_duplicate(const io_reader_t *reader, const io_vertex_id_t *
     size_t first;
     for (i = 1; i < count; ++i) {
         if (sorted[i].id == sorted[i - 1].id &&
-            (found == 0 || sorted[i].line < sorted[found].line)) {
+            (found == 0 || sorted[i].index < sorted[found].index)) {
             found = i;
         }
     }
@@ -76,9 +116,9 @@ static int io_report_duplicate(const io_reader_t *reader, const io_vertex_id_t *
     while (first > 0 && sorted[first - 1].id == sorted[found].id) {
         first--;
     }
-    return io_fail(reader, sorted[found].line, PGEM_ERR_DUPLICATE_ID,
+    return io_fail(reader, (unsigned long)sorted[found].index, PGEM_ERR_DUPLICATE_ID,
                    "duplicate VERTEX id %llu (first on line %lu)",
-                   (unsigned long long)sorted[found].id, sorted[first].line);
+                   (unsigned long long)sorted[found].id, (unsigned long)sorted[first].index);
 }
 
 /* Sorted ids of the vertices into *ids (caller frees); duplicate ids are an error. */
@@ -86,7 +126,7 @@ static int io_sorted_vertex_ids(const io_reader_t *reader, pgem_id_t **ids)
 {
     const pgem_io_graph_t *graph = reader->graph;
     size_t count = graph->pose_count;
-    io_vertex_id_t *sorted = (io_vertex_id_t *)malloc(count * sizeof *sorted);
+    pgem_io_pose_index_t *sorted = (pgem_io_pose_index_t *)malloc(count * sizeof *sorted);
     int status;
     size_t i;
     *ids = (pgem_id_t *)calloc(count, sizeof **ids);
@@ -96,9 +136,9 @@ static int io_sorted_vertex_ids(const io_reader_t *reader, pgem_id_t **ids)
     }
     for (i = 0; i < count; ++i) {
         sorted[i].id = graph->poses[i].id;
-        sorted[i].line = graph->poses[i].line;
+        sorted[i].index = (size_t)graph->poses[i].line;
     }
-    qsort(sorted, count, sizeof *sorted, io_compare_vertex_ids);
+    io_sort_keyed_ids(sorted, count);
     status = io_report_duplicate(reader, sorted, count);
     for (i = 0; i < count; ++i) {
         (*ids)[i] = sorted[i].id;

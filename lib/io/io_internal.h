@@ -92,8 +92,17 @@ int io_parse_number(const char *token, double *value);
 void io_info_cell(pgem_format_t format, int dimension, size_t k, size_t *row, size_t *col);
 /* layout.c: number of information values on an edge line of this dimension (6 or 21). */
 size_t io_info_values(int dimension);
-/* layout.c: odometry when the ids differ by exactly one (either direction), else loop. */
+/* kinds.c: odometry when the ids differ by exactly one (either direction), else loop: a line's
+ * kind before io_assign_edge_kinds has seen the whole file. */
 pgem_edge_kind_t io_edge_kind(pgem_id_t from, pgem_id_t to);
+/* kinds.c: of the edges between consecutive ids i and i+1 (either direction), the first in file
+ * order is odometry, the later ones loop closures. PGEM_OK or PGEM_ERR_OUT_OF_MEMORY. */
+int io_assign_edge_kinds(pgem_io_graph_t *graph);
+/* kinds.c: the order to write the edges in so that io_assign_edge_kinds reads their kinds back:
+ * *order NULL when graph order does (no loop closure between consecutive ids before an
+ * odometry edge of its pair), else edge_count indices (free them). PGEM_OK or
+ * PGEM_ERR_OUT_OF_MEMORY. */
+int io_write_order(const pgem_io_graph_t *graph, size_t **order);
 /* layout.c: the identity pose of a dimension. */
 void io_identity_pose(int dimension, double *pose);
 
@@ -120,5 +129,7 @@ int io_chain_poses(io_reader_t *reader);
 /* ids.c: sorts ids ascending; finds id in sorted ids (1 and *index if found, else 0). */
 void io_sort_ids(pgem_id_t *ids, size_t count);
 int io_find_id(const pgem_id_t *sorted, size_t count, pgem_id_t id, size_t *index);
+/* ids.c: ids with where they came from (an index, or a file line in `index`), sorted by both. */
+void io_sort_keyed_ids(pgem_io_pose_index_t *items, size_t count);
 
 #endif /* PGEM_IO_INTERNAL_H */

@@ -1,4 +1,4 @@
-/* pgem I/O layout: information-matrix order of each format, edge kinds and identity poses. */
+/* pgem I/O layout: information-matrix order of each format and identity poses. */
 #include <string.h>
 
 #include "io_internal.h"
@@ -32,12 +32,6 @@ void io_info_cell(pgem_format_t format, int dimension, size_t k, size_t *row, si
         return;
     }
     io_upper_row_major_cell((size_t)PGEM_TANGENT_SIZE(dimension), k, row, col);
-}
-
-pgem_edge_kind_t io_edge_kind(pgem_id_t from, pgem_id_t to)
-{
-    pgem_id_t gap = from > to ? from - to : to - from;
-    return gap == 1 ? PGEM_EDGE_ODOMETRY : PGEM_EDGE_LOOP;
 }
 
 void io_identity_pose(int dimension, double *pose)

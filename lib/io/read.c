@@ -117,6 +117,12 @@ static int io_read_stream(FILE *stream, const char *name, pgem_format_t format,
     reader.progress_user = user;
     status = io_read_lines(&reader, stream);
     if (status == PGEM_OK) {
+        status = io_assign_edge_kinds(graph); /* before the chain guess, which follows odometry */
+        if (status != PGEM_OK) {
+            io_message(message, message_size, "%s: out of memory", reader.name);
+        }
+    }
+    if (status == PGEM_OK) {
         status = io_check_ids(&reader);
     }
     free(reader.fixed_lines);

@@ -2,6 +2,7 @@
  * that reads back to its bits (numbers.c). */
 #include <errno.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "io_internal.h"
@@ -111,13 +112,14 @@ static void io_write_information(io_line_out_t *line, pgem_format_t format, int 
     }
 }
 
+/* The edges in graph order, or in `order` when it is not NULL (io_write_order). */
 static void io_write_edges(FILE *stream, pgem_format_t format, const pgem_io_graph_t *graph,
-                           const char *tag)
+                           const char *tag, const size_t *order)
 {
     size_t i;
     io_line_out_t line = {{0}, 0};
     for (i = 0; i < graph->edge_count; ++i) {
-        const pgem_io_edge_t *edge = &graph->edges[i];
+        const pgem_io_edge_t *edge = &graph->edges[order != NULL ? order[i] : i];
         io_out_text(&line, tag);
         io_out_id(&line, edge->from);
         io_out_id(&line, edge->to);
@@ -147,6 +149,7 @@ static int io_check_write_arguments(pgem_format_t format, const pgem_io_graph_t 
 int pgem_io_write_stream(FILE *stream, pgem_format_t format, const pgem_io_graph_t *graph)
 {
     io_writer_tags_t tags;
+    size_t *order;
     int status = io_check_write_arguments(format, graph);
     if (stream == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
@@ -160,12 +163,17 @@ int pgem_io_write_stream(FILE *stream, pgem_format_t format, const pgem_io_graph
     if (graph->dimension == 0) {
         return PGEM_OK; /* an empty graph is an empty file */
     }
+    status = io_write_order(graph, &order);
+    if (status != PGEM_OK) {
+        return status;
+    }
     tags = io_tags_for(format, graph->dimension);
     io_write_poses(stream, graph, tags.vertex);
     if (format == PGEM_FORMAT_G2O) {
         io_write_fixed(stream, graph);
     }
-    io_write_edges(stream, format, graph, tags.edge);
+    io_write_edges(stream, format, graph, tags.edge, order);
+    free(order);
     return ferror(stream) ? PGEM_ERR_IO : PGEM_OK;
 }
 
@@ -177,6 +185,8 @@ static int io_write_failed(const char *path, int status, char *message, size_t m
     } else if (status == PGEM_ERR_IO) {
         io_message(message, message_size, "%s: write error: %s", path,
                    errno != 0 ? strerror(errno) : "unknown");
+    } else if (status == PGEM_ERR_OUT_OF_MEMORY) {
+        io_message(message, message_size, "%s: out of memory", path);
     } else {
         io_message(message, message_size, "%s: invalid graph or format", path);
     }

@@ -133,52 +133,19 @@ int pgem_lcm_channels(const pgem_lcm_options_t *options, int dimension,
     return 0;
 }
 
-static int valued_option(const pgem_lcm_parser_t *parser, const char *name)
+static int lcm_common_option(void *context, int argc, char **argv, int *k)
 {
-    for (size_t v = 0; v < parser->valued_count; ++v) {
-        if (strcmp(name, parser->valued[v]) == 0) {
-            return 1;
-        }
-    }
-    return 0;
+    return pgem_lcm_parse_option((pgem_lcm_options_t *)context, argc, argv, k);
 }
 
-int pgem_lcm_parse_args(pgem_lcm_options_t *options, const pgem_lcm_parser_t *parser,
+int pgem_lcm_parse_args(pgem_lcm_options_t *options, const pgem_cli_parser_t *parser,
                         void *args, int argc, char **argv)
 {
-    const char *tool = options->tool;
-    for (int k = 1; k < argc; k++) {
-        const char *arg = argv[k];
-        int common = pgem_lcm_parse_option(options, argc, argv, &k);
-        if (common < 0) {
-            return PGEM_EXIT_USAGE;
-        }
-        if (common > 0) {
-            continue;
-        }
-        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
-            parser->help(stdout, options);
-            return -1;
-        }
-        if (parser->flag != NULL && parser->flag(args, arg)) {
-            continue;
-        }
-        if (valued_option(parser, arg)) {
-            if (!parser->value(args, arg, k + 1 < argc ? argv[k + 1] : NULL)) {
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else if (arg[0] != '-' && parser->positional != NULL) {
-            if (!parser->positional(args, arg)) {
-                return PGEM_EXIT_USAGE;
-            }
-        } else {
-            fprintf(stderr, "%s: unknown %s '%s' (see %s --help)\n", tool,
-                    arg[0] == '-' ? "option" : "argument", arg, tool);
-            return PGEM_EXIT_USAGE;
-        }
-    }
-    return 0;
+    pgem_cli_parser_t cli = *parser;
+    cli.tool = options->tool;
+    cli.common = lcm_common_option;
+    cli.context = options;
+    return pgem_cli_parse_args(&cli, args, argc, argv);
 }
 
 int pgem_lcm_parse_u64(const char *tool, const char *option, const char *text, uint64_t *value)

@@ -12,6 +12,7 @@
 #include <lcm/lcm.h>
 
 #include "channels.h"
+#include "cli.h"
 #include "pgem_status_t.h"
 
 /* ---- Common options --------------------------------------------------------------------- */
@@ -56,26 +57,13 @@ void pgem_lcm_options_help(FILE *out, const pgem_lcm_options_t *options);
 int pgem_lcm_channels(const pgem_lcm_options_t *options, int dimension,
                       pgem_channels_t *channels);
 
-/* A tool's own options, for pgem_lcm_parse_args. */
-typedef struct pgem_lcm_parser {
-    const char *const *valued;  /* names of the options that take a value */
-    size_t valued_count;
-    /* One of them with its value (NULL when the command line ends there): 1, or 0 after
-     * printing why the value is wrong. */
-    int (*value)(void *args, const char *name, const char *value);
-    /* A name that may be one of the tool's flags: 1 when it is (and is applied), else 0. */
-    int (*flag)(void *args, const char *name);
-    /* An argument that does not start with '-': 1, or 0 after printing why it is refused.
-     * NULL: the tool takes none. */
-    int (*positional)(void *args, const char *argument);
-    void (*help)(FILE *out, const pgem_lcm_options_t *options);
-} pgem_lcm_parser_t;
-
-/* The argument loop of the LCM tools: the common options (pgem_lcm_parse_option), -h/--help
- * (help to stdout), then the tool's flags, valued options and positional arguments; anything
- * else is "TOOL: unknown option 'X' (see TOOL --help)". Returns 0, -1 after --help, or
- * PGEM_EXIT_USAGE after a usage error was printed. */
-int pgem_lcm_parse_args(pgem_lcm_options_t *options, const pgem_lcm_parser_t *parser,
+/* The tools' one argument loop (pgem_cli_parse_args) with the LCM options first
+ * (pgem_lcm_parse_option): -h/--help (help to stdout), then the tool's flags, valued options
+ * and positional arguments; anything else is "TOOL: unknown option 'X' (see TOOL --help)".
+ * parser holds the tool's own options; its tool, common and context are filled in here (the
+ * context, which help gets, is options). Returns 0, -1 after --help, or PGEM_EXIT_USAGE after
+ * a usage error was printed. */
+int pgem_lcm_parse_args(pgem_lcm_options_t *options, const pgem_cli_parser_t *parser,
                         void *args, int argc, char **argv);
 
 /* Parses a non-negative integer (decimal) for OPTION; prints "TOOL: OPTION needs a

@@ -11,8 +11,9 @@
 
 #define TOOL "pgem-lcm-bridge"
 
-static void usage(FILE *out, const pgem_lcm_options_t *lcm)
+static void usage(FILE *out, const void *context)
 {
+    const pgem_lcm_options_t *lcm = context;
     fprintf(out,
             "usage: pgem-lcm-bridge [options]\n"
             "Receives poses and edges from front-ends over LCM, optimizes with EM when new loop\n"
@@ -43,11 +44,19 @@ static void usage(FILE *out, const pgem_lcm_options_t *lcm)
             "  --status-period S      seconds between status messages (0.5)\n"
             "  --idle-solve S         solve edges not yet solved (odometry only, say) after S\n"
             "                         seconds without new messages (0.5)\n"
-            "  --robust-scale C       EM Cauchy scale (default 1)\n"
-            "  --prune-threshold T    prune loop closures with weight below T (default 0.01)\n"
+            "  --robust KERNEL        weight loop closures: em (default: Lee et al. EM with\n"
+            "                         pruning), cauchy, huber, dcs (IRLS), none (weight 1)\n"
+            "  --robust-scale C       kernel scale: Cauchy c, Huber k, DCS phi (default 1)\n"
+            "  --prune-threshold T    EM: prune loop closures with weight below T (default\n"
+            "                         0.01)\n"
             "  --m-step-iterations N  Gauss-Newton iterations per M-step (default 1)\n"
-            "  --max-em-iterations N  E/M iterations per round (default 5)\n"
-            "  --gate G               consistency-test chi2 threshold (default 99.9%% quantile)\n"
+            "  --max-em-iterations N  EM: E/M iterations per round (default 5; --literal: 100)\n"
+            "  --gate G               EM: consistency-test chi2 threshold (default 99.9%%\n"
+            "                         quantile)\n"
+            "  --restart              EM: restart from the initial estimate after pruning\n"
+            "  --dormant-threshold D|off  EM: a loop weighing less than D gets no place in\n"
+            "                         the factor, with the same result (default T/100; off:\n"
+            "                         every loop in the factor)\n"
             "  --literal              the paper's EM as published (no polish or gate)\n"
             "  --distance D           innovation (default: loops tested against what the map\n"
             "                         predicts for them) or point (the paper's chi2)\n"
@@ -78,7 +87,9 @@ typedef enum value_kind {
     POSITIVE,    /* a positive number */
     PATH,        /* a file name */
     DIMENSION,   /* 2 or 3 */
-    DISTANCE     /* innovation or point */
+    DISTANCE,    /* innovation or point */
+    KERNEL,      /* em, cauchy, huber, dcs or none */
+    DORMANT      /* a non-negative number, or off */
 } value_kind_t;
 
 typedef struct valued_option {
@@ -109,6 +120,8 @@ static const valued_option_t valued_options[] = {
     {"--m-step-iterations", ITERATIONS, FIELD(robust.m_step_iterations)},
     {"--max-em-iterations", ITERATIONS, FIELD(robust.max_em_iterations)},
     {"--gate", POSITIVE, FIELD(robust.gate)},
+    {"--robust", KERNEL, FIELD(robust.kernel)},
+    {"--dormant-threshold", DORMANT, FIELD(robust.dormant_threshold)},
     {"--distance", DISTANCE, FIELD(robust.distance)},
     {"--odometry-inflation", POSITIVE, FIELD(robust.odometry_inflation)},
     {"--predictable-rotation", POSITIVE, FIELD(robust.predictable_rotation)},
@@ -159,6 +172,18 @@ static int parse_value(void *user, const char *name, const char *value)
             return 0;
         }
         return 1;
+    case KERNEL:
+        if (!pgem_cli_parse_kernel(TOOL, value, &p->options.robust.kernel)) {
+            return 0;
+        }
+        p->options.plain = p->options.robust.kernel == PGEM_KERNEL_NONE;
+        return 1;
+    case DORMANT:
+        if (value != NULL && strcmp(value, "off") == 0) {
+            p->options.robust.dormant_threshold = -1.0;
+            return 1;
+        }
+        return pgem_cli_parse_number(TOOL, name, value, 0, (double *)(void *)field);
     }
     return 0;
 }
@@ -172,6 +197,8 @@ static int parse_flag(void *user, const char *name)
         p->options.journal_sync = 1;
     } else if (strcmp(name, "--literal") == 0) {
         p->options.robust.literal = 1;
+    } else if (strcmp(name, "--restart") == 0) {
+        p->options.robust.restart = 1;
     } else if (strcmp(name, "--full-solves") == 0) {
         p->options.full_solves = 1;
     } else {
@@ -187,7 +214,8 @@ static int parse(int argc, char **argv, parsed_t *p)
     for (size_t v = 0; v < VALUED_COUNT; ++v) {
         names[v] = valued_options[v].name;
     }
-    const pgem_lcm_parser_t parser = {names, VALUED_COUNT, parse_value, parse_flag, NULL, usage};
+    const pgem_cli_parser_t parser = {
+        NULL, names, VALUED_COUNT, parse_value, parse_flag, NULL, usage, NULL, NULL};
     pgem_lcm_options_init(&p->lcm, TOOL, PGEM_LCM_ALL_CHANNELS);
     int status = pgem_lcm_parse_args(&p->lcm, &parser, p, argc, argv);
     if (status != 0) {

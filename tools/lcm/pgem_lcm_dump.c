@@ -55,8 +55,9 @@ static void dump_usage(FILE *out)
             "                     [--status-channel C]\n");
 }
 
-static void dump_help(FILE *out, const pgem_lcm_options_t *lcm)
+static void dump_help(FILE *out, const void *context)
 {
+    const pgem_lcm_options_t *lcm = context;
     dump_usage(out);
     fprintf(out,
             "\n"
@@ -161,8 +162,9 @@ static int dump_parse(int argc, char **argv, dump_args_t *args)
 {
     static const char *const valued[] = {"-o", "--output", "--weights", "--json", "--status",
                                          "--count", "--edges", "--idle", "--timeout"};
-    static const pgem_lcm_parser_t parser = {valued, sizeof valued / sizeof valued[0],
-                                             dump_parse_value, dump_flag, NULL, dump_help};
+    static const pgem_cli_parser_t parser = {
+        NULL, valued, sizeof valued / sizeof valued[0], dump_parse_value, dump_flag, NULL,
+        dump_help, NULL, NULL};
     memset(args, 0, sizeof *args);
     pgem_lcm_options_init(&args->lcm, DUMP_TOOL, PGEM_LCM_GRAPH_CHANNEL | PGEM_LCM_STATUS_CHANNEL);
     args->idle = -1.0;

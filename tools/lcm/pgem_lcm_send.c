@@ -113,8 +113,9 @@ static void send_usage(FILE *out)
             "                     [--status-channel C] [--command-channel C]\n");
 }
 
-static void send_help(FILE *out, const pgem_lcm_options_t *lcm)
+static void send_help(FILE *out, const void *context)
 {
+    const pgem_lcm_options_t *lcm = context;
     send_usage(out);
     fprintf(out,
             "\n"
@@ -123,9 +124,9 @@ static void send_help(FILE *out, const pgem_lcm_options_t *lcm)
             "in file order, each followed at once by the edges (pgem.edge2_t or edge3_t)\n"
             "whose later-sent pose it is, so odometry k-1 -> k and the loop closures ending\n"
             "at k follow pose k; edges ready at the same pose keep file order. An edge's\n"
-            "sequence is its index in the file (0-based), its kind odometry when\n"
-            "|from - to| == 1, else loop; poses named by FIX lines are sent fixed; utime is\n"
-            "the wall clock when sent.\n"
+            "sequence is its index in the file (0-based), its kind the reader's (the first\n"
+            "edge between ids i and i+1 odometry, else loop); poses named by FIX lines are\n"
+            "sent fixed; utime is the wall clock when sent.\n"
             "\n"
             "  --rate HZ              edges per second, paced to absolute deadlines (poses go\n"
             "                         with their edges); default 0: as fast as possible,\n"
@@ -249,8 +250,9 @@ static int send_parse(int argc, char **argv, send_args_t *args)
 {
     static const char *const valued[] = {"--rate", "--wait", "--shuffle", "--first",
                                          "--count", "--repeat", "--source", "--latency"};
-    static const pgem_lcm_parser_t parser = {valued, sizeof valued / sizeof valued[0],
-                                             send_parse_value, send_flag, send_input, send_help};
+    static const pgem_cli_parser_t parser = {
+        NULL, valued, sizeof valued / sizeof valued[0], send_parse_value, send_flag, send_input,
+        send_help, NULL, NULL};
     memset(args, 0, sizeof *args);
     pgem_lcm_options_init(&args->lcm, SEND_TOOL,
                           PGEM_LCM_POSE_CHANNEL | PGEM_LCM_EDGE_CHANNEL |
@@ -313,18 +315,18 @@ static void send_shuffle(send_plan_t *plan, uint64_t seed)
  * the poses needed, and the selected edges ordered by that pose, stably (file order within
  * one pose): `order` gets the edge indices, `needed` marks poses. Returns the edges chosen. */
 static size_t send_order_edges(const pgem_io_graph_t *graph, const send_args_t *args,
-                               const pgem_cli_id_t *ids, size_t *ready, size_t *start,
+                               const pgem_io_pose_index_t *ids, size_t *ready, size_t *start,
                                size_t *order, unsigned char *needed)
 {
     size_t chosen = 0;
     for (size_t e = 0; e < graph->edge_count; e++) {
-        ready[e] = PGEM_CLI_NO_POSE;
+        ready[e] = PGEM_IO_NO_POSE;
         if (!send_selected(args, e)) {
             continue;
         }
-        size_t from = pgem_cli_find_pose(ids, graph->pose_count, graph->edges[e].from);
-        size_t to = pgem_cli_find_pose(ids, graph->pose_count, graph->edges[e].to);
-        if (from == PGEM_CLI_NO_POSE || to == PGEM_CLI_NO_POSE) {
+        size_t from = pgem_io_find_pose(ids, graph->pose_count, graph->edges[e].from);
+        size_t to = pgem_io_find_pose(ids, graph->pose_count, graph->edges[e].to);
+        if (from == PGEM_IO_NO_POSE || to == PGEM_IO_NO_POSE) {
             continue; /* the reader refuses such files; kept safe anyway */
         }
         needed[from] = needed[to] = 1;
@@ -336,7 +338,7 @@ static size_t send_order_edges(const pgem_io_graph_t *graph, const send_args_t *
         start[p + 1u] += start[p]; /* counting sort: start[p] is pose p's first slot */
     }
     for (size_t e = 0; e < graph->edge_count; e++) {
-        if (ready[e] != PGEM_CLI_NO_POSE) {
+        if (ready[e] != PGEM_IO_NO_POSE) {
             order[start[ready[e]]++] = e; /* afterwards start[p] is the end of pose p's run */
         }
     }
@@ -361,12 +363,12 @@ static void send_plan_stream(const pgem_io_graph_t *graph, const send_args_t *ar
 }
 
 /* Marks the poses named by FIX lines. */
-static void send_mark_fixed(const pgem_io_graph_t *graph, const pgem_cli_id_t *ids,
+static void send_mark_fixed(const pgem_io_graph_t *graph, const pgem_io_pose_index_t *ids,
                             unsigned char *fixed)
 {
     for (size_t f = 0; f < graph->fixed_count; f++) {
-        size_t pose = pgem_cli_find_pose(ids, graph->pose_count, graph->fixed[f]);
-        if (pose != PGEM_CLI_NO_POSE) {
+        size_t pose = pgem_io_find_pose(ids, graph->pose_count, graph->fixed[f]);
+        if (pose != PGEM_IO_NO_POSE) {
             fixed[pose] = 1;
         }
     }
@@ -378,7 +380,7 @@ static int send_plan_build(const pgem_io_graph_t *graph, const send_args_t *args
 {
     size_t poses = graph->pose_count, edges = graph->edge_count;
     memset(plan, 0, sizeof *plan);
-    pgem_cli_id_t *ids = pgem_cli_index_poses(graph);
+    pgem_io_pose_index_t *ids = pgem_io_index_poses(graph);
     size_t *ready = malloc((edges + 1u) * sizeof *ready);
     size_t *start = calloc(poses + 1u, sizeof *start);
     size_t *order = malloc((edges + 1u) * sizeof *order);

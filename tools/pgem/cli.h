@@ -10,7 +10,7 @@
 #include "pgem/pgem.h"
 #include "pgem/threads.h"
 
-/* Exit codes (documented in the README). */
+/* Exit codes (documented in docs/CLI.md). */
 #define PGEM_EXIT_OK 0
 #define PGEM_EXIT_FAILURE 1  /* the solve failed or the input was rejected */
 #define PGEM_EXIT_USAGE 2    /* bad command line */
@@ -21,6 +21,49 @@ double pgem_cli_now(void);
 
 /* The tools apply the core's rule for 3D quaternions. */
 #define PGEM_CLI_QUAT_TOLERANCE PGEM_QUAT_NORM_TOLERANCE
+
+/* Normalises the quaternion q (qx qy qz qw) in place and returns its norm before; *refused is 1
+ * when that norm is off 1 by more than PGEM_CLI_QUAT_TOLERANCE or not finite (what the core
+ * refuses when loading). */
+double pgem_cli_quat_check(double *q, int *refused);
+
+/* A tool's command line, for pgem_cli_parse_args. */
+typedef struct pgem_cli_parser {
+    const char *tool;          /* name in messages: "pgem optimize", "pgem-lcm-send" */
+    const char *const *valued; /* names of the options that take a value */
+    size_t valued_count;
+    /* One of them with its value (NULL when the command line ends there): 1, or 0 after
+     * printing why the value is wrong. */
+    int (*value)(void *args, const char *name, const char *value);
+    /* A name that may be one of the tool's flags: 1 when it is (and is applied), else 0. */
+    int (*flag)(void *args, const char *name);
+    /* An argument that does not start with '-' (or is "-"): 1, or 0 after printing why it is
+     * refused. NULL: the tool takes none. */
+    int (*positional)(void *args, const char *argument);
+    /* -h or --help: the help, to out. */
+    void (*help)(FILE *out, const void *context);
+    /* Options every tool of a family takes (the LCM tools' --url ...), tried first; NULL: none.
+     * 1 when argv[*k] was one (with its value: *k left on it), 0 when not, -1 after printing a
+     * usage error. */
+    int (*common)(void *context, int argc, char **argv, int *k);
+    void *context; /* for common and help */
+} pgem_cli_parser_t;
+
+/* The argument loop of every tool: the common options, -h/--help (help to stdout), then the
+ * tool's flags, valued options and positional arguments; anything else is "TOOL: unknown
+ * option 'X' (see TOOL --help)" (or "unknown argument"). Returns 0, -1 after --help, or
+ * PGEM_EXIT_USAGE after a usage error was printed. */
+int pgem_cli_parse_args(const pgem_cli_parser_t *parser, void *args, int argc, char **argv);
+
+/* A command's one file argument into *field; a second one is "TOOL: more than one WHAT file
+ * ('X')" and 0. */
+int pgem_cli_one_file(const char *tool, const char *what, const char **field,
+                      const char *argument);
+
+/* An option's text value into *field; without one, "TOOL: NAME needs NOUN" ("a file name",
+ * "a value") and 0. */
+int pgem_cli_text_value(const char *tool, const char *name, const char *value, const char *noun,
+                        const char **field);
 
 /* Parses a non-negative integer option value; prints "PREFIX: OPTION needs a non-negative
  * integer, got 'TEXT'" and returns 0 on failure. */
@@ -42,8 +85,9 @@ int pgem_cli_parse_number(const char *prefix, const char *option, const char *te
 double pgem_cli_uniform(uint64_t *state);
 double pgem_cli_gaussian(uint64_t *state);
 
-/* Parses a robust kernel name (em, cauchy, huber, dcs, none); prints an error on failure. */
-int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel);
+/* Parses a robust kernel name (em, cauchy, huber, dcs, none); prints "PREFIX: --robust takes ..."
+ * on failure. */
+int pgem_cli_parse_kernel(const char *prefix, const char *text, pgem_kernel_t *kernel);
 
 /* pgem_cli_read_graph flags. */
 #define PGEM_CLI_NEED_POSES 1u   /* a graph without poses is an error ("PATH has no poses") */
@@ -118,21 +162,6 @@ int pgem_cli_refill_edges(const pgem_t *instance, pgem_io_graph_t *file);
 int pgem_cli_write(const pgem_t *instance, pgem_io_graph_t *file, const char *path,
                    const char *edge_text, size_t edge_bytes);
 
-/* A pose id and the index of its pose in a file graph. */
-typedef struct pgem_cli_id {
-    pgem_id_t id;
-    size_t index;
-} pgem_cli_id_t;
-
-#define PGEM_CLI_NO_POSE ((size_t)-1) /* pgem_cli_find_pose: no pose with that id */
-
-/* The poses of a file graph sorted by id, in a new array of pose_count entries (the caller
- * frees it); NULL when out of memory (nothing printed). */
-pgem_cli_id_t *pgem_cli_index_poses(const pgem_io_graph_t *graph);
-
-/* The index in the file graph of the pose with this id, from its sorted ids (count entries),
- * or PGEM_CLI_NO_POSE. */
-size_t pgem_cli_find_pose(const pgem_cli_id_t *ids, size_t count, pgem_id_t id);
 
 /* An ordered pair of pose ids and what it belongs to (an edge, a line, a loop). */
 typedef struct pgem_cli_pair {

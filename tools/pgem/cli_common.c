@@ -10,6 +10,7 @@
 #include <time.h>
 
 #include "cli.h"
+#include "pgem_random.h"
 
 double pgem_cli_now(void)
 {
@@ -310,7 +311,14 @@ int pgem_cli_write(const pgem_t *instance, pgem_io_graph_t *file, const char *pa
     return status;
 }
 
-int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel)
+double pgem_cli_quat_check(double *q, int *refused)
+{
+    const double norm = pgem_quat_normalize(q);
+    *refused = !(fabs(norm - 1.0) <= PGEM_CLI_QUAT_TOLERANCE);
+    return norm;
+}
+
+int pgem_cli_parse_kernel(const char *prefix, const char *text, pgem_kernel_t *kernel)
 {
     static const pgem_kernel_t kernels[] = {PGEM_KERNEL_NONE, PGEM_KERNEL_EM, PGEM_KERNEL_CAUCHY,
                                             PGEM_KERNEL_HUBER, PGEM_KERNEL_DCS};
@@ -320,7 +328,7 @@ int pgem_cli_parse_kernel(const char *text, pgem_kernel_t *kernel)
             return 1;
         }
     }
-    fprintf(stderr, "pgem: --robust takes em, cauchy, huber, dcs or none (got '%s')\n",
+    fprintf(stderr, "%s: --robust takes em, cauchy, huber, dcs or none (got '%s')\n", prefix,
             text != NULL ? text : "");
     return 0;
 }
@@ -337,53 +345,12 @@ int pgem_cli_write_weights(const pgem_t *instance, const char *path)
 
 double pgem_cli_uniform(uint64_t *state)
 {
-    uint64_t z = (*state += UINT64_C(0x9e3779b97f4a7c15));
-    z = (z ^ (z >> 30)) * UINT64_C(0xbf58476d1ce4e5b9);
-    z = (z ^ (z >> 27)) * UINT64_C(0x94d049bb133111eb);
-    z ^= z >> 31;
-    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
+    return pgem_random_uniform(state);
 }
 
 double pgem_cli_gaussian(uint64_t *state)
 {
-    double u = pgem_cli_uniform(state), v = pgem_cli_uniform(state);
-    return sqrt(-2.0 * log(u + 1e-300)) * cos(6.283185307179586 * v);
-}
-
-static int pgem_cli_compare_ids(const void *a, const void *b)
-{
-    const pgem_cli_id_t *x = a, *y = b;
-    if (x->id != y->id) {
-        return (x->id > y->id) - (x->id < y->id);
-    }
-    return (x->index > y->index) - (x->index < y->index);
-}
-
-pgem_cli_id_t *pgem_cli_index_poses(const pgem_io_graph_t *graph)
-{
-    pgem_cli_id_t *ids = malloc((graph->pose_count > 0 ? graph->pose_count : 1u) * sizeof *ids);
-    if (ids == NULL) {
-        return NULL;
-    }
-    for (size_t k = 0; k < graph->pose_count; k++) {
-        ids[k] = (pgem_cli_id_t){graph->poses[k].id, k};
-    }
-    qsort(ids, graph->pose_count, sizeof *ids, pgem_cli_compare_ids);
-    return ids;
-}
-
-size_t pgem_cli_find_pose(const pgem_cli_id_t *ids, size_t count, pgem_id_t id)
-{
-    size_t low = 0, high = count;
-    while (low < high) {
-        size_t middle = low + (high - low) / 2u;
-        if (ids[middle].id < id) {
-            low = middle + 1u;
-        } else {
-            high = middle;
-        }
-    }
-    return low < count && ids[low].id == id ? ids[low].index : PGEM_CLI_NO_POSE;
+    return pgem_random_gaussian(state);
 }
 
 static int pgem_cli_compare_pairs(const void *a, const void *b)

@@ -30,8 +30,9 @@ static size_t corrupt_index(uint64_t *state, size_t count)
     return index < count ? index : count - 1u;
 }
 
-static void corrupt_help(FILE *out)
+static void corrupt_help(FILE *out, const void *context)
 {
+    (void)context;
     fprintf(out,
             "usage: pgem corrupt IN -o OUT --policy random|local|random-grouped|local-grouped\n"
             "                    --count K [--group-size G] --seed S [--information V]\n"
@@ -48,55 +49,65 @@ static void corrupt_help(FILE *out)
             CORRUPT_LOCAL_SPAN);
 }
 
+/* The command line as it is read: the choices, and which of the required ones were given. */
+typedef struct corrupt_parsed {
+    corrupt_args_t *args;
+    int have_policy, have_count, have_seed;
+} corrupt_parsed_t;
+
+static int corrupt_policy(const char *value, corrupt_parsed_t *parsed)
+{
+    for (int p = 0; value != NULL && p < 4; p++) {
+        if (strcmp(value, corrupt_policy_names[p]) == 0) {
+            parsed->args->policy = (corrupt_policy_t)p;
+            return parsed->have_policy = 1;
+        }
+    }
+    fprintf(stderr, "pgem corrupt: --policy takes random, local, random-grouped or local-grouped\n");
+    return 0;
+}
+
+static int corrupt_value(void *user, const char *name, const char *value)
+{
+    corrupt_parsed_t *parsed = user;
+    corrupt_args_t *args = parsed->args;
+    if (strcmp(name, "--policy") == 0) {
+        return corrupt_policy(value, parsed);
+    }
+    if (strcmp(name, "--count") == 0) {
+        return parsed->have_count = pgem_cli_parse_u32("pgem", name, value, &args->count);
+    }
+    if (strcmp(name, "--seed") == 0) {
+        return parsed->have_seed = pgem_cli_parse_u32("pgem", name, value, &args->seed);
+    }
+    if (strcmp(name, "--group-size") == 0) {
+        return pgem_cli_parse_at_least("pgem corrupt", name, value, 1u, "loop", &args->group_size);
+    }
+    const char **field = strcmp(name, "-o") == 0 ? &args->output : &args->information;
+    return pgem_cli_text_value("pgem corrupt", name, value, "a value", field);
+}
+
+static int corrupt_positional(void *user, const char *argument)
+{
+    return pgem_cli_one_file("pgem corrupt", "input", &((corrupt_parsed_t *)user)->args->input,
+                             argument);
+}
+
 static int corrupt_parse(int argc, char **argv, corrupt_args_t *args)
 {
+    static const char *const valued[] = {"-o",     "--policy",      "--count",
+                                         "--seed", "--group-size",  "--information"};
+    const pgem_cli_parser_t parser = {
+        "pgem corrupt", valued, sizeof valued / sizeof valued[0], corrupt_value, NULL,
+        corrupt_positional, corrupt_help, NULL, NULL};
     *args = (corrupt_args_t){NULL, NULL, CORRUPT_RANDOM, 0u, 10u, 0u, NULL};
-    int have_policy = 0, have_count = 0, have_seed = 0;
-    for (int k = 1; k < argc; k++) {
-        const char *arg = argv[k], *value = k + 1 < argc ? argv[k + 1] : NULL;
-        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
-            corrupt_help(stdout);
-            return -1;
-        }
-        if (arg[0] != '-') {
-            if (args->input != NULL) {
-                fprintf(stderr, "pgem corrupt: more than one input file ('%s')\n", arg);
-                return PGEM_EXIT_USAGE;
-            }
-            args->input = arg;
-            continue;
-        }
-        int ok = value != NULL;
-        if (ok && strcmp(arg, "-o") == 0) {
-            args->output = value;
-        } else if (ok && strcmp(arg, "--policy") == 0) {
-            ok = 0;
-            for (int p = 0; p < 4; p++) {
-                if (strcmp(value, corrupt_policy_names[p]) == 0) {
-                    args->policy = (corrupt_policy_t)p;
-                    ok = have_policy = 1;
-                }
-            }
-            if (!ok) {
-                fprintf(stderr, "pgem corrupt: --policy takes random, local, random-grouped or local-grouped\n");
-            }
-        } else if (ok && strcmp(arg, "--count") == 0) {
-            ok = have_count = pgem_cli_parse_u32("pgem", arg, value, &args->count);
-        } else if (ok && strcmp(arg, "--group-size") == 0) {
-            ok = pgem_cli_parse_at_least("pgem corrupt", arg, value, 1u, "loop", &args->group_size);
-        } else if (ok && strcmp(arg, "--information") == 0) {
-            args->information = value;
-        } else if (ok && strcmp(arg, "--seed") == 0) {
-            ok = have_seed = pgem_cli_parse_u32("pgem", arg, value, &args->seed);
-        } else {
-            fprintf(stderr, "pgem corrupt: unknown or incomplete option '%s' (see --help)\n", arg);
-            ok = 0;
-        }
-        if (!ok) {
-            return PGEM_EXIT_USAGE;
-        }
-        k++;
+    corrupt_parsed_t parsed = {args, 0, 0, 0};
+    const int status = pgem_cli_parse_args(&parser, &parsed, argc, argv);
+    if (status != 0) {
+        return status;
     }
+    const int have_policy = parsed.have_policy, have_count = parsed.have_count,
+              have_seed = parsed.have_seed;
     if (args->input == NULL || args->output == NULL || !have_policy || !have_count || !have_seed) {
         fprintf(stderr, "pgem corrupt: IN, -o OUT, --policy, --count and --seed are required\n");
         return PGEM_EXIT_USAGE;

@@ -20,8 +20,9 @@ typedef struct eval_args {
     int json;                    /* one JSON object on stdout */
 } eval_args_t;
 
-static void eval_help(FILE *out)
+static void eval_help(FILE *out, const void *context)
 {
+    (void)context;
     fprintf(out,
             "usage: pgem eval RESULT --reference REF\n"
             "                 [--outliers OUT.outliers --weights W.txt] [--reject-below T]\n"
@@ -77,17 +78,6 @@ static int eval_parse_threshold(const char *option, const char *text, double *va
     return pgem_cli_parse_number("pgem eval", option, text, 0, value);
 }
 
-/* The value of a file option into *target; prints an error and returns 0 without one. */
-static int eval_file_option(const char *option, const char *value, const char **target)
-{
-    if (value == NULL) {
-        fprintf(stderr, "pgem eval: %s needs a file name\n", option);
-        return 0;
-    }
-    *target = value;
-    return 1;
-}
-
 static int eval_check_args(const eval_args_t *args)
 {
     if (args->result == NULL || args->reference == NULL) {
@@ -108,51 +98,51 @@ static int eval_check_args(const eval_args_t *args)
     return PGEM_EXIT_OK;
 }
 
+static int eval_value(void *user, const char *name, const char *value)
+{
+    eval_args_t *args = user;
+    if (strcmp(name, "--reject-below") == 0) {
+        return args->reject_given = eval_parse_threshold(name, value, &args->reject_below);
+    }
+    const char **field = strcmp(name, "--reference") == 0  ? &args->reference
+                         : strcmp(name, "--outliers") == 0 ? &args->outliers
+                                                           : &args->weights;
+    return pgem_cli_text_value("pgem eval", name, value, "a file name", field);
+}
+
+static int eval_flag(void *user, const char *name)
+{
+    eval_args_t *args = user;
+    int *field = strcmp(name, "--list") == 0 ? &args->list
+                 : strcmp(name, "--json") == 0 ? &args->json
+                                               : NULL;
+    if (field != NULL) {
+        *field = 1;
+    }
+    return field != NULL;
+}
+
+static int eval_positional(void *user, const char *argument)
+{
+    return pgem_cli_one_file("pgem eval", "result", &((eval_args_t *)user)->result, argument);
+}
+
 /* Returns PGEM_EXIT_OK, an exit code, or -1 after --help. */
 static int eval_parse(int argc, char **argv, eval_args_t *args)
 {
+    static const char *const valued[] = {"--reference", "--outliers", "--weights",
+                                         "--reject-below"};
+    const pgem_cli_parser_t parser = {
+        "pgem eval", valued, sizeof valued / sizeof valued[0], eval_value, eval_flag,
+        eval_positional, eval_help, NULL, NULL};
     memset(args, 0, sizeof *args);
     args->reject_below = PGEM_EVAL_REJECT_BELOW;
     if (argc < 2) {
-        eval_help(stderr);
+        eval_help(stderr, NULL);
         return PGEM_EXIT_USAGE;
     }
-    for (int k = 1; k < argc; k++) {
-        const char *arg = argv[k], *value = k + 1 < argc ? argv[k + 1] : NULL;
-        int ok = 1, takes_value = 1;
-        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
-            eval_help(stdout);
-            return -1;
-        } else if (strcmp(arg, "--reference") == 0) {
-            ok = eval_file_option(arg, value, &args->reference);
-        } else if (strcmp(arg, "--outliers") == 0) {
-            ok = eval_file_option(arg, value, &args->outliers);
-        } else if (strcmp(arg, "--weights") == 0) {
-            ok = eval_file_option(arg, value, &args->weights);
-        } else if (strcmp(arg, "--reject-below") == 0) {
-            ok = args->reject_given = eval_parse_threshold(arg, value, &args->reject_below);
-        } else {
-            takes_value = 0;
-            if (strcmp(arg, "--list") == 0) {
-                args->list = 1;
-            } else if (strcmp(arg, "--json") == 0) {
-                args->json = 1;
-            } else if (arg[0] == '-' && arg[1] != '\0') {
-                fprintf(stderr, "pgem eval: unknown option '%s' (see pgem eval --help)\n", arg);
-                ok = 0;
-            } else if (args->result == NULL) {
-                args->result = arg;
-            } else {
-                fprintf(stderr, "pgem eval: more than one result file ('%s')\n", arg);
-                ok = 0;
-            }
-        }
-        if (!ok) {
-            return PGEM_EXIT_USAGE;
-        }
-        k += takes_value;
-    }
-    return eval_check_args(args);
+    const int status = pgem_cli_parse_args(&parser, args, argc, argv);
+    return status != 0 ? status : eval_check_args(args);
 }
 
 /* ,"key":value with 10 digits (null for a value JSON cannot hold). */

@@ -32,8 +32,9 @@ typedef struct pgem_optimize_progress {
 #define PGEM_PROGRESS_AFTER_SECONDS 3.0
 #define PGEM_PROGRESS_EVERY_SECONDS 2.0
 
-static void pgem_optimize_help(FILE *out)
+static void pgem_optimize_help(FILE *out, const void *context)
 {
+    (void)context;
     fprintf(out,
             "usage: pgem optimize IN [-o OUT.g2o] [--solver gn|lm] [--max-iterations N]\n"
             "                        [--robust em|cauchy|huber|dcs|none] [--robust-scale C]\n"
@@ -84,128 +85,122 @@ static void pgem_optimize_help(FILE *out)
             "                      to stderr)\n");
 }
 
+static int pgem_optimize_enum_value(const char *name, const char *value, pgem_optimize_args_t *args)
+{
+    if (strcmp(name, "--solver") == 0) {
+        if (value != NULL && (strcmp(value, "gn") == 0 || strcmp(value, "lm") == 0)) {
+            args->method = value[0] == 'g' ? PGEM_GAUSS_NEWTON : PGEM_LEVENBERG_MARQUARDT;
+            return 1;
+        }
+        fprintf(stderr, "pgem optimize: --solver takes gn or lm\n");
+        return 0;
+    }
+    if (strcmp(name, "--distance") == 0) {
+        if (value != NULL && (strcmp(value, "innovation") == 0 || strcmp(value, "point") == 0)) {
+            args->robust.distance =
+                value[0] == 'i' ? PGEM_DISTANCE_INNOVATION : PGEM_DISTANCE_POINT;
+            return 1;
+        }
+        fprintf(stderr, "pgem optimize: --distance takes innovation or point\n");
+        return 0;
+    }
+    return pgem_cli_parse_kernel("pgem", value, &args->robust.kernel); /* --robust */
+}
+
+/* The robust options that take a number. */
+static int pgem_optimize_robust_value(const char *name, const char *value,
+                                      pgem_robust_options_t *robust)
+{
+    if (strcmp(name, "--m-step-iterations") == 0) {
+        return pgem_cli_parse_u32("pgem", name, value, &robust->m_step_iterations);
+    }
+    if (strcmp(name, "--max-em-iterations") == 0) {
+        return pgem_cli_parse_u32("pgem", name, value, &robust->max_em_iterations);
+    }
+    if (strcmp(name, "--dormant-threshold") == 0) {
+        if (value != NULL && strcmp(value, "off") == 0) {
+            robust->dormant_threshold = -1.0;
+            return 1;
+        }
+        return pgem_cli_parse_number("pgem", name, value, 0, &robust->dormant_threshold);
+    }
+    double *field = strcmp(name, "--robust-scale") == 0      ? &robust->scale
+                    : strcmp(name, "--prune-threshold") == 0 ? &robust->prune_threshold
+                    : strcmp(name, "--gate") == 0            ? &robust->gate
+                    : strcmp(name, "--odometry-inflation") == 0 ? &robust->odometry_inflation
+                                                                : &robust->predictable_rotation;
+    return pgem_cli_parse_number("pgem", name, value, 1, field);
+}
+
+static int pgem_optimize_threads(const char *name, const char *value, uint32_t *threads)
+{
+    if (!pgem_cli_parse_at_least("pgem optimize", name, value, 1u, "thread", threads)) {
+        return 0;
+    }
+    if (*threads > PGEM_MAX_THREADS) {
+        fprintf(stderr, "pgem optimize: --threads takes at most %u, got %u\n", PGEM_MAX_THREADS,
+                *threads);
+        return 0;
+    }
+    return 1;
+}
+
+static int pgem_optimize_value(void *user, const char *name, const char *value)
+{
+    pgem_optimize_args_t *args = user;
+    if (strcmp(name, "-o") == 0 || strcmp(name, "--output") == 0) {
+        return pgem_cli_text_value("pgem optimize", name, value, "a file name", &args->output);
+    }
+    if (strcmp(name, "--weights") == 0) {
+        return pgem_cli_text_value("pgem optimize", name, value, "a file name", &args->weights);
+    }
+    if (strcmp(name, "--max-iterations") == 0) {
+        return pgem_cli_parse_u32("pgem", name, value, &args->max_iterations);
+    }
+    if (strcmp(name, "--threads") == 0) {
+        return pgem_optimize_threads(name, value, &args->threads);
+    }
+    if (strcmp(name, "--solver") == 0 || strcmp(name, "--distance") == 0 ||
+        strcmp(name, "--robust") == 0) {
+        return pgem_optimize_enum_value(name, value, args);
+    }
+    return pgem_optimize_robust_value(name, value, &args->robust);
+}
+
+static int pgem_optimize_flag(void *user, const char *name)
+{
+    pgem_optimize_args_t *args = user;
+    int *field = strcmp(name, "--restart") == 0   ? &args->robust.restart
+                 : strcmp(name, "--literal") == 0 ? &args->robust.literal
+                 : strcmp(name, "--quiet") == 0   ? &args->quiet
+                 : strcmp(name, "--json") == 0    ? &args->json
+                                                  : NULL;
+    if (field != NULL) {
+        *field = 1;
+    }
+    return field != NULL;
+}
+
+static int pgem_optimize_positional(void *user, const char *argument)
+{
+    return pgem_cli_one_file("pgem optimize", "input", &((pgem_optimize_args_t *)user)->input,
+                             argument);
+}
+
 static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args)
 {
+    static const char *const valued[] = {
+        "-o", "--output", "--weights", "--max-iterations", "--threads", "--solver", "--distance",
+        "--robust", "--m-step-iterations", "--max-em-iterations", "--dormant-threshold",
+        "--robust-scale", "--prune-threshold", "--gate", "--odometry-inflation",
+        "--predictable-rotation"};
+    const pgem_cli_parser_t parser = {
+        "pgem optimize", valued, sizeof valued / sizeof valued[0], pgem_optimize_value,
+        pgem_optimize_flag, pgem_optimize_positional, pgem_optimize_help, NULL, NULL};
     memset(args, 0, sizeof *args);
-    for (int k = 1; k < argc; k++) {
-        const char *arg = argv[k];
-        const char *value = k + 1 < argc ? argv[k + 1] : NULL;
-        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
-            pgem_optimize_help(stdout);
-            return -1;
-        } else if (strcmp(arg, "-o") == 0 || strcmp(arg, "--output") == 0) {
-            if (value == NULL) {
-                fprintf(stderr, "pgem optimize: %s needs a file name\n", arg);
-                return PGEM_EXIT_USAGE;
-            }
-            args->output = value;
-            k++;
-        } else if (strcmp(arg, "--solver") == 0) {
-            if (value != NULL && strcmp(value, "gn") == 0) {
-                args->method = PGEM_GAUSS_NEWTON;
-            } else if (value != NULL && strcmp(value, "lm") == 0) {
-                args->method = PGEM_LEVENBERG_MARQUARDT;
-            } else {
-                fprintf(stderr, "pgem optimize: --solver takes gn or lm\n");
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else if (strcmp(arg, "--max-iterations") == 0) {
-            if (!pgem_cli_parse_u32("pgem", arg, value, &args->max_iterations)) {
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else if (strcmp(arg, "--robust") == 0) {
-            if (!pgem_cli_parse_kernel(value, &args->robust.kernel)) {
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else if (strcmp(arg, "--robust-scale") == 0) {
-            if (!pgem_cli_parse_number("pgem", arg, value, 1, &args->robust.scale)) {
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else if (strcmp(arg, "--prune-threshold") == 0) {
-            if (!pgem_cli_parse_number("pgem", arg, value, 1, &args->robust.prune_threshold)) {
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else if (strcmp(arg, "--m-step-iterations") == 0) {
-            if (!pgem_cli_parse_u32("pgem", arg, value, &args->robust.m_step_iterations)) {
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else if (strcmp(arg, "--max-em-iterations") == 0) {
-            if (!pgem_cli_parse_u32("pgem", arg, value, &args->robust.max_em_iterations)) {
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else if (strcmp(arg, "--dormant-threshold") == 0) {
-            if (value != NULL && strcmp(value, "off") == 0) {
-                args->robust.dormant_threshold = -1.0;
-            } else if (!pgem_cli_parse_number("pgem", arg, value, 0, &args->robust.dormant_threshold)) {
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else if (strcmp(arg, "--gate") == 0) {
-            if (!pgem_cli_parse_number("pgem", arg, value, 1, &args->robust.gate)) {
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else if (strcmp(arg, "--distance") == 0) {
-            if (value != NULL && strcmp(value, "innovation") == 0) {
-                args->robust.distance = PGEM_DISTANCE_INNOVATION;
-            } else if (value != NULL && strcmp(value, "point") == 0) {
-                args->robust.distance = PGEM_DISTANCE_POINT;
-            } else {
-                fprintf(stderr, "pgem optimize: --distance takes innovation or point\n");
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else if (strcmp(arg, "--odometry-inflation") == 0) {
-            if (!pgem_cli_parse_number("pgem", arg, value, 1, &args->robust.odometry_inflation)) {
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else if (strcmp(arg, "--predictable-rotation") == 0) {
-            if (!pgem_cli_parse_number("pgem", arg, value, 1, &args->robust.predictable_rotation)) {
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else if (strcmp(arg, "--restart") == 0) {
-            args->robust.restart = 1;
-        } else if (strcmp(arg, "--literal") == 0) {
-            args->robust.literal = 1;
-        } else if (strcmp(arg, "--weights") == 0) {
-            if (value == NULL) {
-                fprintf(stderr, "pgem optimize: --weights needs a file name\n");
-                return PGEM_EXIT_USAGE;
-            }
-            args->weights = value;
-            k++;
-        } else if (strcmp(arg, "--threads") == 0) {
-            if (!pgem_cli_parse_at_least("pgem optimize", arg, value, 1u, "thread", &args->threads)) {
-                return PGEM_EXIT_USAGE;
-            }
-            if (args->threads > PGEM_MAX_THREADS) {
-                fprintf(stderr, "pgem optimize: --threads takes at most %u, got %u\n",
-                        PGEM_MAX_THREADS, args->threads);
-                return PGEM_EXIT_USAGE;
-            }
-            k++;
-        } else if (strcmp(arg, "--quiet") == 0) {
-            args->quiet = 1;
-        } else if (strcmp(arg, "--json") == 0) {
-            args->json = 1;
-        } else if (arg[0] == '-' && arg[1] != '\0') {
-            fprintf(stderr, "pgem optimize: unknown option '%s' (see pgem optimize --help)\n", arg);
-            return PGEM_EXIT_USAGE;
-        } else if (args->input == NULL) {
-            args->input = arg;
-        } else {
-            fprintf(stderr, "pgem optimize: more than one input file ('%s')\n", arg);
-            return PGEM_EXIT_USAGE;
-        }
+    const int status = pgem_cli_parse_args(&parser, args, argc, argv);
+    if (status != 0) {
+        return status;
     }
     if (args->input == NULL) {
         fprintf(stderr, "pgem optimize: no input file (see pgem optimize --help)\n");

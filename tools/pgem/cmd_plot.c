@@ -29,7 +29,7 @@ typedef struct plot_args {
  * to its positions: p -> R (p - from) + to (the identity unless aligned). */
 typedef struct plot_source {
     pgem_io_graph_t file;
-    pgem_cli_id_t *ids;
+    pgem_io_pose_index_t *ids;
     size_t odometry;             /* odometry edges (0: none) */
     int aligned;
     double rotation[4];
@@ -47,8 +47,9 @@ typedef struct plot_loops {
     int known;                   /* the false ones are marked (outliers file) */
 } plot_loops_t;
 
-static void plot_help(FILE *out)
+static void plot_help(FILE *out, const void *context)
 {
+    (void)context;
     fprintf(out,
             "usage: pgem plot GRAPH -o FILE.svg [--weights W] [--outliers O] [--truth T]\n"
             "                 [--before INITIAL] [--title TEXT] [--width PX]\n"
@@ -87,59 +88,61 @@ static void plot_help(FILE *out)
             PLOT_DEFAULT_WIDTH_PAIR);
 }
 
+static int plot_width(const char *name, const char *value, uint32_t *width)
+{
+    if (!pgem_cli_parse_u32("pgem", name, value, width)) {
+        return 0;
+    }
+    if (*width < PLOT_MIN_WIDTH || *width > PLOT_MAX_WIDTH) {
+        fprintf(stderr, "pgem plot: --width takes %u to %u pixels, got %s\n", PLOT_MIN_WIDTH,
+                PLOT_MAX_WIDTH, value);
+        return 0;
+    }
+    return 1;
+}
+
+static int plot_value(void *user, const char *name, const char *value)
+{
+    plot_args_t *args = user;
+    const char **field = strcmp(name, "-o") == 0         ? &args->output
+                         : strcmp(name, "--weights") == 0  ? &args->weights
+                         : strcmp(name, "--outliers") == 0 ? &args->outliers
+                         : strcmp(name, "--truth") == 0    ? &args->truth
+                         : strcmp(name, "--before") == 0   ? &args->before
+                         : strcmp(name, "--title") == 0    ? &args->title
+                                                           : NULL;
+    if (value == NULL) {
+        fprintf(stderr, "pgem plot: %s needs a value\n", name);
+        return 0;
+    }
+    if (field == NULL) { /* --width */
+        return plot_width(name, value, &args->width);
+    }
+    *field = value;
+    return 1;
+}
+
+static int plot_positional(void *user, const char *argument)
+{
+    return pgem_cli_one_file("pgem plot", "graph", &((plot_args_t *)user)->graph, argument);
+}
+
 /* Returns PGEM_EXIT_OK, an exit code, or -1 after --help. */
 static int plot_parse(int argc, char **argv, plot_args_t *args)
 {
+    static const char *const valued[] = {"-o",     "--weights", "--outliers", "--truth",
+                                         "--before", "--title", "--width"};
+    const pgem_cli_parser_t parser = {
+        "pgem plot", valued, sizeof valued / sizeof valued[0], plot_value, NULL, plot_positional,
+        plot_help, NULL, NULL};
     memset(args, 0, sizeof *args);
     if (argc < 2) {
-        plot_help(stderr);
+        plot_help(stderr, NULL);
         return PGEM_EXIT_USAGE;
     }
-    for (int k = 1; k < argc; k++) {
-        const char *arg = argv[k], *value = k + 1 < argc ? argv[k + 1] : NULL;
-        const char **target = NULL;
-        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
-            plot_help(stdout);
-            return -1;
-        }
-        if (arg[0] != '-' || arg[1] == '\0') {
-            if (args->graph != NULL) {
-                fprintf(stderr, "pgem plot: more than one graph file ('%s')\n", arg);
-                return PGEM_EXIT_USAGE;
-            }
-            args->graph = arg;
-            continue;
-        }
-        if (strcmp(arg, "-o") == 0) {
-            target = &args->output;
-        } else if (strcmp(arg, "--weights") == 0) {
-            target = &args->weights;
-        } else if (strcmp(arg, "--outliers") == 0) {
-            target = &args->outliers;
-        } else if (strcmp(arg, "--truth") == 0) {
-            target = &args->truth;
-        } else if (strcmp(arg, "--before") == 0) {
-            target = &args->before;
-        } else if (strcmp(arg, "--title") == 0) {
-            target = &args->title;
-        } else if (strcmp(arg, "--width") != 0) {
-            fprintf(stderr, "pgem plot: unknown option '%s' (see pgem plot --help)\n", arg);
-            return PGEM_EXIT_USAGE;
-        }
-        if (value == NULL) {
-            fprintf(stderr, "pgem plot: %s needs a value\n", arg);
-            return PGEM_EXIT_USAGE;
-        }
-        if (target != NULL) {
-            *target = value;
-        } else if (!pgem_cli_parse_u32("pgem", arg, value, &args->width)) {
-            return PGEM_EXIT_USAGE;
-        } else if (args->width < PLOT_MIN_WIDTH || args->width > PLOT_MAX_WIDTH) {
-            fprintf(stderr, "pgem plot: --width takes %u to %u pixels, got %s\n",
-                    PLOT_MIN_WIDTH, PLOT_MAX_WIDTH, value);
-            return PGEM_EXIT_USAGE;
-        }
-        k++;
+    const int status = pgem_cli_parse_args(&parser, args, argc, argv);
+    if (status != 0) {
+        return status;
     }
     if (args->graph == NULL || args->output == NULL) {
         fprintf(stderr, "pgem plot: GRAPH and -o FILE.svg are required (see pgem plot --help)\n");
@@ -159,7 +162,7 @@ static int plot_read(const char *path, plot_source_t *source)
     if (status != PGEM_EXIT_OK) {
         return status;
     }
-    source->ids = pgem_cli_index_poses(&source->file);
+    source->ids = pgem_io_index_poses(&source->file);
     if (source->ids == NULL) {
         fprintf(stderr, "pgem plot: out of memory\n");
         return PGEM_EXIT_FAILURE;
@@ -180,8 +183,8 @@ static void plot_release(plot_source_t *source)
 /* The (moved) position of pose id; returns 0 when the graph has no such pose. */
 static int plot_position(const plot_source_t *source, pgem_id_t id, double out[3])
 {
-    size_t index = pgem_cli_find_pose(source->ids, source->file.pose_count, id);
-    if (index == PGEM_CLI_NO_POSE) {
+    size_t index = pgem_io_find_pose(source->ids, source->file.pose_count, id);
+    if (index == PGEM_IO_NO_POSE) {
         return 0;
     }
     const double *pose = source->file.poses[index].pose;

@@ -26,8 +26,9 @@ static const sim_world_info_t sim_worlds[] = {
     {"grid3d", 3, 2000u, 0.05, 0.01, 0.3, pgem_sim_grid3d_capacity, pgem_sim_grid3d},
 };
 
-static void sim_help(FILE *out)
+static void sim_help(FILE *out, const void *context)
 {
+    (void)context;
     fprintf(out,
             "usage: pgem simulate -o OUT.g2o [--truth TRUTH.g2o]\n"
             "                     [--world manhattan|sphere|grid3d] [--poses N] [--seed S]\n"
@@ -89,43 +90,58 @@ static void sim_defaults(sim_args_t *args)
     }
 }
 
+static int sim_probability(const char *name, const char *value, double *probability)
+{
+    if (!pgem_cli_parse_number("pgem simulate", name, value, 0, probability)) {
+        return 0;
+    }
+    if (*probability > 1.0) {
+        fprintf(stderr, "pgem simulate: --loop-probability must be at most 1, got '%s'\n", value);
+        return 0;
+    }
+    return 1;
+}
+
+static int sim_value(void *user, const char *name, const char *value)
+{
+    sim_args_t *args = user;
+    if (strcmp(name, "--poses") == 0) {
+        return pgem_cli_parse_at_least("pgem simulate", name, value, 2u, "poses", &args->poses);
+    }
+    if (strcmp(name, "--seed") == 0) {
+        return pgem_cli_parse_u32("pgem", name, value, &args->seed);
+    }
+    if (strcmp(name, "--loop-probability") == 0) {
+        return sim_probability(name, value, &args->loop_probability);
+    }
+    if (strcmp(name, "--sigma-translation") == 0 || strcmp(name, "--sigma-rotation") == 0) {
+        double *sigma = strcmp(name, "--sigma-translation") == 0 ? &args->sigma_translation
+                                                                 : &args->sigma_rotation;
+        return pgem_cli_parse_number("pgem simulate", name, value, 0, sigma);
+    }
+    if (value == NULL) {
+        fprintf(stderr, "pgem simulate: %s needs a value\n", name);
+        return 0;
+    }
+    if (strcmp(name, "--world") == 0) {
+        return sim_parse_world(value, &args->world);
+    }
+    *(strcmp(name, "-o") == 0 ? &args->output : &args->truth) = value;
+    return 1;
+}
+
 static int sim_parse(int argc, char **argv, sim_args_t *args)
 {
+    static const char *const valued[] = {"-o",     "--truth",       "--world",
+                                         "--poses", "--seed",        "--sigma-translation",
+                                         "--sigma-rotation", "--loop-probability"};
+    const pgem_cli_parser_t parser = {
+        "pgem simulate", valued, sizeof valued / sizeof valued[0], sim_value, NULL, NULL, sim_help,
+        NULL, NULL};
     *args = (sim_args_t){NULL, NULL, SIM_WORLD_MANHATTAN, 0u, 1u, (double)NAN, (double)NAN, (double)NAN};
-    for (int k = 1; k < argc; k += 2) { /* every option takes a value */
-        const char *arg = argv[k], *value = k + 1 < argc ? argv[k + 1] : NULL;
-        int ok = 1;
-        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
-            sim_help(stdout);
-            return -1;
-        } else if (strcmp(arg, "-o") == 0 && value != NULL) {
-            args->output = value;
-        } else if (strcmp(arg, "--truth") == 0 && value != NULL) {
-            args->truth = value;
-        } else if (strcmp(arg, "--world") == 0 && value != NULL) {
-            ok = sim_parse_world(value, &args->world);
-        } else if (strcmp(arg, "--poses") == 0) {
-            ok = pgem_cli_parse_at_least("pgem simulate", arg, value, 2u, "poses", &args->poses);
-        } else if (strcmp(arg, "--seed") == 0) {
-            ok = pgem_cli_parse_u32("pgem", arg, value, &args->seed);
-        } else if (strcmp(arg, "--sigma-translation") == 0) {
-            ok = pgem_cli_parse_number("pgem simulate", arg, value, 0, &args->sigma_translation);
-        } else if (strcmp(arg, "--sigma-rotation") == 0) {
-            ok = pgem_cli_parse_number("pgem simulate", arg, value, 0, &args->sigma_rotation);
-        } else if (strcmp(arg, "--loop-probability") == 0) {
-            ok = pgem_cli_parse_number("pgem simulate", arg, value, 0, &args->loop_probability);
-            if (ok && args->loop_probability > 1.0) {
-                fprintf(stderr, "pgem simulate: --loop-probability must be at most 1, got '%s'\n",
-                        value);
-                ok = 0;
-            }
-        } else {
-            fprintf(stderr, "pgem simulate: unknown or incomplete option '%s' (see --help)\n", arg);
-            return PGEM_EXIT_USAGE;
-        }
-        if (!ok) {
-            return PGEM_EXIT_USAGE;
-        }
+    const int status = pgem_cli_parse_args(&parser, args, argc, argv);
+    if (status != 0) {
+        return status;
     }
     if (args->output == NULL) {
         fprintf(stderr, "pgem simulate: -o OUT.g2o is required\n");

@@ -86,20 +86,22 @@ typedef struct stats {
     char reason[STATS_REASONS][256];
 } stats_t;
 
-static void stats_help(FILE *out)
+static void stats_help(FILE *out, const void *context)
 {
+    (void)context;
     fprintf(out,
             "usage: pgem stats GRAPH [--json]\n"
             "\n"
             "Reads GRAPH (g2o 2D/3D or TORO 2D, as pgem optimize does) and reports whether it\n"
-            "can be optimized as is: poses and edges (odometry when |from - to| = 1, else loop\n"
-            "closure), pose ids and their gaps, FIX lines, degree (min, mean, max; poses of\n"
-            "degree 0 and 1), connected components (their sizes, and whether each holds a\n"
-            "fixed pose: FIX poses, or the first pose when there is no FIX line), unordered\n"
-            "pairs joined by more than one edge, self-loops, edges naming a missing pose,\n"
-            "information matrices that are not symmetric or not positive definite (Cholesky,\n"
-            "with the tolerances pgem uses when loading), 2D angles outside [-pi, pi], 3D\n"
-            "quaternions off unit norm, NaN/Inf values and the bounding box of the positions.\n"
+            "can be optimized as is: poses and edges (odometry: the first edge between ids i\n"
+            "and i+1, else loop closure), pose ids and their gaps, FIX lines, degree (min,\n"
+            "mean, max; poses of degree 0 and 1), connected components (their sizes, and\n"
+            "whether each holds a fixed pose: FIX poses, or the first pose when there is no\n"
+            "FIX line), unordered pairs joined by more than one edge, self-loops, edges naming\n"
+            "a missing pose, information matrices that are not symmetric or not positive\n"
+            "definite (Cholesky, with the tolerances pgem uses when loading), 2D angles\n"
+            "outside [-pi, pi], 3D quaternions off unit norm, NaN/Inf values and the bounding\n"
+            "box of the positions.\n"
             "Lists show the first %d items with their file lines.\n"
             "\n"
             "The verdict:\n"
@@ -126,31 +128,42 @@ static void stats_help(FILE *out)
             STATS_SHOWN);
 }
 
+/* What the command line says: the graph file and --json. */
+typedef struct stats_args {
+    const char *path;
+    int json;
+} stats_args_t;
+
+static int stats_flag(void *user, const char *name)
+{
+    stats_args_t *args = user;
+    if (strcmp(name, "--json") != 0) {
+        return 0;
+    }
+    args->json = 1;
+    return 1;
+}
+
+static int stats_positional(void *user, const char *argument)
+{
+    return pgem_cli_one_file("pgem stats", "graph", &((stats_args_t *)user)->path, argument);
+}
+
 /* Returns PGEM_EXIT_OK, an exit code, or -1 after --help. */
 static int stats_parse(int argc, char **argv, const char **path, int *json)
 {
-    *path = NULL;
-    *json = 0;
+    const pgem_cli_parser_t parser = {
+        "pgem stats", NULL, 0, NULL, stats_flag, stats_positional, stats_help, NULL, NULL};
+    stats_args_t args = {NULL, 0};
     if (argc < 2) {
-        stats_help(stderr);
+        stats_help(stderr, NULL);
         return PGEM_EXIT_USAGE;
     }
-    for (int k = 1; k < argc; k++) {
-        const char *arg = argv[k];
-        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
-            stats_help(stdout);
-            return -1;
-        } else if (strcmp(arg, "--json") == 0) {
-            *json = 1;
-        } else if (arg[0] == '-' && arg[1] != '\0') {
-            fprintf(stderr, "pgem stats: unknown option '%s' (see pgem stats --help)\n", arg);
-            return PGEM_EXIT_USAGE;
-        } else if (*path != NULL) {
-            fprintf(stderr, "pgem stats: more than one graph file ('%s')\n", arg);
-            return PGEM_EXIT_USAGE;
-        } else {
-            *path = arg;
-        }
+    const int status = pgem_cli_parse_args(&parser, &args, argc, argv);
+    *path = args.path;
+    *json = args.json;
+    if (status != 0) {
+        return status;
     }
     if (*path == NULL) {
         fprintf(stderr, "pgem stats: no graph file (see pgem stats --help)\n");
@@ -220,9 +233,10 @@ static void stats_rotation(stats_t *s, const double *value, stats_item_t item)
     }
     double q[4];
     memcpy(q, value + 3, sizeof q);
-    double error = fabs(pgem_quat_normalize(q) - 1.0);
+    int refused;
+    double error = fabs(pgem_cli_quat_check(q, &refused) - 1.0);
     s->quaternion_error = fmax(s->quaternion_error, error);
-    if (error > PGEM_CLI_QUAT_TOLERANCE) {
+    if (refused) {
         stats_list_add(&s->bad_quaternions, item);
     } else if (error > STATS_QUAT_NOTE) {
         s->quaternions_off++;
@@ -230,7 +244,7 @@ static void stats_rotation(stats_t *s, const double *value, stats_item_t item)
 }
 
 /* Ids (range, gaps, from the poses sorted by id), values and bounding box of the poses. */
-static void stats_poses(stats_t *s, const pgem_cli_id_t *ids)
+static void stats_poses(stats_t *s, const pgem_io_pose_index_t *ids)
 {
     const pgem_io_graph_t *g = s->graph;
     const size_t size = (size_t)PGEM_POSE_SIZE(g->dimension);
@@ -278,14 +292,14 @@ static void stats_edge_values(stats_t *s, const pgem_io_edge_t *edge)
 
 /* Kinds, values, degrees and the union-find of every edge (the reader refuses an edge naming
  * a missing pose). */
-static void stats_edges(stats_t *s, const pgem_cli_id_t *ids, size_t *parent, size_t *degree,
+static void stats_edges(stats_t *s, const pgem_io_pose_index_t *ids, size_t *parent, size_t *degree,
                         size_t *incident)
 {
     const pgem_io_graph_t *g = s->graph;
     for (size_t k = 0; k < g->edge_count; k++) {
         const pgem_io_edge_t *edge = &g->edges[k];
-        size_t from = pgem_cli_find_pose(ids, g->pose_count, edge->from);
-        size_t to = pgem_cli_find_pose(ids, g->pose_count, edge->to);
+        size_t from = pgem_io_find_pose(ids, g->pose_count, edge->from);
+        size_t to = pgem_io_find_pose(ids, g->pose_count, edge->to);
         if (edge->kind == PGEM_EDGE_ODOMETRY) {
             s->odometry++;
         } else {
@@ -329,16 +343,16 @@ static void stats_degrees(stats_t *s, const size_t *degree, const size_t *incide
 
 /* Components, their sizes, and which of them hold a fixed pose. size and held have one
  * entry per pose (indexed by root), zeroed. */
-static void stats_components(stats_t *s, const pgem_cli_id_t *ids, size_t *parent, size_t *size,
-                             unsigned char *held)
+static void stats_components(stats_t *s, const pgem_io_pose_index_t *ids, size_t *parent,
+                             size_t *size, unsigned char *held)
 {
     const pgem_io_graph_t *g = s->graph;
     for (size_t k = 0; k < g->pose_count; k++) {
         size[stats_root(parent, k)]++;
     }
     for (size_t k = 0; k < g->fixed_count; k++) {
-        size_t index = pgem_cli_find_pose(ids, g->pose_count, g->fixed[k]);
-        if (index != PGEM_CLI_NO_POSE) {
+        size_t index = pgem_io_find_pose(ids, g->pose_count, g->fixed[k]);
+        if (index != PGEM_IO_NO_POSE) {
             held[stats_root(parent, index)] = 1u;
         }
     }
@@ -529,7 +543,7 @@ static int stats_measure(stats_t *s)
     const pgem_io_graph_t *g = s->graph;
     const size_t poses = g->pose_count > 0 ? g->pose_count : 1u;
     const size_t edges = g->edge_count > 0 ? g->edge_count : 1u;
-    pgem_cli_id_t *ids = pgem_cli_index_poses(g);
+    pgem_io_pose_index_t *ids = pgem_io_index_poses(g);
     size_t *counts = calloc(4u * poses, sizeof *counts); /* parent, degree, incident, size */
     unsigned char *held = calloc(poses, 1u);
     pgem_cli_pair_t *pairs = malloc(edges * sizeof *pairs);

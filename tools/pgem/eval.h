@@ -81,12 +81,12 @@ int pgem_eval_mark_outliers(const char *outliers, const char *loops_path, eval_l
                             size_t count, size_t *outlier_count);
 
 /* The rigid alignment of the ATE: matches the poses of res (res_ids: its poses sorted by id,
- * from pgem_cli_index_poses) to those of ref by id (same dimension) and finds the rotation
+ * from pgem_io_index_poses) to those of ref by id (same dimension) and finds the rotation
  * (unit quaternion [qx qy qz qw], about z in 2D) and centroids with
  * ref_k ~ R (res_k - c_res) + c_ref over the *matched positions (the identity when none
  * match). Prints an error and returns PGEM_EXIT_FAILURE if out of memory. */
 int pgem_eval_align(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
-                    const pgem_cli_id_t *res_ids, double rotation[4], double c_ref[3],
+                    const pgem_io_pose_index_t *res_ids, double rotation[4], double c_ref[3],
                     double c_res[3], size_t *matched);
 
 #endif /* PGEM_EVAL_H */

@@ -20,8 +20,9 @@ typedef struct eval_match {
 static int eval_normalize(pgem_io_graph_t *graph)
 {
     for (size_t k = 0; graph->dimension == 3 && k < graph->pose_count; k++) {
-        double norm = pgem_quat_normalize(graph->poses[k].pose + 3);
-        if (!(fabs(norm - 1.0) <= PGEM_CLI_QUAT_TOLERANCE)) {
+        int refused;
+        double norm = pgem_cli_quat_check(graph->poses[k].pose + 3, &refused);
+        if (refused) {
             fprintf(stderr, "pgem: %s:%lu: pose %llu has a quaternion of norm %g (off 1 by "
                             "more than 1%%)\n", graph->source, graph->poses[k].line,
                     (unsigned long long)graph->poses[k].id, norm);
@@ -41,7 +42,8 @@ int pgem_eval_read_graph(const char *path, pgem_io_graph_t *graph)
 /* The poses in both graphs, in the reference's order, into *matches (caller frees); res_ids
  * are the poses of res sorted by id. */
 static int eval_match_poses(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
-                            const pgem_cli_id_t *res_ids, eval_match_t **matches, size_t *count)
+                            const pgem_io_pose_index_t *res_ids, eval_match_t **matches,
+                            size_t *count)
 {
     *matches = malloc((ref->pose_count > 0 ? ref->pose_count : 1u) * sizeof **matches);
     *count = 0;
@@ -50,8 +52,8 @@ static int eval_match_poses(const pgem_io_graph_t *ref, const pgem_io_graph_t *r
         return PGEM_EXIT_FAILURE;
     }
     for (size_t k = 0; k < ref->pose_count; k++) {
-        size_t found = pgem_cli_find_pose(res_ids, res->pose_count, ref->poses[k].id);
-        if (found != PGEM_CLI_NO_POSE) {
+        size_t found = pgem_io_find_pose(res_ids, res->pose_count, ref->poses[k].id);
+        if (found != PGEM_IO_NO_POSE) {
             (*matches)[(*count)++] = (eval_match_t){k, found};
         }
     }
@@ -278,7 +280,7 @@ int pgem_eval_trajectory(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
     }
     eval_match_t *matches = NULL;
     size_t count = 0;
-    pgem_cli_id_t *res_ids = pgem_cli_index_poses(res);
+    pgem_io_pose_index_t *res_ids = pgem_io_index_poses(res);
     int status = PGEM_EXIT_FAILURE;
     if (res_ids == NULL) {
         fprintf(stderr, "pgem: out of memory\n");
@@ -304,7 +306,7 @@ int pgem_eval_trajectory(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
 }
 
 int pgem_eval_align(const pgem_io_graph_t *ref, const pgem_io_graph_t *res,
-                    const pgem_cli_id_t *res_ids, double rotation[4], double c_ref[3],
+                    const pgem_io_pose_index_t *res_ids, double rotation[4], double c_ref[3],
                     double c_res[3], size_t *matched)
 {
     eval_match_t *matches = NULL;
