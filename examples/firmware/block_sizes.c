@@ -29,7 +29,7 @@ static void row(int dimension, unsigned poses, unsigned edges, unsigned fill)
 
 static size_t item_size(int dimension, unsigned poses, unsigned edges, unsigned fill)
 {
-    const pgem_config_t config = {dimension, poses, edges, fill, 0};
+    const pgem_config_t config = {dimension, poses, edges, fill, 0, 0};
     return pgem_memory_size(&config);
 }
 

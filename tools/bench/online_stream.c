@@ -6,13 +6,13 @@
 
 /* The file index of each edge's later pose (the one sent last), as pair keys: sorting the
  * pairs by (later pose, edge index) gives the stream order. */
-static int online_ready_pairs(const pgem_io_graph_t *file, const pgem_cli_id_t *ids,
+static int online_ready_pairs(const pgem_io_graph_t *file, const pgem_io_pose_index_t *ids,
                               pgem_cli_pair_t *pairs)
 {
     for (size_t e = 0; e < file->edge_count; e++) {
-        size_t from = pgem_cli_find_pose(ids, file->pose_count, file->edges[e].from);
-        size_t to = pgem_cli_find_pose(ids, file->pose_count, file->edges[e].to);
-        if (from == PGEM_CLI_NO_POSE || to == PGEM_CLI_NO_POSE) {
+        size_t from = pgem_io_find_pose(ids, file->pose_count, file->edges[e].from);
+        size_t to = pgem_io_find_pose(ids, file->pose_count, file->edges[e].to);
+        if (from == PGEM_IO_NO_POSE || to == PGEM_IO_NO_POSE) {
             return -1; /* the reader refuses such files */
         }
         pairs[e] = (pgem_cli_pair_t){(pgem_id_t)(from > to ? from : to), 0, e};
@@ -22,7 +22,7 @@ static int online_ready_pairs(const pgem_io_graph_t *file, const pgem_cli_id_t *
 }
 
 /* Fills the stream's arrays from the sorted pairs, and the FIX flags. */
-static void online_fill(const pgem_io_graph_t *file, const pgem_cli_id_t *ids,
+static void online_fill(const pgem_io_graph_t *file, const pgem_io_pose_index_t *ids,
                         const pgem_cli_pair_t *pairs, online_stream_t *stream)
 {
     size_t next = 0;
@@ -35,8 +35,8 @@ static void online_fill(const pgem_io_graph_t *file, const pgem_cli_id_t *ids,
     }
     stream->first_edge[file->pose_count] = next;
     for (size_t f = 0; f < file->fixed_count; f++) {
-        size_t pose = pgem_cli_find_pose(ids, file->pose_count, file->fixed[f]);
-        if (pose != PGEM_CLI_NO_POSE) {
+        size_t pose = pgem_io_find_pose(ids, file->pose_count, file->fixed[f]);
+        if (pose != PGEM_IO_NO_POSE) {
             stream->fixed[pose] = 1;
         }
     }
@@ -49,7 +49,7 @@ int online_stream_build(const pgem_io_graph_t *file, online_stream_t *stream)
     stream->edges = malloc((file->edge_count + 1u) * sizeof *stream->edges);
     stream->first_edge = malloc((file->pose_count + 1u) * sizeof *stream->first_edge);
     stream->fixed = calloc(file->pose_count + 1u, 1);
-    pgem_cli_id_t *ids = pgem_cli_index_poses(file);
+    pgem_io_pose_index_t *ids = pgem_io_index_poses(file);
     pgem_cli_pair_t *pairs = malloc((file->edge_count + 1u) * sizeof *pairs);
     int status = -1;
     if (stream->edges != NULL && stream->first_edge != NULL && stream->fixed != NULL &&

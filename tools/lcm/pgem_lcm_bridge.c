@@ -16,8 +16,9 @@ static void usage(FILE *out, const void *context)
     const pgem_lcm_options_t *lcm = context;
     fprintf(out,
             "usage: pgem-lcm-bridge [options]\n"
-            "Receives poses and edges from front-ends over LCM, optimizes with EM when new loop\n"
-            "closures arrive (or on command) and publishes the optimized graph and a status.\n"
+            "Receives poses and edges from front-ends over LCM, updates the estimate\n"
+            "incrementally after every batch of messages (EM on the whole graph once the stream\n"
+            "goes quiet, or on command) and publishes the optimized graph and a status.\n"
             "Stops cleanly on SIGINT or SIGTERM.\n"
             "\n"
             "  --dimension 2|3        pose dimension (default 2)\n"
