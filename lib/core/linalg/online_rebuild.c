@@ -107,8 +107,8 @@ static int pgem_online_order(pgem_t *graph, int columns, int recent)
         const int j = online->pose_column[p];
         for (int end = j >= 0 ? online->pose_edge[p] : -1; end >= 0; end = online->edge_next[end]) {
             const int i = online->pose_column[pgem_online_other(graph, end)];
-            if (i >= 0 && online->edge_weight_in[end / 2] > 0.0) {
-                colptr[j + 1]++; /* counted first, placed below */
+            if (i > j && online->edge_weight_in[end / 2] > 0.0) {
+                colptr[j + 1]++; /* counted first, placed below; one triangle (AMD adds A^T) */
             }
         }
     }
@@ -124,7 +124,7 @@ static int pgem_online_order(pgem_t *graph, int columns, int recent)
         const int j = online->pose_column[p];
         for (int end = j >= 0 ? online->pose_edge[p] : -1; end >= 0; end = online->edge_next[end]) {
             const int i = online->pose_column[pgem_online_other(graph, end)];
-            if (i >= 0 && online->edge_weight_in[end / 2] > 0.0) {
+            if (i > j && online->edge_weight_in[end / 2] > 0.0) {
                 rows[colptr[j + 1]++] = i;
             }
         }
@@ -134,7 +134,8 @@ static int pgem_online_order(pgem_t *graph, int columns, int recent)
     int *order = columns > 0 ? cs_di_amd(1, &pattern) : NULL;
     if (columns > 0 && order == NULL) {
         pgem_cs_close(&graph->linear.cs_pool);
-        return PGEM_ERR_OUT_OF_MEMORY;
+        return pgem_fail(graph, PGEM_ERR_OUT_OF_MEMORY,
+                         "the online factor's ordering (CSparse's AMD) could not get workspace");
     }
     const int first_recent = columns - recent;
     int k = 0;
