@@ -5,7 +5,7 @@
  * forward solve and by the inverse. */
 #include "test_util.h"
 
-#include "internal.h"
+#include "linalg/linear.h"
 
 #define MAX_SCALARS 240
 
@@ -68,7 +68,7 @@ static pgem_t *random_graph(int dimension, uint32_t poses, uint32_t loops, uint6
 /* Dense H (count x count, permuted order) from pgem_linear_multiply on unit vectors. */
 static void dense_h(pgem_t *graph, double *h)
 {
-    const int count = graph->linear.scalar_count;
+    const int count = graph->linear->scalar_count;
     double unit[MAX_SCALARS], column[MAX_SCALARS];
     for (int j = 0; j < count; j++) {
         memset(unit, 0, sizeof unit);
@@ -128,8 +128,8 @@ static int factor(pgem_t *graph)
     assert_int_equal(pgem_analyze(graph), PGEM_OK);
     (void)pgem_linear_assemble(graph);
     assert_int_equal(pgem_linear_factor(graph), PGEM_OK);
-    assert_true(graph->linear.scalar_count <= MAX_SCALARS);
-    return graph->linear.scalar_count;
+    assert_true(graph->linear->scalar_count <= MAX_SCALARS);
+    return graph->linear->scalar_count;
 }
 
 static void check_solve(int dimension, uint32_t poses, uint32_t loops, uint64_t seed)
@@ -164,9 +164,9 @@ static void check_inverse(int dimension, uint32_t poses, uint32_t loops, uint64_
     static double h[MAX_SCALARS * MAX_SCALARS];
     pgem_t *graph = random_graph(dimension, poses, loops, seed);
     const int count = factor(graph);
-    const int b = graph->linear.block;
+    const int b = graph->linear->block;
     /* supernodes of several columns: the inverse and the solves read across them */
-    assert_true(graph->linear.factor.super_count < graph->linear.block_count);
+    assert_true(graph->linear->factor.super_count < graph->linear->block_count);
     dense_h(graph, h);
     dense_inverse(h, count);
     const double scale = largest_magnitude(h, count * count);
@@ -179,11 +179,11 @@ static void check_inverse(int dimension, uint32_t poses, uint32_t loops, uint64_
             blocks_from[k * 36 + (uint32_t)q] = test_uniform_in(&rng, -1, 1);
             blocks_to[k * 36 + (uint32_t)q] = test_uniform_in(&rng, -1, 1);
         }
-        pgem_linear_marginal(graph, graph->edge_from[k], graph->edge_to[k], blocks_from + k * 36,
+        pgem_linear_marginal(graph, graph->store.edge_from[k], graph->store.edge_to[k], blocks_from + k * 36,
                              blocks_to + k * 36, by_solve + k * 36);
     }
     pgem_linear_invert(graph);
-    const pgem_linear_t *linear = &graph->linear;
+    const pgem_linear_t *linear = graph->linear;
     for (int column = 0; column < linear->block_count; column++) {
         const pgem_factor_column_t view = pgem_factor_column_view(&linear->factor, column);
         for (int c = 0; c < b; c++) {
@@ -205,10 +205,10 @@ static void check_inverse(int dimension, uint32_t poses, uint32_t loops, uint64_
         memcpy(a_from, blocks_from + k * 36, sizeof a_from);
         memcpy(a_to, blocks_to + k * 36, sizeof a_to);
         double by_inverse[36];
-        int status = pgem_linear_marginal_inverse(graph, graph->edge_from[k], graph->edge_to[k],
+        int status = pgem_linear_marginal_inverse(graph, graph->store.edge_from[k], graph->store.edge_to[k],
                                                   a_from, a_to, by_inverse);
-        const int pf = linear->pose_block[graph->edge_from[k]];
-        const int pt = linear->pose_block[graph->edge_to[k]];
+        const int pf = linear->pose_block[graph->store.edge_from[k]];
+        const int pt = linear->pose_block[graph->store.edge_to[k]];
         for (int r = 0; r < b; r++) {
             for (int c = 0; c < b; c++) {
                 double dense = 0.0;

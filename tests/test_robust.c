@@ -4,10 +4,9 @@
 #include <math.h>
 #include <stdio.h>
 
-#include "internal.h" /* to put an estimate out of range behind the API */
+#include "instance.h" /* to put an estimate out of range behind the API */
 #include "test_util.h"
 
-#include "internal.h"
 
 #define RING 120
 #define FALSE_LOOPS 12
@@ -446,7 +445,7 @@ static void test_non_finite_start_leaves_the_weights(void **state)
         assert_int_equal(pgem_add_pose(graph, (pgem_id_t)i, poses[i]),
                          i == 0 ? PGEM_OK : PGEM_ERR_OUT_OF_RANGE);
         assert_int_equal(pgem_add_pose(graph, (pgem_id_t)i, poses[0]), i == 0 ? PGEM_ERR_DUPLICATE_ID : PGEM_OK);
-        memcpy(graph->pose + 3 * i, poses[i], sizeof poses[i]);
+        memcpy(graph->store.pose + 3 * i, poses[i], sizeof poses[i]);
     }
     assert_int_equal(pgem_add_edge(graph, 0, 1, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
     assert_int_equal(pgem_add_edge(graph, 1, 2, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
@@ -638,7 +637,7 @@ static void test_non_finite_loop_is_pruned(void **state)
     pgem_edge_view_t edge;
     assert_int_equal(pgem_edge_at(graph, bad, &edge), PGEM_OK);
     assert_int_equal(edge.kind, PGEM_EDGE_LOOP);
-    graph->edge_measurement[3u * bad] = 1e300;
+    graph->store.edge_measurement[3u * bad] = 1e300;
     for (int kernel = PGEM_KERNEL_EM; kernel <= PGEM_KERNEL_DCS; kernel++) {
         pgem_robust_reset(graph);
         pgem_robust_options_t options = {0};

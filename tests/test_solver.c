@@ -2,7 +2,7 @@
  * estimate, the fill budget, callbacks, fixed poses and re-analysis on topology change. */
 #include <stdio.h>
 
-#include "internal.h" /* to put an estimate out of range behind the API */
+#include "instance.h" /* to put an estimate out of range behind the API */
 #include "test_util.h"
 
 #define RING 60
@@ -168,8 +168,8 @@ static void test_non_finite_chi2_fails_cleanly(void **state)
     assert_int_equal(pgem_add_edge(graph, 0, 1, z, huge, PGEM_EDGE_ODOMETRY, NULL),
                      PGEM_ERR_OUT_OF_RANGE);
     assert_int_equal(pgem_add_edge(graph, 0, 1, z, one, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
-    memcpy(graph->pose + 3, b, sizeof b);
-    memcpy(graph->edge_information, huge, sizeof huge);
+    memcpy(graph->store.pose + 3, b, sizeof b);
+    memcpy(graph->store.edge_information, huge, sizeof huge);
     pgem_summary_t summary;
     assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_ERR_NUMERIC);
     assert_int_equal(summary.usable, 0);
@@ -348,7 +348,7 @@ static void test_check_solvable(void **state)
     expect_same_verdict(graph, PGEM_OK, NULL);
     assert_string_equal(pgem_last_error(graph), "");
     /* an estimate gone out of range behind the API's back (as in the test above) */
-    graph->pose[3] = 1e300;
+    graph->store.pose[3] = 1e300;
     expect_same_verdict(graph, PGEM_ERR_NUMERIC, "not finite");
     pgem_destroy(graph);
 }

@@ -3,7 +3,7 @@
 #include <float.h>
 #include <math.h>
 
-#include "internal.h"
+#include "instance.h"
 
 /* Which entry (row, column) breaks the check, for the message. */
 typedef struct pgem_entry_ref {

@@ -12,7 +12,7 @@
  * bit for bit those of the dense computation (up to the sign of entries that are zero). */
 #include <string.h>
 
-#include "internal.h"
+#include "linalg/linear.h"
 
 /* The blocks one edge contributes (n x n each, row-major, stride n) and its gradient rows.
  * The diagonal blocks are filled in their upper triangle only: all the assembly stores. */
@@ -34,11 +34,11 @@ typedef struct pgem_edge_blocks {
 static double pgem_linearise_se2(const pgem_t *graph, uint32_t k, pgem_edge_blocks_t *out)
 {
     double e[3], jf[9], jt[9];
-    const double *from = graph->pose + (size_t)graph->edge_from[k] * 3u;
-    const double *to = graph->pose + (size_t)graph->edge_to[k] * 3u;
-    const double *o = graph->edge_information + (size_t)k * 9u;
-    const double w = graph->edge_weight[k];
-    pgem_se2_error(from, to, graph->edge_measurement + (size_t)k * 3u, e, jf, jt);
+    const double *from = graph->store.pose + (size_t)graph->store.edge_from[k] * 3u;
+    const double *to = graph->store.pose + (size_t)graph->store.edge_to[k] * 3u;
+    const double *o = graph->store.edge_information + (size_t)k * 9u;
+    const double w = graph->store.edge_weight[k];
+    pgem_se2_error(from, to, graph->store.edge_measurement + (size_t)k * 3u, e, jf, jt);
     const double c = jt[0], s = jt[3], d0 = jf[2], d1 = jf[5];
     double a[9];  /* Jt^T W */
     double f2[3]; /* row 2 of Jf^T W (rows 0 and 1 are -a's) */
@@ -121,11 +121,11 @@ static double pgem_linearise_se3(const pgem_t *graph, uint32_t k, pgem_edge_bloc
 {
     double e[6], jf[36], jt[36];
     double tw[36], fw[36]; /* Jt^T W, Jf^T W */
-    const double *from = graph->pose + (size_t)graph->edge_from[k] * 7u;
-    const double *to = graph->pose + (size_t)graph->edge_to[k] * 7u;
-    const double *o = graph->edge_information + (size_t)k * 36u;
-    const double w = graph->edge_weight[k];
-    pgem_se3_error(from, to, graph->edge_measurement + (size_t)k * 7u, e, jf, jt);
+    const double *from = graph->store.pose + (size_t)graph->store.edge_from[k] * 7u;
+    const double *to = graph->store.pose + (size_t)graph->store.edge_to[k] * 7u;
+    const double *o = graph->store.edge_information + (size_t)k * 36u;
+    const double w = graph->store.edge_weight[k];
+    pgem_se3_error(from, to, graph->store.edge_measurement + (size_t)k * 7u, e, jf, jt);
     const double *p = jt, *s = jt + 21, *a = jf, *b = jf + 3, *c = jf + 21;
     const double *o00 = o, *o01 = o + 3, *o10 = o + 18, *o11 = o + 21;
     pgem_block_at_b(p, o00, tw, 0);
@@ -212,16 +212,16 @@ static inline void pgem_add_off_diagonal(pgem_linear_t *linear, int n, int colum
 /* The edge loop for block size n (a constant at each call). */
 static inline double pgem_assemble_edges(pgem_t *graph, int n)
 {
-    pgem_linear_t *linear = &graph->linear;
+    pgem_linear_t *linear = graph->linear;
     const int *pose_block = linear->pose_block;
     pgem_edge_blocks_t blocks;
     double chi2 = 0.0;
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (graph->edge_active[k] == PGEM_EDGE_PRUNED) {
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (graph->store.edge_active[k] == PGEM_EDGE_PRUNED) {
             continue;
         }
-        const int from = pose_block[graph->edge_from[k]];
-        const int to = pose_block[graph->edge_to[k]];
+        const int from = pose_block[graph->store.edge_from[k]];
+        const int to = pose_block[graph->store.edge_to[k]];
         chi2 += n == 6 ? pgem_linearise_se3(graph, k, &blocks)
                        : pgem_linearise_se2(graph, k, &blocks);
         if (from >= 0) {
@@ -243,7 +243,7 @@ static inline double pgem_assemble_edges(pgem_t *graph, int n)
 
 double pgem_linear_assemble(pgem_t *graph)
 {
-    pgem_linear_t *linear = &graph->linear;
+    pgem_linear_t *linear = graph->linear;
     memset(linear->lower_values, 0, (size_t)linear->lower_start[linear->block_count] * sizeof(double));
     memset(linear->rhs, 0, (size_t)linear->scalar_count * sizeof(double));
     linear->left_out = 0;
@@ -260,7 +260,7 @@ double pgem_linear_assemble(pgem_t *graph)
 
 void pgem_linear_damp(pgem_t *graph, double lambda)
 {
-    pgem_linear_t *linear = &graph->linear;
+    pgem_linear_t *linear = graph->linear;
     for (int block = 0; block < linear->block_count; block++) {
         for (int c = 0; c < linear->block; c++) {
             linear->lower_values[pgem_lower_column(linear, block, c)] =
@@ -273,12 +273,12 @@ void pgem_linear_damp(pgem_t *graph, double lambda)
  * structure), each recomputed from the edge's linearisation. */
 static inline void pgem_left_out_edges(const pgem_t *graph, int n, const double *x, double *y)
 {
-    const pgem_linear_t *linear = &graph->linear;
+    const pgem_linear_t *linear = graph->linear;
     pgem_edge_blocks_t blocks;
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
-        const int from = linear->pose_block[graph->edge_from[k]];
-        const int to = linear->pose_block[graph->edge_to[k]];
-        if (graph->edge_active[k] == PGEM_EDGE_PRUNED || from < 0 || to < 0 ||
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        const int from = linear->pose_block[graph->store.edge_from[k]];
+        const int to = linear->pose_block[graph->store.edge_to[k]];
+        if (graph->store.edge_active[k] == PGEM_EDGE_PRUNED || from < 0 || to < 0 ||
             linear->edge_offset[k] >= 0) {
             continue;
         }
@@ -296,7 +296,7 @@ static inline void pgem_left_out_edges(const pgem_t *graph, int n, const double 
 
 void pgem_linear_left_out_multiply(const pgem_t *graph, const double *x, double *y)
 {
-    if (graph->linear.block == 6) {
+    if (graph->linear->block == 6) {
         pgem_left_out_edges(graph, 6, x, y);
     } else {
         pgem_left_out_edges(graph, 3, x, y);

@@ -1,6 +1,6 @@
 /* The supernodal Cholesky factor L of the Newton matrix: its layout (decided by the symbolic
  * analysis), the workspace of a numeric factorisation and the dense kernels behind it. Private
- * to lib/core: linalg's own state, kept out of internal.h's instance layout. */
+ * to lib/core: linalg's own state, opaque to the other layers (linalg/linear.h). */
 #ifndef PGEM_FACTOR_H
 #define PGEM_FACTOR_H
 

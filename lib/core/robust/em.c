@@ -3,7 +3,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "internal.h"
+#include "instance.h"
 
 static pgem_robust_options_t pgem_robust_resolve(const pgem_robust_options_t *options)
 {
@@ -63,49 +63,13 @@ void pgem_robust_reset(pgem_t *graph)
         return;
     }
     uint32_t returned = 0;
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
-        returned += graph->edge_active[k] != PGEM_EDGE_ACTIVE;
-        graph->edge_weight[k] = 1.0;
-        graph->edge_active[k] = PGEM_EDGE_ACTIVE;
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        returned += graph->store.edge_active[k] != PGEM_EDGE_ACTIVE;
+        graph->store.edge_weight[k] = 1.0;
+        graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
     }
     if (returned > 0u) {
         pgem_linear_invalidate(graph); /* pruned loops were out of H's structure */
-    }
-}
-
-/* 1 if edge k, made active, can be assembled into the current (valid) structure: it has a
- * place there, or touches a held pose (no off-diagonal block). */
-static int pgem_edge_in_structure(const pgem_t *graph, uint32_t k)
-{
-    const pgem_linear_t *linear = &graph->linear;
-    return linear->all_edges || linear->edge_offset[k] >= 0 ||
-           linear->pose_block[graph->edge_from[k]] < 0 || linear->pose_block[graph->edge_to[k]] < 0;
-}
-
-/* Keeps H's structure fit for the next M-step. It must grow when an active edge has no place
- * in it (a loop woke up or was re-admitted). It may shrink: dormant and pruned loops still in
- * it cost fill, so it is rebuilt without them once they are more than a sixteenth of the loops
- * it holds (the full-structure fallback, which holds every edge by design, is kept). */
-static void pgem_review_structure(pgem_t *graph)
-{
-    const pgem_linear_t *linear = &graph->linear;
-    if (!linear->valid) {
-        return;
-    }
-    uint32_t held = 0, idle = 0;
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
-        const int active = graph->edge_active[k] == PGEM_EDGE_ACTIVE;
-        if (active && !pgem_edge_in_structure(graph, k)) {
-            pgem_linear_invalidate(graph);
-            return;
-        }
-        if (graph->edge_kind[k] == PGEM_EDGE_LOOP && linear->edge_offset[k] >= 0) {
-            held++;
-            idle += (uint32_t)!active;
-        }
-    }
-    if (!linear->all_edges && idle > 0u && idle * 16u > held) {
-        pgem_linear_invalidate(graph);
     }
 }
 
@@ -113,12 +77,12 @@ static void pgem_review_structure(pgem_t *graph)
  * or for whatever the caller does after the robust solve; the structure is reviewed. */
 static void pgem_wake_dormant(pgem_t *graph)
 {
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (graph->edge_active[k] == PGEM_EDGE_DORMANT) {
-            graph->edge_active[k] = PGEM_EDGE_ACTIVE;
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (graph->store.edge_active[k] == PGEM_EDGE_DORMANT) {
+            graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
         }
     }
-    pgem_review_structure(graph);
+    pgem_linear_review(graph);
 }
 
 /* Prunes the loops (active or dormant) whose weight fell below the threshold; returns how many.
@@ -126,10 +90,10 @@ static void pgem_wake_dormant(pgem_t *graph)
 static uint32_t pgem_prune(pgem_t *graph, double threshold)
 {
     uint32_t pruned = 0;
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (graph->edge_kind[k] == PGEM_EDGE_LOOP && graph->edge_active[k] != PGEM_EDGE_PRUNED &&
-            graph->edge_weight[k] < threshold) {
-            graph->edge_active[k] = PGEM_EDGE_PRUNED;
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP && graph->store.edge_active[k] != PGEM_EDGE_PRUNED &&
+            graph->store.edge_weight[k] < threshold) {
+            graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
             pruned++;
         }
     }
@@ -140,10 +104,10 @@ static uint32_t pgem_prune(pgem_t *graph, double threshold)
 static void pgem_count_loops(const pgem_t *graph, pgem_robust_summary_t *summary)
 {
     summary->loops = summary->pruned = 0;
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (graph->edge_kind[k] == PGEM_EDGE_LOOP) {
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP) {
             summary->loops++;
-            summary->pruned += graph->edge_active[k] == PGEM_EDGE_PRUNED;
+            summary->pruned += graph->store.edge_active[k] == PGEM_EDGE_PRUNED;
         }
     }
 }
@@ -162,7 +126,7 @@ static int pgem_m_step(pgem_t *graph, const pgem_robust_options_t *options,
         inner = *solve;
     }
     inner.max_iterations = options->m_step_iterations;
-    pgem_review_structure(graph);
+    pgem_linear_review(graph);
     int status = pgem_optimize(graph, &inner, &result);
     summary->gn_iterations += result.iterations;
     summary->em_iterations++;
@@ -197,21 +161,21 @@ static int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
 
 static void pgem_restore_initial(pgem_t *graph)
 {
-    memcpy(graph->pose, graph->pose_initial, pgem_pose_bytes(graph));
+    memcpy(graph->store.pose, graph->robust.pose_initial, pgem_pose_bytes(graph));
 }
 
 /* The loops' weights and states before a robust solve, put back if it fails (with the
  * estimate), so a failed call changes nothing the caller can see. */
 static void pgem_save_loops(pgem_t *graph)
 {
-    memcpy(graph->edge_weight_saved, graph->edge_weight, graph->edge_count * sizeof(double));
-    memcpy(graph->edge_active_saved, graph->edge_active, graph->edge_count);
+    memcpy(graph->robust.edge_weight_saved, graph->store.edge_weight, graph->store.edge_count * sizeof(double));
+    memcpy(graph->robust.edge_active_saved, graph->store.edge_active, graph->store.edge_count);
 }
 
 static void pgem_restore_loops(pgem_t *graph)
 {
-    memcpy(graph->edge_weight, graph->edge_weight_saved, graph->edge_count * sizeof(double));
-    memcpy(graph->edge_active, graph->edge_active_saved, graph->edge_count);
+    memcpy(graph->store.edge_weight, graph->robust.edge_weight_saved, graph->store.edge_count * sizeof(double));
+    memcpy(graph->store.edge_active, graph->robust.edge_active_saved, graph->store.edge_count);
     pgem_linear_invalidate(graph); /* the structure was built for the states of the failed solve */
 }
 
@@ -271,13 +235,13 @@ static uint32_t pgem_gate(pgem_t *graph, const pgem_robust_options_t *options, d
 {
     uint32_t changed = 0;
     pgem_em_distances(graph, options, 1, gate);
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (graph->edge_kind[k] != PGEM_EDGE_LOOP) {
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
             continue;
         }
-        int consistent = graph->edge_distance[k] < gate;
-        if (consistent != (graph->edge_active[k] != PGEM_EDGE_PRUNED)) {
-            graph->edge_active[k] = consistent ? PGEM_EDGE_ACTIVE : PGEM_EDGE_PRUNED;
+        int consistent = graph->robust.edge_distance[k] < gate;
+        if (consistent != (graph->store.edge_active[k] != PGEM_EDGE_PRUNED)) {
+            graph->store.edge_active[k] = consistent ? PGEM_EDGE_ACTIVE : PGEM_EDGE_PRUNED;
             summary->readmitted += (uint32_t)consistent;
             summary->gated += (uint32_t)!consistent;
             changed++;
@@ -294,8 +258,8 @@ static int pgem_polish(pgem_t *graph, const pgem_solve_options_t *solve, pgem_ro
 {
     pgem_summary_t result;
     pgem_wake_dormant(graph);
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
-        graph->edge_weight[k] = graph->edge_active[k] == PGEM_EDGE_ACTIVE ? 1.0 : graph->edge_weight[k];
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        graph->store.edge_weight[k] = graph->store.edge_active[k] == PGEM_EDGE_ACTIVE ? 1.0 : graph->store.edge_weight[k];
     }
     int status = pgem_optimize(graph, solve, &result);
     summary->gn_iterations += result.iterations;
@@ -340,25 +304,25 @@ static int pgem_plain(pgem_t *graph, const pgem_solve_options_t *solve, pgem_rob
 static int pgem_prune_non_finite(pgem_t *graph, pgem_robust_summary_t *summary)
 {
     summary->first_non_finite = UINT32_MAX;
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         if (isfinite(pgem_edge_mahalanobis(graph, k))) {
             continue;
         }
-        if (graph->edge_kind[k] != PGEM_EDGE_LOOP) {
+        if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
             pgem_message_clear(graph);
             pgem_message_text(graph, "the chi2 of odometry edge ");
-            pgem_message_u64(graph, graph->pose_id[graph->edge_from[k]]);
+            pgem_message_u64(graph, graph->store.pose_id[graph->store.edge_from[k]]);
             pgem_message_text(graph, "-");
-            pgem_message_u64(graph, graph->pose_id[graph->edge_to[k]]);
+            pgem_message_u64(graph, graph->store.pose_id[graph->store.edge_to[k]]);
             pgem_message_text(graph, " is not finite under the initial estimate");
             return PGEM_ERR_NUMERIC;
         }
         if (summary->non_finite++ == 0u) {
             summary->first_non_finite = k;
         }
-        graph->edge_weight[k] = 0.0;
-        if (graph->edge_active[k] != PGEM_EDGE_PRUNED) {
-            graph->edge_active[k] = PGEM_EDGE_PRUNED;
+        graph->store.edge_weight[k] = 0.0;
+        if (graph->store.edge_active[k] != PGEM_EDGE_PRUNED) {
+            graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
             pgem_linear_invalidate(graph);
         }
     }
@@ -373,10 +337,10 @@ static void pgem_summarise(pgem_t *graph, const pgem_robust_options_t *options,
 {
     pgem_count_loops(graph, summary);
     summary->rejected = 0;
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
-        summary->rejected += (uint32_t)(graph->edge_kind[k] == PGEM_EDGE_LOOP &&
-                                        (graph->edge_active[k] == PGEM_EDGE_PRUNED ||
-                                         graph->edge_weight[k] < options->prune_threshold));
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        summary->rejected += (uint32_t)(graph->store.edge_kind[k] == PGEM_EDGE_LOOP &&
+                                        (graph->store.edge_active[k] == PGEM_EDGE_PRUNED ||
+                                         graph->store.edge_weight[k] < options->prune_threshold));
     }
     if (summary->loops == 0u) {
         summary->outcome = PGEM_ROBUST_NO_LOOPS;
@@ -389,7 +353,7 @@ static void pgem_summarise(pgem_t *graph, const pgem_robust_options_t *options,
     }
     summary->final_chi2 = pgem_weighted_chi2(graph);
     summary->final_chi2_all = pgem_total_chi2(graph);
-    summary->estimate_changed = memcmp(graph->pose, graph->pose_initial, pgem_pose_bytes(graph)) != 0;
+    summary->estimate_changed = memcmp(graph->store.pose, graph->robust.pose_initial, pgem_pose_bytes(graph)) != 0;
 }
 
 int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
@@ -413,7 +377,7 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     if ((unsigned)resolved.kernel > (unsigned)PGEM_KERNEL_DCS) { /* also catches negative values */
         return pgem_fail(graph, PGEM_ERR_INVALID_ARGUMENT, "unknown robust kernel");
     }
-    memcpy(graph->pose_initial, graph->pose, pgem_pose_bytes(graph));
+    memcpy(graph->robust.pose_initial, graph->store.pose, pgem_pose_bytes(graph));
     pgem_save_loops(graph);
     out->initial_chi2 = pgem_total_chi2(graph);
     int status = PGEM_OK;

@@ -1,7 +1,7 @@
 /* Robust kernels behind one interface: the weight a loop closure gets for its chi2. */
 #include <math.h>
 
-#include "internal.h"
+#include "instance.h"
 
 double pgem_kernel_weight(pgem_kernel_t kernel, double chi2, double scale)
 {
