@@ -108,6 +108,12 @@ static void check_outliers_found(pgem_kernel_t kernel, int literal)
         for (int m = 0; m < FALSE_LOOPS; m++) {
             is_false |= false_loops[m] == k;
         }
+        double weight = -1.0;
+        pgem_loop_state_t loop_state = PGEM_LOOP_DORMANT;
+        assert_int_equal(pgem_loop_weight(graph, k, &weight), PGEM_OK);
+        assert_int_equal(pgem_loop_state(graph, k, &loop_state), PGEM_OK);
+        assert_true(weight == edge.weight);
+        assert_int_equal(loop_state, edge.active ? PGEM_LOOP_ACCEPTED : PGEM_LOOP_PRUNED);
         if (kernel == PGEM_KERNEL_EM) {
             /* every false loop pruned, every true one accepted: precision = recall = 1 */
             assert_int_equal(edge.active, !is_false);
@@ -125,6 +131,36 @@ static void check_outliers_found(pgem_kernel_t kernel, int literal)
         assert_near(pose[0], truth[3 * k], 0.5);
         assert_near(pose[1], truth[3 * k + 1], 0.5);
     }
+    pgem_destroy(graph);
+}
+
+/* A loop's weight and state through the API: out of range is refused and writes nothing; a
+ * dormant loop (EM's state for a loop kept out of the factor) reads as dormant, not accepted. */
+static void test_loop_weight_and_state(void **state)
+{
+    (void)state;
+    double truth[3 * RING];
+    uint32_t false_loops[FALSE_LOOPS];
+    pgem_t *graph = corrupted_ring(33, 77, truth, false_loops);
+    double weight = 7.0;
+    pgem_loop_state_t loop_state = PGEM_LOOP_DORMANT;
+    const uint32_t edges = pgem_edge_count(graph);
+    assert_int_equal(pgem_loop_weight(graph, edges, &weight), PGEM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pgem_loop_state(graph, edges, &loop_state), PGEM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pgem_loop_weight(NULL, 0, &weight), PGEM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pgem_loop_state(graph, 0, NULL), PGEM_ERR_INVALID_ARGUMENT);
+    assert_true(weight == 7.0);
+    assert_int_equal(loop_state, PGEM_LOOP_DORMANT);
+    assert_int_equal(pgem_loop_weight(graph, false_loops[0], &weight), PGEM_OK);
+    assert_int_equal(pgem_loop_state(graph, false_loops[0], &loop_state), PGEM_OK);
+    assert_true(weight == 1.0); /* before any robust solve */
+    assert_int_equal(loop_state, PGEM_LOOP_ACCEPTED);
+    graph->store.edge_active[false_loops[0]] = PGEM_EDGE_DORMANT;
+    graph->store.edge_weight[false_loops[0]] = 1e-5;
+    assert_int_equal(pgem_loop_state(graph, false_loops[0], &loop_state), PGEM_OK);
+    assert_int_equal(loop_state, PGEM_LOOP_DORMANT);
+    assert_int_equal(pgem_loop_weight(graph, false_loops[0], &weight), PGEM_OK);
+    assert_true(weight == 1e-5);
     pgem_destroy(graph);
 }
 
@@ -660,6 +696,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_kernel_formulas),
         cmocka_unit_test(test_inliers_only_nothing_pruned_plain_optimum),
+        cmocka_unit_test(test_loop_weight_and_state),
         cmocka_unit_test(test_em_finds_outliers),
         cmocka_unit_test(test_literal_em_finds_outliers),
         cmocka_unit_test(test_dcs_downweights_outliers),

@@ -47,8 +47,17 @@ typedef enum pgem_robust_outcome {
 /** State of a loop closure after a robust solve. */
 typedef enum pgem_loop_state {
     PGEM_LOOP_ACCEPTED = 0,  /**< in the solution with its weight */
-    PGEM_LOOP_PRUNED = 1     /**< removed: weight fell below the prune threshold */
+    PGEM_LOOP_PRUNED = 1,    /**< removed: weight fell below the prune threshold */
+    PGEM_LOOP_DORMANT = 2    /**< in the solution with its (small) weight, but given no place
+                                in the factor (EM's dormant_threshold; seen from a round
+                                callback: a finished solve wakes every dormant loop) */
 } pgem_loop_state_t;
+
+/** The robust weight of edge `index` (0 .. pgem_edge_count-1) and its state: odometry edges
+ * and loop closures no robust solve touched are accepted at weight 1. Errors:
+ * INVALID_ARGUMENT (NULL, or index out of range); nothing is written then. */
+int pgem_loop_weight(const pgem_t *graph, uint32_t index, double *weight);
+int pgem_loop_state(const pgem_t *graph, uint32_t index, pgem_loop_state_t *state);
 
 /** What the round callback sees (EM: after each round; IRLS kernels: after each iteration). */
 typedef struct pgem_robust_progress {

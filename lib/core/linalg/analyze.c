@@ -144,16 +144,6 @@ static int pgem_fill_exceeded(pgem_t *graph, int64_t nonzeros)
     return PGEM_ERR_FILL_BUDGET;
 }
 
-/* Root of a pose in the union-find forest `parent`, halving the path on the way. */
-static int pgem_part_root(int *parent, int pose)
-{
-    while (parent[pose] != pose) {
-        parent[pose] = parent[parent[pose]];
-        pose = parent[pose];
-    }
-    return pose;
-}
-
 /* Every part of the graph (poses joined by edges in the problem: active or dormant, not
  * pruned) must hold a held pose, or its poses can move together at no cost. Gauss-Newton
  * would meet a zero pivot, but Levenberg-Marquardt's damping hides it and solves a part that
@@ -164,26 +154,24 @@ static int pgem_part_root(int *parent, int pose)
  * union-find forest and the held marks. */
 int pgem_linear_check_parts(pgem_t *graph)
 {
-    int *parent = graph->linear->factor.head;
+    uint32_t *parent = (uint32_t *)(void *)graph->linear->factor.head;
     int *held = graph->linear->factor.next;
     for (uint32_t p = 0; p < graph->store.pose_count; p++) {
-        parent[p] = (int)p;
+        parent[p] = p;
         held[p] = 0;
     }
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         if (graph->store.edge_active[k] != PGEM_EDGE_PRUNED) {
-            int a = pgem_part_root(parent, (int)graph->store.edge_from[k]);
-            int b = pgem_part_root(parent, (int)graph->store.edge_to[k]);
-            parent[a < b ? b : a] = a < b ? a : b;
+            (void)pgem_part_join(parent, graph->store.edge_from[k], graph->store.edge_to[k]);
         }
     }
     for (uint32_t p = 0; p < graph->store.pose_count; p++) {
         if (graph->linear->pose_block[p] < 0) {
-            held[pgem_part_root(parent, (int)p)] = 1;
+            held[pgem_part_root(parent, p)] = 1;
         }
     }
     for (uint32_t p = 0; p < graph->store.pose_count; p++) {
-        if (!held[pgem_part_root(parent, (int)p)]) {
+        if (!held[pgem_part_root(parent, p)]) {
             pgem_message_clear(graph);
             pgem_message_text(graph, "pose ");
             pgem_message_u64(graph, graph->store.pose_id[p]);
