@@ -74,6 +74,20 @@ static inline double pgem_quadratic_form(const double *information, const double
     return chi2;
 }
 
+/* The blocks one edge contributes (n x n each, row-major, stride n) and its gradient rows.
+ * The diagonal blocks are filled in their upper triangle only: all the assembly stores. */
+typedef struct pgem_edge_linearisation {
+    double from_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX]; /* Jf^T W Jf */
+    double to_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];     /* Jt^T W Jt */
+    double from_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];   /* Jf^T W Jt */
+    double gradient_from[PGEM_TANGENT_SIZE_MAX];                     /* Jf^T W e */
+    double gradient_to[PGEM_TANGENT_SIZE_MAX];                       /* Jt^T W e */
+} pgem_edge_blocks_t;
+/* Edge k linearised at the current estimate and its robust weight w: Jf^T wOmega Jf,
+ * Jt^T wOmega Jt, Jf^T wOmega Jt and the gradients Jf^T wOmega e, Jt^T wOmega e into out;
+ * returns the weighted chi2 w e^T Omega e (graph/linearise.c). */
+double pgem_edge_linearise(const pgem_t *graph, uint32_t k, pgem_edge_blocks_t *out);
+
 /* Weighted chi2 (edges not pruned, robust weights) under the current estimate. */
 double pgem_weighted_chi2(const pgem_t *graph);
 

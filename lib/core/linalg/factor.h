@@ -84,7 +84,7 @@ typedef struct pgem_factor {
     int *position;          /* [max_poses] next row (index into rows) a supernode updates */
     pgem_factor_worker_t *workers; /* [worker_count] */
     double *shared;         /* [shared_doubles] the region the analysis's scratch
-                               (linear->scratch), worker 0's dense workspace and the vectors of
+                               (pgem_linear_scratch), worker 0's dense workspace and the vectors of
                                the solves after a factorisation (the Newton step's conjugate
                                gradients, the marginals' right-hand sides, the inverse's blocks)
                                take turns in: none of them outlives its call */
