@@ -87,6 +87,7 @@ static void pgem_optimize_help(FILE *out)
 static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args)
 {
     memset(args, 0, sizeof *args);
+    args->robust.kernel = PGEM_KERNEL_NONE; /* without --robust: plain least squares */
     for (int k = 1; k < argc; k++) {
         const char *arg = argv[k];
         const char *value = k + 1 < argc ? argv[k + 1] : NULL;

@@ -102,7 +102,7 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int 
     }
 }
 
-double pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options)
+int pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options, double *largest_change)
 {
     double largest = 0.0;
     pgem_em_distances(graph, options, 0, 0.0);
@@ -110,8 +110,11 @@ double pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options)
         if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP || graph->store.edge_active[k] == PGEM_EDGE_PRUNED) {
             continue;
         }
-        const double weight = pgem_kernel_weight(options->kernel, graph->robust.edge_distance[k],
-                                                 options->scale);
+        double weight = 1.0;
+        const int status = pgem_loop_kernel_weight(graph, options, k, &weight);
+        if (status != PGEM_OK) {
+            return status;
+        }
         largest = fmax(largest, fabs(weight - graph->store.edge_weight[k]));
         graph->store.edge_weight[k] = weight;
         graph->store.edge_active[k] = weight < options->dormant_threshold ? PGEM_EDGE_DORMANT
@@ -123,5 +126,6 @@ double pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options)
             graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
         }
     }
-    return largest;
+    *largest_change = largest;
+    return PGEM_OK;
 }

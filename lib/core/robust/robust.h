@@ -36,9 +36,57 @@ void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double infla
  * *distance is the measure that decided (robust/innovation.c). */
 int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, double *distance);
 /* EM's E-step (robust/estep.c): every loop's distance (every loop, pruned ones included, in
- * the consistency test: gating), then the weights; returns the largest weight change. */
+ * the consistency test: gating), then the weights, and the largest weight change; fails only
+ * on a user kernel's weight outside [0, 1]. */
 void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int gating,
                        double gate);
-double pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options);
+int pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options, double *largest_change);
+/* Loop k's weight from its distance (edge_distance) under the options' kernel (robust/kernel.c):
+ * PGEM_ERR_NUMERIC, naming the loop, if a user kernel's weight is not in [0, 1]. */
+int pgem_loop_kernel_weight(pgem_t *graph, const pgem_robust_options_t *options, uint32_t k,
+                            double *weight);
+
+/* Options (robust/options.c): checked, naming a wrong one; resolved to the defaults. */
+int pgem_check_robust_options(pgem_t *graph, const pgem_robust_options_t *options);
+pgem_robust_options_t pgem_robust_resolve(const pgem_robust_options_t *options);
+
+/* The loops around a solve (robust/loops.c): dormant ones back to active (the structure
+ * reviewed), counted into the summary, and the estimate, weights and states saved at the start
+ * and put back after a failure. */
+void pgem_wake_dormant(pgem_t *graph);
+void pgem_count_loops(const pgem_t *graph, pgem_robust_summary_t *summary);
+void pgem_save_loops(pgem_t *graph);
+void pgem_restore_loops(pgem_t *graph);
+void pgem_restore_initial(pgem_t *graph);
+
+/* The summary's termination, unless an earlier stop by on_round already set it. */
+static inline void pgem_robust_ended(pgem_robust_summary_t *summary,
+                                     pgem_robust_termination_t termination)
+{
+    if (summary->termination != PGEM_ROBUST_STOPPED) {
+        summary->termination = termination;
+    }
+}
+
+/* E/M iterations (robust/iterate.c); weights_current skips the first E-step. */
+int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
+                    const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
+                    int weights_current, double *largest_change);
+/* EM (robust/em.c): rounds with pruning (the literal method); the polish (accepted loops at
+ * weight 1, Gauss-Newton to convergence); rounds, polish and consistency test (the default). */
+int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
+                   const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
+int pgem_em_polish(pgem_t *graph, const pgem_solve_options_t *solve,
+                   pgem_robust_summary_t *summary);
+int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
+                      const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
+/* The consistency test (robust/gate.c): the gate, then the loops it re-admits or prunes under
+ * the current (polished) estimate; returns how many changed state. */
+double pgem_em_gate_value(const pgem_t *graph, const pgem_robust_options_t *options);
+uint32_t pgem_em_gate(pgem_t *graph, const pgem_robust_options_t *options, double gate,
+                      pgem_robust_summary_t *summary);
+/* IRLS for the kernels that never prune (robust/irls.c). */
+int pgem_irls(pgem_t *graph, const pgem_robust_options_t *options,
+              const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
 
 #endif /* PGEM_ROBUST_LAYER_H */
