@@ -63,17 +63,33 @@ int pgem_config_resolve(const pgem_config_t *config, pgem_config_t *resolved)
 }
 
 /* Carves every layer's part of an instance from the arena (measuring when arena->base is
- * NULL), from the bottom layer up. */
-static void pgem_carve(pgem_t *graph, pgem_arena_t *arena)
+ * NULL), from the bottom layer up; parts (may be NULL) receives the bytes each took. */
+static void pgem_carve(pgem_t *graph, pgem_arena_t *arena, pgem_memory_parts_t *parts)
 {
+    pgem_memory_parts_t taken;
+    size_t mark = arena->used;
     pgem_store_carve(graph, arena);
+    taken.graph = arena->used - mark;
+    mark = arena->used;
     pgem_solver_carve(graph, arena);
+    taken.solver = arena->used - mark;
+    mark = arena->used;
     pgem_robust_carve(graph, arena);
+    taken.robust = arena->used - mark;
+    mark = arena->used;
     pgem_linear_carve(graph, arena);
+    taken.linalg = arena->used - mark;
+    if (parts != NULL) {
+        parts->graph = taken.graph;
+        parts->solver = taken.solver;
+        parts->robust = taken.robust;
+        parts->linalg = taken.linalg;
+    }
 }
 
-/* Sizes of the instance struct and its arrays for a resolved config (measuring pass). */
-static size_t pgem_measure(const pgem_config_t *resolved)
+/* Sizes of the instance struct and its arrays for a resolved config (measuring pass), and
+ * their parts (parts may be NULL). */
+static size_t pgem_measure(const pgem_config_t *resolved, pgem_memory_parts_t *parts)
 {
     pgem_t probe;
     memset(&probe, 0, sizeof probe);
@@ -82,7 +98,11 @@ static size_t pgem_measure(const pgem_config_t *resolved)
     probe.tangent = PGEM_TANGENT_SIZE(resolved->dimension);
     pgem_arena_t arena = {NULL, 0, 0, 0, 0, 0};
     (void)pgem_arena_take(&arena, 1, sizeof(pgem_t));
-    pgem_carve(&probe, &arena);
+    const size_t instance = arena.used;
+    pgem_carve(&probe, &arena, parts);
+    if (parts != NULL) {
+        parts->instance = instance;
+    }
     return arena.used;
 }
 
@@ -92,11 +112,31 @@ size_t pgem_memory_size(const pgem_config_t *config)
     if (pgem_config_resolve(config, &resolved) != PGEM_OK) {
         return 0;
     }
-    size_t bytes = pgem_measure(&resolved);
+    size_t bytes = pgem_measure(&resolved, NULL);
     if (bytes == (size_t)-1) {
         return 0;
     }
     return bytes + 16u; /* room to align an arbitrary buffer start */
+}
+
+int pgem_get_memory_parts(const pgem_config_t *config, pgem_memory_parts_t *parts)
+{
+    if (config == NULL || parts == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    const size_t total = pgem_memory_size(config);
+    if (total == 0) {
+        return PGEM_ERR_CONFIG;
+    }
+    pgem_config_t resolved;
+    (void)pgem_config_resolve(config, &resolved);
+    pgem_memory_parts_t out;
+    (void)pgem_measure(&resolved, &out);
+    out.instance += total - (out.instance + out.graph + out.solver + out.robust + out.linalg);
+    pgem_linear_memory_parts(&resolved, &out);
+    out.total = total;
+    *parts = out;
+    return PGEM_OK;
 }
 
 /* The message of a failed init: "what" then "N bytes given, this configuration needs M". */
@@ -169,7 +209,7 @@ int pgem_init_message(pgem_t **instance, const pgem_config_t *config, void *buff
     graph->config = resolved;
     graph->pose_size = PGEM_POSE_SIZE(resolved.dimension);
     graph->tangent = PGEM_TANGENT_SIZE(resolved.dimension);
-    pgem_carve(graph, &arena);
+    pgem_carve(graph, &arena, NULL);
     if (arena.failed != 0) {
         return pgem_carve_failed(&arena, size, needed, message, message_size);
     }

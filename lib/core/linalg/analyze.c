@@ -243,3 +243,20 @@ int pgem_linear_analyze(pgem_t *graph)
     }
     return status;
 }
+
+int pgem_linear_fill_needed(pgem_t *graph, uint32_t *nonzeros)
+{
+    pgem_linear_follow(graph);
+    pgem_linear_t *linear = graph->linear;
+    int status = PGEM_OK;
+    if (!linear->valid || linear->all_edges) {
+        linear->all_edges = 0;
+        status = pgem_linear_analyze_once(graph);
+    }
+    if (status == PGEM_OK || status == PGEM_ERR_FILL_BUDGET) {
+        *nonzeros = (uint32_t)linear->factor.nonzeros;
+        pgem_message_clear(graph);
+        return PGEM_OK;
+    }
+    return status;
+}

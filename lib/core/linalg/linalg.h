@@ -16,6 +16,9 @@ void pgem_linear_start(pgem_t *graph);
 /* The fill-reducing ordering into an instance that received `from`'s graph (pgem_copy), when
  * it is still from's graph's (and not the every-edge fallback's). */
 void pgem_linear_copy_ordering(pgem_t *to, const pgem_t *from);
+/* The parts of linalg's share of the block for a resolved config: the factor's values and row
+ * indices, CSparse's pool (parts->factor, parts->csparse_pool). */
+void pgem_linear_memory_parts(const pgem_config_t *config, pgem_memory_parts_t *parts);
 /* The factor's nonzeros, analyses and CSparse pool figures into stats. */
 void pgem_linear_memory_stats(const pgem_t *graph, pgem_memory_stats_t *stats);
 
@@ -23,6 +26,9 @@ void pgem_linear_memory_stats(const pgem_t *graph, pgem_memory_stats_t *stats);
  * states: analysed when the graph changed or the structure was invalidated, else kept. */
 int pgem_linear_prepare(pgem_t *graph);
 int pgem_linear_analyze(pgem_t *graph);
+/* The nonzeros the factor of the graph's structure (edge states as they are) needs, whatever
+ * the budget; the ordering is kept (and the analysis, within the budget). */
+int pgem_linear_fill_needed(pgem_t *graph, uint32_t *nonzeros);
 /* Forgets the structure (edge states changed so that it no longer fits). */
 void pgem_linear_invalidate(pgem_t *graph);
 /* Keeps the structure fit for the next solve after edge states changed: invalidated when an

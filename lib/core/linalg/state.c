@@ -94,6 +94,20 @@ void pgem_linear_copy_ordering(pgem_t *to, const pgem_t *from)
     }
 }
 
+/* Bytes of a slice of count * item bytes, padded to the arena's 16-byte alignment. */
+static size_t pgem_slice_bytes(size_t count, size_t item)
+{
+    return (count * item + 15u) & ~(size_t)15u;
+}
+
+void pgem_linear_memory_parts(const pgem_config_t *config, pgem_memory_parts_t *parts)
+{
+    const size_t block = (size_t)PGEM_TANGENT_SIZE(config->dimension);
+    parts->factor = pgem_slice_bytes(config->fill_budget, sizeof(double)) +
+                    pgem_slice_bytes(config->fill_budget / (block * block) + 1u, sizeof(int));
+    parts->csparse_pool = pgem_cs_pool_bytes(config->max_poses, config->max_edges);
+}
+
 void pgem_linear_memory_stats(const pgem_t *graph, pgem_memory_stats_t *stats)
 {
     stats->factor_nonzeros = (uint32_t)graph->linear->factor.nonzeros;

@@ -38,6 +38,17 @@ int pgem_analyze(pgem_t *graph)
     return pgem_linear_prepare(graph);
 }
 
+int pgem_fill_needed(pgem_t *graph, uint32_t *nonzeros)
+{
+    if (graph == NULL || nonzeros == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    if (graph->store.edge_count == 0u) {
+        return pgem_fail(graph, PGEM_ERR_EMPTY, "the graph has no edges: nothing to optimize");
+    }
+    return pgem_linear_fill_needed(graph, nonzeros);
+}
+
 int pgem_check_solvable(pgem_t *graph)
 {
     if (graph == NULL) {
