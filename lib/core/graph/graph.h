@@ -44,6 +44,9 @@ void pgem_store_carve(pgem_t *graph, pgem_arena_t *arena);
  * (the checks are pgem_copy's). */
 void pgem_store_copy(pgem_t *to, const pgem_t *from);
 
+/* Appends edge k's pose ids, "FROM-TO", to the message (graph/idmap.c). */
+void pgem_message_edge(pgem_t *graph, uint32_t k);
+
 /* Id map: pose index of id, or -1. */
 int64_t pgem_map_find(const pgem_t *graph, pgem_id_t id);
 void pgem_map_insert(pgem_t *graph, pgem_id_t id, uint32_t index);

@@ -1,4 +1,5 @@
-/* Open-addressing map from 64-bit pose id to pose index, sized at init (no growth). */
+/* Open-addressing map from 64-bit pose id to pose index, sized at init (no growth), and an
+ * edge named by its poses' ids in messages. */
 #include "instance.h"
 
 static uint32_t pgem_id_hash(pgem_id_t id)
@@ -33,4 +34,11 @@ void pgem_map_insert(pgem_t *graph, pgem_id_t id, uint32_t index)
         slot = (slot + 1u) & graph->store.map_mask;
     }
     graph->store.map_slot[slot] = index + 1u;
+}
+
+void pgem_message_edge(pgem_t *graph, uint32_t k)
+{
+    pgem_message_u64(graph, graph->store.pose_id[graph->store.edge_from[k]]);
+    pgem_message_text(graph, "-");
+    pgem_message_u64(graph, graph->store.pose_id[graph->store.edge_to[k]]);
 }

@@ -35,16 +35,8 @@ int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
         }
         const uint32_t pruned = pgem_prune(graph, options->prune_threshold);
         summary->rounds++; /* counted across re-admission passes */
-        if (options->on_round != NULL) {
-            progress.round = summary->rounds;
-            progress.chi2 = pgem_weighted_chi2(graph);
-            pgem_count_loops(graph, summary);
-            progress.active_loops = summary->loops - summary->pruned;
-            progress.pruned_loops = summary->pruned;
-            if (options->on_round(&progress, options->user)) {
-                pgem_robust_ended(summary, PGEM_ROBUST_STOPPED);
-                return PGEM_OK;
-            }
+        if (pgem_report_round(graph, options, summary, &progress)) {
+            return PGEM_OK;
         }
         if (pruned == 0u) {
             pgem_robust_ended(summary, PGEM_ROBUST_CONVERGED);

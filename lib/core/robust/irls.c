@@ -14,15 +14,6 @@ int pgem_irls(pgem_t *graph, const pgem_robust_options_t *options,
         return status;
     }
     summary->rounds++;
-    if (options->on_round != NULL) {
-        progress.round = summary->rounds;
-        progress.chi2 = pgem_weighted_chi2(graph);
-        pgem_count_loops(graph, summary);
-        progress.active_loops = summary->loops - summary->pruned;
-        progress.pruned_loops = summary->pruned;
-        if (options->on_round(&progress, options->user)) {
-            pgem_robust_ended(summary, PGEM_ROBUST_STOPPED);
-        }
-    }
+    (void)pgem_report_round(graph, options, summary, &progress);
     return PGEM_OK;
 }

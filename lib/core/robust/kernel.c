@@ -82,9 +82,7 @@ int pgem_loop_kernel_weight(pgem_t *graph, const pgem_robust_options_t *options,
     }
     pgem_message_clear(graph);
     pgem_message_text(graph, "the user kernel's weight for loop closure ");
-    pgem_message_u64(graph, graph->store.pose_id[graph->store.edge_from[k]]);
-    pgem_message_text(graph, "-");
-    pgem_message_u64(graph, graph->store.pose_id[graph->store.edge_to[k]]);
+    pgem_message_edge(graph, k);
     pgem_message_text(graph, " is not in [0, 1]");
     return PGEM_ERR_NUMERIC;
 }

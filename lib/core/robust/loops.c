@@ -1,5 +1,6 @@
-/* The loops' states around a robust solve: reset, dormant ones woken, counted, and the
- * estimate, weights and states saved and put back if the solve fails. */
+/* The loops' states around a robust solve: reset, dormant ones woken, counted and reported to
+ * the round callback, and the estimate, weights and states saved and put back if the solve
+ * fails. */
 #include <string.h>
 
 #include "instance.h"
@@ -64,3 +65,21 @@ void pgem_restore_loops(pgem_t *graph)
     pgem_linear_invalidate(graph); /* the structure was built for the states of the failed solve */
 }
 
+
+int pgem_report_round(pgem_t *graph, const pgem_robust_options_t *options,
+                      pgem_robust_summary_t *summary, pgem_robust_progress_t *progress)
+{
+    if (options->on_round == NULL) {
+        return 0;
+    }
+    progress->round = summary->rounds;
+    progress->chi2 = pgem_weighted_chi2(graph);
+    pgem_count_loops(graph, summary);
+    progress->active_loops = summary->loops - summary->pruned;
+    progress->pruned_loops = summary->pruned;
+    if (options->on_round(progress, options->user)) {
+        pgem_robust_ended(summary, PGEM_ROBUST_STOPPED);
+        return 1;
+    }
+    return 0;
+}

@@ -68,6 +68,11 @@ static inline void pgem_robust_ended(pgem_robust_summary_t *summary,
     }
 }
 
+/* The round callback (if any) told of the round just done (progress->largest_change set by
+ * the caller); returns 1, the termination PGEM_ROBUST_STOPPED, if it asks to stop. */
+int pgem_report_round(pgem_t *graph, const pgem_robust_options_t *options,
+                      pgem_robust_summary_t *summary, pgem_robust_progress_t *progress);
+
 /* E/M iterations (robust/iterate.c); weights_current skips the first E-step. */
 int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
                     const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,

@@ -28,9 +28,7 @@ static int pgem_prune_non_finite(pgem_t *graph, pgem_robust_summary_t *summary)
         if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
             pgem_message_clear(graph);
             pgem_message_text(graph, "the chi2 of odometry edge ");
-            pgem_message_u64(graph, graph->store.pose_id[graph->store.edge_from[k]]);
-            pgem_message_text(graph, "-");
-            pgem_message_u64(graph, graph->store.pose_id[graph->store.edge_to[k]]);
+            pgem_message_edge(graph, k);
             pgem_message_text(graph, " is not finite under the initial estimate");
             return PGEM_ERR_NUMERIC;
         }
