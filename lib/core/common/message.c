@@ -1,4 +1,5 @@
 /* Error messages built into the instance without stdio, so the core stays firmware-safe. */
+#include "common/common.h"
 #include "instance.h"
 
 void pgem_text_append(char *text, size_t size, const char *piece)

@@ -1,6 +1,7 @@
 /* A graph's poses and edges copied into an empty instance (pgem_copy's graph part). */
 #include <string.h>
 
+#include "graph/graph.h"
 #include "instance.h"
 
 void pgem_store_copy(pgem_t *to, const pgem_t *from)

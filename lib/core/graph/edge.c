@@ -1,6 +1,7 @@
 /* Adding and reading edges, each input checked before anything changes. */
 #include <string.h>
 
+#include "graph/graph.h"
 #include "instance.h"
 
 static int pgem_edge_fail_ids(pgem_t *graph, int code, pgem_id_t from, pgem_id_t to)

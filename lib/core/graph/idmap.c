@@ -1,5 +1,6 @@
 /* Open-addressing map from 64-bit pose id to pose index, sized at init (no growth), and an
  * edge named by its poses' ids in messages. */
+#include "graph/graph.h"
 #include "instance.h"
 
 static uint32_t pgem_id_hash(pgem_id_t id)

@@ -3,6 +3,7 @@
 #include <float.h>
 #include <math.h>
 
+#include "graph/graph.h"
 #include "instance.h"
 
 /* Which entry (row, column) breaks the check, for the message. */

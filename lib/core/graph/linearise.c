@@ -9,6 +9,7 @@
  * that are zero). */
 #include <stddef.h>
 
+#include "graph/graph.h"
 #include "instance.h"
 
 

@@ -1,4 +1,5 @@
 /* A loop closure's robust weight and state, read from the graph's store. */
+#include "graph/graph.h"
 #include "instance.h"
 
 int pgem_loop_weight(const pgem_t *graph, uint32_t index, double *weight)

@@ -2,6 +2,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "graph/graph.h"
 #include "instance.h"
 
 /* Field names by dimension (row 0: 2D, row 1: 3D), both rows PGEM_POSE_SIZE_MAX long. */

@@ -1,4 +1,5 @@
 /* Edge errors, Jacobians and chi2 under the current estimate. */
+#include "graph/graph.h"
 #include "instance.h"
 
 void pgem_edge_error(const pgem_t *graph, uint32_t k, double *error, double *jacobian_from,

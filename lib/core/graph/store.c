@@ -1,4 +1,5 @@
 /* The graph layer's part of the block: the pose and edge arrays and the id map's slots. */
+#include "graph/graph.h"
 #include "instance.h"
 
 /* Slots of the id map: a power of two, at least twice the poses (and 16). */

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "instance.h"
+#include "robust/robust.h"
 
 /* Prunes the loops (active or dormant) whose weight fell below the threshold; returns how many.
  * The structure is reviewed before the next M-step. */

@@ -8,6 +8,7 @@
 #include <math.h>
 
 #include "instance.h"
+#include "robust/robust.h"
 
 /* A factor of H under the current estimate at the current weights, and the Gauss-Newton step
  * from it in pgem_linear_step (the innovations predict from where that step leads). */

@@ -1,6 +1,7 @@
 /* EM's consistency test under the polished estimate: the gate (a chi-square quantile, or the
  * options' gate) and the loops it re-admits or prunes. */
 #include "instance.h"
+#include "robust/robust.h"
 
 /* 99.9% quantiles of the chi-square distribution with 3 and 6 degrees of freedom. */
 #define PGEM_CHI2_999_DOF3 16.266

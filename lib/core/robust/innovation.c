@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "instance.h"
+#include "robust/robust.h"
 
 /* The map's variance, in units of the loop's own, at which half the odometry allowance
  * applies. */

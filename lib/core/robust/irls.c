@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "instance.h"
+#include "robust/robust.h"
 
 int pgem_irls(pgem_t *graph, const pgem_robust_options_t *options,
               const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)

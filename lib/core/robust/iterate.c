@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "instance.h"
+#include "robust/robust.h"
 
 /* M-step: a few weighted Gauss-Newton iterations from the current estimate. *settled is set
  * when they changed the weighted chi2 by less than 1e-6 relatively (the estimate is at the

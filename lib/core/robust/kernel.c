@@ -4,6 +4,7 @@
 #include <math.h>
 
 #include "instance.h"
+#include "robust/robust.h"
 
 /* Cauchy: rho(s) = c^2 log(1 + s / c^2), w = rho'(s) = 1 / (1 + s / c^2); an exact fit has
  * weight 1 (and rho 0) even when c^2 underflows to 0 (0 / 0 would be NaN). */

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "instance.h"
+#include "robust/robust.h"
 
 void pgem_robust_reset(pgem_t *graph)
 {

@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "instance.h"
+#include "robust/robust.h"
 
 pgem_robust_options_t pgem_robust_resolve(const pgem_robust_options_t *options)
 {

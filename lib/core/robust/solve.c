@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "instance.h"
+#include "robust/robust.h"
 
 /* The share of rejected loop closures above which the outcome is PGEM_ROBUST_MOST_REJECTED. */
 #define PGEM_MOST_REJECTED 0.9

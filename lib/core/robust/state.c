@@ -1,6 +1,7 @@
 /* The robust layer's part of the block: what a robust solve puts back if it fails, and each
  * loop's last distance. */
 #include "instance.h"
+#include "robust/robust.h"
 
 void pgem_robust_carve(pgem_t *graph, pgem_arena_t *arena)
 {

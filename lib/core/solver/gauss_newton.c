@@ -2,6 +2,7 @@
 #include <math.h>
 
 #include "instance.h"
+#include "solver/solver.h"
 
 int pgem_gauss_newton(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary)
 {

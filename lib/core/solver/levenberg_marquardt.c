@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "instance.h"
+#include "solver/solver.h"
 
 #define PGEM_LM_LAMBDA_LIMIT 1e32
 #define PGEM_LM_TRIALS 10

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "instance.h"
+#include "solver/solver.h"
 
 static pgem_solve_options_t pgem_options_resolve(const pgem_solve_options_t *options)
 {

@@ -1,5 +1,6 @@
 /* The solver layer's part of the block: the estimate copies of a solve and of LM. */
 #include "instance.h"
+#include "solver/solver.h"
 
 void pgem_solver_carve(pgem_t *graph, pgem_arena_t *arena)
 {

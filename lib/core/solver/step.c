@@ -2,6 +2,7 @@
 #include <math.h>
 
 #include "instance.h"
+#include "solver/solver.h"
 
 void pgem_apply_step(pgem_t *graph, const double *step)
 {
