@@ -191,7 +191,7 @@ static pgem_kernel_value_t user_broken(double chi2, double scale, void *user)
     (void)chi2;
     (void)scale;
     (void)user;
-    pgem_kernel_value_t value = {0.0, NAN};
+    pgem_kernel_value_t value = {0.0, (double)NAN};
     return value;
 }
 

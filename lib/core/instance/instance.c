@@ -124,12 +124,11 @@ int pgem_get_memory_parts(const pgem_config_t *config, pgem_memory_parts_t *part
     if (config == NULL || parts == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
+    pgem_config_t resolved;
     const size_t total = pgem_memory_size(config);
-    if (total == 0) {
+    if (total == 0 || pgem_config_resolve(config, &resolved) != PGEM_OK) {
         return PGEM_ERR_CONFIG;
     }
-    pgem_config_t resolved;
-    (void)pgem_config_resolve(config, &resolved);
     pgem_memory_parts_t out;
     (void)pgem_measure(&resolved, &out);
     out.instance += total - (out.instance + out.graph + out.solver + out.robust + out.linalg);
