@@ -56,9 +56,6 @@ void pgem_bridge_defaults(pgem_bridge_options_t *options)
     if (!(options->idle_solve > 0.0)) {
         options->idle_solve = 0.5;
     }
-    if (options->robust.kernel == PGEM_KERNEL_NONE && !options->plain) {
-        options->robust.kernel = PGEM_KERNEL_EM;
-    }
 }
 
 /* ---- the queue (L held) ------------------------------------------------------------------- */

@@ -45,9 +45,8 @@ typedef struct pgem_bridge_options {
     int journal_sync;          /* fdatasync every record */
     const char *snapshot_dir;  /* the folder SNAPSHOT commands write into; NULL: SNAPSHOT is
                                   refused (a message names a file in it, never a path) */
-    pgem_robust_options_t robust;  /* kernel 0 means EM with its defaults, unless plain */
-    int plain;                 /* 1: no robust kernel, every loop closure at weight 1 (kernel
-                                  PGEM_KERNEL_NONE; pgem-lcm-bridge --robust none) */
+    pgem_robust_options_t robust;  /* zeroed: EM with its defaults, as everywhere; kernel
+                                      PGEM_KERNEL_NONE (--robust none): every loop at weight 1 */
     pgem_bridge_log_fn log;    /* progress lines (NULL: silent) */
     void *log_user;
 } pgem_bridge_options_t;

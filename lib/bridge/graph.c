@@ -238,15 +238,6 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
     return 1;
 }
 
-static uint32_t find_root(uint32_t *parent, uint32_t i)
-{
-    while (parent[i] != i) {
-        parent[i] = parent[parent[i]];
-        i = parent[i];
-    }
-    return i;
-}
-
 /* Holds every part of the graph joined by odometry: a part without a pose the front-end fixed
  * gets its smallest pose id fixed (for one part that is the gauge the offline tools use,
  * whatever order the poses arrived in). Parts appear while edges wait for their poses or when
@@ -278,11 +269,7 @@ static uint32_t hold_components(bridge_t *bridge)
         touched[a] = 1;
         touched[b] = 1;
         if (view.kind == PGEM_EDGE_ODOMETRY) {
-            a = find_root(parent, a);
-            b = find_root(parent, b);
-            if (a != b) {
-                parent[a < b ? b : a] = a < b ? a : b;
-            }
+            (void)pgem_part_join(parent, a, b);
         }
     }
     /* component_anchor[root]: the part's smallest id, or UINT32_MAX if the front-end fixed a
@@ -292,7 +279,7 @@ static uint32_t hold_components(bridge_t *bridge)
         anchor_of[i] = i;
     }
     for (uint32_t i = 0; i < poses; ++i) {
-        uint32_t root = find_root(parent, i);
+        uint32_t root = pgem_part_root(parent, i);
         if (anchor_of[root] == UINT32_MAX) {
             continue;
         }
@@ -308,12 +295,12 @@ static uint32_t hold_components(bridge_t *bridge)
     }
     for (uint32_t i = 0; i < poses; ++i) {
         if (touched[i] & 1u) {
-            touched[find_root(parent, i)] |= 2u; /* the part has an edge */
+            touched[pgem_part_root(parent, i)] |= 2u; /* the part has an edge */
         }
     }
     uint32_t parts = 0;
     for (uint32_t i = 0; i < poses; ++i) {
-        uint32_t root = find_root(parent, i);
+        uint32_t root = pgem_part_root(parent, i);
         parts += root == i && (touched[i] & 2u) != 0;
         uint8_t want = anchor_of[root] == i;
         if (want != bridge->gauge_fixed[i]) {

@@ -171,7 +171,6 @@ static int parse_value(void *user, const char *name, const char *value)
         if (!pgem_cli_parse_kernel(TOOL, value, &p->options.robust.kernel)) {
             return 0;
         }
-        p->options.plain = p->options.robust.kernel == PGEM_KERNEL_NONE;
         return 1;
     case DORMANT:
         if (value != NULL && strcmp(value, "off") == 0) {
