@@ -60,8 +60,7 @@ int main(void)
                       information, PGEM_EDGE_LOOP, &false_index[f]);
     }
 
-    pgem_robust_options_t options = {0}; /* zero = the documented defaults ... */
-    options.kernel = PGEM_KERNEL_EM;     /* ... except the kernel, which must be chosen */
+    pgem_robust_options_t options = {0}; /* zero = the documented defaults: EM */
     pgem_robust_summary_t summary;
     if (pgem_robust_optimize(graph, &options, NULL, &summary) != PGEM_OK) {
         fprintf(stderr, "EM failed: %s\n", pgem_last_error(graph));

@@ -976,7 +976,7 @@ static void test_any_role_ignores_other_types(void **state)
     pgem_ingest_destroy(ingest);
 }
 
-/* The bridge's robust options: zeroed means EM; --robust none (plain) keeps kernel NONE; any
+/* The bridge's robust options: zeroed means EM; --robust none keeps kernel NONE; any
  * kernel given, and the options beside it, pass through unchanged. */
 static void test_robust_option_defaults(void **state)
 {
@@ -986,7 +986,7 @@ static void test_robust_option_defaults(void **state)
     pgem_bridge_defaults(&options);
     assert_int_equal(options.robust.kernel, PGEM_KERNEL_EM);
     memset(&options, 0, sizeof options);
-    options.plain = 1;
+    options.robust.kernel = PGEM_KERNEL_NONE;
     pgem_bridge_defaults(&options);
     assert_int_equal(options.robust.kernel, PGEM_KERNEL_NONE);
     memset(&options, 0, sizeof options);

@@ -16,7 +16,7 @@
 
 #include "test_alloc_counters.h"
 
-#include "internal.h"
+#include "linalg/linear.h"
 
 #define BLOCK_PATTERN 0xA5
 #define MESSAGE_BYTES 256
@@ -428,7 +428,7 @@ static void check_failed_call(const scenario_t *s, pgem_t *graph, int status, lo
     if (source == FAULT_POOL) {
         sweep_expect(strstr(message, "CSparse's pool in the memory block") != NULL, s->name, k);
         /* everything CSparse took from the pool was given back */
-        sweep_expect(graph->linear.cs_pool.used == 0, s->name, k);
+        sweep_expect(graph->linear->cs_pool.used == 0, s->name, k);
     } else {
         sweep_expect(strstr(message, "malloc returned NULL") != NULL, s->name, k);
     }

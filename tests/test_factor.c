@@ -4,7 +4,7 @@
  * that runs its workers one after the other in reverse), and the executor's checks. */
 #include "test_util.h"
 
-#include "internal.h"
+#include "linalg/linear.h"
 #include "pgem/threads.h"
 
 /* A 3D lattice of side^3 poses: odometry along a snake through it, a loop closure to every
@@ -85,7 +85,7 @@ static pgem_t *ring_2d(int n, uint32_t threads)
 /* max |H x - rhs| / max |rhs| for the step x the factor solves, H from the lower storage. */
 static double solve_residual(pgem_t *graph)
 {
-    pgem_linear_t *linear = &graph->linear;
+    pgem_linear_t *linear = graph->linear;
     const int b = linear->block, n = linear->scalar_count;
     (void)pgem_linear_assemble(graph);
     assert_int_equal(pgem_linear_factor(graph), PGEM_OK);
@@ -141,7 +141,7 @@ static void test_solves_sparse_ring(void **state)
     (void)state;
     pgem_t *graph = ring_2d(600, 1);
     check_residual(graph, "ring");
-    assert_int_equal(graph->linear.factor.ordering, PGEM_ORDERING_AMD);
+    assert_int_equal(graph->linear->factor.ordering, PGEM_ORDERING_AMD);
     pgem_destroy(graph);
 }
 
@@ -151,7 +151,7 @@ static void test_solves_lattice_every_build(void **state)
     (void)state;
     pgem_t *graph = lattice_3d(14, 1, 5);
     assert_int_equal(pgem_analyze(graph), PGEM_OK);
-    const pgem_factor_t *factor = &graph->linear.factor;
+    const pgem_factor_t *factor = &graph->linear->factor;
     assert_int_equal(factor->ordering, PGEM_ORDERING_NESTED);
     assert_true(factor->nested_flops < factor->amd_flops);
     int widest = 0;
@@ -168,7 +168,7 @@ static void test_solves_lattice_every_build(void **state)
 #endif
     for (int k = 0; k < 3; k++) {
         if (builds[k] != NULL) {
-            graph->linear.dense = builds[k];
+            graph->linear->dense = builds[k];
             check_residual(graph, builds[k]->name);
         }
     }
@@ -227,11 +227,11 @@ static run_result_t run_lattice(uint32_t workers, int pool)
     pgem_solve_options_t options = {0};
     options.max_iterations = slow_machine() ? 1 : 3;
     assert_int_equal(pgem_optimize(graph, &options, NULL), PGEM_OK);
-    assert_true(graph->linear.factor.task_count > 1);
+    assert_true(graph->linear->factor.task_count > 1);
     run_result_t result;
-    result.value_count = (size_t)graph->linear.factor.nonzeros;
+    result.value_count = (size_t)graph->linear->factor.nonzeros;
     result.values = malloc(sizeof(double) * result.value_count);
-    memcpy(result.values, graph->linear.factor.values, sizeof(double) * result.value_count);
+    memcpy(result.values, graph->linear->factor.values, sizeof(double) * result.value_count);
     result.poses = malloc(sizeof(double) * 7u * pgem_pose_count(graph));
     test_snapshot(graph, result.poses);
     pgem_destroy(graph);
@@ -278,8 +278,8 @@ static void test_failure_is_the_same_on_every_worker_count(void **state)
         assert_int_equal(pgem_analyze(graph), PGEM_OK);
         (void)pgem_linear_assemble(graph);
         /* a negative diagonal entry deep in one subtree and one in another */
-        graph->linear.lower_values[pgem_lower_column(&graph->linear, 40, 2)] = -1.0;
-        graph->linear.lower_values[pgem_lower_column(&graph->linear, worker_side() * 30, 1)] = -1.0;
+        graph->linear->lower_values[pgem_lower_column(graph->linear, 40, 2)] = -1.0;
+        graph->linear->lower_values[pgem_lower_column(graph->linear, worker_side() * 30, 1)] = -1.0;
         assert_int_equal(pgem_linear_factor(graph), PGEM_ERR_NOT_POSITIVE_DEFINITE);
         if (workers == 1) {
             snprintf(first, sizeof first, "%s", pgem_last_error(graph));
@@ -323,10 +323,10 @@ static void test_ordering_is_deterministic(void **state)
     pgem_t *a = lattice_3d(13, 1, 9), *b = lattice_3d(13, 1, 9); /* 2197 poses: dissected */
     assert_int_equal(pgem_analyze(a), PGEM_OK);
     assert_int_equal(pgem_analyze(b), PGEM_OK);
-    assert_memory_equal(a->linear.pose_block, b->linear.pose_block, sizeof(int) * 13u * 13u * 13u);
+    assert_memory_equal(a->linear->pose_block, b->linear->pose_block, sizeof(int) * 13u * 13u * 13u);
     pgem_linear_invalidate(a);
     assert_int_equal(pgem_analyze(a), PGEM_OK);
-    assert_memory_equal(a->linear.pose_block, b->linear.pose_block, sizeof(int) * 13u * 13u * 13u);
+    assert_memory_equal(a->linear->pose_block, b->linear->pose_block, sizeof(int) * 13u * 13u * 13u);
     pgem_destroy(a);
     pgem_destroy(b);
 }

@@ -345,6 +345,61 @@ static void test_information_check(void **state)
 /* PGEM_MEMORY_BOUND is an upper bound of pgem_memory_size, and not a loose one: within the id
  * map's slack (8 bytes per pose), CSparse's pool when it is the system library (56 per pose, 24
  * per edge) and a constant. */
+/* The block by part: the parts sum to pgem_memory_size; capacities grow the parts that hold
+ * them (poses and edges: graph, solver, robust, linalg), the fill budget only linalg's factor
+ * (8 bytes per value and 4 per block of values in 2D). */
+static void test_memory_parts(void **state)
+{
+    (void)state;
+    pgem_config_t config = {2, 1000, 1500, 90000, 1, 0};
+    pgem_memory_parts_t parts, more_poses, more_fill;
+    assert_int_equal(pgem_get_memory_parts(&config, &parts), PGEM_OK);
+    assert_int_equal(parts.total, pgem_memory_size(&config));
+    assert_int_equal(parts.total, parts.instance + parts.graph + parts.solver + parts.robust +
+                                      parts.linalg);
+    assert_true(parts.factor + parts.csparse_pool < parts.linalg);
+    assert_true(parts.instance >= 16u && parts.instance < 4096u);
+    /* solver: two estimates of 3 doubles per pose; robust: one estimate, 18 bytes per edge */
+    assert_int_equal(parts.solver, 2u * 1000u * 3u * sizeof(double));
+    assert_true(parts.robust >= 1000u * 3u * sizeof(double) + 1500u * 18u);
+    pgem_config_t bigger = config;
+    bigger.max_poses = 2000;
+    assert_int_equal(pgem_get_memory_parts(&bigger, &more_poses), PGEM_OK);
+    assert_true(more_poses.graph > parts.graph && more_poses.solver == 2u * parts.solver);
+    assert_true(more_poses.linalg > parts.linalg);
+    assert_int_equal(more_poses.factor, parts.factor);
+    pgem_config_t fuller = config;
+    fuller.fill_budget = 90000u + 9u * 1600u;
+    assert_int_equal(pgem_get_memory_parts(&fuller, &more_fill), PGEM_OK);
+    assert_int_equal(more_fill.factor - parts.factor, 9u * 1600u * 8u + 1600u * 4u);
+    assert_int_equal(more_fill.linalg - parts.linalg, more_fill.factor - parts.factor);
+    assert_int_equal(more_fill.graph, parts.graph);
+    pgem_config_t invalid = config;
+    invalid.dimension = 4;
+    assert_int_equal(pgem_get_memory_parts(&invalid, &parts), PGEM_ERR_CONFIG);
+    assert_int_equal(pgem_get_memory_parts(NULL, &parts), PGEM_ERR_INVALID_ARGUMENT);
+}
+
+/* The union-find the core, the tools and the bridge share: a part's root is its smallest
+ * index, whatever order the joins come in. */
+static void test_parts(void **state)
+{
+    (void)state;
+    uint32_t parent[8];
+    for (uint32_t k = 0; k < 8u; k++) {
+        parent[k] = k;
+    }
+    assert_int_equal(pgem_part_join(parent, 6, 4), 4);
+    assert_int_equal(pgem_part_join(parent, 7, 6), 4);
+    assert_int_equal(pgem_part_join(parent, 3, 1), 1);
+    assert_int_equal(pgem_part_join(parent, 7, 3), 1);
+    assert_int_equal(pgem_part_join(parent, 4, 1), 1); /* already one part */
+    const uint32_t expected[8] = {0, 1, 2, 1, 1, 5, 1, 1};
+    for (uint32_t k = 0; k < 8u; k++) {
+        assert_int_equal(pgem_part_root(parent, k), expected[k]);
+    }
+}
+
 static void test_memory_bound(void **state)
 {
     (void)state;
@@ -379,6 +434,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_config_defaults),
         cmocka_unit_test(test_memory_bound),
+        cmocka_unit_test(test_parts),
+        cmocka_unit_test(test_memory_parts),
         cmocka_unit_test(test_memory_grows_with_capacity),
         cmocka_unit_test(test_init_in_static_buffer),
         cmocka_unit_test(test_pose_ids_64bit),

@@ -2,10 +2,11 @@
  * random loop closures, a held pose), the assembled H applied to unit vectors gives the dense
  * matrix; the block Cholesky solve matches a dense solve; the sparse inverse on the factor's
  * pattern matches the dense inverse; the marginal A H^-1 A^T of two poses matches, by the
- * forward solve and by the inverse. */
+ * forward solve and by the inverse; and the supernodal factor L itself, entry by entry, is the
+ * dense Cholesky factor of H, on random block patterns from a chain to nearly dense. */
 #include "test_util.h"
 
-#include "internal.h"
+#include "linalg/linear.h"
 
 #define MAX_SCALARS 240
 
@@ -68,7 +69,7 @@ static pgem_t *random_graph(int dimension, uint32_t poses, uint32_t loops, uint6
 /* Dense H (count x count, permuted order) from pgem_linear_multiply on unit vectors. */
 static void dense_h(pgem_t *graph, double *h)
 {
-    const int count = graph->linear.scalar_count;
+    const int count = graph->linear->scalar_count;
     double unit[MAX_SCALARS], column[MAX_SCALARS];
     for (int j = 0; j < count; j++) {
         memset(unit, 0, sizeof unit);
@@ -128,8 +129,8 @@ static int factor(pgem_t *graph)
     assert_int_equal(pgem_analyze(graph), PGEM_OK);
     (void)pgem_linear_assemble(graph);
     assert_int_equal(pgem_linear_factor(graph), PGEM_OK);
-    assert_true(graph->linear.scalar_count <= MAX_SCALARS);
-    return graph->linear.scalar_count;
+    assert_true(graph->linear->scalar_count <= MAX_SCALARS);
+    return graph->linear->scalar_count;
 }
 
 static void check_solve(int dimension, uint32_t poses, uint32_t loops, uint64_t seed)
@@ -157,6 +158,71 @@ static void check_solve(int dimension, uint32_t poses, uint32_t loops, uint64_t 
     pgem_destroy(graph);
 }
 
+/* In-place dense Cholesky (lower triangle, row-major) of a symmetric positive definite matrix. */
+static void dense_cholesky(double *a, int count)
+{
+    for (int j = 0; j < count; j++) {
+        double diagonal = a[j * count + j];
+        for (int m = 0; m < j; m++) {
+            diagonal -= a[j * count + m] * a[j * count + m];
+        }
+        assert_true(diagonal > 0.0);
+        a[j * count + j] = sqrt(diagonal);
+        for (int i = j + 1; i < count; i++) {
+            double sum = a[i * count + j];
+            for (int m = 0; m < j; m++) {
+                sum -= a[i * count + m] * a[j * count + m];
+            }
+            a[i * count + j] = sum / a[j * count + j];
+        }
+        for (int i = 0; i < j; i++) {
+            a[i * count + j] = 0.0;
+        }
+    }
+}
+
+/* Every entry the factor stores (its block pattern with relaxed amalgamation's zeros) is the
+ * dense factor's, and every entry of the dense factor outside that pattern is zero. */
+static void check_factor(int dimension, uint32_t poses, uint32_t loops, uint64_t seed)
+{
+    static double h[MAX_SCALARS * MAX_SCALARS];
+    static unsigned char stored[MAX_SCALARS * MAX_SCALARS];
+    pgem_t *graph = random_graph(dimension, poses, loops, seed);
+    const int count = factor(graph);
+    const pgem_linear_t *linear = graph->linear;
+    const int b = linear->block;
+    dense_h(graph, h);
+    dense_cholesky(h, count);
+    const double tolerance = 1e-10 * largest_magnitude(h, count * count);
+    memset(stored, 0, sizeof stored);
+    for (int column = 0; column < linear->block_count; column++) {
+        const pgem_factor_column_t view = pgem_factor_column_view(&linear->factor, column);
+        for (int c = 0; c < b; c++) {
+            const int j = column * b + c;
+            const double *values = view.base[c];
+            for (int r = c; r < b; r++) {
+                assert_near(values[r - c], h[(column * b + r) * count + j], tolerance);
+                stored[(column * b + r) * count + j] = 1;
+            }
+            for (int q = 0; q < view.count; q++) {
+                const int row = pgem_factor_column_row(&view, column, q);
+                for (int r = 0; r < b; r++) {
+                    assert_near(values[(b - c) + q * b + r], h[(row * b + r) * count + j], tolerance);
+                    stored[(row * b + r) * count + j] = 1;
+                }
+            }
+        }
+    }
+    for (int i = 0; i < count; i++) {
+        for (int j = 0; j <= i; j++) {
+            if (!stored[i * count + j]) {
+                assert_near(h[i * count + j], 0.0, tolerance);
+            }
+        }
+    }
+    pgem_destroy(graph);
+}
+
 /* Every block of the sparse inverse on L's pattern, and the marginals of every edge by the
  * forward solve and by the inverse, against the dense inverse. */
 static void check_inverse(int dimension, uint32_t poses, uint32_t loops, uint64_t seed)
@@ -164,9 +230,9 @@ static void check_inverse(int dimension, uint32_t poses, uint32_t loops, uint64_
     static double h[MAX_SCALARS * MAX_SCALARS];
     pgem_t *graph = random_graph(dimension, poses, loops, seed);
     const int count = factor(graph);
-    const int b = graph->linear.block;
+    const int b = graph->linear->block;
     /* supernodes of several columns: the inverse and the solves read across them */
-    assert_true(graph->linear.factor.super_count < graph->linear.block_count);
+    assert_true(graph->linear->factor.super_count < graph->linear->block_count);
     dense_h(graph, h);
     dense_inverse(h, count);
     const double scale = largest_magnitude(h, count * count);
@@ -179,11 +245,11 @@ static void check_inverse(int dimension, uint32_t poses, uint32_t loops, uint64_
             blocks_from[k * 36 + (uint32_t)q] = test_uniform_in(&rng, -1, 1);
             blocks_to[k * 36 + (uint32_t)q] = test_uniform_in(&rng, -1, 1);
         }
-        pgem_linear_marginal(graph, graph->edge_from[k], graph->edge_to[k], blocks_from + k * 36,
+        pgem_linear_marginal(graph, graph->store.edge_from[k], graph->store.edge_to[k], blocks_from + k * 36,
                              blocks_to + k * 36, by_solve + k * 36);
     }
     pgem_linear_invert(graph);
-    const pgem_linear_t *linear = &graph->linear;
+    const pgem_linear_t *linear = graph->linear;
     for (int column = 0; column < linear->block_count; column++) {
         const pgem_factor_column_t view = pgem_factor_column_view(&linear->factor, column);
         for (int c = 0; c < b; c++) {
@@ -205,10 +271,10 @@ static void check_inverse(int dimension, uint32_t poses, uint32_t loops, uint64_
         memcpy(a_from, blocks_from + k * 36, sizeof a_from);
         memcpy(a_to, blocks_to + k * 36, sizeof a_to);
         double by_inverse[36];
-        int status = pgem_linear_marginal_inverse(graph, graph->edge_from[k], graph->edge_to[k],
+        int status = pgem_linear_marginal_inverse(graph, graph->store.edge_from[k], graph->store.edge_to[k],
                                                   a_from, a_to, by_inverse);
-        const int pf = linear->pose_block[graph->edge_from[k]];
-        const int pt = linear->pose_block[graph->edge_to[k]];
+        const int pf = linear->pose_block[graph->store.edge_from[k]];
+        const int pt = linear->pose_block[graph->store.edge_to[k]];
         for (int r = 0; r < b; r++) {
             for (int c = 0; c < b; c++) {
                 double dense = 0.0;
@@ -272,6 +338,20 @@ static void test_inverse_3d(void **state)
     }
 }
 
+/* Random block patterns, from a chain (0 loops) to nearly dense (loops several times the
+ * poses), small and large, against the dense Cholesky factor. */
+static void test_factor_random_patterns(void **state)
+{
+    (void)state;
+    const uint32_t poses_2d[4] = {5, 17, 40, 80}, poses_3d[4] = {4, 11, 25, 40};
+    for (uint64_t seed = 1; seed <= 16; seed++) {
+        const uint32_t shape = (uint32_t)(seed % 4u);
+        const uint32_t density = (uint32_t)(seed % 5u); /* loops per 4 poses: 0 .. 16 */
+        check_factor(2, poses_2d[shape], poses_2d[shape] * density * density / 4u, seed);
+        check_factor(3, poses_3d[shape], poses_3d[shape] * density * density / 4u, seed + 100u);
+    }
+}
+
 /* A chain only: the factor is a path and every loop-free marginal still matches. */
 static void test_inverse_chain(void **state)
 {
@@ -288,6 +368,7 @@ int main(void)
         cmocka_unit_test(test_inverse_2d),
         cmocka_unit_test(test_inverse_3d),
         cmocka_unit_test(test_inverse_chain),
+        cmocka_unit_test(test_factor_random_patterns),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -4,10 +4,9 @@
 #include <math.h>
 #include <stdio.h>
 
-#include "internal.h" /* to put an estimate out of range behind the API */
+#include "instance.h" /* to put an estimate out of range behind the API */
 #include "test_util.h"
 
-#include "internal.h"
 
 #define RING 120
 #define FALSE_LOOPS 12
@@ -109,6 +108,12 @@ static void check_outliers_found(pgem_kernel_t kernel, int literal)
         for (int m = 0; m < FALSE_LOOPS; m++) {
             is_false |= false_loops[m] == k;
         }
+        double weight = -1.0;
+        pgem_loop_state_t loop_state = PGEM_LOOP_DORMANT;
+        assert_int_equal(pgem_loop_weight(graph, k, &weight), PGEM_OK);
+        assert_int_equal(pgem_loop_state(graph, k, &loop_state), PGEM_OK);
+        assert_true(weight == edge.weight);
+        assert_int_equal(loop_state, edge.active ? PGEM_LOOP_ACCEPTED : PGEM_LOOP_PRUNED);
         if (kernel == PGEM_KERNEL_EM) {
             /* every false loop pruned, every true one accepted: precision = recall = 1 */
             assert_int_equal(edge.active, !is_false);
@@ -126,6 +131,259 @@ static void check_outliers_found(pgem_kernel_t kernel, int literal)
         assert_near(pose[0], truth[3 * k], 0.5);
         assert_near(pose[1], truth[3 * k + 1], 0.5);
     }
+    pgem_destroy(graph);
+}
+
+/* rho and rho' of every built-in kernel: rho' (a central difference of rho) is the weight,
+ * rho is continuous where the formula changes, and rho(0) = 0. */
+static void test_kernel_rho_and_derivative(void **state)
+{
+    (void)state;
+    const pgem_kernel_t kernels[] = {PGEM_KERNEL_EM, PGEM_KERNEL_CAUCHY, PGEM_KERNEL_HUBER,
+                                     PGEM_KERNEL_DCS, PGEM_KERNEL_NONE};
+    const double scales[] = {0.5, 1.0, 3.0};
+    for (size_t k = 0; k < sizeof kernels / sizeof kernels[0]; k++) {
+        for (size_t m = 0; m < sizeof scales / sizeof scales[0]; m++) {
+            const double scale = scales[m];
+            assert_near(pgem_kernel_evaluate(kernels[k], 0.0, scale).rho, 0.0, 0.0);
+            for (double s = 0.01; s < 200.0; s *= 1.37) {
+                const pgem_kernel_value_t value = pgem_kernel_evaluate(kernels[k], s, scale);
+                const double h = 1e-6 * s;
+                const double derivative = (pgem_kernel_evaluate(kernels[k], s + h, scale).rho -
+                                           pgem_kernel_evaluate(kernels[k], s - h, scale).rho) /
+                                          (2.0 * h);
+                assert_near(derivative, value.weight, 1e-6);
+                assert_true(value.weight == pgem_kernel_weight(kernels[k], s, scale));
+                assert_true(value.rho <= s + 1e-12); /* a robust cost never exceeds s */
+            }
+        }
+    }
+    /* the formulas' switch points: Huber at r = k, DCS at s = phi */
+    assert_near(pgem_kernel_evaluate(PGEM_KERNEL_HUBER, 9.0 * (1.0 + 1e-12), 3.0).rho, 9.0, 1e-9);
+    assert_near(pgem_kernel_evaluate(PGEM_KERNEL_DCS, 2.0 * (1.0 + 1e-12), 2.0).rho, 2.0, 1e-9);
+    assert_near(pgem_kernel_evaluate(PGEM_KERNEL_CAUCHY, 3.0, 1.0).rho, log(4.0), 1e-15);
+    assert_string_equal(pgem_kernel_name(PGEM_KERNEL_USER), "user");
+}
+
+/* A user kernel: Cauchy written by the user (counting its calls). */
+typedef struct user_cauchy {
+    unsigned long calls;
+} user_cauchy_t;
+
+static pgem_kernel_value_t user_cauchy(double chi2, double scale, void *user)
+{
+    ((user_cauchy_t *)user)->calls++;
+    const double c2 = scale * scale;
+    pgem_kernel_value_t value = {c2 * log1p(chi2 / c2), 1.0 / (1.0 + chi2 / c2)};
+    return value;
+}
+
+/* A user kernel that switches a loop off past a chi2 of `scale` (truncated least squares). */
+static pgem_kernel_value_t user_truncated(double chi2, double scale, void *user)
+{
+    (void)user;
+    pgem_kernel_value_t value = {chi2 < scale ? chi2 : scale, chi2 < scale ? 1.0 : 0.0};
+    return value;
+}
+
+static pgem_kernel_value_t user_broken(double chi2, double scale, void *user)
+{
+    (void)chi2;
+    (void)scale;
+    (void)user;
+    pgem_kernel_value_t value = {0.0, (double)NAN};
+    return value;
+}
+
+/* A user's kernel plugs in through the options: the same Cauchy as the built-in gives the same
+ * bits; a truncated kernel switches the false loops off and keeps the true ones; a kernel whose
+ * weight is not in [0, 1] fails the solve, naming the loop, and changes nothing; a user kernel
+ * without a function is refused. */
+static void test_user_kernel(void **state)
+{
+    (void)state;
+    double truth[3 * RING], built_in[3 * RING], by_user[3 * RING], before[3 * RING], after[3 * RING];
+    uint32_t false_loops[FALSE_LOOPS];
+    pgem_robust_options_t options = {0};
+    pgem_robust_summary_t summary;
+    options.kernel = PGEM_KERNEL_CAUCHY;
+    options.scale = 2.0;
+    pgem_t *graph = corrupted_ring(33, 77, truth, false_loops);
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    test_snapshot(graph, built_in);
+    pgem_destroy(graph);
+
+    user_cauchy_t counter = {0};
+    options.kernel = PGEM_KERNEL_USER;
+    options.kernel_function = user_cauchy;
+    options.kernel_user = &counter;
+    graph = corrupted_ring(33, 77, truth, false_loops);
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    test_snapshot(graph, by_user);
+    assert_memory_equal(built_in, by_user, sizeof built_in);
+    assert_true(counter.calls >= (unsigned long)summary.loops);
+    pgem_destroy(graph);
+
+    options.kernel_function = user_truncated;
+    options.scale = 50.0;
+    graph = corrupted_ring(33, 77, truth, false_loops);
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.rejected, FALSE_LOOPS); /* weight 0 < prune_threshold */
+    for (uint32_t k = 0; k < pgem_edge_count(graph); k++) {
+        double weight = -1.0;
+        assert_int_equal(pgem_loop_weight(graph, k, &weight), PGEM_OK);
+        int is_false = 0;
+        for (int m = 0; m < FALSE_LOOPS; m++) {
+            is_false |= false_loops[m] == k;
+        }
+        assert_true(weight == (is_false ? 0.0 : 1.0));
+    }
+    pgem_destroy(graph);
+
+    options.kernel_function = user_broken;
+    graph = corrupted_ring(33, 77, truth, false_loops);
+    test_snapshot(graph, before);
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_ERR_NUMERIC);
+    assert_false(summary.usable);
+    assert_int_equal(summary.termination, PGEM_ROBUST_FAILED);
+    assert_contains(pgem_last_error(graph), "user kernel's weight for loop closure");
+    test_snapshot(graph, after);
+    assert_memory_equal(before, after, sizeof before);
+    double weight = 0.0;
+    assert_int_equal(pgem_loop_weight(graph, false_loops[0], &weight), PGEM_OK);
+    assert_true(weight == 1.0);
+
+    options.kernel_function = NULL;
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_ERR_INVALID_ARGUMENT);
+    assert_contains(pgem_last_error(graph), "kernel_function");
+    options.kernel = (pgem_kernel_t)(PGEM_KERNEL_USER + 1);
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_ERR_INVALID_ARGUMENT);
+    assert_contains(pgem_last_error(graph), "unknown robust kernel");
+    pgem_destroy(graph);
+}
+
+/* One meaning for zeroed options: EM with its defaults (and NULL options the same). */
+static void test_zeroed_options_mean_em(void **state)
+{
+    (void)state;
+    double truth[3 * RING], explicit_em[3 * RING], zeroed[3 * RING], null_options[3 * RING];
+    uint32_t false_loops[FALSE_LOOPS];
+    pgem_robust_options_t options = em_options();
+    pgem_robust_summary_t summary;
+    pgem_t *graph = corrupted_ring(33, 77, truth, false_loops);
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.pruned, FALSE_LOOPS);
+    test_snapshot(graph, explicit_em);
+    pgem_destroy(graph);
+    pgem_robust_options_t zero;
+    memset(&zero, 0, sizeof zero);
+    graph = corrupted_ring(33, 77, truth, false_loops);
+    assert_int_equal(pgem_robust_optimize(graph, &zero, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.pruned, FALSE_LOOPS);
+    test_snapshot(graph, zeroed);
+    pgem_destroy(graph);
+    graph = corrupted_ring(33, 77, truth, false_loops);
+    assert_int_equal(pgem_robust_optimize(graph, NULL, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.pruned, FALSE_LOOPS);
+    test_snapshot(graph, null_options);
+    pgem_destroy(graph);
+    assert_memory_equal(explicit_em, zeroed, sizeof zeroed);
+    assert_memory_equal(explicit_em, null_options, sizeof zeroed);
+}
+
+static int stop_at_first_round(const pgem_robust_progress_t *progress, void *user)
+{
+    (void)progress;
+    (void)user;
+    return 1;
+}
+
+/* The weighted chi2 of the edges in the problem, through the API. */
+static double api_weighted_chi2(const pgem_t *graph)
+{
+    double chi2 = 0.0;
+    for (uint32_t k = 0; k < pgem_edge_count(graph); k++) {
+        pgem_edge_view_t edge;
+        double edge_chi2 = 0.0;
+        assert_int_equal(pgem_edge_at(graph, k, &edge), PGEM_OK);
+        assert_int_equal(pgem_edge_chi2(graph, k, &edge_chi2), PGEM_OK);
+        chi2 += edge.active ? edge.weight * edge_chi2 : 0.0;
+    }
+    return chi2;
+}
+
+/* Why a robust solve stopped, and its chi2 convention: initial_chi2 is weighted at the weights
+ * the call found (a second call after pruning leaves the pruned loops out), like final_chi2. */
+static void test_termination_and_chi2_convention(void **state)
+{
+    (void)state;
+    double truth[3 * RING];
+    uint32_t false_loops[FALSE_LOOPS];
+    pgem_robust_options_t options = em_options();
+    pgem_robust_summary_t summary;
+    pgem_t *graph = corrupted_ring(33, 77, truth, false_loops);
+    const double fresh = pgem_total_chi2(graph);
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.termination, PGEM_ROBUST_CONVERGED);
+    assert_true(summary.initial_chi2 == fresh); /* every weight 1, nothing pruned yet */
+    assert_near(summary.final_chi2, api_weighted_chi2(graph), 1e-9 * summary.final_chi2);
+    const double weighted = api_weighted_chi2(graph);
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_near(summary.initial_chi2, weighted, 1e-9 * weighted);
+    assert_true(summary.initial_chi2 < pgem_total_chi2(graph)); /* the pruned loops left out */
+    pgem_robust_reset(graph);
+
+    options.on_round = stop_at_first_round;
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.termination, PGEM_ROBUST_STOPPED);
+    pgem_robust_reset(graph);
+
+    options = em_options();
+    options.literal = 1;
+    options.max_rounds = 1; /* the first round prunes: no round left to see nothing pruned */
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_true(summary.pruned > 0u);
+    assert_int_equal(summary.termination, PGEM_ROBUST_ROUND_LIMIT);
+    pgem_robust_reset(graph);
+
+    options = em_options();
+    options.kernel = PGEM_KERNEL_CAUCHY;
+    options.max_em_iterations = 1;
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.termination, PGEM_ROBUST_ITERATION_LIMIT);
+    options.max_em_iterations = 100;
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.termination, PGEM_ROBUST_CONVERGED);
+    pgem_destroy(graph);
+}
+
+/* A loop's weight and state through the API: out of range is refused and writes nothing; a
+ * dormant loop (EM's state for a loop kept out of the factor) reads as dormant, not accepted. */
+static void test_loop_weight_and_state(void **state)
+{
+    (void)state;
+    double truth[3 * RING];
+    uint32_t false_loops[FALSE_LOOPS];
+    pgem_t *graph = corrupted_ring(33, 77, truth, false_loops);
+    double weight = 7.0;
+    pgem_loop_state_t loop_state = PGEM_LOOP_DORMANT;
+    const uint32_t edges = pgem_edge_count(graph);
+    assert_int_equal(pgem_loop_weight(graph, edges, &weight), PGEM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pgem_loop_state(graph, edges, &loop_state), PGEM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pgem_loop_weight(NULL, 0, &weight), PGEM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pgem_loop_state(graph, 0, NULL), PGEM_ERR_INVALID_ARGUMENT);
+    assert_true(weight == 7.0);
+    assert_int_equal(loop_state, PGEM_LOOP_DORMANT);
+    assert_int_equal(pgem_loop_weight(graph, false_loops[0], &weight), PGEM_OK);
+    assert_int_equal(pgem_loop_state(graph, false_loops[0], &loop_state), PGEM_OK);
+    assert_true(weight == 1.0); /* before any robust solve */
+    assert_int_equal(loop_state, PGEM_LOOP_ACCEPTED);
+    graph->store.edge_active[false_loops[0]] = PGEM_EDGE_DORMANT;
+    graph->store.edge_weight[false_loops[0]] = 1e-5;
+    assert_int_equal(pgem_loop_state(graph, false_loops[0], &loop_state), PGEM_OK);
+    assert_int_equal(loop_state, PGEM_LOOP_DORMANT);
+    assert_int_equal(pgem_loop_weight(graph, false_loops[0], &weight), PGEM_OK);
+    assert_true(weight == 1e-5);
     pgem_destroy(graph);
 }
 
@@ -446,14 +704,14 @@ static void test_non_finite_start_leaves_the_weights(void **state)
         assert_int_equal(pgem_add_pose(graph, (pgem_id_t)i, poses[i]),
                          i == 0 ? PGEM_OK : PGEM_ERR_OUT_OF_RANGE);
         assert_int_equal(pgem_add_pose(graph, (pgem_id_t)i, poses[0]), i == 0 ? PGEM_ERR_DUPLICATE_ID : PGEM_OK);
-        memcpy(graph->pose + 3 * i, poses[i], sizeof poses[i]);
+        memcpy(graph->store.pose + 3 * i, poses[i], sizeof poses[i]);
     }
     assert_int_equal(pgem_add_edge(graph, 0, 1, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
     assert_int_equal(pgem_add_edge(graph, 1, 2, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
     assert_int_equal(pgem_add_edge(graph, 0, 2, z, information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
     assert_false(isfinite(pgem_total_chi2(graph)));
     test_snapshot(graph, before);
-    for (int kernel = PGEM_KERNEL_NONE; kernel <= PGEM_KERNEL_DCS; kernel++) {
+    for (int kernel = PGEM_KERNEL_EM; kernel <= PGEM_KERNEL_DCS; kernel++) {
         pgem_robust_options_t options = {0};
         options.kernel = (pgem_kernel_t)kernel;
         pgem_robust_summary_t summary;
@@ -638,8 +896,11 @@ static void test_non_finite_loop_is_pruned(void **state)
     pgem_edge_view_t edge;
     assert_int_equal(pgem_edge_at(graph, bad, &edge), PGEM_OK);
     assert_int_equal(edge.kind, PGEM_EDGE_LOOP);
-    graph->edge_measurement[3u * bad] = 1e300;
+    graph->store.edge_measurement[3u * bad] = 1e300;
     for (int kernel = PGEM_KERNEL_EM; kernel <= PGEM_KERNEL_DCS; kernel++) {
+        if (kernel == PGEM_KERNEL_NONE) {
+            continue; /* plain least squares has no loop to prune */
+        }
         pgem_robust_reset(graph);
         pgem_robust_options_t options = {0};
         options.kernel = (pgem_kernel_t)kernel;
@@ -661,6 +922,11 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_kernel_formulas),
         cmocka_unit_test(test_inliers_only_nothing_pruned_plain_optimum),
+        cmocka_unit_test(test_loop_weight_and_state),
+        cmocka_unit_test(test_kernel_rho_and_derivative),
+        cmocka_unit_test(test_user_kernel),
+        cmocka_unit_test(test_zeroed_options_mean_em),
+        cmocka_unit_test(test_termination_and_chi2_convention),
         cmocka_unit_test(test_em_finds_outliers),
         cmocka_unit_test(test_literal_em_finds_outliers),
         cmocka_unit_test(test_dcs_downweights_outliers),

@@ -2,7 +2,7 @@
  * estimate, the fill budget, callbacks, fixed poses and re-analysis on topology change. */
 #include <stdio.h>
 
-#include "internal.h" /* to put an estimate out of range behind the API */
+#include "instance.h" /* to put an estimate out of range behind the API */
 #include "test_util.h"
 
 #define RING 60
@@ -168,8 +168,8 @@ static void test_non_finite_chi2_fails_cleanly(void **state)
     assert_int_equal(pgem_add_edge(graph, 0, 1, z, huge, PGEM_EDGE_ODOMETRY, NULL),
                      PGEM_ERR_OUT_OF_RANGE);
     assert_int_equal(pgem_add_edge(graph, 0, 1, z, one, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
-    memcpy(graph->pose + 3, b, sizeof b);
-    memcpy(graph->edge_information, huge, sizeof huge);
+    memcpy(graph->store.pose + 3, b, sizeof b);
+    memcpy(graph->store.edge_information, huge, sizeof huge);
     pgem_summary_t summary;
     assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_ERR_NUMERIC);
     assert_int_equal(summary.usable, 0);
@@ -237,6 +237,51 @@ static void test_fill_budget_reports_need(void **state)
     test_ring_2d(graph, RING, 5, 0.01, 0.01, 5, truth);
     assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_OK);
     pgem_destroy(graph);
+}
+
+/* pgem_fill_needed sizes the factor without failing: on a budget too small it returns the need
+ * (the figure the failed analysis reports), keeps the ordering for pgem_copy, and an instance of
+ * exactly that budget solves while one value fewer does not. Within the budget it is the
+ * analysis's own figure. */
+static void test_fill_needed(void **state)
+{
+    (void)state;
+    double truth[3 * RING];
+    pgem_config_t config = {2, RING, 2 * RING, 50, 0, 0};
+    pgem_t *probe = NULL;
+    assert_int_equal(pgem_create(&probe, &config), PGEM_OK);
+    uint32_t needed = 0;
+    assert_int_equal(pgem_fill_needed(probe, &needed), PGEM_ERR_EMPTY);
+    assert_int_equal(pgem_fill_needed(probe, NULL), PGEM_ERR_INVALID_ARGUMENT);
+    test_ring_2d(probe, RING, 5, 0.01, 0.01, 5, truth);
+    assert_int_equal(pgem_fill_needed(probe, &needed), PGEM_OK);
+    assert_string_equal(pgem_last_error(probe), "");
+    assert_int_equal(pgem_analyze(probe), PGEM_ERR_FILL_BUDGET);
+    pgem_memory_stats_t stats;
+    pgem_get_memory_stats(probe, &stats);
+    assert_int_equal(stats.factor_nonzeros, needed);
+    assert_int_equal(pgem_fill_needed(probe, &needed), PGEM_OK);
+    assert_int_equal(stats.factor_nonzeros, needed);
+
+    pgem_summary_t summary;
+    pgem_t *graph = NULL;
+    config.fill_budget = needed;
+    assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
+    assert_int_equal(pgem_copy(graph, probe), PGEM_OK);
+    assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.factor_nonzeros, needed);
+    uint32_t again = 0;
+    assert_int_equal(pgem_fill_needed(graph, &again), PGEM_OK);
+    assert_int_equal(again, needed);
+    pgem_get_memory_stats(graph, &stats);
+    assert_int_equal(stats.analyses, 1); /* the solve's analysis answered it */
+    pgem_destroy(graph);
+    config.fill_budget = needed - 1u;
+    assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
+    assert_int_equal(pgem_copy(graph, probe), PGEM_OK);
+    assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_ERR_FILL_BUDGET);
+    pgem_destroy(graph);
+    pgem_destroy(probe);
 }
 
 static int stop_after_first(const pgem_iteration_t *iteration, void *user)
@@ -348,7 +393,7 @@ static void test_check_solvable(void **state)
     expect_same_verdict(graph, PGEM_OK, NULL);
     assert_string_equal(pgem_last_error(graph), "");
     /* an estimate gone out of range behind the API's back (as in the test above) */
-    graph->pose[3] = 1e300;
+    graph->store.pose[3] = 1e300;
     expect_same_verdict(graph, PGEM_ERR_NUMERIC, "not finite");
     pgem_destroy(graph);
 }
@@ -363,6 +408,7 @@ int main(void)
         cmocka_unit_test(test_non_finite_chi2_fails_cleanly),
         cmocka_unit_test(test_non_finite_options_refused),
         cmocka_unit_test(test_fill_budget_reports_need),
+        cmocka_unit_test(test_fill_needed),
         cmocka_unit_test(test_callback_can_stop),
         cmocka_unit_test(test_analysis_once_per_topology),
         cmocka_unit_test(test_empty_graph),

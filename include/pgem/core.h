@@ -62,6 +62,30 @@ int pgem_config_resolve(const pgem_config_t *config, pgem_config_t *resolved);
  * used at any alignment. */
 size_t pgem_memory_size(const pgem_config_t *config);
 
+/** The block of a configuration by part: what each layer carves from it, alignment padding
+ * included (pgem_get_memory_parts). */
+typedef struct pgem_memory_parts {
+    size_t instance;      /**< the instance struct, and the 16 bytes an unaligned block start
+                               may cost */
+    size_t graph;         /**< poses (ids, estimate, fixed flags), the id map, edges
+                               (measurement, information, kind, state, weight) */
+    size_t solver;        /**< the estimate before a solve and LM's last accepted one */
+    size_t robust;        /**< the estimate before a robust solve, the saved weights and
+                               states, the loops' distances */
+    size_t linalg;        /**< the linear system: H's structure and values, the factor L, the
+                               workers' and the solves' workspace, CSparse's pool */
+    size_t factor;        /**< of linalg: L's values and block row indices, the part that
+                               fill_budget scales */
+    size_t csparse_pool;  /**< of linalg: CSparse's pool (0 with the system CSparse) */
+    size_t total;         /**< instance + graph + solver + robust + linalg:
+                               pgem_memory_size(config) */
+} pgem_memory_parts_t;
+
+/** The bytes of pgem_memory_size(config) by part, measured by the same carving code. Errors:
+ * INVALID_ARGUMENT (a NULL pointer), CONFIG (where pgem_memory_size returns 0); nothing is
+ * written then. */
+int pgem_get_memory_parts(const pgem_config_t *config, pgem_memory_parts_t *parts);
+
 /** A compile-time upper bound of pgem_memory_size() for explicit capacities (none 0) and one
  * worker (threads 0 or 1), for static blocks:
  * `static unsigned char block[PGEM_MEMORY_BOUND(2, 500, 600, 16000)];`.

@@ -307,8 +307,9 @@ struct SolveOptions : pgem_solve_options_t {
     }
 };
 
-/** Robust options: pgem_robust_options_t zeroed. Zeroed means PGEM_KERNEL_NONE (plain least
- * squares), as in C: pass a kernel, e.g. `pgem_cpp::RobustOptions(PGEM_KERNEL_EM)`. */
+/** Robust options: pgem_robust_options_t zeroed. Zeroed means PGEM_KERNEL_EM with its
+ * defaults, as in C and in the bridge; pass a kernel for another, e.g.
+ * `pgem_cpp::RobustOptions(PGEM_KERNEL_CAUCHY)`. */
 struct RobustOptions : pgem_robust_options_t {
     RobustOptions() noexcept : pgem_robust_options_t{} {}
     /** Zeroed options (documented defaults) with a kernel. */

@@ -1,5 +1,12 @@
 /* pgem robust layer: EM loop-closure weighting and pruning (Lee, Fraundorfer & Pollefeys,
- * IROS 2013) and other robust kernels behind the same weight interface. */
+ * IROS 2013) and other robust kernels behind the same interface (rho and its derivative, the
+ * weight), a user's own kernel among them.
+ *
+ * One chi2 convention throughout this header and pgem_summary_t: "chi2" is the weighted chi2,
+ * the sum of w_k e_k^T Omega_k e_k over the edges in the problem (not pruned), at the weights
+ * current at that moment (1 for odometry, and for every loop closure of a fresh graph). The
+ * one exception says so in its name: final_chi2_all (every edge, pruned ones included, at
+ * weight 1). */
 #ifndef PGEM_ROBUST_H
 #define PGEM_ROBUST_H
 
@@ -12,17 +19,44 @@
 extern "C" {
 #endif
 
-/** How loop closures are weighted. Odometry edges always keep weight 1. */
+/** How loop closures are weighted. Odometry edges always keep weight 1. EM is 0, so a zeroed
+ * pgem_robust_options_t means EM with its defaults, in the core, the bridge and the C++
+ * wrapper alike (pgem optimize without --robust asks for PGEM_KERNEL_NONE itself). */
 typedef enum pgem_kernel {
-    PGEM_KERNEL_NONE = 0,    /**< every active loop weight 1: plain least squares */
-    PGEM_KERNEL_EM = 1,      /**< EM: Cauchy E-step, weighted GN M-step, pruning rounds */
+    PGEM_KERNEL_EM = 0,      /**< default. EM: Cauchy E-step, weighted GN M-step, pruning
+                                rounds */
+    PGEM_KERNEL_NONE = 1,    /**< plain least squares: every loop back to weight 1 and active
+                                (pruning by an earlier robust solve is undone, as
+                                pgem_robust_reset does), then one solve */
     PGEM_KERNEL_CAUCHY = 2,  /**< Cauchy IRLS, no pruning: w = 1 / (1 + chi2 / c^2) */
     PGEM_KERNEL_HUBER = 3,   /**< Huber IRLS: w = 1 if sqrt(chi2) <= k, else k / sqrt(chi2) */
-    PGEM_KERNEL_DCS = 4      /**< dynamic covariance scaling: s = min(1, 2 phi / (phi + chi2)),
+    PGEM_KERNEL_DCS = 4,     /**< dynamic covariance scaling: s = min(1, 2 phi / (phi + chi2)),
                                 w = s^2 */
+    PGEM_KERNEL_USER = 5     /**< IRLS with the options' kernel_function (no pruning) */
 } pgem_kernel_t;
 
-/** The weight one kernel gives a loop closure of Mahalanobis error chi2 = e^T Omega e. */
+/** A kernel at one loop closure's squared Mahalanobis error s = e^T Omega e: rho(s), the cost
+ * that replaces s, and its derivative rho'(s), the loop's IRLS weight. */
+typedef struct pgem_kernel_value {
+    double rho;     /**< rho(s); rho(s) = s for a loop at full weight */
+    double weight;  /**< rho'(s), in [0, 1] (a solve refuses anything else) */
+} pgem_kernel_value_t;
+
+/** A user's kernel: rho and rho' at s = chi2 for the options' scale (and user pointer). It must
+ * not fail or keep state between calls that changes its answers: a solve calls it for every
+ * loop closure in every E-step, and a weight outside [0, 1] (NaN included) fails the solve. */
+typedef pgem_kernel_value_t (*pgem_kernel_fn)(double chi2, double scale, void *user);
+
+/** A built-in kernel at chi2 (EM: its Cauchy E-step; NONE: rho = s, weight 1; USER: the
+ * built-in has no formula, rho = s, weight 1). Formulas, with c, k, phi the scale:
+ *   Cauchy  rho = c^2 log(1 + s / c^2),                 w = 1 / (1 + s / c^2)
+ *   Huber   rho = s if r <= k else 2 k r - k^2 (r = sqrt s), w = 1 if r <= k else k / r
+ *   DCS     rho = s if s <= phi else phi (3 s - phi) / (phi + s),
+ *                                                      w = min(1, 2 phi / (phi + s))^2 */
+pgem_kernel_value_t pgem_kernel_evaluate(pgem_kernel_t kernel, double chi2, double scale);
+
+/** The weight one kernel gives a loop closure of Mahalanobis error chi2 = e^T Omega e
+ * (pgem_kernel_evaluate's weight). */
 double pgem_kernel_weight(pgem_kernel_t kernel, double chi2, double scale);
 
 /** What EM measures a loop closure by, in its E-step and its consistency test. */
@@ -47,8 +81,17 @@ typedef enum pgem_robust_outcome {
 /** State of a loop closure after a robust solve. */
 typedef enum pgem_loop_state {
     PGEM_LOOP_ACCEPTED = 0,  /**< in the solution with its weight */
-    PGEM_LOOP_PRUNED = 1     /**< removed: weight fell below the prune threshold */
+    PGEM_LOOP_PRUNED = 1,    /**< removed: weight fell below the prune threshold */
+    PGEM_LOOP_DORMANT = 2    /**< in the solution with its (small) weight, but given no place
+                                in the factor (EM's dormant_threshold; seen from a round
+                                callback: a finished solve wakes every dormant loop) */
 } pgem_loop_state_t;
+
+/** The robust weight of edge `index` (0 .. pgem_edge_count-1) and its state: odometry edges
+ * and loop closures no robust solve touched are accepted at weight 1. Errors:
+ * INVALID_ARGUMENT (NULL, or index out of range); nothing is written then. */
+int pgem_loop_weight(const pgem_t *graph, uint32_t index, double *weight);
+int pgem_loop_state(const pgem_t *graph, uint32_t index, pgem_loop_state_t *state);
 
 /** What the round callback sees (EM: after each round; IRLS kernels: after each iteration). */
 typedef struct pgem_robust_progress {
@@ -61,9 +104,9 @@ typedef struct pgem_robust_progress {
 
 typedef int (*pgem_robust_fn)(const pgem_robust_progress_t *progress, void *user);
 
-/** Options; a zeroed struct means the documented defaults. */
+/** Options; a zeroed struct means the documented defaults: EM, the product's method. */
 typedef struct pgem_robust_options {
-    pgem_kernel_t kernel;            /**< default PGEM_KERNEL_NONE (0): set it */
+    pgem_kernel_t kernel;            /**< default PGEM_KERNEL_EM (0) */
     double scale;                    /**< c for EM/Cauchy, k for Huber, phi for DCS; 0 means 1 */
     double prune_threshold;          /**< EM: prune loops with weight below; 0 means 0.01 */
     double weight_tolerance;         /**< stop E/M iterations when no weight moves more;
@@ -106,7 +149,22 @@ typedef struct pgem_robust_options {
                                         at most this (radians); 0 means 0.1 */
     pgem_robust_fn on_round;         /**< may be NULL; return non-zero to stop */
     void *user;                      /**< passed to on_round */
+    pgem_kernel_fn kernel_function;  /**< PGEM_KERNEL_USER: the kernel (required then; NULL
+                                        with that kernel is refused) */
+    void *kernel_user;               /**< passed to kernel_function */
 } pgem_robust_options_t;
+
+/** Why a robust solve stopped. */
+typedef enum pgem_robust_termination {
+    PGEM_ROBUST_CONVERGED = 0,        /**< EM: a round pruned nothing and the consistency test
+                                         changed no loop; IRLS: the weights settled; NONE: its
+                                         solve succeeded */
+    PGEM_ROBUST_ROUND_LIMIT = 1,      /**< EM: max_rounds rounds (or test passes) and loops were
+                                         still changing state */
+    PGEM_ROBUST_ITERATION_LIMIT = 2,  /**< IRLS: max_em_iterations before the weights settled */
+    PGEM_ROBUST_STOPPED = 3,          /**< on_round asked to stop */
+    PGEM_ROBUST_FAILED = 4            /**< the solve failed (usable is 0; see the error) */
+} pgem_robust_termination_t;
 
 /** What a robust solve did. */
 typedef struct pgem_robust_summary {
@@ -122,12 +180,14 @@ typedef struct pgem_robust_summary {
                                         prune_threshold */
     uint32_t non_finite;             /**< loops pruned at the start: their chi2 was not finite */
     uint32_t first_non_finite;       /**< edge index of the first of them, UINT32_MAX if none */
-    double initial_chi2;             /**< unweighted chi2 before */
-    double final_chi2;               /**< weighted chi2 after (pruned loops excluded) */
+    double initial_chi2;             /**< chi2 before (weighted, at the weights the call found:
+                                        all 1 on a fresh graph) */
+    double final_chi2;               /**< chi2 after (weighted, pruned loops excluded) */
     double final_chi2_all;           /**< chi2 after with every edge at weight 1, the pruned
                                         loops included */
     pgem_robust_outcome_t outcome;   /**< after a successful solve: loops accepted, none in the
                                         graph, most or all of them rejected */
+    pgem_robust_termination_t termination; /**< why the solve stopped */
     int estimate_changed;            /**< 1 if the solve moved any pose */
     int usable;                      /**< 1 if the estimate is the result of a successful solve */
 } pgem_robust_summary_t;
@@ -140,7 +200,8 @@ typedef struct pgem_robust_summary {
  * loops leave H's structure (one symbolic re-analysis when the pruned set changes). On failure
  * the estimate and every loop's weight and state are restored to what they were before the
  * call (the next solve then re-analyses).
- * solve may be NULL (Gauss-Newton defaults; max_iterations is ignored for EM M-steps). */
+ * options may be NULL (a zeroed struct: EM with its defaults); solve may be NULL (Gauss-Newton
+ * defaults; max_iterations is ignored for EM M-steps). */
 int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
                          const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
 

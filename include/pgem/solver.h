@@ -93,6 +93,15 @@ int pgem_optimize(pgem_t *graph, const pgem_solve_options_t *options, pgem_summa
  * does). Useful to move CSparse's symbolic allocation out of a time-critical loop. */
 int pgem_analyze(pgem_t *graph);
 
+/** The factor nonzeros the graph needs as it is (its loops' current states): the symbolic
+ * analysis without the budget check, so it succeeds where pgem_analyze fails with
+ * PGEM_ERR_FILL_BUDGET, and *nonzeros is the fill_budget a solve of this graph needs. The
+ * ordering is kept: pgem_copy into an instance of that budget hands it over, so the solve there
+ * does not order again. Within the budget the instance is also analysed, ready to solve.
+ * Errors: INVALID_ARGUMENT (NULL), EMPTY (no edge, or every pose fixed), OUT_OF_MEMORY
+ * (CSparse's workspace); *nonzeros is not written then. */
+int pgem_fill_needed(pgem_t *graph, uint32_t *nonzeros);
+
 /** The checks pgem_optimize makes before its first iteration, without solving: an edge and a
  * free pose to solve (EMPTY), the factor within the fill budget (FILL_BUDGET), every part of
  * the graph held by a fixed pose or the first pose (NOT_POSITIVE_DEFINITE, naming a pose of

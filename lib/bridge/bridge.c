@@ -56,9 +56,6 @@ void pgem_bridge_defaults(pgem_bridge_options_t *options)
     if (!(options->idle_solve > 0.0)) {
         options->idle_solve = 0.5;
     }
-    if (options->robust.kernel == PGEM_KERNEL_NONE && !options->plain) {
-        options->robust.kernel = PGEM_KERNEL_EM;
-    }
 }
 
 /* ---- the queue (L held) ------------------------------------------------------------------- */
@@ -242,7 +239,7 @@ typedef struct schedule {
 static double solve_due(const bridge_t *bridge, const schedule_t *s)
 {
     const pgem_bridge_options_t *o = &bridge->options;
-    if (!o->full_solves && (s->dirty || s->unsolved)) {
+    if (o->incremental && (s->dirty || s->unsolved)) {
         return 0.0; /* incremental updates: at once, for every batch of items */
     }
     double due = s->dirty      ? fmin(s->last_loop + o->debounce, s->first_loop + o->max_delay)

@@ -45,14 +45,14 @@ typedef struct pgem_bridge_options {
     int journal_sync;          /* fdatasync every record */
     const char *snapshot_dir;  /* the folder SNAPSHOT commands write into; NULL: SNAPSHOT is
                                   refused (a message names a file in it, never a path) */
-    pgem_robust_options_t robust;  /* kernel 0 means EM with its defaults, unless plain */
-    int plain;                 /* 1: no robust kernel, every loop closure at weight 1 (kernel
-                                  PGEM_KERNEL_NONE; pgem-lcm-bridge --robust none) */
-    int full_solves;           /* 1: every solve re-solves the whole graph with EM (debounced,
-                                  rate-limited), as before the incremental update; 0
-                                  (default): every batch of items gets a pgem_update at once
-                                  (new loop closures through its gate) and is published, and
-                                  the settle solve (EM on everything, after idle_solve) stays */
+    pgem_robust_options_t robust;  /* zeroed: EM with its defaults, as everywhere; kernel
+                                      PGEM_KERNEL_NONE (--robust none): every loop at weight 1 */
+    int incremental;           /* 1: every batch of items gets a pgem_update at once (new loop
+                                  closures through its gate) and is published, the settle solve
+                                  (EM on everything, after idle_solve) stays; 0 (default): every
+                                  solve re-solves the whole graph with EM (debounced,
+                                  rate-limited). Opt-in until its loop-closure latency is
+                                  measured below the full solves' (DESIGN.md) */
     pgem_bridge_log_fn log;    /* progress lines (NULL: silent) */
     void *log_user;
 } pgem_bridge_options_t;

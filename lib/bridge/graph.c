@@ -19,7 +19,7 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
     bridge->core_config.max_poses = o->max_poses;
     bridge->core_config.max_edges = o->max_edges;
     bridge->core_config.fill_budget = o->fill_budget;
-    if (!o->full_solves) { /* the incremental factor's room: twice the core's default fill */
+    if (o->incremental) { /* the incremental factor's room: twice the core's default fill */
         const uint64_t b = (uint64_t)PGEM_TANGENT_SIZE(o->dimension);
         const uint64_t fill = 2u * (uint64_t)PGEM_DEFAULT_FILL_PER_POSE * b * b * o->max_poses;
         bridge->core_config.online_fill = fill > (uint64_t)INT32_MAX ? (uint32_t)INT32_MAX
@@ -244,15 +244,6 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
     return 1;
 }
 
-static uint32_t find_root(uint32_t *parent, uint32_t i)
-{
-    while (parent[i] != i) {
-        parent[i] = parent[parent[i]];
-        i = parent[i];
-    }
-    return i;
-}
-
 /* Holds every part of the graph joined by odometry: a part without a pose the front-end fixed
  * gets its smallest pose id fixed (for one part that is the gauge the offline tools use,
  * whatever order the poses arrived in). Parts appear while edges wait for their poses or when
@@ -284,11 +275,7 @@ static uint32_t hold_components(bridge_t *bridge)
         touched[a] = 1;
         touched[b] = 1;
         if (view.kind == PGEM_EDGE_ODOMETRY) {
-            a = find_root(parent, a);
-            b = find_root(parent, b);
-            if (a != b) {
-                parent[a < b ? b : a] = a < b ? a : b;
-            }
+            (void)pgem_part_join(parent, a, b);
         }
     }
     /* component_anchor[root]: the part's smallest id, or UINT32_MAX if the front-end fixed a
@@ -298,7 +285,7 @@ static uint32_t hold_components(bridge_t *bridge)
         anchor_of[i] = i;
     }
     for (uint32_t i = 0; i < poses; ++i) {
-        uint32_t root = find_root(parent, i);
+        uint32_t root = pgem_part_root(parent, i);
         if (anchor_of[root] == UINT32_MAX) {
             continue;
         }
@@ -314,12 +301,12 @@ static uint32_t hold_components(bridge_t *bridge)
     }
     for (uint32_t i = 0; i < poses; ++i) {
         if (touched[i] & 1u) {
-            touched[find_root(parent, i)] |= 2u; /* the part has an edge */
+            touched[pgem_part_root(parent, i)] |= 2u; /* the part has an edge */
         }
     }
     uint32_t parts = 0;
     for (uint32_t i = 0; i < poses; ++i) {
-        uint32_t root = find_root(parent, i);
+        uint32_t root = pgem_part_root(parent, i);
         parts += root == i && (touched[i] & 2u) != 0;
         uint8_t want = anchor_of[root] == i;
         if (want != bridge->gauge_fixed[i]) {
@@ -381,7 +368,7 @@ static int update_solve(bridge_t *bridge, pgem_robust_summary_t *summary)
 {
     pgem_update_options_t options;
     memset(&options, 0, sizeof options);
-    options.robust = !bridge->options.plain; /* --robust none: every loop closure in */
+    options.robust = bridge->options.robust.kernel != PGEM_KERNEL_NONE; /* none: every loop in */
     options.gate = bridge->options.robust.gate;
     options.odometry_inflation = bridge->options.robust.odometry_inflation;
     int status = pgem_update(bridge->core, &options, NULL);
@@ -422,7 +409,7 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
         restart_from_raw(bridge);
         bridge->restart_pending = 0;
     }
-    const int incremental = !bridge->options.full_solves && !restarted && parts == 1 &&
+    const int incremental = bridge->options.incremental && !restarted && parts == 1 &&
                             strcmp(trigger, "settle") != 0 && strcmp(trigger, "command") != 0 &&
                             strcmp(trigger, "recovery") != 0;
     int status = incremental ? update_solve(bridge, &summary)

@@ -19,7 +19,7 @@
 
 #include <cholmod.h>
 
-#include "internal.h"
+#include "linalg/linear.h"
 #include "pgem/io.h"
 #include "pgem/pgem.h"
 #include "pgem/threads.h"
@@ -393,15 +393,15 @@ static int bench_pgem(const bench_args_t *args)
     free(saved);
     pgem_memory_stats_t stats;
     pgem_get_memory_stats(graph, &stats);
-    const pgem_factor_t *factor = &graph->linear.factor;
+    const pgem_factor_t *factor = &graph->linear->factor;
     printf("{\"mode\":\"pgem\",\"input\":\"%s\",\"poses\":%u,\"edges\":%u,\"unknowns\":%d,"
            "\"factor_nonzeros\":%u,\"exact_nonzeros\":%d,\"flops\":%.6g,"
            "\"executed_multiply_adds\":%.6g,\"supernodes\":%d,\"kernels\":\"%s\","
            "\"ordering\":\"%s\",\"amd_flops\":%.6g,\"nested_flops\":%.6g,"
            "\"block_bytes\":%zu,\"threads\":%d",
            args->input, pgem_pose_count(graph), pgem_edge_count(graph),
-           graph->linear.scalar_count, stats.factor_nonzeros, factor->exact_nonzeros,
-           factor->exact_flops, factor->flops, factor->super_count, graph->linear.dense->name,
+           graph->linear->scalar_count, stats.factor_nonzeros, factor->exact_nonzeros,
+           factor->exact_flops, factor->flops, factor->super_count, graph->linear->dense->name,
            factor->ordering == PGEM_ORDERING_NESTED ? "nested" : "amd", factor->amd_flops,
            factor->nested_flops, stats.block_bytes, args->threads);
     bench_print_times("analysis", analysis, args->repeat);

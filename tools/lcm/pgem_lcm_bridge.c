@@ -34,14 +34,14 @@ static void usage(FILE *out, const void *context)
             "                         DIR (FILE a plain name; default: SNAPSHOT is refused)\n"
             "  --pending-timeout S    an edge waits at most S seconds for its poses, then it\n"
             "                         expires (60)\n"
-            "  --full-solves          re-solve the whole graph with EM on every solve (debounced,\n"
-            "                         rate-limited) instead of an incremental update per batch\n"
-            "                         of messages; the settle solve after idle is the same\n"
-            "  --debounce S           with --full-solves: quiet time after a loop closure\n"
+            "  --incremental          an incremental update (pgem_update) per batch of messages\n"
+            "                         instead of re-solving the whole graph with EM\n"
+            "                         (experimental); the settle solve after idle is the same\n"
+            "  --debounce S           without --incremental: quiet time after a loop closure\n"
             "                         before solving (0.01)\n"
-            "  --max-delay S          with --full-solves: longest a loop closure waits while\n"
-            "                         more arrive (0.1)\n"
-            "  --max-rate HZ          with --full-solves: solves per second at most (20)\n"
+            "  --max-delay S          without --incremental: longest a loop closure waits\n"
+            "                         while more arrive (0.1)\n"
+            "  --max-rate HZ          without --incremental: solves per second at most (20)\n"
             "  --status-period S      seconds between status messages (0.5)\n"
             "  --idle-solve S         solve edges not yet solved (odometry only, say) after S\n"
             "                         seconds without new messages (0.5)\n"
@@ -177,7 +177,6 @@ static int parse_value(void *user, const char *name, const char *value)
         if (!pgem_cli_parse_kernel(TOOL, value, &p->options.robust.kernel)) {
             return 0;
         }
-        p->options.plain = p->options.robust.kernel == PGEM_KERNEL_NONE;
         return 1;
     case DORMANT:
         if (value != NULL && strcmp(value, "off") == 0) {
@@ -200,8 +199,8 @@ static int parse_flag(void *user, const char *name)
         p->options.robust.literal = 1;
     } else if (strcmp(name, "--restart") == 0) {
         p->options.robust.restart = 1;
-    } else if (strcmp(name, "--full-solves") == 0) {
-        p->options.full_solves = 1;
+    } else if (strcmp(name, "--incremental") == 0) {
+        p->options.incremental = 1;
     } else {
         return 0;
     }

@@ -198,6 +198,7 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
         "pgem optimize", valued, sizeof valued / sizeof valued[0], pgem_optimize_value,
         pgem_optimize_flag, pgem_optimize_positional, pgem_optimize_help, NULL, NULL};
     memset(args, 0, sizeof *args);
+    args->robust.kernel = PGEM_KERNEL_NONE; /* without --robust: plain least squares */
     const int status = pgem_cli_parse_args(&parser, args, argc, argv);
     if (status != 0) {
         return status;

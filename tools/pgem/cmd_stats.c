@@ -205,15 +205,6 @@ static stats_item_t stats_pose_item(const pgem_io_pose_t *pose)
     return item;
 }
 
-static size_t stats_root(size_t *parent, size_t k)
-{
-    while (parent[k] != k) {
-        parent[k] = parent[parent[k]];
-        k = parent[k];
-    }
-    return k;
-}
-
 static int stats_all_finite(const double *values, size_t count)
 {
     for (size_t k = 0; k < count; k++) {
@@ -292,7 +283,7 @@ static void stats_edge_values(stats_t *s, const pgem_io_edge_t *edge)
 
 /* Kinds, values, degrees and the union-find of every edge (the reader refuses an edge naming
  * a missing pose). */
-static void stats_edges(stats_t *s, const pgem_io_pose_index_t *ids, size_t *parent, size_t *degree,
+static void stats_edges(stats_t *s, const pgem_io_pose_index_t *ids, uint32_t *parent, size_t *degree,
                         size_t *incident)
 {
     const pgem_io_graph_t *g = s->graph;
@@ -313,10 +304,7 @@ static void stats_edges(stats_t *s, const pgem_io_pose_index_t *ids, size_t *par
         degree[from]++;
         degree[to]++;
         incident[from] = incident[to] = k;
-        size_t a = stats_root(parent, from), b = stats_root(parent, to);
-        if (a != b) {
-            parent[a] = b;
-        }
+        (void)pgem_part_join(parent, (uint32_t)from, (uint32_t)to);
     }
 }
 
@@ -343,24 +331,24 @@ static void stats_degrees(stats_t *s, const size_t *degree, const size_t *incide
 
 /* Components, their sizes, and which of them hold a fixed pose. size and held have one
  * entry per pose (indexed by root), zeroed. */
-static void stats_components(stats_t *s, const pgem_io_pose_index_t *ids, size_t *parent,
+static void stats_components(stats_t *s, const pgem_io_pose_index_t *ids, uint32_t *parent,
                              size_t *size, unsigned char *held)
 {
     const pgem_io_graph_t *g = s->graph;
     for (size_t k = 0; k < g->pose_count; k++) {
-        size[stats_root(parent, k)]++;
+        size[pgem_part_root(parent, (uint32_t)k)]++;
     }
     for (size_t k = 0; k < g->fixed_count; k++) {
         size_t index = pgem_io_find_pose(ids, g->pose_count, g->fixed[k]);
         if (index != PGEM_IO_NO_POSE) {
-            held[stats_root(parent, index)] = 1u;
+            held[pgem_part_root(parent, (uint32_t)index)] = 1u;
         }
     }
     if (g->fixed_count == 0 && g->pose_count > 0) {
-        held[stats_root(parent, 0)] = 1u; /* the gauge: the first pose added */
+        held[pgem_part_root(parent, 0)] = 1u; /* the gauge: the first pose added */
     }
     for (size_t k = 0; k < g->pose_count; k++) {
-        if (parent[k] != k) {
+        if (parent[k] != (uint32_t)k) {
             continue;
         }
         s->components++;
@@ -376,7 +364,7 @@ static void stats_components(stats_t *s, const pgem_io_pose_index_t *ids, size_t
         }
     }
     for (size_t k = 0; k < g->pose_count; k++) {
-        size_t root = stats_root(parent, k);
+        size_t root = pgem_part_root(parent, (uint32_t)k);
         if (held[root] == 0u) {
             s->unheld_example = s->unheld == 0u ? g->poses[k].id : s->unheld_example;
             s->unheld++;
@@ -544,22 +532,23 @@ static int stats_measure(stats_t *s)
     const size_t poses = g->pose_count > 0 ? g->pose_count : 1u;
     const size_t edges = g->edge_count > 0 ? g->edge_count : 1u;
     pgem_io_pose_index_t *ids = pgem_io_index_poses(g);
-    size_t *counts = calloc(4u * poses, sizeof *counts); /* parent, degree, incident, size */
+    size_t *counts = calloc(3u * poses, sizeof *counts); /* degree, incident, size */
+    uint32_t *parent = calloc(poses, sizeof *parent);   /* union-find (pgem_part_root) */
     unsigned char *held = calloc(poses, 1u);
     pgem_cli_pair_t *pairs = malloc(edges * sizeof *pairs);
     int status = PGEM_EXIT_OK;
-    if (ids == NULL || counts == NULL || held == NULL || pairs == NULL) {
+    if (ids == NULL || counts == NULL || parent == NULL || held == NULL || pairs == NULL) {
         fprintf(stderr, "pgem stats: out of memory\n");
         status = PGEM_EXIT_FAILURE;
     } else {
-        size_t *parent = counts, *degree = counts + poses, *incident = counts + 2u * poses;
+        size_t *degree = counts, *incident = counts + poses;
         for (size_t k = 0; k < g->pose_count; k++) {
-            parent[k] = k;
+            parent[k] = (uint32_t)k;
         }
         stats_poses(s, ids);
         stats_edges(s, ids, parent, degree, incident);
         stats_degrees(s, degree, incident);
-        stats_components(s, ids, parent, counts + 3u * poses, held);
+        stats_components(s, ids, parent, counts + 2u * poses, held);
         stats_duplicates(s, pairs);
         stats_isam_check(s);
         stats_problems(s);
@@ -570,6 +559,7 @@ static int stats_measure(stats_t *s)
     }
     free(ids);
     free(counts);
+    free(parent);
     free(held);
     free(pairs);
     return status;

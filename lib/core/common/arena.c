@@ -1,11 +1,12 @@
 /* The one place the core takes memory: aligned slices carved from the caller's block. */
-#include "internal.h"
+#include "common/common.h"
 
 #define PGEM_ARENA_ALIGN 16u
+#define PGEM_ARENA_STRUCT_ALIGN 8u
 
-void *pgem_arena_take(pgem_arena_t *arena, size_t count, size_t item)
+static void *pgem_arena_slice(pgem_arena_t *arena, size_t count, size_t item, size_t align)
 {
-    size_t start = (arena->used + (PGEM_ARENA_ALIGN - 1u)) & ~(size_t)(PGEM_ARENA_ALIGN - 1u);
+    size_t start = (arena->used + (align - 1u)) & ~(size_t)(align - 1u);
     size_t bytes = count * item;
     if ((item != 0 && bytes / item != count) || start < arena->used || start + bytes < start) {
         arena->used = (size_t)-1; /* overflow: no block can hold this */
@@ -26,8 +27,18 @@ void *pgem_arena_take(pgem_arena_t *arena, size_t count, size_t item)
     return arena->base + start;
 }
 
+void *pgem_arena_take(pgem_arena_t *arena, size_t count, size_t item)
+{
+    return pgem_arena_slice(arena, count, item, PGEM_ARENA_ALIGN);
+}
+
+void *pgem_arena_take_struct(pgem_arena_t *arena, size_t bytes)
+{
+    return pgem_arena_slice(arena, 1, bytes, PGEM_ARENA_STRUCT_ALIGN);
+}
+
 #ifdef PGEM_FAULT_INJECTION
-/* Test builds only (see internal.h). One instance at a time: the tests are single-threaded. */
+/* Test builds only (see common/common.h). One instance at a time: the tests are single-threaded. */
 static long pgem_fault_target = -1;
 static long pgem_fault_count;
 

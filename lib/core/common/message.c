@@ -1,5 +1,6 @@
 /* Error messages built into the instance without stdio, so the core stays firmware-safe. */
-#include "internal.h"
+#include "common/common.h"
+#include "instance.h"
 
 void pgem_text_append(char *text, size_t size, const char *piece)
 {

@@ -1,58 +1,30 @@
-/* pgem_copy: one instance's graph into another (empty) one, with the fill-reducing ordering
- * when it is still the current graph's, so a host can size a block exactly (analyse with any
- * fill budget, read the factor's nonzeros, copy into a block of exactly that budget) without
- * loading or ordering twice. */
+/* A graph's poses and edges copied into an empty instance (pgem_copy's graph part). */
 #include <string.h>
 
-#include "internal.h"
+#include "graph/graph.h"
+#include "instance.h"
 
-static int pgem_copy_refused(pgem_t *to, int code, const char *text)
+void pgem_store_copy(pgem_t *to, const pgem_t *from)
 {
-    return pgem_fail(to, code, text);
-}
-
-int pgem_copy(pgem_t *to, const pgem_t *from)
-{
-    if (to == NULL || from == NULL || to == from) {
-        return PGEM_ERR_INVALID_ARGUMENT;
-    }
-    if (to->config.dimension != from->config.dimension) {
-        return pgem_copy_refused(to, PGEM_ERR_DIMENSION, "pgem_copy: the instances' dimensions differ");
-    }
-    if (to->pose_count != 0u) {
-        return pgem_copy_refused(to, PGEM_ERR_INVALID_ARGUMENT, "pgem_copy: the target holds poses already");
-    }
-    if (from->pose_count > to->config.max_poses || from->edge_count > to->config.max_edges) {
-        return pgem_copy_refused(to, PGEM_ERR_CAPACITY,
-                                 "pgem_copy: the target has room for fewer poses or edges");
-    }
-    const size_t poses = from->pose_count, edges = from->edge_count;
+    const size_t poses = from->store.pose_count, edges = from->store.edge_count;
     const size_t pose_bytes = poses * (size_t)from->pose_size * sizeof(double);
     const size_t info = (size_t)from->tangent * (size_t)from->tangent;
-    memcpy(to->pose_id, from->pose_id, poses * sizeof *to->pose_id);
-    memcpy(to->pose, from->pose, pose_bytes);
-    memcpy(to->pose_fixed, from->pose_fixed, poses);
-    for (uint32_t p = 0; p < from->pose_count; p++) {
-        pgem_map_insert(to, from->pose_id[p], p);
+    memcpy(to->store.pose_id, from->store.pose_id, poses * sizeof *to->store.pose_id);
+    memcpy(to->store.pose, from->store.pose, pose_bytes);
+    memcpy(to->store.pose_fixed, from->store.pose_fixed, poses);
+    for (uint32_t p = 0; p < from->store.pose_count; p++) {
+        pgem_map_insert(to, from->store.pose_id[p], p);
     }
-    to->pose_count = from->pose_count;
-    to->fixed_count = from->fixed_count;
-    memcpy(to->edge_from, from->edge_from, edges * sizeof *to->edge_from);
-    memcpy(to->edge_to, from->edge_to, edges * sizeof *to->edge_to);
-    memcpy(to->edge_measurement, from->edge_measurement,
+    to->store.pose_count = from->store.pose_count;
+    to->store.fixed_count = from->store.fixed_count;
+    memcpy(to->store.edge_from, from->store.edge_from, edges * sizeof *to->store.edge_from);
+    memcpy(to->store.edge_to, from->store.edge_to, edges * sizeof *to->store.edge_to);
+    memcpy(to->store.edge_measurement, from->store.edge_measurement,
            edges * (size_t)from->pose_size * sizeof(double));
-    memcpy(to->edge_information, from->edge_information, edges * info * sizeof(double));
-    memcpy(to->edge_kind, from->edge_kind, edges);
-    memcpy(to->edge_active, from->edge_active, edges);
-    memcpy(to->edge_weight, from->edge_weight, edges * sizeof(double));
-    to->edge_count = from->edge_count;
-    pgem_linear_invalidate(to);
-    if (from->linear.ordered && !from->linear.all_edges) {
-        /* the ordering of this very graph: the analysis reuses it (not the every-edge
-         * fallback's, which a larger budget might not need) */
-        memcpy(to->linear.pose_block, from->linear.pose_block, poses * sizeof(int));
-        to->linear.ordered = 1;
-    }
-    pgem_message_clear(to);
-    return PGEM_OK;
+    memcpy(to->store.edge_information, from->store.edge_information, edges * info * sizeof(double));
+    memcpy(to->store.edge_kind, from->store.edge_kind, edges);
+    memcpy(to->store.edge_active, from->store.edge_active, edges);
+    memcpy(to->store.edge_weight, from->store.edge_weight, edges * sizeof(double));
+    to->store.edge_count = from->store.edge_count;
+    to->store.topology++;
 }

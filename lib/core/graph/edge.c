@@ -1,7 +1,8 @@
 /* Adding and reading edges, each input checked before anything changes. */
 #include <string.h>
 
-#include "internal.h"
+#include "graph/graph.h"
+#include "instance.h"
 
 static int pgem_edge_fail_ids(pgem_t *graph, int code, pgem_id_t from, pgem_id_t to)
 {
@@ -54,7 +55,7 @@ int pgem_add_edge(pgem_t *graph, pgem_id_t from, pgem_id_t to, const double *mea
         pgem_message_text(graph, "edge kind must be odometry or loop");
         return pgem_edge_fail_ids(graph, PGEM_ERR_INVALID_ARGUMENT, from, to);
     }
-    if (graph->edge_count >= graph->config.max_edges) {
+    if (graph->store.edge_count >= graph->config.max_edges) {
         return pgem_edge_capacity(graph, from, to);
     }
     int status = pgem_edge_check_ends(graph, from, to, &from_index, &to_index);
@@ -69,18 +70,18 @@ int pgem_add_edge(pgem_t *graph, pgem_id_t from, pgem_id_t to, const double *mea
                    ? status
                    : pgem_edge_fail_ids(graph, status, from, to);
     }
-    const uint32_t k = graph->edge_count;
+    const uint32_t k = graph->store.edge_count;
     const size_t info_size = (size_t)graph->tangent * (size_t)graph->tangent;
-    graph->edge_from[k] = (uint32_t)from_index;
-    graph->edge_to[k] = (uint32_t)to_index;
-    memcpy(graph->edge_measurement + (size_t)k * (size_t)graph->pose_size, checked,
+    graph->store.edge_from[k] = (uint32_t)from_index;
+    graph->store.edge_to[k] = (uint32_t)to_index;
+    memcpy(graph->store.edge_measurement + (size_t)k * (size_t)graph->pose_size, checked,
            (size_t)graph->pose_size * sizeof(double));
-    memcpy(graph->edge_information + (size_t)k * info_size, information, info_size * sizeof(double));
-    graph->edge_kind[k] = (uint8_t)kind;
-    graph->edge_active[k] = PGEM_EDGE_ACTIVE;
-    graph->edge_weight[k] = 1.0;
-    graph->edge_count++;
-    pgem_linear_invalidate(graph);
+    memcpy(graph->store.edge_information + (size_t)k * info_size, information, info_size * sizeof(double));
+    graph->store.edge_kind[k] = (uint8_t)kind;
+    graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
+    graph->store.edge_weight[k] = 1.0;
+    graph->store.edge_count++;
+    graph->store.topology++;
     pgem_message_clear(graph);
     if (edge_index != NULL) {
         *edge_index = k;
@@ -90,24 +91,24 @@ int pgem_add_edge(pgem_t *graph, pgem_id_t from, pgem_id_t to, const double *mea
 
 uint32_t pgem_edge_count(const pgem_t *graph)
 {
-    return graph != NULL ? graph->edge_count : 0u;
+    return graph != NULL ? graph->store.edge_count : 0u;
 }
 
 int pgem_edge_at(const pgem_t *graph, uint32_t index, pgem_edge_view_t *view)
 {
-    if (graph == NULL || view == NULL || index >= graph->edge_count) {
+    if (graph == NULL || view == NULL || index >= graph->store.edge_count) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
     const size_t info_size = (size_t)graph->tangent * (size_t)graph->tangent;
     memset(view, 0, sizeof *view);
-    view->from = graph->pose_id[graph->edge_from[index]];
-    view->to = graph->pose_id[graph->edge_to[index]];
-    view->kind = (pgem_edge_kind_t)graph->edge_kind[index];
-    memcpy(view->measurement, graph->edge_measurement + (size_t)index * (size_t)graph->pose_size,
+    view->from = graph->store.pose_id[graph->store.edge_from[index]];
+    view->to = graph->store.pose_id[graph->store.edge_to[index]];
+    view->kind = (pgem_edge_kind_t)graph->store.edge_kind[index];
+    memcpy(view->measurement, graph->store.edge_measurement + (size_t)index * (size_t)graph->pose_size,
            (size_t)graph->pose_size * sizeof(double));
-    memcpy(view->information, graph->edge_information + (size_t)index * info_size,
+    memcpy(view->information, graph->store.edge_information + (size_t)index * info_size,
            info_size * sizeof(double));
-    view->weight = graph->edge_weight[index];
-    view->active = graph->edge_active[index] != PGEM_EDGE_PRUNED; /* dormant: not pruned */
+    view->weight = graph->store.edge_weight[index];
+    view->active = graph->store.edge_active[index] != PGEM_EDGE_PRUNED; /* dormant: not pruned */
     return PGEM_OK;
 }

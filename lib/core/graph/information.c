@@ -3,7 +3,8 @@
 #include <float.h>
 #include <math.h>
 
-#include "internal.h"
+#include "graph/graph.h"
+#include "instance.h"
 
 /* Which entry (row, column) breaks the check, for the message. */
 typedef struct pgem_entry_ref {

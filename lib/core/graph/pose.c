@@ -2,7 +2,8 @@
 #include <math.h>
 #include <string.h>
 
-#include "internal.h"
+#include "graph/graph.h"
+#include "instance.h"
 
 /* Field names by dimension (row 0: 2D, row 1: 3D), both rows PGEM_POSE_SIZE_MAX long. */
 static const char *const pgem_pose_fields[2][PGEM_POSE_SIZE_MAX] = {
@@ -87,7 +88,7 @@ int pgem_add_pose(pgem_t *graph, pgem_id_t id, const double *pose)
     if (graph == NULL || pose == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    if (graph->pose_count >= graph->config.max_poses) {
+    if (graph->store.pose_count >= graph->config.max_poses) {
         pgem_message_clear(graph);
         pgem_message_text(graph, "pose ");
         pgem_message_u64(graph, id);
@@ -110,14 +111,14 @@ int pgem_add_pose(pgem_t *graph, pgem_id_t id, const double *pose)
         pgem_message_text(graph, ")");
         return status;
     }
-    uint32_t index = graph->pose_count;
-    graph->pose_id[index] = id;
-    memcpy(graph->pose + (size_t)index * (size_t)graph->pose_size, checked,
+    uint32_t index = graph->store.pose_count;
+    graph->store.pose_id[index] = id;
+    memcpy(graph->store.pose + (size_t)index * (size_t)graph->pose_size, checked,
            (size_t)graph->pose_size * sizeof(double));
-    graph->pose_fixed[index] = 0;
+    graph->store.pose_fixed[index] = 0;
     pgem_map_insert(graph, id, index);
-    graph->pose_count++;
-    pgem_linear_invalidate(graph);
+    graph->store.pose_count++;
+    graph->store.topology++;
     pgem_message_clear(graph);
     return PGEM_OK;
 }
@@ -132,11 +133,11 @@ int pgem_fix_pose(pgem_t *graph, pgem_id_t id, int fixed)
         return pgem_unknown_pose(graph, id);
     }
     uint8_t flag = fixed ? 1u : 0u;
-    if (graph->pose_fixed[index] != flag) {
-        graph->pose_fixed[index] = flag;
-        graph->fixed_count = flag ? graph->fixed_count + 1u : graph->fixed_count - 1u;
-        pgem_linear_invalidate(graph);
-        pgem_online_invalidate(&graph->online);
+    if (graph->store.pose_fixed[index] != flag) {
+        graph->store.pose_fixed[index] = flag;
+        graph->store.fixed_count = flag ? graph->store.fixed_count + 1u : graph->store.fixed_count - 1u;
+        graph->store.topology++;
+        graph->store.edited_low = 0u; /* a held pose changes every column's meaning */
     }
     pgem_message_clear(graph);
     return PGEM_OK;
@@ -164,7 +165,7 @@ int pgem_get_pose(const pgem_t *graph, pgem_id_t id, double *pose)
     if (index < 0) {
         return PGEM_ERR_UNKNOWN_ID;
     }
-    memcpy(pose, graph->pose + (size_t)index * (size_t)graph->pose_size,
+    memcpy(pose, graph->store.pose + (size_t)index * (size_t)graph->pose_size,
            (size_t)graph->pose_size * sizeof(double));
     return PGEM_OK;
 }
@@ -186,9 +187,10 @@ int pgem_set_pose(pgem_t *graph, pgem_id_t id, const double *pose)
         pgem_message_text(graph, ")");
         return status;
     }
-    memcpy(graph->pose + (size_t)index * (size_t)graph->pose_size, checked,
+    memcpy(graph->store.pose + (size_t)index * (size_t)graph->pose_size, checked,
            (size_t)graph->pose_size * sizeof(double));
-    pgem_online_pose_moved(&graph->online, (uint32_t)index);
+    graph->store.edited_low = (uint32_t)index < graph->store.edited_low ? (uint32_t)index
+                                                                       : graph->store.edited_low;
     pgem_message_clear(graph);
     return PGEM_OK;
 }
@@ -200,23 +202,23 @@ int pgem_dimension(const pgem_t *graph)
 
 uint32_t pgem_pose_count(const pgem_t *graph)
 {
-    return graph != NULL ? graph->pose_count : 0u;
+    return graph != NULL ? graph->store.pose_count : 0u;
 }
 
 int pgem_pose_at(const pgem_t *graph, uint32_t index, pgem_id_t *id, double *pose, int *fixed)
 {
-    if (graph == NULL || index >= graph->pose_count) {
+    if (graph == NULL || index >= graph->store.pose_count) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
     if (id != NULL) {
-        *id = graph->pose_id[index];
+        *id = graph->store.pose_id[index];
     }
     if (pose != NULL) {
-        memcpy(pose, graph->pose + (size_t)index * (size_t)graph->pose_size,
+        memcpy(pose, graph->store.pose + (size_t)index * (size_t)graph->pose_size,
                (size_t)graph->pose_size * sizeof(double));
     }
     if (fixed != NULL) {
-        *fixed = graph->pose_fixed[index];
+        *fixed = graph->store.pose_fixed[index];
     }
     return PGEM_OK;
 }

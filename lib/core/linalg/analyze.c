@@ -1,13 +1,7 @@
 /* Symbolic analysis, once per topology change: ordering, postordered block elimination tree
  * and column counts (CSparse), the supernodes of L (linalg/supernodes.c) and their schedule,
  * H's lower block pattern and each edge's place in it. */
-#include "internal.h"
-
-void pgem_linear_invalidate(pgem_t *graph)
-{
-    graph->linear.valid = 0;
-    graph->linear.ordered = 0;
-}
+#include "linalg/linear.h"
 
 /* Position of block row `row` inside block column `column` (rows are sorted). */
 static int pgem_block_position(const pgem_linear_t *linear, int row, int column)
@@ -31,8 +25,8 @@ static int pgem_block_position(const pgem_linear_t *linear, int row, int column)
  * min(a, b); stored as H_{to,from} (transposed) when from < to. */
 static void pgem_analyze_edges(pgem_t *graph)
 {
-    pgem_linear_t *linear = &graph->linear;
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
+    pgem_linear_t *linear = graph->linear;
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         int a, b;
         if (!pgem_edge_blocks(graph, k, &a, &b)) {
             linear->edge_offset[k] = -1;
@@ -66,7 +60,7 @@ static void pgem_analyze_lower(pgem_linear_t *linear)
  * tree. work holds block_count ints. */
 static int pgem_analyze_postorder(pgem_t *graph, const cs_di *pattern, int *work)
 {
-    pgem_linear_t *linear = &graph->linear;
+    pgem_linear_t *linear = graph->linear;
     const int blocks = linear->block_count;
     int *parent = cs_di_etree(pattern, 0);
     int *post = parent != NULL ? cs_di_post(parent, blocks) : NULL;
@@ -78,7 +72,7 @@ static int pgem_analyze_postorder(pgem_t *graph, const cs_di *pattern, int *work
         for (int j = 0; j < blocks; j++) {
             linear->block_parent[renumbered[j]] = parent[j] >= 0 ? renumbered[parent[j]] : -1;
         }
-        for (uint32_t p = 0; p < graph->pose_count; p++) {
+        for (uint32_t p = 0; p < graph->store.pose_count; p++) {
             const int block = linear->pose_block[p];
             linear->pose_block[p] = block >= 0 ? renumbered[block] : -1;
         }
@@ -92,11 +86,11 @@ static int pgem_analyze_postorder(pgem_t *graph, const cs_di *pattern, int *work
  * supernodal layout. Returns the nonzeros of L or a negative error. */
 static int64_t pgem_analyze_factor(pgem_t *graph)
 {
-    pgem_linear_t *linear = &graph->linear;
+    pgem_linear_t *linear = graph->linear;
     const int blocks = linear->block_count;
-    int *colptr = linear->scratch;
+    int *colptr = pgem_linear_scratch(linear);
     int *rows = colptr + blocks + 1;
-    int *work = rows + graph->edge_count;
+    int *work = rows + graph->store.edge_count;
     pgem_pattern_build(graph, blocks, colptr, rows, work);
     cs_di pattern = {colptr[blocks], blocks, blocks, colptr, rows, NULL, -1};
     pgem_cs_open(&linear->cs_pool);
@@ -126,7 +120,7 @@ static int64_t pgem_analyze_factor(pgem_t *graph)
  * memory that was short (the C heap with the system CSparse, else the block's pool). */
 static int pgem_fail_workspace(pgem_t *graph, const char *step)
 {
-    const size_t pool = graph->linear.cs_pool.size;
+    const size_t pool = graph->linear->cs_pool.size;
     pgem_message_clear(graph);
     pgem_message_text(graph, "out of memory in the symbolic analysis (");
     pgem_message_text(graph, step);
@@ -150,16 +144,6 @@ static int pgem_fill_exceeded(pgem_t *graph, int64_t nonzeros)
     return PGEM_ERR_FILL_BUDGET;
 }
 
-/* Root of a pose in the union-find forest `parent`, halving the path on the way. */
-static int pgem_part_root(int *parent, int pose)
-{
-    while (parent[pose] != pose) {
-        parent[pose] = parent[parent[pose]];
-        pose = parent[pose];
-    }
-    return pose;
-}
-
 /* Every part of the graph (poses joined by edges in the problem: active or dormant, not
  * pruned) must hold a held pose, or its poses can move together at no cost. Gauss-Newton
  * would meet a zero pivot, but Levenberg-Marquardt's damping hides it and solves a part that
@@ -170,29 +154,27 @@ static int pgem_part_root(int *parent, int pose)
  * union-find forest and the held marks. */
 int pgem_linear_check_parts(pgem_t *graph)
 {
-    int *parent = graph->linear.factor.head;
-    int *held = graph->linear.factor.next;
-    for (uint32_t p = 0; p < graph->pose_count; p++) {
-        parent[p] = (int)p;
+    uint32_t *parent = (uint32_t *)(void *)graph->linear->factor.head;
+    int *held = graph->linear->factor.next;
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+        parent[p] = p;
         held[p] = 0;
     }
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (graph->edge_active[k] != PGEM_EDGE_PRUNED) {
-            int a = pgem_part_root(parent, (int)graph->edge_from[k]);
-            int b = pgem_part_root(parent, (int)graph->edge_to[k]);
-            parent[a < b ? b : a] = a < b ? a : b;
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (graph->store.edge_active[k] != PGEM_EDGE_PRUNED) {
+            (void)pgem_part_join(parent, graph->store.edge_from[k], graph->store.edge_to[k]);
         }
     }
-    for (uint32_t p = 0; p < graph->pose_count; p++) {
-        if (graph->linear.pose_block[p] < 0) {
-            held[pgem_part_root(parent, (int)p)] = 1;
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+        if (graph->linear->pose_block[p] < 0) {
+            held[pgem_part_root(parent, p)] = 1;
         }
     }
-    for (uint32_t p = 0; p < graph->pose_count; p++) {
-        if (!held[pgem_part_root(parent, (int)p)]) {
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+        if (!held[pgem_part_root(parent, p)]) {
             pgem_message_clear(graph);
             pgem_message_text(graph, "pose ");
-            pgem_message_u64(graph, graph->pose_id[p]);
+            pgem_message_u64(graph, graph->store.pose_id[p]);
             pgem_message_text(graph, " is in a part of the graph with no held pose (a fixed "
                                      "pose, or the first pose added when none is fixed): no "
                                      "edge, or only pruned loop closures, join it to one");
@@ -204,12 +186,12 @@ int pgem_linear_check_parts(pgem_t *graph)
 
 static int pgem_linear_analyze_once(pgem_t *graph)
 {
-    pgem_linear_t *linear = &graph->linear;
+    pgem_linear_t *linear = graph->linear;
     linear->valid = 0;
     linear->factor.nonzeros = 0;
     int blocks = 0;
     if (linear->ordered) { /* pgem_copy handed over this graph's ordering */
-        for (uint32_t p = 0; p < graph->pose_count; p++) {
+        for (uint32_t p = 0; p < graph->store.pose_count; p++) {
             blocks += linear->pose_block[p] >= 0;
         }
     } else {
@@ -245,18 +227,36 @@ static int pgem_linear_analyze_once(pgem_t *graph)
  * built over every edge instead (the fill the caller sized for). */
 int pgem_linear_analyze(pgem_t *graph)
 {
-    graph->linear.all_edges = 0; /* a handed-over ordering (pgem_copy) is never the fallback's */
+    pgem_linear_follow(graph);
+    graph->linear->all_edges = 0; /* a handed-over ordering (pgem_copy) is never the fallback's */
     int status = pgem_linear_analyze_once(graph);
     if (status == PGEM_ERR_FILL_BUDGET) {
         uint32_t k = 0;
-        while (k < graph->edge_count && graph->edge_active[k] == PGEM_EDGE_ACTIVE) {
+        while (k < graph->store.edge_count && graph->store.edge_active[k] == PGEM_EDGE_ACTIVE) {
             k++;
         }
-        if (k < graph->edge_count) { /* some edge was left out: try the full structure */
-            graph->linear.all_edges = 1;
-            graph->linear.ordered = 0;
+        if (k < graph->store.edge_count) { /* some edge was left out: try the full structure */
+            graph->linear->all_edges = 1;
+            graph->linear->ordered = 0;
             status = pgem_linear_analyze_once(graph);
         }
+    }
+    return status;
+}
+
+int pgem_linear_fill_needed(pgem_t *graph, uint32_t *nonzeros)
+{
+    pgem_linear_follow(graph);
+    pgem_linear_t *linear = graph->linear;
+    int status = PGEM_OK;
+    if (!linear->valid || linear->all_edges) {
+        linear->all_edges = 0;
+        status = pgem_linear_analyze_once(graph);
+    }
+    if (status == PGEM_OK || status == PGEM_ERR_FILL_BUDGET) {
+        *nonzeros = (uint32_t)linear->factor.nonzeros;
+        pgem_message_clear(graph);
+        return PGEM_OK;
     }
     return status;
 }

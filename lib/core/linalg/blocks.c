@@ -5,7 +5,7 @@
  * local arrays so the compiler knows they alias nothing. */
 #include <math.h>
 
-#include "internal.h"
+#include "linalg/linear.h"
 
 /* Block row t (0 = the supernode's own block) of a one-block supernode of height h:
  * out[r * b + c] = L(t b + r, c). */

@@ -11,7 +11,7 @@
  * pgem_cs_pool_bytes bounds it from above for the calls the core makes (see DESIGN.md). */
 #include <string.h>
 
-#include "internal.h"
+#include "linalg/linear.h"
 
 #ifdef PGEM_CSPARSE_ARENA
 
@@ -120,7 +120,7 @@ static void *pgem_pool_take(int n, size_t size)
 }
 
 /* pgem_fault_next() is 0 except in the exhaustion test's copy of the core, which fails each
- * allocation in turn (internal.h). */
+ * allocation in turn (common/common.h). */
 void *cs_di_malloc(int n, size_t size)
 {
     return pgem_fault_next() ? NULL : pgem_pool_take(n, size);

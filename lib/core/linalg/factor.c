@@ -1,7 +1,7 @@
 /* pgem_linear_factor: the supernodal factorisation's tasks (independent subtrees) on the
  * instance's workers, then the supernodes above them, and the message when a pivot is not
  * positive. */
-#include "internal.h"
+#include "linalg/linear.h"
 
 size_t pgem_factor_work_doubles(uint32_t max_poses, int block, int worker)
 {
@@ -50,14 +50,14 @@ pgem_factor_column_t pgem_factor_column_view(const pgem_factor_t *factor, int co
 
 static int pgem_not_positive_definite(pgem_t *graph, int unknown)
 {
-    const int block = unknown / graph->linear.block;
+    const int block = unknown / graph->linear->block;
     pgem_message_clear(graph);
     pgem_message_text(graph, "normal equations not positive definite at unknown ");
     pgem_message_i64(graph, unknown);
-    for (uint32_t p = 0; p < graph->pose_count; p++) {
-        if (graph->linear.pose_block[p] == block) {
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+        if (graph->linear->pose_block[p] == block) {
             pgem_message_text(graph, " (pose ");
-            pgem_message_u64(graph, graph->pose_id[p]);
+            pgem_message_u64(graph, graph->store.pose_id[p]);
             pgem_message_text(graph, ")");
         }
     }
@@ -92,9 +92,9 @@ static void pgem_factor_tasks(void *context, uint32_t worker)
  * order, as one worker running them in turn would meet it) with *failed its column. */
 static int pgem_factor_parallel(pgem_t *graph, int workers, int *failed)
 {
-    pgem_factor_t *factor = &graph->linear.factor;
+    pgem_factor_t *factor = &graph->linear->factor;
     pgem_factor_job_t job;
-    job.linear = &graph->linear;
+    job.linear = graph->linear;
     pgem_schedule_assign(factor, workers);
     factor->progress_share = (double)workers; /* worker 0 reports for all */
     graph->executor.run(graph->executor.executor, pgem_factor_tasks, &job);
@@ -114,7 +114,7 @@ static int pgem_factor_parallel(pgem_t *graph, int workers, int *failed)
 
 int pgem_linear_factor(pgem_t *graph)
 {
-    pgem_linear_t *linear = &graph->linear;
+    pgem_linear_t *linear = graph->linear;
     pgem_factor_t *factor = &linear->factor;
     int workers = graph->executor.run != NULL ? (int)graph->executor.workers : 1;
     workers = workers < factor->worker_count ? workers : factor->worker_count;

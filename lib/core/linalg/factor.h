@@ -1,6 +1,6 @@
 /* The supernodal Cholesky factor L of the Newton matrix: its layout (decided by the symbolic
  * analysis), the workspace of a numeric factorisation and the dense kernels behind it. Private
- * to lib/core: linalg's own state, kept out of internal.h's instance layout. */
+ * to lib/core: linalg's own state, opaque to the other layers (linalg/linear.h). */
 #ifndef PGEM_FACTOR_H
 #define PGEM_FACTOR_H
 
@@ -84,7 +84,7 @@ typedef struct pgem_factor {
     int *position;          /* [max_poses] next row (index into rows) a supernode updates */
     pgem_factor_worker_t *workers; /* [worker_count] */
     double *shared;         /* [shared_doubles] the region the analysis's scratch
-                               (linear->scratch), worker 0's dense workspace and the vectors of
+                               (pgem_linear_scratch), worker 0's dense workspace and the vectors of
                                the solves after a factorisation (the Newton step's conjugate
                                gradients, the marginals' right-hand sides, the inverse's blocks)
                                take turns in: none of them outlives its call */

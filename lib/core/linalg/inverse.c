@@ -7,7 +7,7 @@
  * from the last column to the first. After it, L is gone: the next solve factors again. */
 #include <string.h>
 
-#include "internal.h"
+#include "linalg/linear.h"
 
 /* Off-diagonal block q of a column into a row-major b x b array. */
 static inline void pgem_load_block(const pgem_factor_column_t *column, int b, int q, double *out)
@@ -154,7 +154,7 @@ static inline void pgem_invert_column(pgem_linear_t *linear, int b, int column)
 
 void pgem_linear_invert(pgem_t *graph)
 {
-    pgem_linear_t *linear = &graph->linear;
+    pgem_linear_t *linear = graph->linear;
     for (int column = linear->block_count - 1; column >= 0; column--) {
         if (linear->block == 6) {
             pgem_invert_column(linear, 6, column);
@@ -219,7 +219,7 @@ static void pgem_add_diagonal_form(pgem_linear_t *linear, int b, int column, con
 int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
                                  const double *a_to, double *out)
 {
-    pgem_linear_t *linear = &graph->linear;
+    pgem_linear_t *linear = graph->linear;
     const int b = linear->block;
     const int block_from = linear->pose_block[from], block_to = linear->pose_block[to];
     memset(out, 0, (size_t)(b * b) * sizeof(double));
@@ -268,7 +268,7 @@ int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, cons
 void pgem_linear_marginal_diagonal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
                                    const double *a_to, double *out)
 {
-    pgem_linear_t *linear = &graph->linear;
+    pgem_linear_t *linear = graph->linear;
     const int b = linear->block;
     const int block_from = linear->pose_block[from], block_to = linear->pose_block[to];
     memset(out, 0, (size_t)(b * b) * sizeof(double));

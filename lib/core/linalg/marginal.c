@@ -7,7 +7,7 @@
  * allocation. */
 #include <string.h>
 
-#include "internal.h"
+#include "linalg/linear.h"
 
 /* The next block column of the union of the paths from a and b to the root (either may be
  * -1), in increasing order: both paths climb (a parent follows its child), so they merge like
@@ -108,7 +108,7 @@ static inline void pgem_marginal_blocks(pgem_linear_t *linear, int b, int block_
 void pgem_linear_marginal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
                           const double *a_to, double *out)
 {
-    pgem_linear_t *linear = &graph->linear;
+    pgem_linear_t *linear = graph->linear;
     const int b = linear->block;
     const int block_from = linear->pose_block[from], block_to = linear->pose_block[to];
     memset(out, 0, (size_t)(b * b) * sizeof(double));

@@ -2,7 +2,7 @@
  * included), over the block pattern of H's lower triangle (pgem_lower_column); no allocation. */
 #include <string.h>
 
-#include "internal.h"
+#include "linalg/linear.h"
 
 /* One block column of H for block size b (a constant at each call). */
 static inline void pgem_multiply_column(const pgem_linear_t *linear, int b, int column,
@@ -34,7 +34,7 @@ static inline void pgem_multiply_column(const pgem_linear_t *linear, int b, int 
 
 void pgem_linear_multiply(const pgem_t *graph, const double *x, double *y)
 {
-    const pgem_linear_t *linear = &graph->linear;
+    const pgem_linear_t *linear = graph->linear;
     memset(y, 0, (size_t)linear->scalar_count * sizeof(double));
     for (int column = 0; column < linear->block_count; column++) {
         if (linear->block == 6) {

@@ -9,7 +9,7 @@
  * is short the coarsening simply stops earlier. */
 #include <string.h>
 
-#include "internal.h"
+#include "linalg/linear.h"
 
 #ifndef PGEM_NO_NESTED
 

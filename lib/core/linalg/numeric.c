@@ -5,7 +5,7 @@
  * them follow one by one. No allocation: the workspace is carved at init. */
 #include <string.h>
 
-#include "internal.h"
+#include "linalg/linear.h"
 
 /* Block positions of supernode s's rows in the worker's map: its own block columns first,
  * then its rows below. */

@@ -3,7 +3,8 @@
 #include <math.h>
 #include <string.h>
 
-#include "internal.h"
+#include "instance.h"
+#include "linalg/linear.h"
 
 static double *pgem_online_block(const pgem_online_t *online, int q)
 {

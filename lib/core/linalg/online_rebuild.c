@@ -4,7 +4,8 @@
 #include <math.h>
 #include <string.h>
 
-#include "internal.h"
+#include "instance.h"
+#include "linalg/linear.h"
 
 void pgem_online_edge(const pgem_t *graph, uint32_t k, const double *from, const double *to,
                       double weight, double *a_from, double *a_to, double *residual)
@@ -13,7 +14,7 @@ void pgem_online_edge(const pgem_t *graph, uint32_t k, const double *from, const
     double e[PGEM_TANGENT_SIZE_MAX], jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double u[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    const double *measurement = graph->edge_measurement + (size_t)k * (size_t)graph->pose_size;
+    const double *measurement = graph->store.edge_measurement + (size_t)k * (size_t)graph->pose_size;
     if (n == 6) {
         pgem_se3_error(from, to, measurement, e, jf, jt);
     } else {
@@ -21,7 +22,7 @@ void pgem_online_edge(const pgem_t *graph, uint32_t k, const double *from, const
     }
     /* Omega = U^T U: Omega's Cholesky factor stored by column is U stored by row (Omega was
      * checked positive definite when the edge was added); rows of sqrt(w) U J, sqrt(w) U e */
-    const double *o = graph->edge_information + (size_t)k * (size_t)(n * n);
+    const double *o = graph->store.edge_information + (size_t)k * (size_t)(n * n);
     memcpy(u, o, (size_t)(n * n) * sizeof(double));
     (void)pgem_online_cholesky(u, n);
     const double root = sqrt(weight);
@@ -63,14 +64,14 @@ static void pgem_online_sort(int *values, int count)
 /* 1 if pose p is solved for: free (held poses and, with none held, the first pose are not). */
 static int pgem_online_free(const pgem_t *graph, uint32_t p)
 {
-    return !graph->pose_fixed[p] && !(graph->fixed_count == 0u && p == 0u);
+    return !graph->store.pose_fixed[p] && !(graph->store.fixed_count == 0u && p == 0u);
 }
 
 /* The other pose of edge end `end` (2 k + side). */
 static uint32_t pgem_online_other(const pgem_t *graph, int end)
 {
     const uint32_t k = (uint32_t)end / 2u;
-    return (end & 1) ? graph->edge_from[k] : graph->edge_to[k];
+    return (end & 1) ? graph->store.edge_from[k] : graph->store.edge_to[k];
 }
 
 /* Columns numbered by arrival for every free pose with an edge in the system; returns how
@@ -79,7 +80,7 @@ static int pgem_online_number(pgem_t *graph)
 {
     pgem_online_t *online = &graph->online;
     int columns = 0;
-    for (uint32_t p = 0; p < graph->pose_count; p++) {
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
         online->pose_column[p] = -1;
         if (!pgem_online_free(graph, p)) {
             continue;
@@ -103,7 +104,7 @@ static int pgem_online_order(pgem_t *graph, int columns, int recent)
     for (int j = 0; j <= columns; j++) {
         colptr[j] = 0;
     }
-    for (uint32_t p = 0; p < graph->pose_count; p++) {
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
         const int j = online->pose_column[p];
         for (int end = j >= 0 ? online->pose_edge[p] : -1; end >= 0; end = online->edge_next[end]) {
             const int i = online->pose_column[pgem_online_other(graph, end)];
@@ -120,7 +121,7 @@ static int pgem_online_order(pgem_t *graph, int columns, int recent)
         colptr[j] = colptr[j - 1];
     }
     colptr[0] = 0;
-    for (uint32_t p = 0; p < graph->pose_count; p++) {
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
         const int j = online->pose_column[p];
         for (int end = j >= 0 ? online->pose_edge[p] : -1; end >= 0; end = online->edge_next[end]) {
             const int i = online->pose_column[pgem_online_other(graph, end)];
@@ -130,10 +131,10 @@ static int pgem_online_order(pgem_t *graph, int columns, int recent)
         }
     }
     cs_di pattern = {colptr[columns], columns, columns, colptr, rows, NULL, -1};
-    pgem_cs_open(&graph->linear.cs_pool);
+    pgem_cs_open(&graph->linear->cs_pool);
     int *order = columns > 0 ? cs_di_amd(1, &pattern) : NULL;
     if (columns > 0 && order == NULL) {
-        pgem_cs_close(&graph->linear.cs_pool);
+        pgem_cs_close(&graph->linear->cs_pool);
         return pgem_fail(graph, PGEM_ERR_OUT_OF_MEMORY,
                          "the online factor's ordering (CSparse's AMD) could not get workspace");
     }
@@ -148,7 +149,7 @@ static int pgem_online_order(pgem_t *graph, int columns, int recent)
         online->list[k++] = j;
     }
     cs_di_free(order);
-    pgem_cs_close(&graph->linear.cs_pool);
+    pgem_cs_close(&graph->linear->cs_pool);
     return PGEM_OK;
 }
 
@@ -226,16 +227,16 @@ static void pgem_online_assemble(pgem_t *graph, int columns)
     memset(online->forward, 0, (size_t)columns * (size_t)b * sizeof(double));
     double a[2][PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {{0.0}};
     double r[PGEM_TANGENT_SIZE_MAX] = {0.0};
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         const double w = online->edge_weight_in[k];
-        const int ends[2] = {online->pose_column[graph->edge_from[k]],
-                             online->pose_column[graph->edge_to[k]]};
+        const int ends[2] = {online->pose_column[graph->store.edge_from[k]],
+                             online->pose_column[graph->store.edge_to[k]]};
         if (!(w > 0.0) || (ends[0] < 0 && ends[1] < 0)) {
             continue;
         }
         const size_t size = (size_t)graph->pose_size;
-        pgem_online_edge(graph, k, online->lin + graph->edge_from[k] * size,
-                         online->lin + graph->edge_to[k] * size, w, a[0], a[1], r);
+        pgem_online_edge(graph, k, online->lin + graph->store.edge_from[k] * size,
+                         online->lin + graph->store.edge_to[k] * size, w, a[0], a[1], r);
         for (int s = 0; s < 2; s++) {
             for (int t = 0; t < 2; t++) {
                 if (ends[s] < 0 || ends[t] < ends[s]) {
@@ -378,12 +379,12 @@ int pgem_online_rebuild(pgem_t *graph, int recent)
     if (status != PGEM_OK) {
         return status;
     }
-    for (uint32_t p = 0; p < graph->pose_count; p++) {
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
         online->pose_column[p] = -1;
     }
     /* list[k] holds the arrival number of the k-th column: map it back to its pose */
     int arrival = 0;
-    for (uint32_t p = 0; p < graph->pose_count && arrival < columns; p++) {
+    for (uint32_t p = 0; p < graph->store.pose_count && arrival < columns; p++) {
         if (!pgem_online_free(graph, p)) {
             continue;
         }

@@ -6,7 +6,7 @@
  * nested dissection needs to pay, and it saves 6.6 KiB of flash. CSparse allocates
  * here: from the heap with the system CSparse, from the block's pool with the source-built
  * one; nested dissection works in the part of the block H's values use later. */
-#include "internal.h"
+#include "linalg/linear.h"
 
 /* Nested dissection is tried only where it can pay for itself: graphs of at least this many
  * free poses whose AMD factor needs at least PGEM_ND_MIN_FLOPS_PER_BLOCK flops per pose and
@@ -23,9 +23,9 @@
 static void pgem_order_apply(pgem_t *graph, const int *position)
 {
     (void)pgem_pattern_number_free(graph);
-    for (uint32_t p = 0; p < graph->pose_count; p++) {
-        const int free_index = graph->linear.pose_block[p];
-        graph->linear.pose_block[p] = free_index >= 0 ? position[free_index] : -1;
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+        const int free_index = graph->linear->pose_block[p];
+        graph->linear->pose_block[p] = free_index >= 0 ? position[free_index] : -1;
     }
 }
 
@@ -33,11 +33,11 @@ static void pgem_order_apply(pgem_t *graph, const int *position)
  * position, or -1 if CSparse could not get workspace. */
 static double pgem_order_flops(pgem_t *graph, int blocks, const int *position)
 {
-    pgem_linear_t *linear = &graph->linear;
+    pgem_linear_t *linear = graph->linear;
     const int b = linear->block;
-    int *colptr = linear->scratch;
+    int *colptr = pgem_linear_scratch(linear);
     int *rows = colptr + blocks + 1;
-    int *work = rows + graph->edge_count;
+    int *work = rows + graph->store.edge_count;
     pgem_order_apply(graph, position);
     pgem_pattern_build(graph, blocks, colptr, rows, work);
     cs_di pattern = {colptr[blocks], blocks, blocks, colptr, rows, NULL, -1};
@@ -62,10 +62,10 @@ static double pgem_order_flops(pgem_t *graph, int blocks, const int *position)
 /* AMD's position of every free index, into position. */
 static int pgem_order_amd(pgem_t *graph, int blocks, int *position)
 {
-    pgem_linear_t *linear = &graph->linear;
-    int *colptr = linear->scratch;
+    pgem_linear_t *linear = graph->linear;
+    int *colptr = pgem_linear_scratch(linear);
     int *rows = colptr + blocks + 1;
-    int *work = rows + graph->edge_count;
+    int *work = rows + graph->store.edge_count;
     cs_di pattern = {colptr[blocks], blocks, blocks, colptr, rows, NULL, -1};
     pgem_cs_open(&linear->cs_pool);
     int *order = cs_di_amd(1, &pattern);
@@ -85,8 +85,8 @@ static int pgem_order_amd(pgem_t *graph, int blocks, int *position)
 /* Nested dissection's position of every free index, into position; order is workspace. */
 static int pgem_order_nested(pgem_t *graph, int blocks, int *position, int *order)
 {
-    pgem_linear_t *linear = &graph->linear;
-    const int *colptr = linear->scratch;
+    pgem_linear_t *linear = graph->linear;
+    const int *colptr = pgem_linear_scratch(linear);
     const int *rows = colptr + blocks + 1;
     const size_t b = (size_t)linear->block;
     const size_t doubles = (size_t)graph->config.max_edges * b * b +
@@ -109,10 +109,10 @@ static int pgem_order_nested(pgem_t *graph, int blocks, int *position, int *orde
 
 int pgem_pattern_order(pgem_t *graph, int block_count)
 {
-    pgem_linear_t *linear = &graph->linear;
-    int *colptr = linear->scratch;
+    pgem_linear_t *linear = graph->linear;
+    int *colptr = pgem_linear_scratch(linear);
     int *rows = colptr + block_count + 1;
-    int *work = rows + graph->edge_count;
+    int *work = rows + graph->store.edge_count;
     int *amd = linear->factor.order;       /* free until the schedule is built */
     int *nested = linear->factor.task_worker;
     pgem_pattern_build(graph, block_count, colptr, rows, work);

@@ -1,13 +1,13 @@
 /* Block pattern of H: free-pose numbering, the sorted upper block pattern and its transpose. */
-#include "internal.h"
+#include "linalg/linear.h"
 
 /* Numbers the free poses 0, 1, ... (-1 for held poses); returns how many are free. */
 int pgem_pattern_number_free(pgem_t *graph)
 {
     int free_count = 0;
-    for (uint32_t p = 0; p < graph->pose_count; p++) {
-        int held = graph->pose_fixed[p] || (graph->fixed_count == 0u && p == 0u);
-        graph->linear.pose_block[p] = held ? -1 : free_count++;
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+        int held = graph->store.pose_fixed[p] || (graph->store.fixed_count == 0u && p == 0u);
+        graph->linear->pose_block[p] = held ? -1 : free_count++;
     }
     return free_count;
 }
@@ -20,11 +20,11 @@ static void pgem_pattern_bucket(const pgem_t *graph, int block_count, int *colpt
 {
     int *rowptr = work;
     int *cols = work + block_count + 1;
-    int *cursor = cols + graph->edge_count;
+    int *cursor = cols + graph->store.edge_count;
     for (int j = 0; j <= block_count; j++) {
         rowptr[j] = 0;
     }
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         int a, b;
         if (pgem_edge_blocks(graph, k, &a, &b)) {
             rowptr[(a < b ? a : b) + 1]++;
@@ -35,7 +35,7 @@ static void pgem_pattern_bucket(const pgem_t *graph, int block_count, int *colpt
         cursor[j] = rowptr[j];
     }
     /* rows bucketed by row index, holding their column */
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         int a, b;
         if (pgem_edge_blocks(graph, k, &a, &b)) {
             cols[cursor[a < b ? a : b]++] = a < b ? b : a;

@@ -3,7 +3,7 @@
  * subtrees holding at most a 1/PGEM_SUBTREE_SHARE of the flops each are tasks a worker runs
  * whole; the supernodes above them run afterwards in postorder. Tasks are handed to workers
  * by pgem_schedule_assign. */
-#include "internal.h"
+#include "linalg/linear.h"
 
 void pgem_schedule_analyze(pgem_linear_t *linear)
 {

@@ -1,7 +1,7 @@
 /* Triangular solves with the supernodal factor: L y = x, then L^T z = y, in place and in
  * permuted order, column by column (CSparse's cs_lsolve / cs_ltsolve order), each supernode's
  * columns reading its own rows and then its rows below. */
-#include "internal.h"
+#include "linalg/linear.h"
 
 /* One supernode as the solves read it. */
 typedef struct pgem_solve_node {
@@ -82,8 +82,8 @@ static inline void pgem_upper_solve(const pgem_factor_t *factor, int b, double *
 /* Solves H step = rhs in place (permuted order): L y = rhs, then L^T step = y. */
 void pgem_linear_solve(pgem_t *graph, double *step)
 {
-    const pgem_factor_t *factor = &graph->linear.factor;
-    if (graph->linear.block == 6) {
+    const pgem_factor_t *factor = &graph->linear->factor;
+    if (graph->linear->block == 6) {
         pgem_lower_solve(factor, 6, step);
         pgem_upper_solve(factor, 6, step);
     } else {

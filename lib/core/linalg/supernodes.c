@@ -3,7 +3,7 @@
  * child into its parent when the explicit zeros stay few, the row structure of each supernode
  * and the factor's layout (value offsets, nonzeros, flops). No allocation: the workspace is
  * the analysis's scratch and arrays a factorisation uses only later. */
-#include "internal.h"
+#include "linalg/linear.h"
 
 /* Relaxed amalgamation (widths in scalar columns, zeros as a fraction of the merged
  * supernode's values): a merge is taken when the merged supernode is at most RELAX_MEDIUM
@@ -221,10 +221,10 @@ double pgem_factor_supernode_flops(const pgem_factor_t *factor, int s)
 
 int64_t pgem_supernodes_analyze(pgem_t *graph, const int *counts)
 {
-    pgem_linear_t *linear = &graph->linear;
+    pgem_linear_t *linear = graph->linear;
     pgem_factor_t *factor = &linear->factor;
     const int blocks = linear->block_count, b = linear->block;
-    int *fsuper = linear->scratch;          /* [blocks] */
+    int *fsuper = pgem_linear_scratch(linear);          /* [blocks] */
     int *width = fsuper + blocks;           /* block columns of each fundamental supernode */
     int *height = width + blocks;           /* block rows of its first column */
     int *ffirst = factor->task_first;       /* [fcount + 1]; the schedule is built later */

@@ -7,10 +7,11 @@
  * test, the innovation without the odometry allowance) is used instead. */
 #include <math.h>
 
-#include "internal.h"
+#include "instance.h"
+#include "robust/robust.h"
 
 /* A factor of H under the current estimate at the current weights, and the Gauss-Newton step
- * from it in linear->rhs (the innovations predict from where that step leads). */
+ * from it in pgem_linear_step (the innovations predict from where that step leads). */
 static int pgem_factor_current(pgem_t *graph)
 {
     int status = pgem_analyze(graph);
@@ -24,31 +25,22 @@ static int pgem_factor_current(pgem_t *graph)
     return status;
 }
 
-/* 1 if loop k's poses meet on the factor's pattern (or one is held), so its marginal can be
- * read from the sparse inverse; else it needs a solve with L. */
-static int pgem_on_pattern(const pgem_t *graph, uint32_t k)
-{
-    const pgem_linear_t *linear = &graph->linear;
-    return linear->edge_offset[k] >= 0 || linear->pose_block[graph->edge_from[k]] < 0 ||
-           linear->pose_block[graph->edge_to[k]] < 0;
-}
-
 /* Loop k's distance into edge_distance, and edge_checked: 1 if the map predicted it. */
 static void pgem_loop_distance(pgem_t *graph, const pgem_robust_options_t *options, uint32_t k,
                                int gating, int from_inverse)
 {
-    const int pruned = graph->edge_active[k] == PGEM_EDGE_PRUNED;
+    const int pruned = graph->store.edge_active[k] == PGEM_EDGE_PRUNED;
     pgem_innovation_t innovation;
-    pgem_loop_innovation(graph, k, pruned ? 0.0 : graph->edge_weight[k],
+    pgem_loop_innovation(graph, k, pruned ? 0.0 : graph->store.edge_weight[k],
                          options->odometry_inflation, from_inverse, &innovation);
     const int checked = innovation.rotation_sd <= options->predictable_rotation;
-    graph->edge_checked[k] = (uint8_t)checked;
+    graph->robust.edge_checked[k] = (uint8_t)checked;
     if (checked) {
-        graph->edge_distance[k] = innovation.distance;
+        graph->robust.edge_distance[k] = innovation.distance;
     } else if (gating && !pruned) {
-        graph->edge_distance[k] = innovation.plain; /* leave-one-out, no odometry allowance */
+        graph->robust.edge_distance[k] = innovation.plain; /* leave-one-out, no odometry allowance */
     } else {
-        graph->edge_distance[k] = pgem_edge_mahalanobis(graph, k);
+        graph->robust.edge_distance[k] = pgem_edge_mahalanobis(graph, k);
     }
 }
 
@@ -57,8 +49,8 @@ static void pgem_loop_distance(pgem_t *graph, const pgem_robust_options_t *optio
 
 static int pgem_selected(const pgem_t *graph, uint32_t k, int with_pruned)
 {
-    return graph->edge_kind[k] == PGEM_EDGE_LOOP &&
-           (with_pruned || graph->edge_active[k] != PGEM_EDGE_PRUNED);
+    return graph->store.edge_kind[k] == PGEM_EDGE_LOOP &&
+           (with_pruned || graph->store.edge_active[k] != PGEM_EDGE_PRUNED);
 }
 
 void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int gating,
@@ -67,14 +59,14 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int 
     const int innovation = options->distance == PGEM_DISTANCE_INNOVATION &&
                            pgem_factor_current(graph) == PGEM_OK;
     uint32_t on_pattern = 0, off_pattern = 0;
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         if (!pgem_selected(graph, k, gating)) {
             continue;
         }
         if (!innovation) { /* the point distance, or a singular problem: no covariance */
-            graph->edge_distance[k] = pgem_edge_mahalanobis(graph, k);
-            graph->edge_checked[k] = 0;
-        } else if (pgem_on_pattern(graph, k)) {
+            graph->robust.edge_distance[k] = pgem_edge_mahalanobis(graph, k);
+            graph->robust.edge_checked[k] = 0;
+        } else if (pgem_linear_on_pattern(graph, k)) {
             on_pattern++;
         } else {
             off_pattern++;
@@ -85,11 +77,11 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int 
     }
     pgem_linear_invert(graph);
     uint32_t unsure = 0;
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         if (!pgem_selected(graph, k, gating)) {
             continue;
         }
-        if (pgem_on_pattern(graph, k)) {
+        if (pgem_linear_on_pattern(graph, k)) {
             pgem_loop_distance(graph, options, k, gating, 1);
             continue;
         }
@@ -97,40 +89,44 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int 
          * from the inverse's diagonal blocks already decide the test */
         double distance = 0.0;
         const int screened = pgem_loop_screen(graph, k, options->odometry_inflation, gate, &distance);
-        graph->edge_distance[k] = distance;
-        graph->edge_checked[k] = screened == 0 ? PGEM_CHECK_PENDING : 0;
+        graph->robust.edge_distance[k] = distance;
+        graph->robust.edge_checked[k] = screened == 0 ? PGEM_CHECK_PENDING : 0;
         unsure += (uint32_t)(screened == 0);
     }
     if (unsure == 0u || pgem_linear_factor(graph) != PGEM_OK) {
         return; /* (the factor was fine before the inverse: it cannot fail now) */
     }
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (graph->edge_kind[k] == PGEM_EDGE_LOOP && graph->edge_checked[k] == PGEM_CHECK_PENDING) {
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP && graph->robust.edge_checked[k] == PGEM_CHECK_PENDING) {
             pgem_loop_distance(graph, options, k, gating, 0);
         }
     }
 }
 
-double pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options)
+int pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options, double *largest_change)
 {
     double largest = 0.0;
     pgem_em_distances(graph, options, 0, 0.0);
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
-        if (graph->edge_kind[k] != PGEM_EDGE_LOOP || graph->edge_active[k] == PGEM_EDGE_PRUNED) {
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP || graph->store.edge_active[k] == PGEM_EDGE_PRUNED) {
             continue;
         }
-        const double weight = pgem_kernel_weight(options->kernel, graph->edge_distance[k],
-                                                 options->scale);
-        largest = fmax(largest, fabs(weight - graph->edge_weight[k]));
-        graph->edge_weight[k] = weight;
-        graph->edge_active[k] = weight < options->dormant_threshold ? PGEM_EDGE_DORMANT
+        double weight = 1.0;
+        const int status = pgem_loop_kernel_weight(graph, options, k, &weight);
+        if (status != PGEM_OK) {
+            return status;
+        }
+        largest = fmax(largest, fabs(weight - graph->store.edge_weight[k]));
+        graph->store.edge_weight[k] = weight;
+        graph->store.edge_active[k] = weight < options->dormant_threshold ? PGEM_EDGE_DORMANT
                                                                     : PGEM_EDGE_ACTIVE;
         /* a loop the map checked and found inconsistent leaves at once: its pull would bend
          * the map the other loops are tested against (the others wait for the round's end) */
-        if (graph->edge_checked[k] && options->kernel == PGEM_KERNEL_EM &&
+        if (graph->robust.edge_checked[k] && options->kernel == PGEM_KERNEL_EM &&
             weight < options->prune_threshold) {
-            graph->edge_active[k] = PGEM_EDGE_PRUNED;
+            graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
         }
     }
-    return largest;
+    *largest_change = largest;
+    return PGEM_OK;
 }

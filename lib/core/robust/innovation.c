@@ -12,7 +12,8 @@
 #include <math.h>
 #include <string.h>
 
-#include "internal.h"
+#include "instance.h"
+#include "robust/robust.h"
 
 /* The map's variance, in units of the loop's own, at which half the odometry allowance
  * applies. */
@@ -106,26 +107,26 @@ static void pgem_symmetric_eigen(double *a, int n, double *values, double *vecto
     }
 }
 
-/* U (e + J step): the whitened error the Gauss-Newton step in linear->rhs predicts. */
+/* U (e + J step): the whitened error the Gauss-Newton step (pgem_linear_step) predicts. */
 static void pgem_predicted_error(const pgem_t *graph, uint32_t k, const double *upper,
                                  const double *error, const double *a_from, const double *a_to,
                                  double *predicted)
 {
     const int n = graph->tangent;
-    const int block_from = graph->linear.pose_block[graph->edge_from[k]];
-    const int block_to = graph->linear.pose_block[graph->edge_to[k]];
-    const double *step = graph->linear.rhs;
+    const double *step = pgem_linear_step(graph);
+    const double *step_from = pgem_linear_pose_delta(graph, step, graph->store.edge_from[k]);
+    const double *step_to = pgem_linear_pose_delta(graph, step, graph->store.edge_to[k]);
     for (int r = 0; r < n; r++) {
         double sum = 0.0;
         for (int c = r; c < n; c++) {
             sum += upper[r * n + c] * error[c];
         }
         for (int c = 0; c < n; c++) {
-            if (block_from >= 0) {
-                sum += a_from[r * n + c] * step[block_from * n + c];
+            if (step_from != NULL) {
+                sum += a_from[r * n + c] * step_from[c];
             }
-            if (block_to >= 0) {
-                sum += a_to[r * n + c] * step[block_to * n + c];
+            if (step_to != NULL) {
+                sum += a_to[r * n + c] * step_to[c];
             }
         }
         predicted[r] = sum;
@@ -168,14 +169,14 @@ void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double infla
     double vectors[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double values[PGEM_TANGENT_SIZE_MAX] = {0}, mu0[PGEM_TANGENT_SIZE_MAX] = {0};
     pgem_edge_error(graph, k, e, jf, jt);
-    pgem_information_root(graph->edge_information + (size_t)k * (size_t)(n * n), n, upper);
+    pgem_information_root(graph->store.edge_information + (size_t)k * (size_t)(n * n), n, upper);
     pgem_upper_times(upper, jf, n, a_from);
     pgem_upper_times(upper, jt, n, a_to);
     if (from_inverse) {
-        (void)pgem_linear_marginal_inverse(graph, graph->edge_from[k], graph->edge_to[k], a_from,
+        (void)pgem_linear_marginal_inverse(graph, graph->store.edge_from[k], graph->store.edge_to[k], a_from,
                                            a_to, m);
     } else {
-        pgem_linear_marginal(graph, graph->edge_from[k], graph->edge_to[k], a_from, a_to, m);
+        pgem_linear_marginal(graph, graph->store.edge_from[k], graph->store.edge_to[k], a_from, a_to, m);
     }
     pgem_symmetric_eigen(m, n, values, vectors);
     pgem_predicted_error(graph, k, upper, e, a_from, a_to, predicted);
@@ -235,7 +236,7 @@ int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, d
     double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     pgem_edge_error(graph, k, e, jf, jt);
-    pgem_information_root(graph->edge_information + (size_t)k * (size_t)(n * n), n, upper);
+    pgem_information_root(graph->store.edge_information + (size_t)k * (size_t)(n * n), n, upper);
     pgem_upper_times(upper, jf, n, a_from);
     pgem_upper_times(upper, jt, n, a_to);
     pgem_predicted_error(graph, k, upper, e, a_from, a_to, predicted);
@@ -249,7 +250,7 @@ int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, d
         return 1;
     }
     /* A H^-1 A^T <= 2 (A_f Z_ff A_f^T + A_t Z_tt A_t^T), and the allowance at most kappa */
-    pgem_linear_marginal_diagonal(graph, graph->edge_from[k], graph->edge_to[k], a_from, a_to, m);
+    pgem_linear_marginal_diagonal(graph, graph->store.edge_from[k], graph->store.edge_to[k], a_from, a_to, m);
     for (int q = 0; q < n * n; q++) {
         m[q] *= 2.0 * inflation;
     }

@@ -1,30 +1,91 @@
-/* Robust kernels behind one interface: the weight a loop closure gets for its chi2. */
+/* Robust kernels behind one interface: rho and its derivative (the weight) at a loop closure's
+ * chi2, for the built-in kernels, and the weight a solve gives a loop, a user's kernel
+ * included. */
 #include <math.h>
 
-#include "internal.h"
+#include "instance.h"
+#include "robust/robust.h"
 
-double pgem_kernel_weight(pgem_kernel_t kernel, double chi2, double scale)
+/* Cauchy: rho(s) = c^2 log(1 + s / c^2), w = rho'(s) = 1 / (1 + s / c^2); an exact fit has
+ * weight 1 (and rho 0) even when c^2 underflows to 0 (0 / 0 would be NaN). */
+static pgem_kernel_value_t pgem_cauchy(double chi2, double scale)
 {
+    const double c2 = scale * scale;
+    pgem_kernel_value_t value = {0.0, 1.0};
+    if (!(chi2 <= 0.0)) { /* NaN stays NaN */
+        value.weight = 1.0 / (1.0 + chi2 / c2);
+        value.rho = c2 * log1p(chi2 / c2);
+    }
+    return value;
+}
+
+/* Huber on the Mahalanobis norm r = sqrt(s): rho = s, w = 1 for r <= k; else rho = 2 k r -
+ * k^2, w = k / r. */
+static pgem_kernel_value_t pgem_huber(double chi2, double scale)
+{
+    const double norm = sqrt(chi2);
+    pgem_kernel_value_t value = {chi2, 1.0};
+    if (!(norm <= scale)) {
+        value.weight = scale / norm;
+        value.rho = 2.0 * scale * norm - scale * scale;
+    }
+    return value;
+}
+
+/* DCS (Agarwal et al. 2013): s = min(1, 2 phi / (phi + chi2)), information scaled by s^2: w =
+ * s^2, and rho = chi2 where s = 1, else phi (3 chi2 - phi) / (phi + chi2) (continuous, with
+ * rho' = w). */
+static pgem_kernel_value_t pgem_dcs(double chi2, double scale)
+{
+    const double factor = 2.0 * scale / (scale + chi2);
+    pgem_kernel_value_t value = {chi2, 1.0};
+    if (!(factor >= 1.0)) {
+        value.weight = factor * factor;
+        value.rho = scale * (3.0 * chi2 - scale) / (scale + chi2);
+    }
+    return value;
+}
+
+pgem_kernel_value_t pgem_kernel_evaluate(pgem_kernel_t kernel, double chi2, double scale)
+{
+    const pgem_kernel_value_t plain = {chi2, 1.0};
     switch (kernel) {
     case PGEM_KERNEL_EM:
     case PGEM_KERNEL_CAUCHY:
-        /* Cauchy: rho(s) = c^2 log(1 + s / c^2), w = rho'(s) = 1 / (1 + s / c^2); an exact
-         * fit has weight 1 even when c^2 underflows to 0 (0 / 0 would be NaN) */
-        return chi2 <= 0.0 ? 1.0 : 1.0 / (1.0 + chi2 / (scale * scale));
-    case PGEM_KERNEL_HUBER: {
-        /* Huber on the Mahalanobis norm r = sqrt(s): w = 1 for r <= k, else k / r */
-        double norm = sqrt(chi2);
-        return norm <= scale ? 1.0 : scale / norm;
-    }
-    case PGEM_KERNEL_DCS: {
-        /* DCS (Agarwal et al. 2013): s = min(1, 2 phi / (phi + chi2)), information scaled by s^2 */
-        double factor = 2.0 * scale / (scale + chi2);
-        return factor >= 1.0 ? 1.0 : factor * factor;
-    }
+        return pgem_cauchy(chi2, scale);
+    case PGEM_KERNEL_HUBER:
+        return pgem_huber(chi2, scale);
+    case PGEM_KERNEL_DCS:
+        return pgem_dcs(chi2, scale);
     case PGEM_KERNEL_NONE:
-        return 1.0;
+    case PGEM_KERNEL_USER:
+        return plain;
     }
-    return 1.0;
+    return plain;
+}
+
+double pgem_kernel_weight(pgem_kernel_t kernel, double chi2, double scale)
+{
+    return pgem_kernel_evaluate(kernel, chi2, scale).weight;
+}
+
+int pgem_loop_kernel_weight(pgem_t *graph, const pgem_robust_options_t *options, uint32_t k,
+                            double *weight)
+{
+    const double distance = graph->robust.edge_distance[k];
+    if (options->kernel != PGEM_KERNEL_USER) {
+        *weight = pgem_kernel_weight(options->kernel, distance, options->scale);
+        return PGEM_OK;
+    }
+    *weight = options->kernel_function(distance, options->scale, options->kernel_user).weight;
+    if (*weight >= 0.0 && *weight <= 1.0) {
+        return PGEM_OK;
+    }
+    pgem_message_clear(graph);
+    pgem_message_text(graph, "the user kernel's weight for loop closure ");
+    pgem_message_edge(graph, k);
+    pgem_message_text(graph, " is not in [0, 1]");
+    return PGEM_ERR_NUMERIC;
 }
 
 const char *pgem_kernel_name(pgem_kernel_t kernel)
@@ -35,6 +96,7 @@ const char *pgem_kernel_name(pgem_kernel_t kernel)
     case PGEM_KERNEL_CAUCHY: return "cauchy";
     case PGEM_KERNEL_HUBER: return "huber";
     case PGEM_KERNEL_DCS: return "dcs";
+    case PGEM_KERNEL_USER: return "user";
     }
     return "unknown";
 }

@@ -1,11 +1,11 @@
 /* Gauss-Newton: linearise, factor, solve, step; stops on chi2 decrease, step norm or count. */
 #include <math.h>
 
-#include "internal.h"
+#include "instance.h"
+#include "solver/solver.h"
 
 int pgem_gauss_newton(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary)
 {
-    pgem_linear_t *linear = &graph->linear;
     double chi2 = pgem_linear_assemble(graph);
     summary->initial_chi2 = chi2;
     summary->final_chi2 = chi2;
@@ -13,7 +13,7 @@ int pgem_gauss_newton(pgem_t *graph, const pgem_solve_options_t *options, pgem_s
         return pgem_fail_numeric(graph, "initial chi2", 0);
     }
     for (uint32_t iteration = 1; iteration <= options->max_iterations; iteration++) {
-        linear->progress_iteration = iteration;
+        pgem_linear_progress_iteration(graph, iteration);
         int status = pgem_linear_factor(graph);
         summary->factorizations++;
         summary->iterations = iteration;
@@ -26,12 +26,12 @@ int pgem_gauss_newton(pgem_t *graph, const pgem_solve_options_t *options, pgem_s
             summary->termination = PGEM_TERM_NUMERIC;
             return pgem_fail_numeric(graph, "step (conjugate gradients)", iteration);
         }
-        double step_norm = pgem_norm(linear->rhs, linear->scalar_count);
+        double step_norm = pgem_norm(pgem_linear_step(graph), pgem_linear_unknowns(graph));
         if (!isfinite(step_norm)) {
             summary->termination = PGEM_TERM_NUMERIC;
             return pgem_fail_numeric(graph, "step", iteration);
         }
-        pgem_apply_step(graph, linear->rhs);
+        pgem_apply_step(graph, pgem_linear_step(graph));
         /* the system is re-assembled only if another iteration will use it; after the last
          * one (every M-step of EM, with one iteration) the chi2 alone is enough */
         double next = iteration < options->max_iterations ? pgem_linear_assemble(graph)

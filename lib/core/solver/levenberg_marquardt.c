@@ -3,7 +3,8 @@
 #include <math.h>
 #include <string.h>
 
-#include "internal.h"
+#include "instance.h"
+#include "solver/solver.h"
 
 #define PGEM_LM_LAMBDA_LIMIT 1e32
 #define PGEM_LM_TRIALS 10
@@ -15,43 +16,28 @@ typedef struct pgem_lm {
     double growth;   /* factor for the next rejection (Nielsen's nu) */
 } pgem_lm_t;
 
-static double pgem_largest_diagonal(const pgem_linear_t *linear)
+/* The scale of the first damping: H's largest diagonal entry (1 if H is zero). */
+static double pgem_lm_scale(const pgem_t *graph)
 {
-    double largest = 0.0;
-    for (int j = 0; j < linear->scalar_count; j++) {
-        largest = fmax(largest, fabs(linear->diagonal[j]));
-    }
+    const double largest = pgem_linear_largest_diagonal(graph);
     return largest > 0.0 ? largest : 1.0;
-}
-
-/* Predicted chi2 decrease of step d for (H + lambda I) d = g with g = -b: g.d + lambda d.d. */
-static double pgem_lm_predicted(const pgem_linear_t *linear, const double *step, double lambda)
-{
-    double gain = 0.0;
-    for (int j = 0; j < linear->scalar_count; j++) {
-        gain += step[j] * (linear->gradient[j] + lambda * step[j]);
-    }
-    return gain;
 }
 
 static void pgem_lm_save(pgem_t *graph)
 {
-    memcpy(graph->pose_accepted, graph->pose, pgem_pose_bytes(graph));
-    memcpy(graph->linear.gradient, graph->linear.rhs,
-           (size_t)graph->linear.scalar_count * sizeof(double));
+    memcpy(graph->solver.pose_accepted, graph->store.pose, pgem_pose_bytes(graph));
+    pgem_linear_keep_gradient(graph);
 }
 
 static void pgem_lm_undo(pgem_t *graph)
 {
-    memcpy(graph->pose, graph->pose_accepted, pgem_pose_bytes(graph));
-    memcpy(graph->linear.rhs, graph->linear.gradient,
-           (size_t)graph->linear.scalar_count * sizeof(double));
+    memcpy(graph->store.pose, graph->solver.pose_accepted, pgem_pose_bytes(graph));
+    pgem_linear_restore_gradient(graph);
 }
 
 /* One damped trial step: returns 1 if accepted; *step_norm and *status are set. */
 static int pgem_lm_trial(pgem_t *graph, pgem_lm_t *lm, double *step_norm, int *status)
 {
-    pgem_linear_t *linear = &graph->linear;
     *status = PGEM_OK;
     *step_norm = 0.0;
     pgem_linear_damp(graph, lm->lambda);
@@ -62,13 +48,13 @@ static int pgem_lm_trial(pgem_t *graph, pgem_lm_t *lm, double *step_norm, int *s
         *status = PGEM_ERR_NUMERIC;
         return 0;
     }
-    *step_norm = pgem_norm(linear->rhs, linear->scalar_count);
+    *step_norm = pgem_norm(pgem_linear_step(graph), pgem_linear_unknowns(graph));
     if (!isfinite(*step_norm)) {
         *status = PGEM_ERR_NUMERIC;
         return 0;
     }
-    double predicted = pgem_lm_predicted(linear, linear->rhs, lm->lambda);
-    pgem_apply_step(graph, linear->rhs);
+    double predicted = pgem_linear_predicted_gain(graph, lm->lambda);
+    pgem_apply_step(graph, pgem_linear_step(graph));
     double trial = pgem_weighted_chi2(graph);
     double rho = (lm->chi2 - trial) / predicted;
     if (isfinite(trial) && predicted > 0.0 && rho > 0.0) {
@@ -112,11 +98,11 @@ int pgem_levenberg_marquardt(pgem_t *graph, const pgem_solve_options_t *options,
     if (!isfinite(lm.chi2)) {
         return pgem_fail_numeric(graph, "initial chi2", 0);
     }
-    lm.lambda = options->initial_lambda * pgem_largest_diagonal(&graph->linear);
+    lm.lambda = options->initial_lambda * pgem_lm_scale(graph);
     pgem_lm_save(graph);
     for (uint32_t iteration = 1; iteration <= options->max_iterations; iteration++) {
         double step_norm = 0.0;
-        graph->linear.progress_iteration = iteration;
+        pgem_linear_progress_iteration(graph, iteration);
         int accepted = pgem_lm_iteration(graph, &lm, summary, &step_norm);
         summary->iterations = iteration;
         if (accepted < 0) {

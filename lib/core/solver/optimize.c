@@ -3,7 +3,8 @@
 #include <math.h>
 #include <string.h>
 
-#include "internal.h"
+#include "instance.h"
+#include "solver/solver.h"
 
 static pgem_solve_options_t pgem_options_resolve(const pgem_solve_options_t *options)
 {
@@ -32,13 +33,21 @@ int pgem_analyze(pgem_t *graph)
     if (graph == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    if (graph->edge_count == 0u) {
+    if (graph->store.edge_count == 0u) {
         return pgem_fail(graph, PGEM_ERR_EMPTY, "the graph has no edges: nothing to optimize");
     }
-    if (graph->linear.valid) {
-        return PGEM_OK;
+    return pgem_linear_prepare(graph);
+}
+
+int pgem_fill_needed(pgem_t *graph, uint32_t *nonzeros)
+{
+    if (graph == NULL || nonzeros == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
     }
-    return pgem_linear_analyze(graph);
+    if (graph->store.edge_count == 0u) {
+        return pgem_fail(graph, PGEM_ERR_EMPTY, "the graph has no edges: nothing to optimize");
+    }
+    return pgem_linear_fill_needed(graph, nonzeros);
 }
 
 int pgem_check_solvable(pgem_t *graph)
@@ -79,13 +88,13 @@ static pgem_termination_t pgem_failure_termination(int status)
  * what it refuses as input, and a written result that does not read back. */
 static int pgem_check_solved_poses(pgem_t *graph)
 {
-    for (uint32_t p = 0; p < graph->pose_count; p++) {
-        const double *pose = graph->pose + (size_t)p * (size_t)graph->pose_size;
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+        const double *pose = graph->store.pose + (size_t)p * (size_t)graph->pose_size;
         for (int k = 0; k < graph->config.dimension; k++) {
             if (!(fabs(pose[k]) <= PGEM_TRANSLATION_LIMIT)) {
                 pgem_message_clear(graph);
                 pgem_message_text(graph, "the solve diverged: it moved pose ");
-                pgem_message_u64(graph, graph->pose_id[p]);
+                pgem_message_u64(graph, graph->store.pose_id[p]);
                 pgem_message_text(graph, " beyond the translation limit (1e8 m, "
                                          "PGEM_TRANSLATION_LIMIT)");
                 return PGEM_ERR_NUMERIC;
@@ -102,23 +111,23 @@ static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_sum
     if (status == PGEM_OK) {
         status = pgem_linear_check_parts(graph);
     }
-    summary->factor_nonzeros = (uint32_t)graph->linear.factor.nonzeros;
+    summary->factor_nonzeros = pgem_linear_nonzeros(graph);
     if (status != PGEM_OK) {
         summary->termination = pgem_failure_termination(status);
         return status;
     }
-    summary->variables = (uint32_t)graph->linear.scalar_count;
-    memcpy(graph->pose_saved, graph->pose, pose_bytes);
-    graph->linear.progress = options; /* the factorisations report to options->on_progress */
+    summary->variables = (uint32_t)pgem_linear_unknowns(graph);
+    memcpy(graph->solver.pose_saved, graph->store.pose, pose_bytes);
+    pgem_linear_progress(graph, options); /* the factorisations report to options->on_progress */
     status = options->method == PGEM_LEVENBERG_MARQUARDT
                  ? pgem_levenberg_marquardt(graph, options, summary)
                  : pgem_gauss_newton(graph, options, summary);
-    graph->linear.progress = NULL;
+    pgem_linear_progress(graph, NULL);
     if (status == PGEM_OK && (status = pgem_check_solved_poses(graph)) != PGEM_OK) {
         summary->termination = PGEM_TERM_NUMERIC;
     }
     if (status != PGEM_OK) {
-        memcpy(graph->pose, graph->pose_saved, pose_bytes);
+        memcpy(graph->store.pose, graph->solver.pose_saved, pose_bytes);
         if (summary->termination == PGEM_TERM_NONE) {
             summary->termination = pgem_failure_termination(status);
         }
@@ -126,7 +135,7 @@ static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_sum
         return status;
     }
     summary->usable = 1;
-    summary->estimate_changed = memcmp(graph->pose, graph->pose_saved, pose_bytes) != 0;
+    summary->estimate_changed = memcmp(graph->store.pose, graph->solver.pose_saved, pose_bytes) != 0;
     return PGEM_OK;
 }
 

@@ -1,19 +1,18 @@
 /* Pieces shared by the solvers: applying a step, norms, progress reports, numeric failure. */
 #include <math.h>
 
-#include "internal.h"
+#include "instance.h"
+#include "solver/solver.h"
 
 void pgem_apply_step(pgem_t *graph, const double *step)
 {
-    const pgem_linear_t *linear = &graph->linear;
     const size_t size = (size_t)graph->pose_size;
-    for (uint32_t p = 0; p < graph->pose_count; p++) {
-        int block = linear->pose_block[p];
-        if (block < 0) {
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+        const double *delta = pgem_linear_pose_delta(graph, step, p);
+        if (delta == NULL) {
             continue;
         }
-        double *pose = graph->pose + (size_t)p * size;
-        const double *delta = step + (size_t)block * (size_t)linear->block;
+        double *pose = graph->store.pose + (size_t)p * size;
         if (graph->config.dimension == 3) {
             pgem_se3_boxplus(pose, delta, pose);
         } else {

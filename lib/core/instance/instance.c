@@ -1,7 +1,7 @@
 /* Configuration, memory sizing and initialisation of an instance inside one caller block. */
 #include <string.h>
 
-#include "internal.h"
+#include "instance.h"
 
 /* The first field of a resolved configuration out of range, in words, or NULL. */
 static const char *pgem_config_problem(const pgem_config_t *config)
@@ -20,6 +20,9 @@ static const char *pgem_config_problem(const pgem_config_t *config)
     }
     if (config->threads > PGEM_MAX_THREADS) {
         return "config.threads is above PGEM_MAX_THREADS";
+    }
+    if (config->online_fill > (uint32_t)INT32_MAX) {
+        return "config.online_fill is above INT32_MAX";
     }
     if (config->online_fill > (uint32_t)INT32_MAX) {
         return "config.online_fill is above INT32_MAX";
@@ -65,111 +68,35 @@ int pgem_config_resolve(const pgem_config_t *config, pgem_config_t *resolved)
     return PGEM_OK;
 }
 
-static uint32_t pgem_map_slots(uint32_t max_poses)
+/* Carves every layer's part of an instance from the arena (measuring when arena->base is
+ * NULL), from the bottom layer up; parts (may be NULL) receives the bytes each took. */
+static void pgem_carve(pgem_t *graph, pgem_arena_t *arena, pgem_memory_parts_t *parts)
 {
-    uint32_t slots = 16u;
-    while (slots < 2u * max_poses) {
-        slots *= 2u;
-    }
-    return slots;
-}
-
-static void pgem_carve_graph(pgem_t *graph, pgem_arena_t *arena)
-{
-    const size_t poses = graph->config.max_poses;
-    const size_t edges = graph->config.max_edges;
-    const size_t tangent = (size_t)graph->tangent;
-    graph->pose_id = pgem_arena_take(arena, poses, sizeof(pgem_id_t));
-    graph->pose = pgem_arena_take(arena, poses * (size_t)graph->pose_size, sizeof(double));
-    graph->pose_saved = pgem_arena_take(arena, poses * (size_t)graph->pose_size, sizeof(double));
-    graph->pose_accepted = pgem_arena_take(arena, poses * (size_t)graph->pose_size, sizeof(double));
-    graph->pose_initial = pgem_arena_take(arena, poses * (size_t)graph->pose_size, sizeof(double));
-    graph->pose_fixed = pgem_arena_take(arena, poses, 1);
-    graph->map_mask = pgem_map_slots(graph->config.max_poses) - 1u;
-    graph->map_slot = pgem_arena_take(arena, (size_t)graph->map_mask + 1u, sizeof(uint32_t));
-    graph->edge_from = pgem_arena_take(arena, edges, sizeof(uint32_t));
-    graph->edge_to = pgem_arena_take(arena, edges, sizeof(uint32_t));
-    graph->edge_measurement = pgem_arena_take(arena, edges * (size_t)graph->pose_size, sizeof(double));
-    graph->edge_information = pgem_arena_take(arena, edges * tangent * tangent, sizeof(double));
-    graph->edge_kind = pgem_arena_take(arena, edges, 1);
-    graph->edge_active = pgem_arena_take(arena, edges, 1);
-    graph->edge_weight = pgem_arena_take(arena, edges, sizeof(double));
-    graph->edge_weight_saved = pgem_arena_take(arena, edges, sizeof(double));
-    graph->edge_active_saved = pgem_arena_take(arena, edges, 1);
-    graph->edge_distance = pgem_arena_take(arena, edges, sizeof(double));
-    graph->edge_checked = pgem_arena_take(arena, edges, 1);
-}
-
-static void pgem_carve_factor(pgem_t *graph, pgem_arena_t *arena)
-{
-    pgem_factor_t *factor = &graph->linear.factor;
-    const size_t poses = graph->config.max_poses;
-    const size_t block = (size_t)graph->tangent;
-    factor->super_first = pgem_arena_take(arena, poses + 1u, sizeof(int));
-    factor->block_super = pgem_arena_take(arena, poses, sizeof(int));
-    factor->row_start = pgem_arena_take(arena, poses + 1u, sizeof(int));
-    factor->rows = pgem_arena_take(arena, graph->config.fill_budget / (block * block) + 1u, sizeof(int));
-    factor->value_start = pgem_arena_take(arena, poses + 1u, sizeof(int));
-    factor->values = pgem_arena_take(arena, graph->config.fill_budget, sizeof(double));
-    factor->order = pgem_arena_take(arena, poses, sizeof(int));
-    factor->task_first = pgem_arena_take(arena, poses + 1u, sizeof(int));
-    factor->task_worker = pgem_arena_take(arena, poses, sizeof(int));
-    factor->head = pgem_arena_take(arena, poses, sizeof(int));
-    factor->next = pgem_arena_take(arena, poses, sizeof(int));
-    factor->position = pgem_arena_take(arena, poses, sizeof(int));
-    factor->worker_count = (int)graph->config.threads;
-    factor->workers = pgem_arena_take(arena, graph->config.threads, sizeof(pgem_factor_worker_t));
-    for (uint32_t w = 0; w < graph->config.threads; w++) {
-        const size_t work = pgem_factor_work_doubles(graph->config.max_poses, graph->tangent, (int)w);
-        int *map = pgem_arena_take(arena, poses, sizeof(int));
-        double *doubles = w == 0u ? factor->shared : pgem_arena_take(arena, work, sizeof(double));
-        if (factor->workers != NULL) {
-            factor->workers[w].map = map;
-            factor->workers[w].work = doubles;
-            factor->workers[w].work_doubles = work;
-        }
+    pgem_memory_parts_t taken;
+    size_t mark = arena->used;
+    pgem_store_carve(graph, arena);
+    taken.graph = arena->used - mark;
+    mark = arena->used;
+    pgem_solver_carve(graph, arena);
+    taken.solver = arena->used - mark;
+    mark = arena->used;
+    pgem_robust_carve(graph, arena);
+    taken.robust = arena->used - mark;
+    mark = arena->used;
+    pgem_linear_carve(graph, arena);
+    pgem_online_carve(graph, arena); /* the incremental factor: linalg's too */
+    taken.linalg = arena->used - mark;
+    if (parts != NULL) {
+        parts->graph = taken.graph;
+        parts->solver = taken.solver;
+        parts->robust = taken.robust;
+        parts->linalg = taken.linalg;
     }
 }
 
-static void pgem_carve_linear(pgem_t *graph, pgem_arena_t *arena)
-{
-    pgem_linear_t *linear = &graph->linear;
-    const size_t poses = graph->config.max_poses;
-    const size_t edges = graph->config.max_edges;
-    const size_t block = (size_t)graph->tangent;
-    const size_t scalars = poses * block;
-    const size_t lower = edges * block * block + poses * block * (block + 1u) / 2u;
-    linear->block = (int)block;
-    linear->pose_block = pgem_arena_take(arena, poses, sizeof(int));
-    linear->edge_offset = pgem_arena_take(arena, edges, sizeof(int));
-    linear->edge_transposed = pgem_arena_take(arena, edges, 1);
-    linear->block_colptr = pgem_arena_take(arena, poses + 1u, sizeof(int));
-    linear->block_rows = pgem_arena_take(arena, edges, sizeof(int));
-    linear->block_parent = pgem_arena_take(arena, poses, sizeof(int));
-    /* the analysis's scratch, worker 0's dense workspace and the solves' vectors in turn */
-    linear->factor.shared_doubles = pgem_factor_shared_doubles(graph->config.max_poses,
-                                                               graph->config.max_edges, (int)block);
-    linear->factor.shared = pgem_arena_take(arena, linear->factor.shared_doubles, sizeof(double));
-    linear->scratch = (int *)(void *)linear->factor.shared;
-    linear->lower_start = pgem_arena_take(arena, poses + 1u, sizeof(int));
-    linear->lower_values = pgem_arena_take(arena, lower, sizeof(double));
-    pgem_carve_factor(graph, arena);
-    linear->rhs = pgem_arena_take(arena, scalars, sizeof(double));
-    linear->diagonal = pgem_arena_take(arena, scalars, sizeof(double));
-    linear->gradient = pgem_arena_take(arena, scalars, sizeof(double));
-    linear->cs_pool.size = pgem_cs_pool_bytes(graph->config.max_poses, graph->config.max_edges);
-    linear->cs_pool.base = pgem_arena_take(arena, linear->cs_pool.size, 1);
-}
-
-void pgem_carve(pgem_t *graph, pgem_arena_t *arena)
-{
-    pgem_carve_graph(graph, arena);
-    pgem_carve_linear(graph, arena);
-    pgem_online_carve(graph, arena);
-}
-
-/* Sizes of the instance struct and its arrays for a resolved config (measuring pass). */
-static size_t pgem_measure(const pgem_config_t *resolved)
+/* Sizes of the instance struct and its arrays for a resolved config (measuring pass), and
+ * their parts (parts may be NULL). */
+static size_t pgem_measure(const pgem_config_t *resolved, pgem_memory_parts_t *parts)
 {
     pgem_t probe;
     memset(&probe, 0, sizeof probe);
@@ -178,7 +105,11 @@ static size_t pgem_measure(const pgem_config_t *resolved)
     probe.tangent = PGEM_TANGENT_SIZE(resolved->dimension);
     pgem_arena_t arena = {NULL, 0, 0, 0, 0, 0};
     (void)pgem_arena_take(&arena, 1, sizeof(pgem_t));
-    pgem_carve(&probe, &arena);
+    const size_t instance = arena.used;
+    pgem_carve(&probe, &arena, parts);
+    if (parts != NULL) {
+        parts->instance = instance;
+    }
     return arena.used;
 }
 
@@ -188,11 +119,30 @@ size_t pgem_memory_size(const pgem_config_t *config)
     if (pgem_config_resolve(config, &resolved) != PGEM_OK) {
         return 0;
     }
-    size_t bytes = pgem_measure(&resolved);
+    size_t bytes = pgem_measure(&resolved, NULL);
     if (bytes == (size_t)-1) {
         return 0;
     }
     return bytes + 16u; /* room to align an arbitrary buffer start */
+}
+
+int pgem_get_memory_parts(const pgem_config_t *config, pgem_memory_parts_t *parts)
+{
+    if (config == NULL || parts == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    pgem_config_t resolved;
+    const size_t total = pgem_memory_size(config);
+    if (total == 0 || pgem_config_resolve(config, &resolved) != PGEM_OK) {
+        return PGEM_ERR_CONFIG;
+    }
+    pgem_memory_parts_t out;
+    (void)pgem_measure(&resolved, &out);
+    out.instance += total - (out.instance + out.graph + out.solver + out.robust + out.linalg);
+    pgem_linear_memory_parts(&resolved, &out);
+    out.total = total;
+    *parts = out;
+    return PGEM_OK;
 }
 
 /* The message of a failed init: "what" then "N bytes given, this configuration needs M". */
@@ -265,14 +215,14 @@ int pgem_init_message(pgem_t **instance, const pgem_config_t *config, void *buff
     graph->config = resolved;
     graph->pose_size = PGEM_POSE_SIZE(resolved.dimension);
     graph->tangent = PGEM_TANGENT_SIZE(resolved.dimension);
-    pgem_carve(graph, &arena);
+    pgem_carve(graph, &arena, NULL);
     if (arena.failed != 0) {
         return pgem_carve_failed(&arena, size, needed, message, message_size);
     }
     graph->block_bytes = size;
     graph->used_bytes = arena.used + skip;
-    memset(graph->map_slot, 0, ((size_t)graph->map_mask + 1u) * sizeof(uint32_t));
-    graph->linear.dense = pgem_dense_select();
+    memset(graph->store.map_slot, 0, ((size_t)graph->store.map_mask + 1u) * sizeof(uint32_t));
+    pgem_linear_start(graph);
     *instance = graph;
     if (message != NULL && message_size > 0) {
         message[0] = '\0';
@@ -323,9 +273,6 @@ void pgem_get_memory_stats(const pgem_t *instance, pgem_memory_stats_t *stats)
     }
     stats->block_bytes = instance->block_bytes;
     stats->used_bytes = instance->used_bytes;
-    stats->factor_nonzeros = (uint32_t)instance->linear.factor.nonzeros;
     stats->factor_budget = instance->config.fill_budget;
-    stats->analyses = instance->linear.analyses;
-    stats->csparse_pool_bytes = instance->linear.cs_pool.size;
-    stats->csparse_pool_peak = instance->linear.cs_pool.peak;
+    pgem_linear_memory_stats(instance, stats);
 }

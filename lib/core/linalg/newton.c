@@ -6,7 +6,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "internal.h"
+#include "linalg/linear.h"
 
 #define PGEM_NEWTON_TOLERANCE 1e-13
 #define PGEM_NEWTON_ITERATIONS 200
@@ -29,7 +29,7 @@ static void pgem_full_multiply(const pgem_t *graph, const double *x, double *out
 
 int pgem_solve_newton(pgem_t *graph)
 {
-    pgem_linear_t *linear = &graph->linear;
+    pgem_linear_t *linear = graph->linear;
     const int count = linear->scalar_count;
     if (linear->left_out == 0u) {
         pgem_linear_solve(graph, linear->rhs);

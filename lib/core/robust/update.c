@@ -5,7 +5,9 @@
 #include <math.h>
 #include <string.h>
 
-#include "internal.h"
+#include "instance.h"
+#include "robust/robust.h"
+#include "solver/solver.h"
 
 /* The seed of a new column's diagonal (taken out again once its edges are in). */
 #define PGEM_ONLINE_SEED 1.0
@@ -55,27 +57,27 @@ static void pgem_update_link(pgem_t *graph)
 {
     pgem_online_t *online = &graph->online;
     const size_t size = (size_t)graph->pose_size;
-    for (uint32_t p = online->poses_linked; p < graph->pose_count; p++) {
+    for (uint32_t p = online->poses_linked; p < graph->store.pose_count; p++) {
         online->pose_edge[p] = -1;
         online->pose_column[p] = -1;
-        memcpy(online->lin + p * size, graph->pose + p * size, size * sizeof(double));
+        memcpy(online->lin + p * size, graph->store.pose + p * size, size * sizeof(double));
     }
-    online->poses_linked = graph->pose_count;
-    for (uint32_t k = online->edges_linked; k < graph->edge_count; k++) {
+    online->poses_linked = graph->store.pose_count;
+    for (uint32_t k = online->edges_linked; k < graph->store.edge_count; k++) {
         const size_t end = 2u * (size_t)k;
-        online->edge_next[end] = online->pose_edge[graph->edge_from[k]];
-        online->pose_edge[graph->edge_from[k]] = (int)end;
-        online->edge_next[end + 1u] = online->pose_edge[graph->edge_to[k]];
-        online->pose_edge[graph->edge_to[k]] = (int)(end + 1u);
+        online->edge_next[end] = online->pose_edge[graph->store.edge_from[k]];
+        online->pose_edge[graph->store.edge_from[k]] = (int)end;
+        online->edge_next[end + 1u] = online->pose_edge[graph->store.edge_to[k]];
+        online->pose_edge[graph->store.edge_to[k]] = (int)(end + 1u);
         online->edge_weight_in[k] = 0.0;
     }
-    online->edges_linked = graph->edge_count;
+    online->edges_linked = graph->store.edge_count;
 }
 
 /* The weight edge k should have in the factor: 0 when pruned or dormant. */
 static double pgem_update_weight(const pgem_t *graph, uint32_t k)
 {
-    return graph->edge_active[k] == PGEM_EDGE_ACTIVE ? graph->edge_weight[k] : 0.0;
+    return graph->store.edge_active[k] == PGEM_EDGE_ACTIVE ? graph->store.edge_weight[k] : 0.0;
 }
 
 /* Adds (sign 1) or removes (sign -1) an edge linearised at the poses given: its rows as one
@@ -88,8 +90,8 @@ static int pgem_update_edge(pgem_t *graph, uint32_t k, const double *from, const
     double a[2][PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {{0.0}};
     double r[PGEM_TANGENT_SIZE_MAX] = {0.0};
     pgem_online_edge(graph, k, from, to, weight, a[0], a[1], r);
-    const int ends[2] = {online->pose_column[graph->edge_from[k]],
-                         online->pose_column[graph->edge_to[k]]};
+    const int ends[2] = {online->pose_column[graph->store.edge_from[k]],
+                         online->pose_column[graph->store.edge_to[k]]};
     int columns[2] = {-1, -1}, count = 0, side[2] = {0, 0};
     for (int s = 0; s < 2; s++) {
         if (ends[s] >= 0) {
@@ -127,13 +129,13 @@ static const double *pgem_update_lin(const pgem_t *graph, uint32_t p)
 static int pgem_update_insert(pgem_t *graph, uint32_t k, double w, int *seeded, int *seeded_count)
 {
     pgem_online_t *online = &graph->online;
-    const uint32_t ends[2] = {graph->edge_from[k], graph->edge_to[k]};
+    const uint32_t ends[2] = {graph->store.edge_from[k], graph->store.edge_to[k]};
     for (int s = 0; s < 2; s++) {
         const uint32_t p = ends[s];
-        const int held = graph->pose_fixed[p] || (graph->fixed_count == 0u && p == 0u);
+        const int held = graph->store.pose_fixed[p] || (graph->store.fixed_count == 0u && p == 0u);
         if (!held && online->pose_column[p] < 0) {
             memcpy(online->lin + (size_t)p * (size_t)graph->pose_size,
-                   graph->pose + (size_t)p * (size_t)graph->pose_size,
+                   graph->store.pose + (size_t)p * (size_t)graph->pose_size,
                    (size_t)graph->pose_size * sizeof(double));
             const int status = pgem_online_append(graph, p, PGEM_ONLINE_SEED);
             if (status != PGEM_OK) {
@@ -233,7 +235,7 @@ static int pgem_update_relinearise(pgem_t *graph, double threshold, int *moved)
         const uint32_t p = (uint32_t)online->head[m];
         for (int end = online->pose_edge[p]; end >= 0; end = online->edge_next[end]) {
             const uint32_t k = (uint32_t)end / 2u;
-            const uint32_t from = graph->edge_from[k], to = graph->edge_to[k];
+            const uint32_t from = graph->store.edge_from[k], to = graph->store.edge_to[k];
             const uint32_t other = from == p ? to : from;
             const int other_marked = online->pose_column[other] >= 0 && online->mark[other];
             if (!(online->edge_weight_in[k] > 0.0) || (other_marked && other < p)) {
@@ -310,10 +312,10 @@ static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation
     double s[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0.0};
     double covariance[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0.0};
     pgem_edge_error(graph, k, e, jf, jt);
-    pgem_online_marginal(graph, online->pose_column[graph->edge_from[k]],
-                         online->pose_column[graph->edge_to[k]], jf, jt, n, s);
+    pgem_online_marginal(graph, online->pose_column[graph->store.edge_from[k]],
+                         online->pose_column[graph->store.edge_to[k]], jf, jt, n, s);
     /* invert Omega by Gauss-Jordan on a copy (n <= 6) */
-    const double *o = graph->edge_information + (size_t)k * (size_t)(n * n);
+    const double *o = graph->store.edge_information + (size_t)k * (size_t)(n * n);
     double a[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     memcpy(a, o, (size_t)(n * n) * sizeof(double));
     for (int r = 0; r < n; r++) {
@@ -353,22 +355,22 @@ static int pgem_update_gate(pgem_t *graph, uint32_t k, const pgem_update_setting
                             int *seeded, int *seeded_count, int *status)
 {
     pgem_online_t *online = &graph->online;
-    const uint32_t ends[2] = {graph->edge_from[k], graph->edge_to[k]};
+    const uint32_t ends[2] = {graph->store.edge_from[k], graph->store.edge_to[k]};
     for (int s = 0; s < 2; s++) {
-        const int held = graph->pose_fixed[ends[s]] || (graph->fixed_count == 0u && ends[s] == 0u);
+        const int held = graph->store.pose_fixed[ends[s]] || (graph->store.fixed_count == 0u && ends[s] == 0u);
         if (!held && online->pose_column[ends[s]] < 0) {
-            graph->edge_active[k] = PGEM_EDGE_PRUNED; /* nothing predicts it yet */
+            graph->store.edge_active[k] = PGEM_EDGE_PRUNED; /* nothing predicts it yet */
             return 0;
         }
     }
     const double distance = pgem_update_innovation(graph, k, settings->inflation);
-    graph->edge_distance[k] = distance;
+    graph->robust.edge_distance[k] = distance;
     if (!(distance <= settings->gate)) {
-        graph->edge_active[k] = PGEM_EDGE_PRUNED;
+        graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
         return 0;
     }
-    graph->edge_active[k] = PGEM_EDGE_ACTIVE;
-    graph->edge_weight[k] = 1.0;
+    graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
+    graph->store.edge_weight[k] = 1.0;
     *status = pgem_update_insert(graph, k, 1.0, seeded, seeded_count);
     return 1;
 }
@@ -379,9 +381,9 @@ static int pgem_update_edges(pgem_t *graph, const pgem_update_settings_t *settin
 {
     pgem_online_t *online = &graph->online;
     int *seeded = online->next, seeded_count = 0, status = PGEM_OK;
-    for (uint32_t k = online->edges_seen; k < graph->edge_count && status == PGEM_OK; k++) {
+    for (uint32_t k = online->edges_seen; k < graph->store.edge_count && status == PGEM_OK; k++) {
         const double w = pgem_update_weight(graph, k);
-        const int gated = settings->robust && graph->edge_kind[k] == PGEM_EDGE_LOOP;
+        const int gated = settings->robust && graph->store.edge_kind[k] == PGEM_EDGE_LOOP;
         if (!gated && w > 0.0 && !(online->edge_weight_in[k] > 0.0)) {
             status = pgem_update_insert(graph, k, w, seeded, &seeded_count);
         }
@@ -390,9 +392,9 @@ static int pgem_update_edges(pgem_t *graph, const pgem_update_settings_t *settin
         status = pgem_update_unseed(graph, seeded, seeded_count);
     }
     seeded_count = 0;
-    for (uint32_t k = online->edges_seen; k < graph->edge_count && status == PGEM_OK; k++) {
-        if (settings->robust && graph->edge_kind[k] == PGEM_EDGE_LOOP &&
-            graph->edge_active[k] != PGEM_EDGE_PRUNED && !(online->edge_weight_in[k] > 0.0)) {
+    for (uint32_t k = online->edges_seen; k < graph->store.edge_count && status == PGEM_OK; k++) {
+        if (settings->robust && graph->store.edge_kind[k] == PGEM_EDGE_LOOP &&
+            graph->store.edge_active[k] != PGEM_EDGE_PRUNED && !(online->edge_weight_in[k] > 0.0)) {
             const int in = pgem_update_gate(graph, k, settings, seeded, &seeded_count, &status);
             online->last.loops_accepted += (uint32_t)in;
             online->last.loops_rejected += (uint32_t)!in;
@@ -403,8 +405,8 @@ static int pgem_update_edges(pgem_t *graph, const pgem_update_settings_t *settin
         for (int end = online->pose_edge[p]; end >= 0 && status == PGEM_OK;
              end = online->edge_next[end]) {
             const uint32_t k = (uint32_t)end / 2u;
-            if (k < online->edges_seen && graph->edge_kind[k] == PGEM_EDGE_LOOP &&
-                graph->edge_active[k] == PGEM_EDGE_PRUNED) {
+            if (k < online->edges_seen && graph->store.edge_kind[k] == PGEM_EDGE_LOOP &&
+                graph->store.edge_active[k] == PGEM_EDGE_PRUNED) {
                 online->last.loops_readmitted +=
                     (uint32_t)pgem_update_gate(graph, k, settings, seeded, &seeded_count, &status);
             }
@@ -421,11 +423,11 @@ static int pgem_update_edges(pgem_t *graph, const pgem_update_settings_t *settin
 static int pgem_update_rebuild(pgem_t *graph, const pgem_update_settings_t *settings)
 {
     pgem_online_t *online = &graph->online;
-    memcpy(online->lin, graph->pose, pgem_pose_bytes(graph));
-    for (uint32_t k = 0; k < graph->edge_count; k++) {
+    memcpy(online->lin, graph->store.pose, pgem_pose_bytes(graph));
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         const int fresh = k >= online->edges_seen;
-        const int gated = settings->robust && graph->edge_kind[k] == PGEM_EDGE_LOOP &&
-                          fresh && graph->edge_active[k] != PGEM_EDGE_PRUNED;
+        const int gated = settings->robust && graph->store.edge_kind[k] == PGEM_EDGE_LOOP &&
+                          fresh && graph->store.edge_active[k] != PGEM_EDGE_PRUNED;
         online->edge_weight_in[k] = gated ? 0.0 : pgem_update_weight(graph, k);
     }
     const int status = pgem_online_rebuild(graph, settings->recent);
@@ -443,9 +445,9 @@ static void pgem_update_apply(pgem_t *graph)
         const int j = online->recomputed[q];
         const size_t p = (size_t)online->column_pose[j];
         if (b == 6u) {
-            pgem_se3_boxplus(online->lin + p * size, online->delta + (size_t)j * b, graph->pose + p * size);
+            pgem_se3_boxplus(online->lin + p * size, online->delta + (size_t)j * b, graph->store.pose + p * size);
         } else {
-            pgem_se2_boxplus(online->lin + p * size, online->delta + (size_t)j * b, graph->pose + p * size);
+            pgem_se2_boxplus(online->lin + p * size, online->delta + (size_t)j * b, graph->store.pose + p * size);
         }
     }
 }
@@ -483,8 +485,8 @@ static int pgem_update_run(pgem_t *graph, const pgem_update_settings_t *settings
         }
     }
     pgem_update_apply(graph);
-    online->poses_seen = graph->pose_count;
-    online->edges_seen = graph->edge_count;
+    online->poses_seen = graph->store.pose_count;
+    online->edges_seen = graph->store.edge_count;
     online->updates++;
     return PGEM_OK;
 }
@@ -507,6 +509,12 @@ int pgem_update(pgem_t *graph, const pgem_update_options_t *options,
     int status = pgem_update_resolve(graph, options, &settings);
     if (status != PGEM_OK) {
         return status;
+    }
+    if (graph->store.edited_low != UINT32_MAX) { /* a pose set or held outside pgem_update */
+        if (graph->store.edited_low < online->poses_linked) {
+            online->ready = 0; /* conservative: that pose or a later one may be in the factor */
+        }
+        graph->store.edited_low = UINT32_MAX;
     }
     memset(&online->last, 0, sizeof online->last);
     online->stamp++;

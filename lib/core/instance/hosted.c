@@ -1,5 +1,5 @@
 /* Hosted convenience: one malloc of the whole block (left out with PGEM_NO_MALLOC). */
-#include "internal.h"
+#include "instance.h"
 
 #ifndef PGEM_NO_MALLOC
 #include <stdlib.h>

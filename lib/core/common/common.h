@@ -1,0 +1,60 @@
+/* The common layer, private to lib/core: the arena every layer carves its part of the block
+ * from, fault injection for the exhaustion test, and text and message building without stdio.
+ * It knows no other layer. */
+#ifndef PGEM_COMMON_LAYER_H
+#define PGEM_COMMON_LAYER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "pgem/pgem.h"
+
+#define PGEM_MESSAGE_SIZE 256
+
+/* A bump allocator over the caller's block; with base == NULL it only measures. */
+typedef struct pgem_arena {
+    unsigned char *base;  /* start of the block (NULL: measuring pass) */
+    size_t size;          /* bytes available */
+    size_t used;          /* bytes carved so far, including alignment padding */
+    size_t carves;        /* slices asked for from the block (not counted when measuring) */
+    size_t failed;        /* number (1, 2, ...) of the first slice that could not be carved,
+                             0 if none */
+    size_t failed_bytes;  /* bytes that slice asked for */
+} pgem_arena_t;
+
+/* Returns an aligned slice (16 bytes) of count * item bytes, or NULL when measuring or out of
+ * room (then used still grows, so a measuring pass yields the total, and a failed carve is
+ * recorded in failed). */
+void *pgem_arena_take(pgem_arena_t *arena, size_t count, size_t item);
+/* The same for one struct of `bytes`, aligned to 8 bytes only (its members need no more): a
+ * layer's state struct carved from the block packs as tightly as it did inside struct pgem. */
+void *pgem_arena_take_struct(pgem_arena_t *arena, size_t bytes);
+
+/* Fault injection for the memory-exhaustion test (tests/test_exhaustion.c), compiled only into
+ * a test copy of the core (PGEM_FAULT_INJECTION; the released library never has it):
+ * pgem_fault_next() is asked once per carve from the block and once per CSparse allocation
+ * from its pool, and says 1 for the one the test chose. Without the define it is 0. */
+#ifdef PGEM_FAULT_INJECTION
+int pgem_fault_next(void);
+/* From now on, request number `index` (0, 1, ...) fails; a negative index counts only. */
+void pgem_fault_arm(long index);
+/* Requests seen since pgem_fault_arm (the sweep is over once a run sees no more than index). */
+long pgem_fault_seen(void);
+#else
+#define pgem_fault_next() 0
+#endif
+
+/* Text building without stdio (firmware-safe): appends to a NUL-terminated text of size
+ * bytes, truncating. */
+void pgem_text_append(char *text, size_t size, const char *piece);
+void pgem_text_u64(char *text, size_t size, uint64_t value);
+
+/* Message building into the instance: clear, then append pieces. */
+void pgem_message_clear(pgem_t *graph);
+void pgem_message_text(pgem_t *graph, const char *text);
+void pgem_message_u64(pgem_t *graph, uint64_t value);
+void pgem_message_i64(pgem_t *graph, int64_t value);
+/* Sets the message to text and returns code (for one-line error returns). */
+int pgem_fail(pgem_t *graph, int code, const char *text);
+
+#endif /* PGEM_COMMON_LAYER_H */

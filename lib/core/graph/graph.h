@@ -1,0 +1,100 @@
+/* The graph layer, private to lib/core: pose and edge storage in fixed arrays, the id map,
+ * each edge's kind, state and weight, and a topology version the layers above compare to
+ * notice changes (graph knows nothing of them). Also the edge's error and its chi2. */
+#ifndef PGEM_GRAPH_LAYER_H
+#define PGEM_GRAPH_LAYER_H
+
+#include "common/common.h"
+
+/* States of an edge (edge_active). A dormant loop closure (EM weight below the prune
+ * threshold) stays in the problem with its weight, but H's structure is not built for it: its
+ * coupling block is left out of the Newton matrix unless the structure already has a place
+ * for it (linalg/assemble.c). Random false loops would otherwise make the factor dense. */
+typedef enum pgem_edge_state {
+    PGEM_EDGE_PRUNED = 0,  /* out of the problem until pgem_robust_reset or the gate */
+    PGEM_EDGE_ACTIVE = 1,  /* in the problem and in H's structure */
+    PGEM_EDGE_DORMANT = 2  /* in the problem; in the structure only if it already was */
+} pgem_edge_state_t;
+
+/* The graph's poses and edges (graph->store). */
+typedef struct pgem_store {
+    uint32_t pose_count;       /* poses added */
+    uint32_t topology;         /* +1 on every pose or edge added and every pose fixed or
+                                  freed: linalg keeps the version its structure describes */
+    uint32_t edited_low;       /* the lowest pose index pgem_set_pose moved or whose fixed flag
+                                  changed since the incremental update last looked (it sets
+                                  UINT32_MAX); it rebuilds when that pose is in its factor */
+    pgem_id_t *pose_id;        /* [max_poses] id of each pose, insertion order */
+    double *pose;              /* [max_poses * pose_size] current estimate */
+    uint8_t *pose_fixed;       /* [max_poses] 1 if held constant by pgem_fix_pose */
+    uint32_t fixed_count;      /* poses with pose_fixed set */
+    uint32_t map_mask;         /* id map slots - 1 (power of two) */
+    uint32_t *map_slot;        /* [map_mask + 1] pose index + 1, 0 = empty */
+
+    uint32_t edge_count;       /* edges added */
+    uint32_t *edge_from;       /* [max_edges] pose index of the first pose */
+    uint32_t *edge_to;         /* [max_edges] pose index of the second pose */
+    double *edge_measurement;  /* [max_edges * pose_size] */
+    double *edge_information;  /* [max_edges * tangent * tangent] full, row-major */
+    uint8_t *edge_kind;        /* [max_edges] pgem_edge_kind_t */
+    uint8_t *edge_active;      /* [max_edges] pgem_edge_state_t: active, dormant or pruned */
+    double *edge_weight;       /* [max_edges] robust weight, 1 for odometry */
+} pgem_store_t;
+
+/* Carves the store's arrays from the arena (measuring when arena->base is NULL). */
+void pgem_store_carve(pgem_t *graph, pgem_arena_t *arena);
+/* A graph's poses and edges into an empty instance of the same dimension with room for them
+ * (the checks are pgem_copy's). */
+void pgem_store_copy(pgem_t *to, const pgem_t *from);
+
+/* Appends edge k's pose ids, "FROM-TO", to the message (graph/idmap.c). */
+void pgem_message_edge(pgem_t *graph, uint32_t k);
+
+/* Id map: pose index of id, or -1. */
+int64_t pgem_map_find(const pgem_t *graph, pgem_id_t id);
+void pgem_map_insert(pgem_t *graph, pgem_id_t id, uint32_t index);
+
+/* Checks and normalises a pose; names the field in the message on failure. */
+int pgem_check_pose(pgem_t *graph, const double *pose, double *normalised, const char *what);
+
+/* Checks an n x n information matrix (finite, symmetric, positive definite). */
+int pgem_check_information(pgem_t *graph, const double *information);
+
+/* Error and Jacobians of edge k under the current estimate (Jacobians may be NULL). */
+void pgem_edge_error(const pgem_t *graph, uint32_t k, double *error, double *jacobian_from,
+                     double *jacobian_to);
+/* e^T Omega e for edge k. */
+double pgem_edge_mahalanobis(const pgem_t *graph, uint32_t k);
+/* e^T Omega e for an n x n Omega (n a constant at each call, so the loops unroll). The one sum
+ * behind every chi2: an assembly's and pgem_weighted_chi2's agree to the last bit. */
+static inline double pgem_quadratic_form(const double *information, const double *error, int n)
+{
+    double chi2 = 0.0;
+    for (int r = 0; r < n; r++) {
+        double row = 0.0;
+        for (int c = 0; c < n; c++) {
+            row += information[r * n + c] * error[c];
+        }
+        chi2 += error[r] * row;
+    }
+    return chi2;
+}
+
+/* The blocks one edge contributes (n x n each, row-major, stride n) and its gradient rows.
+ * The diagonal blocks are filled in their upper triangle only: all the assembly stores. */
+typedef struct pgem_edge_linearisation {
+    double from_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX]; /* Jf^T W Jf */
+    double to_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];     /* Jt^T W Jt */
+    double from_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];   /* Jf^T W Jt */
+    double gradient_from[PGEM_TANGENT_SIZE_MAX];                     /* Jf^T W e */
+    double gradient_to[PGEM_TANGENT_SIZE_MAX];                       /* Jt^T W e */
+} pgem_edge_blocks_t;
+/* Edge k linearised at the current estimate and its robust weight w: Jf^T wOmega Jf,
+ * Jt^T wOmega Jt, Jf^T wOmega Jt and the gradients Jf^T wOmega e, Jt^T wOmega e into out;
+ * returns the weighted chi2 w e^T Omega e (graph/linearise.c). */
+double pgem_edge_linearise(const pgem_t *graph, uint32_t k, pgem_edge_blocks_t *out);
+
+/* Weighted chi2 (edges not pruned, robust weights) under the current estimate. */
+double pgem_weighted_chi2(const pgem_t *graph);
+
+#endif /* PGEM_GRAPH_LAYER_H */

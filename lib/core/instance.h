@@ -1,0 +1,39 @@
+/* The composition of a pgem instance, private to lib/core: struct pgem holds the instance's
+ * own fields (configuration, block, message) and one part per layer, each defined and carved
+ * by its layer (common/common.h, graph/graph.h, linalg/linalg.h, solver/solver.h,
+ * robust/robust.h). The linear system is a pointer to a type only linalg/ sees whole. This
+ * replaces the former lib/core/internal.h, which exposed every layer's arrays to every other. */
+#ifndef PGEM_INSTANCE_H
+#define PGEM_INSTANCE_H
+
+#include "common/common.h"
+#include "graph/graph.h"
+#include "linalg/linalg.h"
+#include "linalg/online.h"
+#include "robust/robust.h"
+#include "solver/solver.h"
+
+struct pgem {
+    pgem_config_t config;      /* resolved configuration */
+    int pose_size;             /* doubles per pose: 3 or 7 */
+    int tangent;               /* error rows per edge: 3 or 6 */
+    size_t block_bytes;        /* size of the caller's block */
+    size_t used_bytes;         /* bytes carved at init */
+    void *hosted_block;        /* block malloc'ed by pgem_create (NULL for pgem_init) */
+
+    pgem_store_t store;        /* graph layer: poses, edges, id map, edge states */
+    pgem_solver_state_t solver; /* solver layer: its estimate copies */
+    pgem_robust_state_t robust; /* robust layer: what a robust solve keeps */
+    pgem_linear_t *linear;     /* linalg layer: the normal equations (opaque here) */
+    pgem_executor_t executor;  /* threads of the factorisation (run NULL: the caller's only) */
+    pgem_online_t online;      /* the incremental factor of pgem_update (linalg/online.h) */
+    char message[PGEM_MESSAGE_SIZE]; /* last error message */
+};
+
+/* Bytes of the whole estimate (every pose), for copies between the estimate buffers. */
+static inline size_t pgem_pose_bytes(const pgem_t *graph)
+{
+    return (size_t)graph->store.pose_count * (size_t)graph->pose_size * sizeof(double);
+}
+
+#endif /* PGEM_INSTANCE_H */

@@ -1,0 +1,90 @@
+/* The linalg layer's calls, private to lib/core: the normal equations H dx = -b of the graph
+ * (structure, assembly, factor, solves, marginals). Its state (linalg/linear.h) is opaque to
+ * the layers above, which reach it only through these calls; it reads the graph layer and
+ * notices topology changes by the graph's version. */
+#ifndef PGEM_LINALG_LAYER_H
+#define PGEM_LINALG_LAYER_H
+
+#include "graph/graph.h"
+
+typedef struct pgem_linear pgem_linear_t; /* graph->linear, defined in linalg/linear.h */
+
+/* Carves the linear system's state and arrays (measuring when arena->base is NULL); then
+ * picks the dense kernels of this CPU (pgem_linear_start, on a carved instance). */
+void pgem_linear_carve(pgem_t *graph, pgem_arena_t *arena);
+void pgem_linear_start(pgem_t *graph);
+/* The fill-reducing ordering into an instance that received `from`'s graph (pgem_copy), when
+ * it is still from's graph's (and not the every-edge fallback's). */
+void pgem_linear_copy_ordering(pgem_t *to, const pgem_t *from);
+/* The parts of linalg's share of the block for a resolved config: the factor's values and row
+ * indices, CSparse's pool (parts->factor, parts->csparse_pool). */
+void pgem_linear_memory_parts(const pgem_config_t *config, pgem_memory_parts_t *parts);
+/* The factor's nonzeros, analyses and CSparse pool figures into stats. */
+void pgem_linear_memory_stats(const pgem_t *graph, pgem_memory_stats_t *stats);
+
+/* The structure (ordering, symbolic analysis) for the graph's current topology and edge
+ * states: analysed when the graph changed or the structure was invalidated, else kept. */
+int pgem_linear_prepare(pgem_t *graph);
+int pgem_linear_analyze(pgem_t *graph);
+/* The nonzeros the factor of the graph's structure (edge states as they are) needs, whatever
+ * the budget; the ordering is kept (and the analysis, within the budget). */
+int pgem_linear_fill_needed(pgem_t *graph, uint32_t *nonzeros);
+/* Forgets the structure (edge states changed so that it no longer fits). */
+void pgem_linear_invalidate(pgem_t *graph);
+/* Keeps the structure fit for the next solve after edge states changed: invalidated when an
+ * active edge has no place in it, or when idle loops in it are too many (linalg/structure.c). */
+void pgem_linear_review(pgem_t *graph);
+/* 1 if loop k's poses meet on the factor's pattern (or one is held). */
+int pgem_linear_on_pattern(const pgem_t *graph, uint32_t k);
+/* PGEM_ERR_NOT_POSITIVE_DEFINITE, naming a pose, if a part of the graph (edges not pruned)
+ * has no held pose; needs the numbering of a valid analysis (linalg/analyze.c). */
+int pgem_linear_check_parts(pgem_t *graph);
+
+/* Assembles H and -b at the current estimate and weights; returns the weighted chi2. */
+double pgem_linear_assemble(pgem_t *graph);
+void pgem_linear_damp(pgem_t *graph, double lambda);
+int pgem_linear_factor(pgem_t *graph);
+void pgem_linear_solve(pgem_t *graph, double *step);
+/* Solves (H + D) step = rhs in place (rhs: pgem_linear_step): the factor's solve, refined by
+ * conjugate gradients preconditioned with it when couplings were left out (linalg/newton.c).
+ * Returns PGEM_OK, or PGEM_ERR_NUMERIC if the refinement did not converge. */
+int pgem_solve_newton(pgem_t *graph);
+/* y = H x with the assembled values (linalg/multiply.c); y += D x for the couplings the
+ * assembly left out (linalg/assemble.c). */
+void pgem_linear_multiply(const pgem_t *graph, const double *x, double *y);
+void pgem_linear_left_out_multiply(const pgem_t *graph, const double *x, double *y);
+
+/* The right-hand side -b after an assembly, the step after a solve (permuted order), and the
+ * number of unknowns it holds. */
+double *pgem_linear_step(const pgem_t *graph);
+int pgem_linear_unknowns(const pgem_t *graph);
+/* Pose p's part of a vector in permuted order, or NULL if p is held fixed. */
+const double *pgem_linear_pose_delta(const pgem_t *graph, const double *vector, uint32_t p);
+/* Levenberg-Marquardt's pieces: -b kept across retries and put back, the largest diagonal
+ * entry of H, and the decrease step^T (-b + lambda step) the damped model predicts. */
+void pgem_linear_keep_gradient(pgem_t *graph);
+void pgem_linear_restore_gradient(pgem_t *graph);
+double pgem_linear_largest_diagonal(const pgem_t *graph);
+double pgem_linear_predicted_gain(const pgem_t *graph, double lambda);
+/* The running solve's options (their on_progress; NULL outside a solve), and the iteration
+ * the next factorisation belongs to. */
+void pgem_linear_progress(pgem_t *graph, const pgem_solve_options_t *options);
+void pgem_linear_progress_iteration(pgem_t *graph, uint32_t iteration);
+/* The last analysis's factor nonzeros. */
+uint32_t pgem_linear_nonzeros(const pgem_t *graph);
+
+/* out = A H^-1 A^T (n x n) for A = [a_from a_to] on poses from and to (n x n blocks,
+ * row-major), from the current factor (linalg/marginal.c). */
+void pgem_linear_marginal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
+                          const double *a_to, double *out);
+/* H^-1 on the factor's pattern, over the factor (linalg/inverse.c); then the marginal of two
+ * poses joined by a block of the pattern (PGEM_ERR_INVALID_ARGUMENT if they are not). */
+void pgem_linear_invert(pgem_t *graph);
+int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
+                                 const double *a_to, double *out);
+/* The same without the cross term: A_f Z_ff A_f^T + A_t Z_tt A_t^T, which is at least half of
+ * A H^-1 A^T (for any pair of poses, on the pattern or not). */
+void pgem_linear_marginal_diagonal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
+                                   const double *a_to, double *out);
+
+#endif /* PGEM_LINALG_LAYER_H */

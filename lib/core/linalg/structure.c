@@ -1,0 +1,71 @@
+/* When H's structure is rebuilt: the graph's topology version changed, the edge states left an
+ * active edge without a place, or too many idle loops hold a place (the policy the robust
+ * layer asks for by pgem_linear_review); and which loops meet on the factor's pattern. */
+#include "linalg/linear.h"
+
+void pgem_linear_follow(pgem_t *graph)
+{
+    pgem_linear_t *linear = graph->linear;
+    if (linear->topology != graph->store.topology) {
+        linear->valid = 0;
+        linear->ordered = 0;
+        linear->topology = graph->store.topology;
+    }
+}
+
+void pgem_linear_invalidate(pgem_t *graph)
+{
+    graph->linear->valid = 0;
+    graph->linear->ordered = 0;
+}
+
+int pgem_linear_prepare(pgem_t *graph)
+{
+    pgem_linear_follow(graph);
+    return graph->linear->valid ? PGEM_OK : pgem_linear_analyze(graph);
+}
+
+/* 1 if edge k, made active, can be assembled into the current (valid) structure: it has a
+ * place there, or touches a held pose (no off-diagonal block). */
+static int pgem_edge_in_structure(const pgem_t *graph, uint32_t k)
+{
+    const pgem_linear_t *linear = graph->linear;
+    return linear->all_edges || linear->edge_offset[k] >= 0 ||
+           linear->pose_block[graph->store.edge_from[k]] < 0 ||
+           linear->pose_block[graph->store.edge_to[k]] < 0;
+}
+
+/* The structure must grow when an active edge has no place in it (a loop woke up or was
+ * re-admitted). It may shrink: dormant and pruned loops still in it cost fill, so it is
+ * rebuilt without them once they are more than a sixteenth of the loops it holds (the
+ * full-structure fallback, which holds every edge by design, is kept). */
+void pgem_linear_review(pgem_t *graph)
+{
+    pgem_linear_follow(graph);
+    const pgem_linear_t *linear = graph->linear;
+    if (!linear->valid) {
+        return;
+    }
+    uint32_t held = 0, idle = 0;
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        const int active = graph->store.edge_active[k] == PGEM_EDGE_ACTIVE;
+        if (active && !pgem_edge_in_structure(graph, k)) {
+            pgem_linear_invalidate(graph);
+            return;
+        }
+        if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP && linear->edge_offset[k] >= 0) {
+            held++;
+            idle += (uint32_t)!active;
+        }
+    }
+    if (!linear->all_edges && idle > 0u && idle * 16u > held) {
+        pgem_linear_invalidate(graph);
+    }
+}
+
+int pgem_linear_on_pattern(const pgem_t *graph, uint32_t k)
+{
+    const pgem_linear_t *linear = graph->linear;
+    return linear->edge_offset[k] >= 0 || linear->pose_block[graph->store.edge_from[k]] < 0 ||
+           linear->pose_block[graph->store.edge_to[k]] < 0;
+}

@@ -1,0 +1,43 @@
+/* EM's consistency test under the polished estimate: the gate (a chi-square quantile, or the
+ * options' gate) and the loops it re-admits or prunes. */
+#include "instance.h"
+#include "robust/robust.h"
+
+/* 99.9% quantiles of the chi-square distribution with 3 and 6 degrees of freedom. */
+#define PGEM_CHI2_999_DOF3 16.266
+#define PGEM_CHI2_999_DOF6 22.458
+
+double pgem_em_gate_value(const pgem_t *graph, const pgem_robust_options_t *options)
+{
+    if (options->gate > 0.0) {
+        return options->gate;
+    }
+    return graph->tangent == 6 ? PGEM_CHI2_999_DOF6 : PGEM_CHI2_999_DOF3;
+}
+
+/* The consistency test under the polished estimate: a pruned loop whose distance passes the
+ * gate is re-admitted, an accepted loop that fails it is pruned. Every loop is tested against
+ * the same estimate. Returns how many changed state. */
+uint32_t pgem_em_gate(pgem_t *graph, const pgem_robust_options_t *options, double gate,
+                      pgem_robust_summary_t *summary)
+{
+    uint32_t changed = 0;
+    pgem_em_distances(graph, options, 1, gate);
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
+            continue;
+        }
+        int consistent = graph->robust.edge_distance[k] < gate;
+        if (consistent != (graph->store.edge_active[k] != PGEM_EDGE_PRUNED)) {
+            graph->store.edge_active[k] = consistent ? PGEM_EDGE_ACTIVE : PGEM_EDGE_PRUNED;
+            summary->readmitted += (uint32_t)consistent;
+            summary->gated += (uint32_t)!consistent;
+            changed++;
+        }
+    }
+    if (changed > 0u) {
+        pgem_linear_invalidate(graph);
+    }
+    return changed;
+}
+

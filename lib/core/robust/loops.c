@@ -1,0 +1,86 @@
+/* The loops' states around a robust solve: reset, dormant ones woken, counted and reported to
+ * the round callback, and the estimate, weights and states saved and put back if the solve
+ * fails. */
+#include <string.h>
+
+#include "instance.h"
+#include "robust/robust.h"
+
+void pgem_robust_reset(pgem_t *graph)
+{
+    if (graph == NULL) {
+        return;
+    }
+    uint32_t returned = 0;
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        returned += graph->store.edge_active[k] != PGEM_EDGE_ACTIVE;
+        graph->store.edge_weight[k] = 1.0;
+        graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
+    }
+    if (returned > 0u) {
+        pgem_linear_invalidate(graph); /* pruned loops were out of H's structure */
+    }
+}
+
+/* Dormant loops back to active, for a solve at their weights' full Newton matrix (the polish)
+ * or for whatever the caller does after the robust solve; the structure is reviewed. */
+void pgem_wake_dormant(pgem_t *graph)
+{
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (graph->store.edge_active[k] == PGEM_EDGE_DORMANT) {
+            graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
+        }
+    }
+    pgem_linear_review(graph);
+}
+
+/* Loop closures in the graph and how many are pruned, into the summary. */
+void pgem_count_loops(const pgem_t *graph, pgem_robust_summary_t *summary)
+{
+    summary->loops = summary->pruned = 0;
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP) {
+            summary->loops++;
+            summary->pruned += graph->store.edge_active[k] == PGEM_EDGE_PRUNED;
+        }
+    }
+}
+
+void pgem_restore_initial(pgem_t *graph)
+{
+    memcpy(graph->store.pose, graph->robust.pose_initial, pgem_pose_bytes(graph));
+}
+
+/* The loops' weights and states before a robust solve, put back if it fails (with the
+ * estimate), so a failed call changes nothing the caller can see. */
+void pgem_save_loops(pgem_t *graph)
+{
+    memcpy(graph->robust.edge_weight_saved, graph->store.edge_weight, graph->store.edge_count * sizeof(double));
+    memcpy(graph->robust.edge_active_saved, graph->store.edge_active, graph->store.edge_count);
+}
+
+void pgem_restore_loops(pgem_t *graph)
+{
+    memcpy(graph->store.edge_weight, graph->robust.edge_weight_saved, graph->store.edge_count * sizeof(double));
+    memcpy(graph->store.edge_active, graph->robust.edge_active_saved, graph->store.edge_count);
+    pgem_linear_invalidate(graph); /* the structure was built for the states of the failed solve */
+}
+
+
+int pgem_report_round(pgem_t *graph, const pgem_robust_options_t *options,
+                      pgem_robust_summary_t *summary, pgem_robust_progress_t *progress)
+{
+    if (options->on_round == NULL) {
+        return 0;
+    }
+    progress->round = summary->rounds;
+    progress->chi2 = pgem_weighted_chi2(graph);
+    pgem_count_loops(graph, summary);
+    progress->active_loops = summary->loops - summary->pruned;
+    progress->pruned_loops = summary->pruned;
+    if (options->on_round(progress, options->user)) {
+        pgem_robust_ended(summary, PGEM_ROBUST_STOPPED);
+        return 1;
+    }
+    return 0;
+}

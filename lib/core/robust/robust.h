@@ -1,0 +1,97 @@
+/* The robust layer, private to lib/core: EM's loop-closure weighting and the IRLS kernels over
+ * the solver, with what a robust solve keeps (graph->robust): the estimate and edge states to
+ * put back if it fails, and each loop's last distance. */
+#ifndef PGEM_ROBUST_LAYER_H
+#define PGEM_ROBUST_LAYER_H
+
+#include "pgem/robust.h"
+#include "solver/solver.h"
+
+/* What a robust solve keeps besides the graph's weights and states. */
+typedef struct pgem_robust_state {
+    double *pose_initial;      /* [max_poses * pose_size] estimate before a robust solve */
+    double *edge_weight_saved; /* [max_edges] weights before a robust solve, and */
+    uint8_t *edge_active_saved; /* [max_edges] states: put back if the solve fails */
+    double *edge_distance;     /* [max_edges] a loop's distance in the last E-step or test */
+    uint8_t *edge_checked;     /* [max_edges] 1 if the map predicted the loop (innovation) */
+} pgem_robust_state_t;
+
+/* Carves the robust layer's arrays from the arena (measuring when arena->base is NULL). */
+void pgem_robust_carve(pgem_t *graph, pgem_arena_t *arena);
+
+/* A loop's innovation (robust/innovation.c): its distance with the odometry allowance, the
+ * same without it (inflation 1), and the predicted rotation's standard deviation (radians). */
+typedef struct pgem_innovation {
+    double distance;     /* d^2 under Omega^-1 + inflation J Sigma_-k J^T */
+    double plain;        /* d^2 under Omega^-1 + J Sigma_-k J^T */
+    double rotation_sd;  /* sqrt of the rotation block's trace of J Sigma_-k J^T */
+} pgem_innovation_t;
+/* Loop k's innovation under the current factor, in which it has weight `weight` (0 when
+ * pruned); its marginal from the sparse inverse (from_inverse) or by a solve with L. */
+void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double inflation,
+                          int from_inverse, pgem_innovation_t *out);
+/* For a pruned loop, after pgem_linear_invert: 1 if it passes `gate` however the map predicts
+ * it (its chi2 and its predicted error are below it), -1 if it fails it however (its chi2 and
+ * a lower bound of its innovation are above it), 0 if only the innovation can tell;
+ * *distance is the measure that decided (robust/innovation.c). */
+int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, double *distance);
+/* EM's E-step (robust/estep.c): every loop's distance (every loop, pruned ones included, in
+ * the consistency test: gating), then the weights, and the largest weight change; fails only
+ * on a user kernel's weight outside [0, 1]. */
+void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int gating,
+                       double gate);
+int pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options, double *largest_change);
+/* Loop k's weight from its distance (edge_distance) under the options' kernel (robust/kernel.c):
+ * PGEM_ERR_NUMERIC, naming the loop, if a user kernel's weight is not in [0, 1]. */
+int pgem_loop_kernel_weight(pgem_t *graph, const pgem_robust_options_t *options, uint32_t k,
+                            double *weight);
+
+/* Options (robust/options.c): checked, naming a wrong one; resolved to the defaults. */
+int pgem_check_robust_options(pgem_t *graph, const pgem_robust_options_t *options);
+pgem_robust_options_t pgem_robust_resolve(const pgem_robust_options_t *options);
+
+/* The loops around a solve (robust/loops.c): dormant ones back to active (the structure
+ * reviewed), counted into the summary, and the estimate, weights and states saved at the start
+ * and put back after a failure. */
+void pgem_wake_dormant(pgem_t *graph);
+void pgem_count_loops(const pgem_t *graph, pgem_robust_summary_t *summary);
+void pgem_save_loops(pgem_t *graph);
+void pgem_restore_loops(pgem_t *graph);
+void pgem_restore_initial(pgem_t *graph);
+
+/* The summary's termination, unless an earlier stop by on_round already set it. */
+static inline void pgem_robust_ended(pgem_robust_summary_t *summary,
+                                     pgem_robust_termination_t termination)
+{
+    if (summary->termination != PGEM_ROBUST_STOPPED) {
+        summary->termination = termination;
+    }
+}
+
+/* The round callback (if any) told of the round just done (progress->largest_change set by
+ * the caller); returns 1, the termination PGEM_ROBUST_STOPPED, if it asks to stop. */
+int pgem_report_round(pgem_t *graph, const pgem_robust_options_t *options,
+                      pgem_robust_summary_t *summary, pgem_robust_progress_t *progress);
+
+/* E/M iterations (robust/iterate.c); weights_current skips the first E-step. */
+int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
+                    const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
+                    int weights_current, double *largest_change);
+/* EM (robust/em.c): rounds with pruning (the literal method); the polish (accepted loops at
+ * weight 1, Gauss-Newton to convergence); rounds, polish and consistency test (the default). */
+int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
+                   const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
+int pgem_em_polish(pgem_t *graph, const pgem_solve_options_t *solve,
+                   pgem_robust_summary_t *summary);
+int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
+                      const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
+/* The consistency test (robust/gate.c): the gate, then the loops it re-admits or prunes under
+ * the current (polished) estimate; returns how many changed state. */
+double pgem_em_gate_value(const pgem_t *graph, const pgem_robust_options_t *options);
+uint32_t pgem_em_gate(pgem_t *graph, const pgem_robust_options_t *options, double gate,
+                      pgem_robust_summary_t *summary);
+/* IRLS for the kernels that never prune (robust/irls.c). */
+int pgem_irls(pgem_t *graph, const pgem_robust_options_t *options,
+              const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
+
+#endif /* PGEM_ROBUST_LAYER_H */

@@ -1,0 +1,133 @@
+/* A robust solve: options checked, loops whose chi2 is not finite pruned, the method run (EM,
+ * IRLS, or plain least squares), a failure undone, and the summary's account of the loops. */
+#include <math.h>
+#include <string.h>
+
+#include "instance.h"
+#include "robust/robust.h"
+
+/* The share of rejected loop closures above which the outcome is PGEM_ROBUST_MOST_REJECTED. */
+#define PGEM_MOST_REJECTED 0.9
+
+static int pgem_plain(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+{
+    pgem_robust_reset(graph);
+    summary->rounds = 1u;
+    return pgem_em_polish(graph, solve, summary);
+}
+
+/* A loop closure whose chi2 is not finite (a pose or measurement near the double range) is an
+ * outlier before any E-step: pruned at weight 0, so the rest of the graph can be solved. An
+ * odometry edge like that fails the solve, naming its poses. */
+static int pgem_prune_non_finite(pgem_t *graph, pgem_robust_summary_t *summary)
+{
+    summary->first_non_finite = UINT32_MAX;
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (isfinite(pgem_edge_mahalanobis(graph, k))) {
+            continue;
+        }
+        if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
+            pgem_message_clear(graph);
+            pgem_message_text(graph, "the chi2 of odometry edge ");
+            pgem_message_edge(graph, k);
+            pgem_message_text(graph, " is not finite under the initial estimate");
+            return PGEM_ERR_NUMERIC;
+        }
+        if (summary->non_finite++ == 0u) {
+            summary->first_non_finite = k;
+        }
+        graph->store.edge_weight[k] = 0.0;
+        if (graph->store.edge_active[k] != PGEM_EDGE_PRUNED) {
+            graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
+            pgem_linear_invalidate(graph);
+        }
+    }
+    return PGEM_OK;
+}
+
+/* The summary's account of the loops after a successful solve: how many were rejected (pruned,
+ * or for the kernels that never prune, weighing less than the prune threshold) and the
+ * outcome that says so. */
+static void pgem_summarise(pgem_t *graph, const pgem_robust_options_t *options,
+                           pgem_robust_summary_t *summary)
+{
+    pgem_count_loops(graph, summary);
+    summary->rejected = 0;
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        summary->rejected += (uint32_t)(graph->store.edge_kind[k] == PGEM_EDGE_LOOP &&
+                                        (graph->store.edge_active[k] == PGEM_EDGE_PRUNED ||
+                                         graph->store.edge_weight[k] < options->prune_threshold));
+    }
+    if (summary->loops == 0u) {
+        summary->outcome = PGEM_ROBUST_NO_LOOPS;
+    } else if (summary->rejected == summary->loops) {
+        summary->outcome = PGEM_ROBUST_ALL_REJECTED;
+    } else if ((double)summary->rejected > PGEM_MOST_REJECTED * (double)summary->loops) {
+        summary->outcome = PGEM_ROBUST_MOST_REJECTED;
+    } else {
+        summary->outcome = PGEM_ROBUST_LOOPS_ACCEPTED;
+    }
+    summary->final_chi2 = pgem_weighted_chi2(graph);
+    summary->final_chi2_all = pgem_total_chi2(graph);
+    summary->estimate_changed = memcmp(graph->store.pose, graph->robust.pose_initial, pgem_pose_bytes(graph)) != 0;
+}
+
+int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
+                         const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+{
+    pgem_robust_summary_t local = {0};
+    pgem_robust_summary_t *out = summary != NULL ? summary : &local;
+    memset(out, 0, sizeof *out);
+    out->first_non_finite = UINT32_MAX;
+    if (graph == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    int checked = pgem_check_robust_options(graph, options);
+    if (checked == PGEM_OK) {
+        checked = pgem_check_solve_options(graph, solve);
+    }
+    if (checked != PGEM_OK) {
+        return checked;
+    }
+    pgem_robust_options_t resolved = pgem_robust_resolve(options);
+    memcpy(graph->robust.pose_initial, graph->store.pose, pgem_pose_bytes(graph));
+    pgem_save_loops(graph);
+    out->initial_chi2 = pgem_weighted_chi2(graph);
+    int status = PGEM_OK;
+    if (!isfinite(pgem_total_chi2(graph))) {
+        /* before any E-step: a NaN chi2 would become a NaN weight on the loops */
+        status = resolved.kernel == PGEM_KERNEL_NONE ? pgem_fail_numeric(graph, "initial chi2", 0)
+                                                     : pgem_prune_non_finite(graph, out);
+    }
+    if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_NONE) {
+        status = pgem_plain(graph, solve, out);
+    } else if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_EM && !resolved.literal) {
+        status = pgem_em_with_gate(graph, &resolved, solve, out);
+    } else if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_EM) {
+        status = pgem_em_rounds(graph, &resolved, solve, out);
+    } else if (status == PGEM_OK) {
+        status = pgem_irls(graph, &resolved, solve, out);
+    }
+    pgem_wake_dormant(graph); /* none stays dormant after the solve */
+    if (status != PGEM_OK) {
+        pgem_restore_initial(graph);
+        pgem_restore_loops(graph);
+        out->termination = PGEM_ROBUST_FAILED;
+        return status;
+    }
+    pgem_summarise(graph, &resolved, out);
+    out->usable = 1;
+    pgem_message_clear(graph);
+    return PGEM_OK;
+}
+
+const char *pgem_robust_outcome_name(pgem_robust_outcome_t outcome)
+{
+    switch (outcome) {
+    case PGEM_ROBUST_LOOPS_ACCEPTED: return "loops_accepted";
+    case PGEM_ROBUST_NO_LOOPS: return "no_loops";
+    case PGEM_ROBUST_MOST_REJECTED: return "most_rejected";
+    case PGEM_ROBUST_ALL_REJECTED: return "all_rejected";
+    }
+    return "unknown";
+}

@@ -1,0 +1,41 @@
+/* The solver layer, private to lib/core: Gauss-Newton and Levenberg-Marquardt over the linalg
+ * layer's calls, with the estimate copies they keep (graph->solver) and the option checks the
+ * robust layer shares. */
+#ifndef PGEM_SOLVER_LAYER_H
+#define PGEM_SOLVER_LAYER_H
+
+#include "linalg/linalg.h"
+
+/* The solver's estimate copies. */
+typedef struct pgem_solver_state {
+    double *pose_saved;        /* [max_poses * pose_size] estimate before a solve */
+    double *pose_accepted;     /* [max_poses * pose_size] last accepted LM estimate */
+} pgem_solver_state_t;
+
+/* Carves the solver's arrays from the arena (measuring when arena->base is NULL). */
+void pgem_solver_carve(pgem_t *graph, pgem_arena_t *arena);
+
+/* PGEM_ERR_INVALID_ARGUMENT with "option NAME is not a finite number" unless value is finite
+ * (solver/optimize.c). */
+int pgem_check_option(pgem_t *graph, double value, const char *name);
+/* The method and every double of solve options (NULL: fine), as pgem_optimize checks them. */
+int pgem_check_solve_options(pgem_t *graph, const pgem_solve_options_t *options);
+
+/* Solver pieces shared by Gauss-Newton and Levenberg-Marquardt. */
+/* Applies a step (permuted order, pgem_linear_step) to every free pose. */
+void pgem_apply_step(pgem_t *graph, const double *step);
+/* Euclidean norm of a vector; NaN/Inf propagate. */
+double pgem_norm(const double *values, int count);
+/* Reports an iteration to the callback; returns non-zero if it asks to stop. */
+int pgem_report(const pgem_solve_options_t *options, uint32_t iteration, double chi2,
+                double step_norm, double lambda, int accepted);
+/* Relative chi2 decrease below tolerance (negative tolerance: never; zero chi2: always). */
+int pgem_chi2_converged(double before, double after, double tolerance);
+/* Sets the message for a non-finite chi2 or step and returns PGEM_ERR_NUMERIC. */
+int pgem_fail_numeric(pgem_t *graph, const char *what, uint32_t iteration);
+
+int pgem_gauss_newton(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary);
+int pgem_levenberg_marquardt(pgem_t *graph, const pgem_solve_options_t *options,
+                             pgem_summary_t *summary);
+
+#endif /* PGEM_SOLVER_LAYER_H */
