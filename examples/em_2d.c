@@ -20,7 +20,7 @@ static void step_truth(int k, double step[3])
 
 int main(void)
 {
-    pgem_config_t config = {2, POSES, 2 * POSES, 0, 0}; /* 2D; fill budget: the default */
+    pgem_config_t config = {2, POSES, 2 * POSES, 0, 0, 0}; /* 2D; fill budget: the default */
     pgem_t *graph = NULL;
     if (pgem_create(&graph, &config) != PGEM_OK) {
         return 1;

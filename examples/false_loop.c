@@ -4,7 +4,7 @@
 
 int main(void)
 {
-    pgem_config_t config = {2, 5, 6, 0, 0}; /* 2D, 5 poses, 6 edges, default fill budget */
+    pgem_config_t config = {2, 5, 6, 0, 0, 0}; /* 2D, 5 poses, 6 edges, default fill budget */
     pgem_t *graph = NULL;
     if (pgem_create(&graph, &config) != PGEM_OK) {
         return 1;

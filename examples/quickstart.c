@@ -7,7 +7,7 @@ static unsigned char block[64 * 1024]; /* all the memory pgem will ever use */
 
 int main(void)
 {
-    pgem_config_t config = {2, 16, 32, 2048, 1}; /* 2D, 16 poses, 32 edges, 2048 factor nonzeros, 1 worker */
+    pgem_config_t config = {2, 16, 32, 2048, 1, 0}; /* 2D, 16 poses, 32 edges, 2048 factor nonzeros, 1 worker */
     pgem_t *graph = NULL;
     const int status = pgem_init(&graph, &config, block, sizeof block);
     if (status != PGEM_OK) { /* PGEM_ERR_BUFFER_TOO_SMALL if the block is too small */

@@ -34,7 +34,7 @@ static int at(int row, int column)
 
 int main(void)
 {
-    const pgem_config_t config = {2, MAX_POSES, MAX_EDGES, FILL_BUDGET, 0};
+    const pgem_config_t config = {2, MAX_POSES, MAX_EDGES, FILL_BUDGET, 0, 0};
     const size_t needed = pgem_memory_size(&config);
     printf("block: %zu bytes needed, %zu reserved\n", needed, sizeof block);
     pgem_t *graph = NULL;

@@ -58,7 +58,7 @@ static void check_no_allocation(int dimension, pgem_method_t method)
 {
     static unsigned char buffer[8 << 20];
     static double truth[7 * 200];
-    pgem_config_t config = {dimension, 200, 400, 0, 0};
+    pgem_config_t config = {dimension, 200, 400, 0, 0, 0};
     assert_true(pgem_memory_size(&config) <= sizeof buffer);
     long before = allocations;
     pgem_t *graph = NULL;

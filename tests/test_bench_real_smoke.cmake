@@ -7,26 +7,11 @@
 #   cmake -DPYTHON=<python3> -DBENCH=<bench_real.py> -DPGEM=<pgem> -DOUT=<report.md>
 #         [-DDATASETS=<dir>] -P test_bench_real_smoke.cmake
 # Prints "bench_real_smoke: skipped: ..." (which CTest reports as skipped) without the datasets.
-foreach(variable PYTHON BENCH PGEM OUT)
-  if(NOT ${variable})
-    message(FATAL_ERROR "usage: cmake -DPYTHON=<python3> -DBENCH=<bench_real.py> -DPGEM=<pgem> -DOUT=<report.md> [-DDATASETS=<dir>] -P test_bench_real_smoke.cmake")
-  endif()
-endforeach()
-set(needed real/kitti/kitti_09_alpha_1.00.g2o real/kitti/kitti_09_alpha_1.00_GT_LC.txt real/kitti/kitti_09_GT.g2o
-           real/vertigo/ring.g2o real/vertigo/ring_groundTruth.g2o)
-foreach(file ${needed})
-  if(NOT DATASETS OR NOT EXISTS "${DATASETS}/${file}")
-    message("bench_real_smoke: skipped: ${file} not found in '${DATASETS}' (PGEM_DATASETS_DIR)")
-    return()
-  endif()
-endforeach()
-
 include(${CMAKE_CURRENT_LIST_DIR}/bench_report.cmake)
-get_filename_component(out_dir "${OUT}" DIRECTORY)
-get_filename_component(out_name "${OUT}" NAME_WE)
-set(raw "${out_dir}/${out_name}.json")
+bench_smoke_inputs(bench_real_smoke real/kitti/kitti_09_alpha_1.00.g2o real/kitti/kitti_09_alpha_1.00_GT_LC.txt
+                   real/kitti/kitti_09_GT.g2o real/vertigo/ring.g2o real/vertigo/ring_groundTruth.g2o)
 set(options --quick --peer none --pgem "${PGEM}" --datasets "${DATASETS}" --work "${out_dir}/${out_name}_work")
-file(REMOVE_RECURSE "${OUT}" "${raw}" "${out_dir}/${out_name}_work")
+file(REMOVE_RECURSE "${out_dir}/${out_name}_work")
 
 bench_report(report ${options} --no-cache)
 bench_expect("${report}" "Cache: 0 result(s) reused, 3 computed (--no-cache).")
@@ -51,14 +36,6 @@ bench_expect("${report}"
     "## Failures and timeouts\n\nNone.")
 # One row per cell for each pgem method (bold when it is the cell's best).
 foreach(method pgem-em pgem-dormant-off pgem-literal)
-  string(REGEX MATCHALL "\\|  \\|  \\|  \\| (\\*\\*)?${method}(\\*\\*)? \\| [0-9]+ \\| [0-9]+ \\|" rows "${report}")
-  list(LENGTH rows n)
-  if(NOT n EQUAL 3)
-    message(SEND_ERROR "${n} result rows of ${method} instead of 3:\n${report}")
-  endif()
+  bench_count("${report}" "\\|  \\|  \\|  \\| (\\*\\*)?${method}(\\*\\*)? \\| [0-9]+ \\| [0-9]+ \\|" 3)
 endforeach()
-file(READ "${raw}" json)
-string(JSON cells LENGTH "${json}" cells)
-if(NOT cells EQUAL 3)
-  message(SEND_ERROR "${raw} has ${cells} cells instead of 3")
-endif()
+bench_json_length("${raw}" cells 3)

@@ -5,20 +5,8 @@
 #   cmake -DPYTHON=<python3> -DBENCH=<bench.py> -DPGEM=<pgem> -DOUT=<report.md>
 #         [-DDATASETS=<dir>] -P test_bench_smoke.cmake
 # Prints "bench_smoke: skipped: ..." (which CTest reports as skipped) without the datasets.
-foreach(variable PYTHON BENCH PGEM OUT)
-  if(NOT ${variable})
-    message(FATAL_ERROR "usage: cmake -DPYTHON=<python3> -DBENCH=<bench.py> -DPGEM=<pgem> -DOUT=<report.md> [-DDATASETS=<dir>] -P test_bench_smoke.cmake")
-  endif()
-endforeach()
-if(NOT DATASETS OR NOT EXISTS "${DATASETS}/2d/intel.g2o" OR NOT EXISTS "${DATASETS}/2d/input_M3500_g2o.g2o")
-  message("bench_smoke: skipped: 2d/intel.g2o and 2d/input_M3500_g2o.g2o not found in '${DATASETS}' (PGEM_DATASETS_DIR)")
-  return()
-endif()
-
 include(${CMAKE_CURRENT_LIST_DIR}/bench_report.cmake)
-get_filename_component(out_dir "${OUT}" DIRECTORY)
-get_filename_component(out_name "${OUT}" NAME_WE)
-file(REMOVE "${OUT}" "${out_dir}/${out_name}.json")
+bench_smoke_inputs(bench_smoke 2d/intel.g2o 2d/input_M3500_g2o.g2o)
 bench_report(report --quick --peer none --runs 1 --pgem "${PGEM}" --datasets "${DATASETS}"
                     --work "${out_dir}/${out_name}_work")
 bench_expect("${report}"

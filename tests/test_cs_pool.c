@@ -46,7 +46,7 @@ static void check_full(int dimension, uint32_t poses, uint32_t edges, pick_fn pi
 {
     const int b = dimension == 2 ? 3 : 6;
     pgem_config_t config = {dimension, poses, edges,
-                            (uint32_t)((poses * (poses + 1u) / 2u) * (uint32_t)(b * b)), 0};
+                            (uint32_t)((poses * (poses + 1u) / 2u) * (uint32_t)(b * b)), 0, 0};
     pgem_t *graph = NULL;
     assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
     double pose[7] = {0, 0, 0, 0, 0, 0, 1}, z[7] = {1, 0, 0, 0, 0, 0, 1}, information[36];

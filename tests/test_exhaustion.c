@@ -32,8 +32,8 @@
 /* Capacities for the init checks: 2D and 3D, small and mid-size, default and explicit fill
  * budgets, and the all-defaults config. */
 static const pgem_config_t init_configs[] = {
-    {2, 10, 20, 0, 0},      {2, 500, 2000, 0, 0}, {2, 100, 300, 5000, 0}, {3, 8, 16, 0, 0},
-    {3, 300, 900, 20000, 0}, {0, 0, 0, 0, 0},
+    {2, 10, 20, 0, 0, 0},      {2, 500, 2000, 0, 0, 0}, {2, 100, 300, 5000, 0, 0}, {3, 8, 16, 0, 0, 0},
+    {3, 300, 900, 20000, 0, 0}, {0, 0, 0, 0, 0, 0},
 };
 #define INIT_CONFIGS (sizeof init_configs / sizeof init_configs[0])
 
@@ -120,7 +120,7 @@ static void test_block_one_byte_short(void **state)
 static void test_null_and_empty_block(void **state)
 {
     (void)state;
-    const pgem_config_t config = {2, 50, 100, 0, 0};
+    const pgem_config_t config = {2, 50, 100, 0, 0, 0};
     const size_t need = pgem_memory_size(&config);
     unsigned char block[64];
     char message[MESSAGE_BYTES];
@@ -541,11 +541,11 @@ static void test_optimize_sweep(void **state)
 {
     (void)state;
     const scenario_t scenarios[] = {
-        {"2D, 60 poses, Gauss-Newton", {2, 60, 0, 0, 0}, 0, 0, 0, PGEM_KERNEL_NONE, 0, PGEM_GAUSS_NEWTON},
-        {"2D, 120 poses, fill budget 12000, LM", {2, 120, 0, 12000, 0}, 0, 0, 0, PGEM_KERNEL_NONE, 0,
+        {"2D, 60 poses, Gauss-Newton", {2, 60, 0, 0, 0, 0}, 0, 0, 0, PGEM_KERNEL_NONE, 0, PGEM_GAUSS_NEWTON},
+        {"2D, 120 poses, fill budget 12000, LM", {2, 120, 0, 12000, 0, 0}, 0, 0, 0, PGEM_KERNEL_NONE, 0,
          PGEM_LEVENBERG_MARQUARDT},
-        {"3D, 50 poses, Gauss-Newton", {3, 50, 0, 0, 0}, 0, 0, 0, PGEM_KERNEL_NONE, 0, PGEM_GAUSS_NEWTON},
-        {"3D, 100 poses, fill budget 40000, LM", {3, 100, 0, 40000, 0}, 0, 0, 0, PGEM_KERNEL_NONE, 0,
+        {"3D, 50 poses, Gauss-Newton", {3, 50, 0, 0, 0, 0}, 0, 0, 0, PGEM_KERNEL_NONE, 0, PGEM_GAUSS_NEWTON},
+        {"3D, 100 poses, fill budget 40000, LM", {3, 100, 0, 40000, 0, 0}, 0, 0, 0, PGEM_KERNEL_NONE, 0,
          PGEM_LEVENBERG_MARQUARDT},
     };
     run_sweeps(scenarios, sizeof scenarios / sizeof scenarios[0]);
@@ -558,15 +558,15 @@ static void test_robust_sweep(void **state)
 {
     (void)state;
     const scenario_t scenarios[] = {
-        {"2D, 100 poses, EM, 20 false loops", {2, 100, 0, 0, 0}, 1, 20, 1, PGEM_KERNEL_EM, 0,
+        {"2D, 100 poses, EM, 20 false loops", {2, 100, 0, 0, 0, 0}, 1, 20, 1, PGEM_KERNEL_EM, 0,
          PGEM_GAUSS_NEWTON},
-        {"2D, 80 poses, literal EM, 6 false loops", {2, 80, 0, 0, 0}, 1, 6, 1, PGEM_KERNEL_EM, 1,
+        {"2D, 80 poses, literal EM, 6 false loops", {2, 80, 0, 0, 0, 0}, 1, 6, 1, PGEM_KERNEL_EM, 1,
          PGEM_GAUSS_NEWTON},
-        {"2D, 60 poses, Cauchy, 3 false loops", {2, 60, 0, 0, 0}, 1, 3, 1, PGEM_KERNEL_CAUCHY, 0,
+        {"2D, 60 poses, Cauchy, 3 false loops", {2, 60, 0, 0, 0, 0}, 1, 3, 1, PGEM_KERNEL_CAUCHY, 0,
          PGEM_GAUSS_NEWTON},
-        {"2D, 60 poses, kernel none after EM", {2, 60, 0, 0, 0}, 1, 3, 1, PGEM_KERNEL_NONE, 0,
+        {"2D, 60 poses, kernel none after EM", {2, 60, 0, 0, 0, 0}, 1, 3, 1, PGEM_KERNEL_NONE, 0,
          PGEM_GAUSS_NEWTON},
-        {"3D, 60 poses, EM, 5 false loops, fill budget 60000", {3, 60, 0, 60000, 0}, 1, 5, 1,
+        {"3D, 60 poses, EM, 5 false loops, fill budget 60000", {3, 60, 0, 60000, 0, 0}, 1, 5, 1,
          PGEM_KERNEL_EM, 0, PGEM_GAUSS_NEWTON},
     };
     run_sweeps(scenarios, sizeof scenarios / sizeof scenarios[0]);
@@ -582,7 +582,7 @@ static void test_fill_budget_too_small(void **state)
     static double truth[7 * MAX_POSES];
     for (int dimension = 2; dimension <= 3; dimension++) {
         const int poses = 70;
-        pgem_config_t config = {dimension, (uint32_t)poses, 0, 0, 0};
+        pgem_config_t config = {dimension, (uint32_t)poses, 0, 0, 0, 0};
         pgem_t *graph = NULL;
         assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
         build_graph(graph, dimension, poses, truth);

@@ -12,7 +12,7 @@
 static pgem_t *lattice_3d(int side, uint32_t threads, uint64_t seed)
 {
     const uint32_t poses = (uint32_t)(side * side * side);
-    pgem_config_t config = {3, poses, 3u * poses, 36u * 200u * poses, threads};
+    pgem_config_t config = {3, poses, 3u * poses, 36u * 200u * poses, threads, 0};
     pgem_t *graph = NULL;
     assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
     test_rng_t rng = {seed};
@@ -73,7 +73,7 @@ static pgem_t *lattice_3d(int side, uint32_t threads, uint64_t seed)
 /* A 2D ring with loop closures (mostly one-block supernodes). */
 static pgem_t *ring_2d(int n, uint32_t threads)
 {
-    pgem_config_t config = {2, (uint32_t)n, 3u * (uint32_t)n, 0, threads};
+    pgem_config_t config = {2, (uint32_t)n, 3u * (uint32_t)n, 0, threads, 0};
     pgem_t *graph = NULL;
     assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
     double *truth = malloc(sizeof(double) * 3u * (size_t)n);
@@ -307,7 +307,7 @@ static void test_executor_checks(void **state)
     assert_int_equal(pgem_set_executor(graph, &executor), PGEM_ERR_INVALID_ARGUMENT);
     assert_int_equal(pgem_set_executor(NULL, &executor), PGEM_ERR_INVALID_ARGUMENT);
     assert_int_equal(pgem_set_executor(graph, NULL), PGEM_OK);
-    pgem_config_t too_many = {2, 10, 10, 0, PGEM_MAX_THREADS + 1u};
+    pgem_config_t too_many = {2, 10, 10, 0, PGEM_MAX_THREADS + 1u, 0};
     assert_int_equal(pgem_memory_size(&too_many), 0u);
     pgem_thread_pool_t *pool = NULL;
     assert_int_equal(pgem_thread_pool_create(0, &pool), PGEM_ERR_INVALID_ARGUMENT);

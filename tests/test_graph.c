@@ -9,24 +9,24 @@ static const double identity_3d[7] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0};
 static void test_config_defaults(void **state)
 {
     (void)state;
-    pgem_config_t zero = {0, 0, 0, 0, 0}, resolved;
+    pgem_config_t zero = {0, 0, 0, 0, 0, 0}, resolved;
     assert_int_equal(pgem_config_resolve(&zero, &resolved), PGEM_OK);
     assert_int_equal(resolved.dimension, 2);
     assert_int_equal(resolved.max_poses, PGEM_DEFAULT_MAX_POSES);
     assert_int_equal(resolved.max_edges, PGEM_DEFAULT_MAX_POSES * PGEM_DEFAULT_EDGES_PER_POSE);
     assert_true(resolved.fill_budget > 0);
-    pgem_config_t bad = {4, 10, 10, 0, 0};
+    pgem_config_t bad = {4, 10, 10, 0, 0, 0};
     assert_int_equal(pgem_config_resolve(&bad, &resolved), PGEM_ERR_CONFIG);
     assert_int_equal(pgem_memory_size(&bad), 0);
-    pgem_config_t huge = {2, PGEM_MAX_POSES_LIMIT + 1u, 0, 0, 0};
+    pgem_config_t huge = {2, PGEM_MAX_POSES_LIMIT + 1u, 0, 0, 0, 0};
     assert_int_equal(pgem_memory_size(&huge), 0);
 }
 
 static void test_memory_grows_with_capacity(void **state)
 {
     (void)state;
-    pgem_config_t small = {2, 100, 200, 1000, 0}, large = {2, 200, 200, 1000, 0};
-    pgem_config_t wider = {3, 100, 200, 1000, 0};
+    pgem_config_t small = {2, 100, 200, 1000, 0, 0}, large = {2, 200, 200, 1000, 0, 0};
+    pgem_config_t wider = {3, 100, 200, 1000, 0, 0};
     assert_true(pgem_memory_size(&small) < pgem_memory_size(&large));
     assert_true(pgem_memory_size(&small) < pgem_memory_size(&wider));
 }
@@ -35,7 +35,7 @@ static void test_init_in_static_buffer(void **state)
 {
     (void)state;
     static unsigned char buffer[1 << 20];
-    pgem_config_t config = {2, 100, 200, 20000, 0};
+    pgem_config_t config = {2, 100, 200, 20000, 0, 0};
     size_t need = pgem_memory_size(&config);
     assert_true(need > 0 && need < sizeof buffer);
     pgem_t *graph = NULL;
@@ -351,7 +351,7 @@ static void test_information_check(void **state)
 static void test_memory_parts(void **state)
 {
     (void)state;
-    pgem_config_t config = {2, 1000, 1500, 90000, 1};
+    pgem_config_t config = {2, 1000, 1500, 90000, 1, 0};
     pgem_memory_parts_t parts, more_poses, more_fill;
     assert_int_equal(pgem_get_memory_parts(&config, &parts), PGEM_OK);
     assert_int_equal(parts.total, pgem_memory_size(&config));
@@ -413,7 +413,7 @@ static void test_memory_bound(void **state)
                 const uint32_t m = edge_counts[e];
                 const uint32_t fills[] = {1, 9, 36, 17 * n + 5, 40 * n};
                 for (int f = 0; f < 5; f++) {
-                    pgem_config_t config = {dimension, n, m, fills[f], 0};
+                    pgem_config_t config = {dimension, n, m, fills[f], 0, 0};
                     size_t exact = pgem_memory_size(&config);
                     size_t bound = PGEM_MEMORY_BOUND(dimension, n, m, fills[f]);
                     assert_true(exact > 0);

@@ -11,7 +11,7 @@
 static void test_c99_headers(void **state)
 {
     (void)state;
-    pgem_config_t config = {3, 10, 20, 0, 0};
+    pgem_config_t config = {3, 10, 20, 0, 0, 0};
     assert_true(pgem_memory_size(&config) > 0);
     assert_int_equal(PGEM_POSE_SIZE(3), 7);
     assert_int_equal(PGEM_TANGENT_SIZE(2), 3);

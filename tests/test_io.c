@@ -803,7 +803,7 @@ static void test_consecutive_loop_kinds(void **state)
                                               PGEM_EDGE_LOOP};
     const double information[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     const double step[3] = {1, 0, 0};
-    pgem_config_t config = {2, 4, 5, 0, 0};
+    pgem_config_t config = {2, 4, 5, 0, 0, 0};
     pgem_io_graph_t graph;
     pgem_io_graph_t copy;
     pgem_t *instance = NULL;

@@ -522,7 +522,7 @@ static void test_pruned_loops_leave_the_structure(void **state)
 /* ring() and its false loops in an instance whose fill budget is fill_budget. */
 static pgem_t *corrupted_ring_budget(uint32_t fill_budget, double *truth, uint32_t *false_loops)
 {
-    pgem_config_t config = {2, RING, 3 * RING, fill_budget, 0};
+    pgem_config_t config = {2, RING, 3 * RING, fill_budget, 0, 0};
     pgem_t *graph = NULL;
     assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
     test_ring_2d(graph, RING, 6, SIGMA, HEADING_SIGMA, 33, truth);

@@ -216,7 +216,7 @@ static void test_fill_budget_reports_need(void **state)
 {
     (void)state;
     double truth[3 * RING], before[3 * RING], after[3 * RING];
-    pgem_config_t config = {2, RING, 2 * RING, 50, 0};
+    pgem_config_t config = {2, RING, 2 * RING, 50, 0, 0};
     pgem_t *graph = NULL;
     assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
     test_ring_2d(graph, RING, 5, 0.01, 0.01, 5, truth);
@@ -247,7 +247,7 @@ static void test_fill_needed(void **state)
 {
     (void)state;
     double truth[3 * RING];
-    pgem_config_t config = {2, RING, 2 * RING, 50, 0};
+    pgem_config_t config = {2, RING, 2 * RING, 50, 0, 0};
     pgem_t *probe = NULL;
     assert_int_equal(pgem_create(&probe, &config), PGEM_OK);
     uint32_t needed = 0;

@@ -95,7 +95,7 @@ static inline void test_diagonal_information(int n, double value, double *inform
 /* Creates an instance or fails the test. */
 static inline pgem_t *test_create(int dimension, uint32_t poses, uint32_t edges)
 {
-    pgem_config_t config = {dimension, poses, edges, 0, 0};
+    pgem_config_t config = {dimension, poses, edges, 0, 0, 0};
     pgem_t *graph = NULL;
     assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
     return graph;

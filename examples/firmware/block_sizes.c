@@ -13,7 +13,7 @@
 
 static void row(int dimension, unsigned poses, unsigned edges, unsigned fill)
 {
-    const pgem_config_t config = {dimension, poses, edges, fill, 0};
+    const pgem_config_t config = {dimension, poses, edges, fill, 0, 0};
     const size_t exact = pgem_memory_size(&config);
     const size_t bound = PGEM_MEMORY_BOUND(dimension, poses, edges, fill);
     printf("| %dD | %u | %u | %u | %zu (%.1f KiB) | %zu (%.1f KiB) |\n", dimension, poses, edges,
@@ -29,7 +29,7 @@ static void row(int dimension, unsigned poses, unsigned edges, unsigned fill)
 
 static size_t item_size(int dimension, unsigned poses, unsigned edges, unsigned fill)
 {
-    const pgem_config_t config = {dimension, poses, edges, fill, 0};
+    const pgem_config_t config = {dimension, poses, edges, fill, 0, 0};
     return pgem_memory_size(&config);
 }
 

@@ -164,7 +164,7 @@ int firmware_run(const firmware_io_t *io, void *block, size_t size)
 {
     report_t report = {io, {0}, 0};
     report_t *r = &report;
-    const pgem_config_t config = {2, FIRMWARE_POSES, FIRMWARE_EDGES, FIRMWARE_FILL, 0};
+    const pgem_config_t config = {2, FIRMWARE_POSES, FIRMWARE_EDGES, FIRMWARE_FILL, 0, 0};
     const char *const block_texts[] = {"# block: ", " bytes needed, ", " reserved"};
     const uint64_t block_values[] = {pgem_memory_size(&config), size};
     put_series(r, block_texts, block_values, 2);

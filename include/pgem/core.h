@@ -44,6 +44,11 @@ typedef struct pgem_config {
                               themselves come from an executor (pgem_set_executor), e.g. the
                               hosted thread pool (pgem/threads.h). Results are bit-identical
                               for any number of workers. */
+    uint32_t online_fill;  /**< scalar nonzeros reserved for the incremental factor of
+                              pgem_update (pgem/update.h); 0 (the default) reserves none and
+                              pgem_update is refused. About twice the batch factor's
+                              nonzeros leaves it room to grow between re-orderings; the
+                              block grows by PGEM_ONLINE_BYTES. */
 } pgem_config_t;
 
 /** An instance: lives entirely inside the caller's memory block. Opaque. */

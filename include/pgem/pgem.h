@@ -9,5 +9,6 @@
 #include "pgem/graph.h"
 #include "pgem/solver.h"
 #include "pgem/robust.h"
+#include "pgem/update.h"
 
 #endif /* PGEM_PGEM_H */

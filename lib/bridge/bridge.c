@@ -233,12 +233,15 @@ typedef struct schedule {
     const char *trigger;
 } schedule_t;
 
-/* When the pending loop closures are to be solved: after the debounce quiet time, but no later
- * than max_delay after the first of them; and never sooner than 1 / max_rate after the last
- * solve started. */
+/* When the pending loop closures are to be solved: with full solves, after the debounce quiet
+ * time, but no later than max_delay after the first of them, and never sooner than 1 / max_rate
+ * after the last solve started; with incremental updates, at once. */
 static double solve_due(const bridge_t *bridge, const schedule_t *s)
 {
     const pgem_bridge_options_t *o = &bridge->options;
+    if (o->incremental && (s->dirty || s->unsolved)) {
+        return 0.0; /* incremental updates: at once, for every batch of items */
+    }
     double due = s->dirty      ? fmin(s->last_loop + o->debounce, s->first_loop + o->max_delay)
                  : s->unsolved ? s->last_item + o->idle_solve
                                : fmax(s->last_item, s->last_end) + o->idle_solve; /* settle */

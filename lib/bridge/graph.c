@@ -19,6 +19,12 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
     bridge->core_config.max_poses = o->max_poses;
     bridge->core_config.max_edges = o->max_edges;
     bridge->core_config.fill_budget = o->fill_budget;
+    if (o->incremental) { /* the incremental factor's room: twice the core's default fill */
+        const uint64_t b = (uint64_t)PGEM_TANGENT_SIZE(o->dimension);
+        const uint64_t fill = 2u * (uint64_t)PGEM_DEFAULT_FILL_PER_POSE * b * b * o->max_poses;
+        bridge->core_config.online_fill = fill > (uint64_t)INT32_MAX ? (uint32_t)INT32_MAX
+                                                                       : (uint32_t)fill;
+    }
     bridge->core_block_size = pgem_memory_size(&bridge->core_config);
     if (bridge->core_block_size == 0) {
         snprintf(message, message_size, "invalid capacities (%u poses, %u edges, fill %u)",
@@ -355,6 +361,37 @@ static void describe_outcome(const pgem_robust_summary_t *summary, char *text, s
     }
 }
 
+/* One incremental update (pgem_update, its gate on new loop closures with the robust
+ * options' gate and inflation); the summary gets what a robust solve's would say of the loops
+ * and the weighted chi2. */
+static int update_solve(bridge_t *bridge, pgem_robust_summary_t *summary)
+{
+    pgem_update_options_t options;
+    memset(&options, 0, sizeof options);
+    options.robust = bridge->options.robust.kernel != PGEM_KERNEL_NONE; /* none: every loop in */
+    options.gate = bridge->options.robust.gate;
+    options.odometry_inflation = bridge->options.robust.odometry_inflation;
+    int status = pgem_update(bridge->core, &options, NULL);
+    for (uint32_t k = 0; status == PGEM_OK && k < pgem_edge_count(bridge->core); ++k) {
+        pgem_edge_view_t view;
+        double chi2 = 0.0;
+        pgem_edge_at(bridge->core, k, &view);
+        pgem_edge_chi2(bridge->core, k, &chi2);
+        summary->loops += view.kind == PGEM_EDGE_LOOP;
+        summary->pruned += view.kind == PGEM_EDGE_LOOP && !view.active;
+        summary->final_chi2 += view.active ? view.weight * chi2 : 0.0;
+        summary->final_chi2_all += chi2;
+    }
+    summary->rejected = summary->pruned;
+    summary->outcome = summary->loops == 0u                  ? PGEM_ROBUST_NO_LOOPS
+                       : summary->pruned == summary->loops   ? PGEM_ROBUST_ALL_REJECTED
+                       : 10u * summary->pruned > 9u * summary->loops ? PGEM_ROBUST_MOST_REJECTED
+                                                             : PGEM_ROBUST_LOOPS_ACCEPTED;
+    summary->usable = status == PGEM_OK;
+    summary->estimate_changed = status == PGEM_OK;
+    return status;
+}
+
 void bridge_graph_solve(bridge_t *bridge, const char *trigger)
 {
     pthread_mutex_lock(&bridge->lock);
@@ -372,7 +409,11 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
         restart_from_raw(bridge);
         bridge->restart_pending = 0;
     }
-    int status = pgem_robust_optimize(bridge->core, &robust, NULL, &summary);
+    const int incremental = bridge->options.incremental && !restarted && parts == 1 &&
+                            strcmp(trigger, "settle") != 0 && strcmp(trigger, "command") != 0 &&
+                            strcmp(trigger, "recovery") != 0;
+    int status = incremental ? update_solve(bridge, &summary)
+                             : pgem_robust_optimize(bridge->core, &robust, NULL, &summary);
     if (status != PGEM_OK || parts > 1) {
         bridge->restart_pending = 1;
     }
@@ -398,7 +439,9 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
                    "solve %lld (%s%s): %u poses, %u loops, %u pruned, chi2 %.6g, %u rounds, "
                    "%.1f ms%s",
                    (long long)bridge->solve_id, trigger,
-                   restarted ? ", restarted from the front-end's estimates" : "",
+                   restarted   ? ", restarted from the front-end's estimates"
+                   : incremental ? ", incremental"
+                                 : "",
                    pgem_pose_count(bridge->core), summary.loops, summary.pruned,
                    summary.final_chi2, summary.rounds, 1e-3 * (double)micros,
                    parts > 1 ? " (graph in several parts: each held at its smallest id)" : "");

@@ -9,6 +9,7 @@
 #include "common/common.h"
 #include "graph/graph.h"
 #include "linalg/linalg.h"
+#include "linalg/online.h"
 #include "robust/robust.h"
 #include "solver/solver.h"
 
@@ -25,6 +26,7 @@ struct pgem {
     pgem_robust_state_t robust; /* robust layer: what a robust solve keeps */
     pgem_linear_t *linear;     /* linalg layer: the normal equations (opaque here) */
     pgem_executor_t executor;  /* threads of the factorisation (run NULL: the caller's only) */
+    pgem_online_t online;      /* the incremental factor of pgem_update (linalg/online.h) */
     char message[PGEM_MESSAGE_SIZE]; /* last error message */
 };
 

@@ -5,7 +5,7 @@
 
 int main(void)
 {
-    pgem_config_t config = {2, 3, 3, 0, 0};
+    pgem_config_t config = {2, 3, 3, 0, 0, 0};
     pgem_t *graph = NULL;
     double information[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     double poses[3][3] = {{0, 0, 0}, {1.1, 0.1, 1.6}, {0.9, 1.2, 3.0}};

@@ -19,12 +19,14 @@ loopback only, ttl=0), so no packet leaves the machine. Needs root (or CAP_SYS_A
    front-end resends the whole file (replays are recognised and ignored) and the dumped
    graph is compared with the offline ``pgem optimize --robust em`` solve.
 
-The report is printed as Markdown and written to --out.
+The report is printed as Markdown and written to --out; ``--json FILE`` writes the figures
+too. ``--phases`` runs only some of the three (bench_online.py runs the latency alone).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import random
@@ -95,6 +97,7 @@ def count_edges(path: Path) -> int:
         return sum(1 for line in handle if line.startswith(("EDGE", "EDGE2", "EDGE3")))
 
 
+PHASES = ("latency", "ingest", "recovery")
 REPLAYED = re.compile(r"(\d+) records replayed \((\d+) poses, (\d+) edges\)")
 
 
@@ -275,6 +278,40 @@ def recovery_run(work: Path, name: str, corrupted: Path, kills: int, rate: float
             "agree": compare.returncode == 0, "compare": compare.stdout.strip()}
 
 
+def latency_lines(lat: dict) -> list[str]:
+    return [f"Latency, each loop closure's send to the first graph including it, over "
+            f"{lat['loops']} of {lat['sent']} loop closures (seen of sent) streamed at "
+            f"{lat['rate']:g} edges/s:", "",
+            "| median | p90 | p99 | max | solves | solve median | solve max |",
+            "|---|---|---|---|---|---|---|",
+            f"| {lat['median']:.1f} ms | {lat['p90']:.1f} ms | {lat['p99']:.1f} ms | "
+            f"{lat['max']:.1f} ms | {lat['solves']} | {lat['solve_median']:.1f} ms | "
+            f"{lat['solve_max']:.1f} ms |", "",
+            f"Slowest: sequence {lat['worst'][1]} ({lat['worst'][2]} -> "
+            f"{lat['worst'][3]}), {lat['worst'][0]:.1f} ms, in solve "
+            f"{lat['worst'][4]}. The sender's line: `{lat['sender']}`", ""]
+
+
+def ingest_lines(ingest: list[dict]) -> list[str]:
+    lines = ["Sustained ingest (every edge accepted?):", "",
+             "| rate (edges/s) | sent | accepted | zero loss |", "|---|---|---|---|"]
+    lines += [f"| {row['rate']:g} | {row['sent']} | {row['accepted']} | "
+              f"{'yes' if row['ok'] else 'no'} |" for row in ingest]
+    passing = [row["rate"] for row in ingest if row["ok"]]
+    return lines + ["", f"Highest zero-loss rate tried: {max(passing):g} edges/s."
+                    if passing else "No rate passed.", ""]
+
+
+def recovery_lines(rec: dict, kill_rate: float) -> list[str]:
+    return [f"Recovery: {rec['kills']} SIGKILLs while streaming at "
+            f"{kill_rate:g} edges/s, each followed by a restart on the journal "
+            "(records, poses, edges replayed): " +
+            ", ".join(f"{r[0]}/{r[1]}/{r[2]}" for r in rec["replayed"]) +
+            f". After a full resend the dumped graph "
+            f"{'agrees with' if rec['agree'] else 'DIFFERS from'} the offline solve:",
+            "", "```", rec["compare"], "```", ""]
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--datasets", type=Path, default=DEFAULT_DATASETS)
@@ -287,9 +324,16 @@ def main() -> int:
     parser.add_argument("--quick", action="store_true",
                         help="M3500 only, streamed at 500 edges/s, 3 kills")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    parser.add_argument("--json", type=Path, help="also write the figures as JSON (one entry per dataset)")
+    parser.add_argument("--phases", default=",".join(PHASES),
+                        help=f"comma-separated phases to run (default {','.join(PHASES)})")
     parser.add_argument("--build", type=Path, default=DEFAULT_BUILD,
                         help="build directory with the tools (default build/release)")
     args = parser.parse_args()
+    phases = [phase.strip() for phase in args.phases.split(",") if phase.strip()]
+    unknown = [phase for phase in phases if phase not in PHASES]
+    if unknown or not phases:
+        parser.error(f"--phases takes some of {','.join(PHASES)} (got '{args.phases}')")
     global BUILD
     BUILD = build_dir(args.build)
     try:
@@ -303,49 +347,35 @@ def main() -> int:
         lines = ["# LCM bridge benchmark", "",
                  f"{time.strftime('%Y-%m-%d %H:%M')}, {os.cpu_count()} cores, URL `{URL}`, "
                  f"{args.outliers} random false loop closures (seed 1).", ""]
+        figures = []
         for name, rate in files:
             source = dataset(args.datasets, name)
             corrupted = work / f"{name}.corrupted.g2o"
             subprocess.run([str(tool("pgem")), "corrupt", str(source), "-o", str(corrupted),
                             "--policy", "random", "--count", str(args.outliers), "--seed", "1"],
                            check=True, capture_output=True)
-            print(f"== {name}: latency at {rate} edges/s", flush=True)
-            lat = latency_run(work, name, corrupted, float(rate))
-            print(f"== {name}: sustained ingest", flush=True)
-            ingest = ingest_run(work, name, corrupted,
-                                [float(r) for r in args.ingest_rates.split(",")])
-            print(f"== {name}: {args.kills} SIGKILLs and restarts", flush=True)
-            rec = recovery_run(work, name, corrupted, args.kills, args.kill_rate, 1)
-            lines += [f"## {name}", "",
-                      f"Latency, each loop closure's send to the first graph including it, over "
-                      f"{lat['loops']} of {lat['sent']} loop closures (seen of sent) streamed at "
-                      f"{lat['rate']:g} edges/s:", "",
-                      "| median | p90 | p99 | max | solves | solve median | solve max |",
-                      "|---|---|---|---|---|---|---|",
-                      f"| {lat['median']:.1f} ms | {lat['p90']:.1f} ms | {lat['p99']:.1f} ms | "
-                      f"{lat['max']:.1f} ms | {lat['solves']} | {lat['solve_median']:.1f} ms | "
-                      f"{lat['solve_max']:.1f} ms |", "",
-                      f"Slowest: sequence {lat['worst'][1]} ({lat['worst'][2]} -> "
-                      f"{lat['worst'][3]}), {lat['worst'][0]:.1f} ms, in solve "
-                      f"{lat['worst'][4]}. The sender's line: `{lat['sender']}`", "",
-                      "Sustained ingest (every edge accepted?):", "",
-                      "| rate (edges/s) | sent | accepted | zero loss |", "|---|---|---|---|"]
-            lines += [f"| {row['rate']:g} | {row['sent']} | {row['accepted']} | "
-                      f"{'yes' if row['ok'] else 'no'} |" for row in ingest]
-            passing = [row["rate"] for row in ingest if row["ok"]]
-            lines += ["", f"Highest zero-loss rate tried: {max(passing):g} edges/s."
-                      if passing else "No rate passed.", "",
-                      f"Recovery: {rec['kills']} SIGKILLs while streaming at "
-                      f"{args.kill_rate:g} edges/s, each followed by a restart on the journal "
-                      "(records, poses, edges replayed): " +
-                      ", ".join(f"{r[0]}/{r[1]}/{r[2]}" for r in rec["replayed"]) +
-                      f". After a full resend the dumped graph "
-                      f"{'agrees with' if rec['agree'] else 'DIFFERS from'} the offline solve:",
-                      "", "```", rec["compare"], "```", ""]
+            lines += [f"## {name}", ""]
+            found = {"name": name, "rate": float(rate)}
+            if "latency" in phases:
+                print(f"== {name}: latency at {rate} edges/s", flush=True)
+                found["latency"] = latency_run(work, name, corrupted, float(rate))
+                lines += latency_lines(found["latency"])
+            if "ingest" in phases:
+                print(f"== {name}: sustained ingest", flush=True)
+                found["ingest"] = ingest_run(work, name, corrupted,
+                                             [float(r) for r in args.ingest_rates.split(",")])
+                lines += ingest_lines(found["ingest"])
+            if "recovery" in phases:
+                print(f"== {name}: {args.kills} SIGKILLs and restarts", flush=True)
+                found["recovery"] = recovery_run(work, name, corrupted, args.kills, args.kill_rate, 1)
+                lines += recovery_lines(found["recovery"], args.kill_rate)
+            figures.append(found)
         report = "\n".join(lines)
         print(report)
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(report + "\n")
+        if args.json is not None:
+            args.json.write_text(json.dumps(figures, indent=1) + "\n")
         return 0
     except (BenchError, subprocess.CalledProcessError, subprocess.TimeoutExpired) as error:
         print(f"bench_lcm: {error}", file=sys.stderr)

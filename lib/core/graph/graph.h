@@ -21,6 +21,9 @@ typedef struct pgem_store {
     uint32_t pose_count;       /* poses added */
     uint32_t topology;         /* +1 on every pose or edge added and every pose fixed or
                                   freed: linalg keeps the version its structure describes */
+    uint32_t edited_low;       /* the lowest pose index pgem_set_pose moved or whose fixed flag
+                                  changed since the incremental update last looked (it sets
+                                  UINT32_MAX); it rebuilds when that pose is in its factor */
     pgem_id_t *pose_id;        /* [max_poses] id of each pose, insertion order */
     double *pose;              /* [max_poses * pose_size] current estimate */
     uint8_t *pose_fixed;       /* [max_poses] 1 if held constant by pgem_fix_pose */

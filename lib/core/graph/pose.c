@@ -137,6 +137,7 @@ int pgem_fix_pose(pgem_t *graph, pgem_id_t id, int fixed)
         graph->store.pose_fixed[index] = flag;
         graph->store.fixed_count = flag ? graph->store.fixed_count + 1u : graph->store.fixed_count - 1u;
         graph->store.topology++;
+        graph->store.edited_low = 0u; /* a held pose changes every column's meaning */
     }
     pgem_message_clear(graph);
     return PGEM_OK;
@@ -188,6 +189,8 @@ int pgem_set_pose(pgem_t *graph, pgem_id_t id, const double *pose)
     }
     memcpy(graph->store.pose + (size_t)index * (size_t)graph->pose_size, checked,
            (size_t)graph->pose_size * sizeof(double));
+    graph->store.edited_low = (uint32_t)index < graph->store.edited_low ? (uint32_t)index
+                                                                       : graph->store.edited_low;
     pgem_message_clear(graph);
     return PGEM_OK;
 }

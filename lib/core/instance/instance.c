@@ -21,6 +21,12 @@ static const char *pgem_config_problem(const pgem_config_t *config)
     if (config->threads > PGEM_MAX_THREADS) {
         return "config.threads is above PGEM_MAX_THREADS";
     }
+    if (config->online_fill > (uint32_t)INT32_MAX) {
+        return "config.online_fill is above INT32_MAX";
+    }
+    if (config->online_fill > (uint32_t)INT32_MAX) {
+        return "config.online_fill is above INT32_MAX";
+    }
     return NULL;
 }
 
@@ -78,6 +84,7 @@ static void pgem_carve(pgem_t *graph, pgem_arena_t *arena, pgem_memory_parts_t *
     taken.robust = arena->used - mark;
     mark = arena->used;
     pgem_linear_carve(graph, arena);
+    pgem_online_carve(graph, arena); /* the incremental factor: linalg's too */
     taken.linalg = arena->used - mark;
     if (parts != NULL) {
         parts->graph = taken.graph;

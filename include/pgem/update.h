@@ -1,0 +1,108 @@
+/** @file
+ * pgem online: the incremental update a front-end calls after adding poses and edges, whose
+ * cost follows what the new data touches rather than the size of the map. */
+#ifndef PGEM_UPDATE_H
+#define PGEM_UPDATE_H
+
+#include <stdint.h>
+
+#include "pgem/core.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Options of pgem_update; a zeroed struct means the documented defaults. */
+typedef struct pgem_update_options {
+    double relinearize_threshold; /**< a pose is relinearised when a component of its step
+                                       from its linearisation point exceeds this (radians and
+                                       the map's units); 0 means 0.1; negative: every update
+                                       relinearises every pose that moved */
+    double reorder_growth;        /**< the factor is re-ordered, relinearised and refactored
+                                       whole once its blocks exceed this many times those of
+                                       the last such rebuild, plus reorder_slack; 0 means 1.5 */
+    uint32_t reorder_slack;       /**< blocks added to that bound (0 means 64 per 1000 poses
+                                       of capacity, at least 256) */
+    double wildfire_threshold;    /**< the back-substitution recomputes a pose's step only when
+                                       the update touched its column or a step it depends on
+                                       changed by more than this (iSAM2's "wildfire"); 0 means
+                                       1e-3 (iSAM2's default); negative: every step, every update */
+    uint32_t relinearize_limit;   /**< the update rebuilds instead of relinearising when the
+                                       rank updates of the poses due would cost more than a
+                                       rebuild (estimated from the paths' blocks) or, if not 0,
+                                       more than this many poses are due */
+    uint32_t recent_last;         /**< a rebuild's ordering puts this many of the newest poses
+                                       last, in arrival order; 0 means 8 */
+    int robust;                   /**< 1: a new loop closure enters only if it passes the
+                                       consistency gate under the current map (its innovation:
+                                       residual against Omega^-1 + inflation J Sigma J^T), else
+                                       it is pruned; pruned loops whose poses were
+                                       relinearised are tested again and come back when they
+                                       pass. 0: every loop enters with its weight. */
+    double gate;                  /**< robust: 0 means the 99.9 % chi-square quantile (16.27 in
+                                       2D, 22.46 in 3D) */
+    double odometry_inflation;    /**< robust: the map's covariance factor in the gate; 0
+                                       means 1 (the batch consistency test's allowance of 4
+                                       let false loops of M3500 + 100 in while the map was
+                                       still uncertain: the settle solve re-decides anyway) */
+    int rebuild;                  /**< 1: rebuild now (after the estimate was changed by
+                                       anything but pgem_update: pgem_set_pose, a solve) */
+} pgem_update_options_t;
+
+/** What one pgem_update did. */
+typedef struct pgem_update_summary {
+    uint32_t poses_added;         /**< poses that got a block column */
+    uint32_t edges_added;         /**< edges that entered the factor */
+    uint32_t relinearized;        /**< poses whose linearisation point moved */
+    uint32_t columns_touched;     /**< block columns whose values changed (the rest kept
+                                       theirs): the work of the update */
+    uint32_t rank_updates;        /**< rank-one updates and downdates applied */
+    uint32_t columns;             /**< block columns of the factor */
+    uint32_t factor_blocks;       /**< b x b blocks of the factor's pool in use */
+    int rebuilt;                  /**< 1 if the factor was ordered and factorised from scratch */
+    uint32_t loops_accepted;      /**< robust: new loop closures that passed the gate */
+    uint32_t loops_rejected;      /**< robust: new loop closures pruned */
+    uint32_t loops_readmitted;    /**< robust: pruned loops that passed it again */
+} pgem_update_summary_t;
+
+/** Brings the estimate up to date with the poses and edges added since the last call (the
+ * first call, or one after options->rebuild, orders and factorises everything). The factor
+ * lives in its own part of the block (config.online_fill; an instance without it gets
+ * PGEM_ERR_CONFIG). Cost: new poses get block columns at the end of the ordering; each new
+ * edge, each weight change and each relinearised pose is a low-rank update of the factor
+ * along the elimination-tree path of the columns it touches; then one triangular solve.
+ * Nothing is allocated except by a rebuild's ordering (CSparse's AMD, as pgem_analyze). The
+ * result is one Gauss-Newton step per update from per-pose linearisation points, not the
+ * optimum: call pgem_update_settle (or pgem_optimize) for that, e.g. at the end of a stream.
+ * Errors: CONFIG, FILL_BUDGET (the pool cannot hold the factor even packed: the message gives
+ * the blocks needed), NOT_POSITIVE_DEFINITE (a pose with no path to a held pose), NUMERIC,
+ * OUT_OF_MEMORY. On an error the estimate is left as the last successful update left it and
+ * the next call rebuilds. options and summary may be NULL. */
+int pgem_update(pgem_t *graph, const pgem_update_options_t *options,
+                pgem_update_summary_t *summary);
+
+/** The batch solve from the incremental estimate: with robust, every loop closure back in
+ * (pgem_robust_reset: the online gate's decisions are only a start) and pgem_robust_optimize
+ * (EM's rounds, pruning and consistency test as offline, from the online estimate); with robust
+ * NULL, pgem_optimize to convergence. The next pgem_update rebuilds from its result. Returns
+ * the solve's status. */
+struct pgem_robust_options;
+struct pgem_robust_summary;
+int pgem_update_settle(pgem_t *graph, const struct pgem_robust_options *robust,
+                       struct pgem_robust_summary *summary);
+
+/** Bytes config.online_fill scalar nonzeros add to pgem_memory_size (an upper bound) for
+ * max_poses poses and max_edges edges: per pose 14 ints and a pose, two steps and a b x b
+ * block of doubles, per edge 4 ints and a double, per nonzero 8 bytes and an int per b x b
+ * block, and alignment. */
+#define PGEM_ONLINE_BYTES(dimension, max_poses, max_edges, online_fill)                       \
+    ((online_fill) == 0u ? (size_t)0u                                                        \
+                         : (size_t)(max_poses) * ((dimension) == 3 ? 520u : 224u) +            \
+                               (size_t)(max_edges) * 24u + (size_t)(online_fill) * 8u +        \
+                               (size_t)(online_fill) / ((dimension) == 3 ? 36u : 9u) * 4u + 512u)
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* PGEM_UPDATE_H */

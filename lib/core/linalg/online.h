@@ -1,0 +1,128 @@
+/* The incremental factor behind pgem_update: L of the Newton matrix at a linearisation point
+ * of its own, one block column per free pose in a pool of blocks that columns grow in, kept
+ * current by rank updates along elimination-tree paths. Private to lib/core. */
+#ifndef PGEM_ONLINE_H
+#define PGEM_ONLINE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "pgem/geometry.h"
+#include "pgem/update.h"
+
+struct pgem;
+
+/* Block column j of L lives in the pool from block start[j]: its diagonal block, then
+ * count[j] off-diagonal blocks (room for capacity[j]), their block rows rows[start[j] + 1 ..]
+ * ascending, all after j. Each block is b x b doubles stored by column: element (r, c) of the
+ * block at values[(start + q) b^2 + c b + r]. The diagonal block holds its lower triangle
+ * (the upper one is zero). A column that outgrows its room moves to the pool's end; columns
+ * never shrink until a rebuild packs them again. */
+typedef struct pgem_online {
+    int ready;                /* 1 while the factor is L of the system at lin */
+    int block;                /* b: 3 or 6 */
+    int columns;              /* block columns in use */
+    uint32_t poses_seen;      /* poses the factor has looked at (pose_count at the last update) */
+    uint32_t edges_seen;      /* edges the factor has looked at */
+    uint32_t poses_linked;    /* poses with pose_edge and lin set up */
+    uint32_t edges_linked;    /* edges on their poses' lists */
+    uint32_t pool_blocks;     /* b x b blocks in the pool */
+    uint32_t pool_used;       /* blocks handed out (holes of moved columns included) */
+    uint32_t packed_blocks;   /* blocks the last rebuild needed, packed */
+    double rebuild_work;      /* sum over the columns of (blocks)^2 at the last rebuild */
+    uint32_t updates;         /* pgem_update calls that changed the factor since the rebuild */
+    int full;                 /* 1: a column could not grow (the pool is full): rebuild */
+    int *pose_column;         /* [max_poses] block column of each pose, -1 (held, or not yet in) */
+    int *column_pose;         /* [max_poses] pose of each block column */
+    int *parent;              /* [max_poses] elimination tree: first off-diagonal row, -1 */
+    int *start;               /* [max_poses] first pool block (the diagonal block) of a column */
+    int *count;               /* [max_poses] off-diagonal blocks of a column */
+    int *capacity;            /* [max_poses] off-diagonal blocks a column has room for */
+    int *rows;                /* [pool_blocks] block row of each pool block */
+    double *values;           /* [pool_blocks * b * b] */
+    double *lin;              /* [max_poses * pose_size] linearisation point of every pose */
+    double *delta;            /* [max_poses * b] the step from lin, by column */
+    double *forward;          /* [max_poses * b] y with L y = -J^T W e at lin, by column: the
+                                 rotations of the updates carry it along */
+    double beta[PGEM_TANGENT_SIZE_MAX]; /* the right-hand side of the vectors of an update */
+    int *child;               /* [max_poses] first child of a column in the tree, -1 */
+    int *sibling;             /* [max_poses] next child of the same parent, -1 */
+    int *previous;            /* [max_poses] previous child of the same parent, -1 */
+    int root;                 /* first root column, -1 */
+    int *changed;             /* [max_poses] 1: the back-substitution changed the column's step */
+    int *recomputed;          /* [max_poses] columns the last back-substitution recomputed */
+    int recomputed_count;
+    double *vector;           /* [max_poses * b * b] a rank-one update's vector (or b of them
+                                 interleaved, the marginal's), zero between uses */
+    double *edge_weight_in;   /* [max_edges] weight the edge has in the factor (0: not in) */
+    int *edge_next;           /* [2 * max_edges] next edge of the same pose (per end), -1 */
+    int *pose_edge;           /* [max_poses] first edge end (2 k + side) of a pose, -1 */
+    int *mark;                /* [max_poses] stamps of the symbolic passes */
+    int *list;                /* [max_poses] a column's rows being gathered; the ordering */
+    int *head;                /* [max_poses] rebuild: first column waiting to update a column */
+    int *next;                /* [max_poses] rebuild: the next one in the same list */
+    int *position;            /* [max_poses] rebuild: next block of a column to update from */
+    int *adjacent_start;      /* [max_poses + 1] rebuild: the system's block graph, */
+    int *adjacent;            /* [2 * max_edges] by column */
+    int *touched;             /* [max_poses] stamp of the update that last changed a column */
+    int stamp;                /* stamp of the update under way */
+    pgem_update_summary_t last; /* counters of the update under way */
+} pgem_online_t;
+
+/* The estimate changed outside pgem_update (a batch solve, a held pose, reset weights): the
+ * next update rebuilds. For one pose: only if the factor solves for it. */
+static inline void pgem_online_invalidate(pgem_online_t *online)
+{
+    online->ready = 0;
+}
+static inline void pgem_online_pose_moved(pgem_online_t *online, uint32_t pose)
+{
+    if (online->pool_blocks > 0u && pose < online->poses_linked && online->pose_column[pose] >= 0) {
+        online->ready = 0;
+    }
+}
+
+/* Bytes pgem_online_carve takes (measuring when arena->base is NULL). */
+struct pgem_arena;
+void pgem_online_carve(struct pgem *graph, struct pgem_arena *arena);
+
+/* linalg/online_factor.c */
+/* The system's ordering, pattern and factor from scratch at lin (poses with columns, edges
+ * with edge_weight_in > 0). PGEM_OK, PGEM_ERR_FILL_BUDGET (the pool cannot hold the packed
+ * factor: the message gives the blocks needed), PGEM_ERR_OUT_OF_MEMORY (CSparse's ordering),
+ * PGEM_ERR_NOT_POSITIVE_DEFINITE. The newest `recent` columns are ordered last. */
+int pgem_online_rebuild(struct pgem *graph, int recent);
+/* The rows of sqrt(w) U J_from, sqrt(w) U J_to (n x n each, row-major) and sqrt(w) U e of
+ * edge k at the poses given (Omega = U^T U): the edge's square-root linearisation. */
+void pgem_online_edge(const struct pgem *graph, uint32_t k, const double *from, const double *to,
+                      double weight, double *a_from, double *a_to, double *residual);
+/* L L^T + sign A A^T for the `rank` (1 .. b) vectors in online->vector (interleaved: entry
+ * (scalar s, vector k) at s rank + k; non-zero only in the block columns listed, ascending,
+ * at most 2), growing the pattern along the path. PGEM_OK, PGEM_ERR_FILL_BUDGET (the pool is
+ * full: online->full), PGEM_ERR_NOT_POSITIVE_DEFINITE (a downdate lost definiteness). The
+ * vectors are zero afterwards. */
+int pgem_online_rank_update(struct pgem *graph, const int *columns, int column_count, double sign,
+                            int rank);
+/* Appends a block column for pose p with diagonal block sqrt(seed) I and no rows. */
+int pgem_online_append(struct pgem *graph, uint32_t p, double seed);
+/* Cholesky of an n x n symmetric block in place: its lower factor by column (the upper
+ * triangle zeroed); 0 if not positive definite. Read by row, the result is U with A = U^T U. */
+int pgem_online_cholesky(double *d, int n);
+/* Pool block of block row i in column j (its diagonal block for i == j), or -1. */
+int pgem_online_find(const pgem_online_t *online, int j, int i);
+/* forward = L^-1 forward over every column (a rebuild's, forward holding -J^T W e). */
+void pgem_online_forward(struct pgem *graph);
+/* delta = L^-T forward from the roots down, recomputing a column when it was touched by this
+ * update or a row's step changed by more than tolerance (negative: every column); the
+ * recomputed columns into online->recomputed. */
+void pgem_online_back(struct pgem *graph, double tolerance);
+/* Column j's parent becomes p (-1: a root), in the tree's child lists. */
+void pgem_online_set_parent(pgem_online_t *online, int j, int p);
+/* The child lists from parent[] for columns 0 .. columns-1. */
+void pgem_online_link_tree(pgem_online_t *online);
+/* Y = L^-1 A^T for A (n x (2 b), row-major, by the two columns ca < cb, either -1 when held):
+ * the forward solve along the two paths; returns A H^-1 A^T (n x n, row-major) in out. */
+void pgem_online_marginal(struct pgem *graph, int ca, int cb, const double *a_a, const double *a_b,
+                          int n, double *out);
+
+#endif /* PGEM_ONLINE_H */

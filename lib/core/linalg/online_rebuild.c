@@ -1,0 +1,428 @@
+/* The incremental factor from scratch: CSparse's AMD on the system's block graph with the
+ * newest poses put last, the column patterns from the elimination tree, and a left-looking
+ * block factorisation into the packed pool; and an edge's square-root linearisation. */
+#include <math.h>
+#include <string.h>
+
+#include "instance.h"
+#include "linalg/linear.h"
+
+void pgem_online_edge(const pgem_t *graph, uint32_t k, const double *from, const double *to,
+                      double weight, double *a_from, double *a_to, double *residual)
+{
+    const int n = graph->tangent;
+    double e[PGEM_TANGENT_SIZE_MAX], jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    double u[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    const double *measurement = graph->store.edge_measurement + (size_t)k * (size_t)graph->pose_size;
+    if (n == 6) {
+        pgem_se3_error(from, to, measurement, e, jf, jt);
+    } else {
+        pgem_se2_error(from, to, measurement, e, jf, jt);
+    }
+    /* Omega = U^T U: Omega's Cholesky factor stored by column is U stored by row (Omega was
+     * checked positive definite when the edge was added); rows of sqrt(w) U J, sqrt(w) U e */
+    const double *o = graph->store.edge_information + (size_t)k * (size_t)(n * n);
+    memcpy(u, o, (size_t)(n * n) * sizeof(double));
+    (void)pgem_online_cholesky(u, n);
+    const double root = sqrt(weight);
+    for (int r = 0; r < n; r++) {
+        double er = 0.0;
+        for (int c = 0; c < n; c++) {
+            double f = 0.0, t = 0.0;
+            for (int m = r; m < n; m++) {
+                f += u[r * n + m] * jf[m * n + c];
+                t += u[r * n + m] * jt[m * n + c];
+            }
+            a_from[r * n + c] = root * f;
+            a_to[r * n + c] = root * t;
+        }
+        for (int m = r; m < n; m++) {
+            er += u[r * n + m] * e[m];
+        }
+        residual[r] = root * er;
+    }
+}
+
+/* Shell sort of a few hundred ints at most, ascending. */
+static void pgem_online_sort(int *values, int count)
+{
+    static const int gaps[] = {701, 301, 132, 57, 23, 10, 4, 1};
+    for (size_t g = 0; g < sizeof gaps / sizeof gaps[0]; g++) {
+        const int gap = gaps[g];
+        for (int i = gap; i < count; i++) {
+            const int value = values[i];
+            int k = i;
+            for (; k >= gap && values[k - gap] > value; k -= gap) {
+                values[k] = values[k - gap];
+            }
+            values[k] = value;
+        }
+    }
+}
+
+/* 1 if pose p is solved for: free (held poses and, with none held, the first pose are not). */
+static int pgem_online_free(const pgem_t *graph, uint32_t p)
+{
+    return !graph->store.pose_fixed[p] && !(graph->store.fixed_count == 0u && p == 0u);
+}
+
+/* The other pose of edge end `end` (2 k + side). */
+static uint32_t pgem_online_other(const pgem_t *graph, int end)
+{
+    const uint32_t k = (uint32_t)end / 2u;
+    return (end & 1) ? graph->store.edge_from[k] : graph->store.edge_to[k];
+}
+
+/* Columns numbered by arrival for every free pose with an edge in the system; returns how
+ * many. */
+static int pgem_online_number(pgem_t *graph)
+{
+    pgem_online_t *online = &graph->online;
+    int columns = 0;
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+        online->pose_column[p] = -1;
+        if (!pgem_online_free(graph, p)) {
+            continue;
+        }
+        for (int end = online->pose_edge[p]; end >= 0; end = online->edge_next[end]) {
+            if (online->edge_weight_in[end / 2] > 0.0) {
+                online->pose_column[p] = columns++;
+                break;
+            }
+        }
+    }
+    return columns;
+}
+
+/* AMD's order of the columns (online->list: k-th column's arrival number), the newest
+ * `recent` of them moved last in arrival order. */
+static int pgem_online_order(pgem_t *graph, int columns, int recent)
+{
+    pgem_online_t *online = &graph->online;
+    int *colptr = online->adjacent_start, *rows = online->adjacent;
+    for (int j = 0; j <= columns; j++) {
+        colptr[j] = 0;
+    }
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+        const int j = online->pose_column[p];
+        for (int end = j >= 0 ? online->pose_edge[p] : -1; end >= 0; end = online->edge_next[end]) {
+            const int i = online->pose_column[pgem_online_other(graph, end)];
+            if (i > j && online->edge_weight_in[end / 2] > 0.0) {
+                colptr[j + 1]++; /* counted first, placed below; one triangle (AMD adds A^T) */
+            }
+        }
+    }
+    /* the counts sit at colptr[j + 1]; turn them into starts and place the rows */
+    for (int j = 0; j < columns; j++) {
+        colptr[j + 1] += colptr[j];
+    }
+    for (int j = columns; j > 0; j--) {
+        colptr[j] = colptr[j - 1];
+    }
+    colptr[0] = 0;
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+        const int j = online->pose_column[p];
+        for (int end = j >= 0 ? online->pose_edge[p] : -1; end >= 0; end = online->edge_next[end]) {
+            const int i = online->pose_column[pgem_online_other(graph, end)];
+            if (i > j && online->edge_weight_in[end / 2] > 0.0) {
+                rows[colptr[j + 1]++] = i;
+            }
+        }
+    }
+    cs_di pattern = {colptr[columns], columns, columns, colptr, rows, NULL, -1};
+    pgem_cs_open(&graph->linear->cs_pool);
+    int *order = columns > 0 ? cs_di_amd(1, &pattern) : NULL;
+    if (columns > 0 && order == NULL) {
+        pgem_cs_close(&graph->linear->cs_pool);
+        return pgem_fail(graph, PGEM_ERR_OUT_OF_MEMORY,
+                         "the online factor's ordering (CSparse's AMD) could not get workspace");
+    }
+    const int first_recent = columns - recent;
+    int k = 0;
+    for (int q = 0; q < columns; q++) {
+        if (order[q] < first_recent) {
+            online->list[k++] = order[q];
+        }
+    }
+    for (int j = first_recent > 0 ? first_recent : 0; j < columns; j++) {
+        online->list[k++] = j;
+    }
+    cs_di_free(order);
+    pgem_cs_close(&graph->linear->cs_pool);
+    return PGEM_OK;
+}
+
+/* Every column's pattern from its edges and its children's patterns, packed into the pool
+ * with some room to grow; PGEM_ERR_FILL_BUDGET with the blocks needed if it does not fit. */
+static int pgem_online_symbolic(pgem_t *graph, int columns)
+{
+    pgem_online_t *online = &graph->online;
+    int *children = online->head, *sibling = online->next, *gather = online->position;
+    uint64_t used = 0;
+    for (int j = 0; j < columns; j++) {
+        children[j] = -1;
+        online->mark[j] = -1;
+    }
+    for (int j = 0; j < columns; j++) {
+        const uint32_t p = (uint32_t)online->column_pose[j];
+        int count = 0;
+        online->mark[j] = j;
+        for (int end = online->pose_edge[p]; end >= 0; end = online->edge_next[end]) {
+            const int i = online->pose_column[pgem_online_other(graph, end)];
+            if (i > j && online->edge_weight_in[end / 2] > 0.0 && online->mark[i] != j) {
+                online->mark[i] = j;
+                gather[count++] = i;
+            }
+        }
+        for (int c = children[j]; c >= 0; c = sibling[c]) {
+            for (int q = 2; q <= online->count[c]; q++) { /* rows after the parent j */
+                const int i = online->rows[online->start[c] + q];
+                if (online->mark[i] != j) {
+                    online->mark[i] = j;
+                    gather[count++] = i;
+                }
+            }
+        }
+        pgem_online_sort(gather, count);
+        const int room = count + count / 4 + 2;
+        if (used + (uint64_t)room + 1u > online->pool_blocks) {
+            used += (uint64_t)count + 1u; /* count on without room, for the message */
+            online->count[j] = 0;
+            online->start[j] = 0;
+            online->parent[j] = -1;
+            continue;
+        }
+        online->start[j] = (int)used;
+        online->count[j] = count;
+        online->capacity[j] = room;
+        online->rows[used] = j;
+        memcpy(online->rows + used + 1u, gather, (size_t)count * sizeof(int));
+        used += (uint64_t)room + 1u;
+        online->parent[j] = count > 0 ? gather[0] : -1;
+        if (count > 0) {
+            sibling[j] = children[gather[0]];
+            children[gather[0]] = j;
+        }
+    }
+    if (used > online->pool_blocks) {
+        pgem_message_clear(graph);
+        pgem_message_text(graph, "the online factor needs at least ");
+        pgem_message_u64(graph, used * (uint64_t)online->block * (uint64_t)online->block);
+        pgem_message_text(graph, " nonzeros, config.online_fill is ");
+        pgem_message_u64(graph, graph->config.online_fill);
+        return PGEM_ERR_FILL_BUDGET;
+    }
+    online->pool_used = (uint32_t)used;
+    return PGEM_OK;
+}
+
+/* Adds H's blocks of every edge in the system at lin, and its gradient, negated, into forward. */
+static void pgem_online_assemble(pgem_t *graph, int columns)
+{
+    pgem_online_t *online = &graph->online;
+    const int b = online->block;
+    const size_t bb = (size_t)b * (size_t)b;
+    memset(online->values, 0, (size_t)online->pool_used * bb * sizeof(double));
+    memset(online->forward, 0, (size_t)columns * (size_t)b * sizeof(double));
+    double a[2][PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {{0.0}};
+    double r[PGEM_TANGENT_SIZE_MAX] = {0.0};
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        const double w = online->edge_weight_in[k];
+        const int ends[2] = {online->pose_column[graph->store.edge_from[k]],
+                             online->pose_column[graph->store.edge_to[k]]};
+        if (!(w > 0.0) || (ends[0] < 0 && ends[1] < 0)) {
+            continue;
+        }
+        const size_t size = (size_t)graph->pose_size;
+        pgem_online_edge(graph, k, online->lin + graph->store.edge_from[k] * size,
+                         online->lin + graph->store.edge_to[k] * size, w, a[0], a[1], r);
+        for (int s = 0; s < 2; s++) {
+            for (int t = 0; t < 2; t++) {
+                if (ends[s] < 0 || ends[t] < ends[s]) {
+                    continue;
+                }
+                /* block (row ends[t], column ends[s]) += A_t^T A_s */
+                const int q = ends[s] == ends[t] ? online->start[ends[s]]
+                                                 : pgem_online_find(online, ends[s], ends[t]);
+                double *block = online->values + (size_t)q * bb;
+                for (int c = 0; c < b; c++) {
+                    for (int row = (s == t ? c : 0); row < b; row++) {
+                        double sum = 0.0;
+                        for (int m = 0; m < b; m++) {
+                            sum += a[t][m * b + row] * a[s][m * b + c];
+                        }
+                        block[c * b + row] += sum;
+                    }
+                }
+            }
+            if (ends[s] >= 0) {
+                double *g = online->forward + (size_t)ends[s] * (size_t)b;
+                for (int c = 0; c < b; c++) {
+                    for (int m = 0; m < b; m++) {
+                        g[c] -= a[s][m * b + c] * r[m];
+                    }
+                }
+            }
+        }
+    }
+}
+
+int pgem_online_cholesky(double *d, int b)
+{
+    for (int c = 0; c < b; c++) {
+        double pivot = d[c * b + c];
+        for (int m = 0; m < c; m++) {
+            pivot -= d[m * b + c] * d[m * b + c];
+        }
+        if (!(pivot > 0.0) || !isfinite(pivot)) {
+            return 0;
+        }
+        pivot = sqrt(pivot);
+        d[c * b + c] = pivot;
+        for (int r = c + 1; r < b; r++) {
+            double sum = d[c * b + r];
+            for (int m = 0; m < c; m++) {
+                sum -= d[m * b + r] * d[m * b + c];
+            }
+            d[c * b + r] = sum / pivot;
+        }
+    }
+    for (int c = 0; c < b; c++) {
+        for (int r = 0; r < c; r++) {
+            d[c * b + r] = 0.0; /* the upper triangle stays zero */
+        }
+    }
+    return 1;
+}
+
+/* Left-looking block factorisation of the assembled columns. */
+static int pgem_online_numeric(pgem_t *graph, int columns)
+{
+    pgem_online_t *online = &graph->online;
+    const int b = online->block;
+    const size_t bb = (size_t)b * (size_t)b;
+    int *head = online->head, *next = online->next, *position = online->position;
+    int *map = online->list;
+    for (int j = 0; j < columns; j++) {
+        head[j] = -1;
+    }
+    for (int j = 0; j < columns; j++) {
+        const int first = online->start[j];
+        for (int q = 0; q <= online->count[j]; q++) {
+            map[online->rows[first + q]] = first + q;
+        }
+        int d = head[j];
+        head[j] = -1;
+        while (d >= 0) {
+            const int after = next[d];
+            const int end = online->start[d] + online->count[d];
+            const double *ljd = online->values + (size_t)position[d] * bb;
+            for (int q = position[d]; q <= end; q++) {
+                const int i = online->rows[q];
+                const double *lid = online->values + (size_t)q * bb;
+                double *target = online->values + (size_t)map[i] * bb;
+                for (int c = 0; c < b; c++) {
+                    for (int r = (i == j ? c : 0); r < b; r++) {
+                        double sum = 0.0;
+                        for (int m = 0; m < b; m++) {
+                            sum += lid[m * b + r] * ljd[m * b + c];
+                        }
+                        target[c * b + r] -= sum;
+                    }
+                }
+            }
+            if (++position[d] <= end) {
+                const int row = online->rows[position[d]];
+                next[d] = head[row];
+                head[row] = d;
+            }
+            d = after;
+        }
+        double *diagonal = online->values + (size_t)first * bb;
+        if (!pgem_online_cholesky(diagonal, b)) {
+            pgem_message_clear(graph);
+            pgem_message_text(graph, "the online factor is not positive definite at pose index ");
+            pgem_message_u64(graph, (uint64_t)online->column_pose[j]);
+            pgem_message_text(graph, " (a part of the graph with no held pose?)");
+            return PGEM_ERR_NOT_POSITIVE_DEFINITE;
+        }
+        for (int q = 1; q <= online->count[j]; q++) {
+            double *block = online->values + (size_t)(first + q) * bb;
+            for (int r = 0; r < b; r++) { /* row r of block: solve x D^T = row */
+                for (int c = 0; c < b; c++) {
+                    double sum = block[c * b + r];
+                    for (int m = 0; m < c; m++) {
+                        sum -= block[m * b + r] * diagonal[m * b + c];
+                    }
+                    block[c * b + r] = sum / diagonal[c * b + c];
+                }
+            }
+        }
+        if (online->count[j] > 0) {
+            position[j] = first + 1;
+            const int row = online->rows[first + 1];
+            next[j] = head[row];
+            head[row] = j;
+        }
+    }
+    return PGEM_OK;
+}
+
+int pgem_online_rebuild(pgem_t *graph, int recent)
+{
+    pgem_online_t *online = &graph->online;
+    online->ready = 0;
+    online->full = 0;
+    const int columns = pgem_online_number(graph);
+    int status = pgem_online_order(graph, columns, recent < columns ? recent : columns);
+    if (status != PGEM_OK) {
+        return status;
+    }
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+        online->pose_column[p] = -1;
+    }
+    /* list[k] holds the arrival number of the k-th column: map it back to its pose */
+    int arrival = 0;
+    for (uint32_t p = 0; p < graph->store.pose_count && arrival < columns; p++) {
+        if (!pgem_online_free(graph, p)) {
+            continue;
+        }
+        int in = 0;
+        for (int end = online->pose_edge[p]; end >= 0 && !in; end = online->edge_next[end]) {
+            in = online->edge_weight_in[end / 2] > 0.0;
+        }
+        if (in) {
+            online->mark[arrival++] = (int)p;
+        }
+    }
+    for (int k = 0; k < columns; k++) {
+        const int p = online->mark[online->list[k]];
+        online->column_pose[k] = p;
+        online->pose_column[p] = k;
+    }
+    online->columns = columns;
+    status = pgem_online_symbolic(graph, columns);
+    if (status != PGEM_OK) {
+        online->columns = 0;
+        return status;
+    }
+    online->packed_blocks = online->pool_used;
+    online->rebuild_work = 0.0;
+    for (int j = 0; j < columns; j++) {
+        const double blocks = (double)online->count[j] + 1.0;
+        online->rebuild_work += blocks * blocks;
+    }
+    pgem_online_link_tree(online);
+    memset(online->delta, 0, (size_t)columns * (size_t)online->block * sizeof(double));
+    pgem_online_assemble(graph, columns);
+    status = pgem_online_numeric(graph, columns);
+    if (status != PGEM_OK) {
+        online->columns = 0;
+        return status;
+    }
+    pgem_online_forward(graph);
+    online->last.columns_touched += (uint32_t)columns;
+    online->ready = 1;
+    return PGEM_OK;
+}

@@ -1,0 +1,550 @@
+/* pgem_update: the incremental solve. New poses become block columns at the end of the
+ * ordering, new edges, relinearised poses and re-admitted loops become rank-one updates of
+ * the factor along elimination-tree paths, one triangular solve gives the step from the
+ * linearisation points; a rebuild (order, factorise whole) when the factor has grown. */
+#include <math.h>
+#include <string.h>
+
+#include "instance.h"
+#include "robust/robust.h"
+#include "solver/solver.h"
+
+/* The seed of a new column's diagonal (taken out again once its edges are in). */
+#define PGEM_ONLINE_SEED 1.0
+
+typedef struct pgem_update_settings {
+    double threshold;  /* relinearisation threshold (negative: any motion) */
+    double growth;     /* rebuild when blocks exceed growth x packed + slack */
+    uint32_t slack;
+    int recent;        /* newest poses ordered last by a rebuild */
+    int robust;        /* gate new loops */
+    double gate;       /* innovation threshold */
+    double inflation;  /* the map's covariance factor in the innovation */
+    int rebuild;       /* rebuild now */
+    int movers;        /* more poses to relinearise than this: rebuild instead (0: by cost) */
+    double wildfire;   /* back-substitution: a step changing less stops there */
+} pgem_update_settings_t;
+
+static int pgem_update_resolve(pgem_t *graph, const pgem_update_options_t *options,
+                               pgem_update_settings_t *out)
+{
+    pgem_update_options_t none;
+    memset(&none, 0, sizeof none);
+    const pgem_update_options_t *o = options != NULL ? options : &none;
+    if (pgem_check_option(graph, o->relinearize_threshold, "relinearize_threshold") != PGEM_OK ||
+        pgem_check_option(graph, o->reorder_growth, "reorder_growth") != PGEM_OK ||
+        pgem_check_option(graph, o->gate, "gate") != PGEM_OK ||
+        pgem_check_option(graph, o->wildfire_threshold, "wildfire_threshold") != PGEM_OK ||
+        pgem_check_option(graph, o->odometry_inflation, "odometry_inflation") != PGEM_OK) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    out->threshold = o->relinearize_threshold != 0.0 ? o->relinearize_threshold : 0.1;
+    out->growth = o->reorder_growth > 0.0 ? o->reorder_growth : 1.5;
+    const uint32_t scaled = graph->config.max_poses / 1000u * 64u;
+    out->slack = o->reorder_slack != 0u ? o->reorder_slack : (scaled > 256u ? scaled : 256u);
+    out->recent = o->recent_last != 0u ? (int)(o->recent_last > 1000000u ? 1000000u : o->recent_last) : 8;
+    out->robust = o->robust != 0;
+    out->gate = o->gate > 0.0 ? o->gate : (graph->tangent == 6 ? 22.458 : 16.266);
+    out->inflation = o->odometry_inflation > 0.0 ? o->odometry_inflation : 1.0;
+    out->rebuild = o->rebuild != 0;
+    out->wildfire = o->wildfire_threshold != 0.0 ? o->wildfire_threshold : 1e-3;
+    out->movers = (int)(o->relinearize_limit > 1000000u ? 1000000u : o->relinearize_limit);
+    return PGEM_OK;
+}
+
+/* New poses and edges onto the per-pose edge lists; new poses' linearisation points. */
+static void pgem_update_link(pgem_t *graph)
+{
+    pgem_online_t *online = &graph->online;
+    const size_t size = (size_t)graph->pose_size;
+    for (uint32_t p = online->poses_linked; p < graph->store.pose_count; p++) {
+        online->pose_edge[p] = -1;
+        online->pose_column[p] = -1;
+        memcpy(online->lin + p * size, graph->store.pose + p * size, size * sizeof(double));
+    }
+    online->poses_linked = graph->store.pose_count;
+    for (uint32_t k = online->edges_linked; k < graph->store.edge_count; k++) {
+        const size_t end = 2u * (size_t)k;
+        online->edge_next[end] = online->pose_edge[graph->store.edge_from[k]];
+        online->pose_edge[graph->store.edge_from[k]] = (int)end;
+        online->edge_next[end + 1u] = online->pose_edge[graph->store.edge_to[k]];
+        online->pose_edge[graph->store.edge_to[k]] = (int)(end + 1u);
+        online->edge_weight_in[k] = 0.0;
+    }
+    online->edges_linked = graph->store.edge_count;
+}
+
+/* The weight edge k should have in the factor: 0 when pruned or dormant. */
+static double pgem_update_weight(const pgem_t *graph, uint32_t k)
+{
+    return graph->store.edge_active[k] == PGEM_EDGE_ACTIVE ? graph->store.edge_weight[k] : 0.0;
+}
+
+/* Adds (sign 1) or removes (sign -1) an edge linearised at the poses given: its rows as one
+ * rank-b update, their right-hand side carried into forward by the same rotations. */
+static int pgem_update_edge(pgem_t *graph, uint32_t k, const double *from, const double *to,
+                            double weight, double sign)
+{
+    pgem_online_t *online = &graph->online;
+    const int b = online->block;
+    double a[2][PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {{0.0}};
+    double r[PGEM_TANGENT_SIZE_MAX] = {0.0};
+    pgem_online_edge(graph, k, from, to, weight, a[0], a[1], r);
+    const int ends[2] = {online->pose_column[graph->store.edge_from[k]],
+                         online->pose_column[graph->store.edge_to[k]]};
+    int columns[2] = {-1, -1}, count = 0, side[2] = {0, 0};
+    for (int s = 0; s < 2; s++) {
+        if (ends[s] >= 0) {
+            columns[count] = ends[s];
+            side[count++] = s;
+        }
+    }
+    if (count == 2 && columns[0] > columns[1]) {
+        columns[0] = ends[1];
+        columns[1] = ends[0];
+        side[0] = 1;
+        side[1] = 0;
+    }
+    for (int row = 0; row < b; row++) { /* the vectors' right-hand side: -sqrt(w) U e */
+        online->beta[row] = -r[row];
+    }
+    for (int t = 0; t < count; t++) { /* the rows of A as b vectors, interleaved */
+        double *x = online->vector + (size_t)columns[t] * (size_t)b * (size_t)b;
+        for (int c = 0; c < b; c++) {
+            for (int row = 0; row < b; row++) {
+                x[c * b + row] = a[side[t]][row * b + c];
+            }
+        }
+    }
+    return count > 0 ? pgem_online_rank_update(graph, columns, count, sign, b) : PGEM_OK;
+}
+
+static const double *pgem_update_lin(const pgem_t *graph, uint32_t p)
+{
+    return graph->online.lin + (size_t)p * (size_t)graph->pose_size;
+}
+
+/* Puts edge k into the factor with weight w (> 0), appending columns for its free poses
+ * that have none (seeded; their index into seeded[], *seeded_count grows). */
+static int pgem_update_insert(pgem_t *graph, uint32_t k, double w, int *seeded, int *seeded_count)
+{
+    pgem_online_t *online = &graph->online;
+    const uint32_t ends[2] = {graph->store.edge_from[k], graph->store.edge_to[k]};
+    for (int s = 0; s < 2; s++) {
+        const uint32_t p = ends[s];
+        const int held = graph->store.pose_fixed[p] || (graph->store.fixed_count == 0u && p == 0u);
+        if (!held && online->pose_column[p] < 0) {
+            memcpy(online->lin + (size_t)p * (size_t)graph->pose_size,
+                   graph->store.pose + (size_t)p * (size_t)graph->pose_size,
+                   (size_t)graph->pose_size * sizeof(double));
+            const int status = pgem_online_append(graph, p, PGEM_ONLINE_SEED);
+            if (status != PGEM_OK) {
+                return status;
+            }
+            seeded[(*seeded_count)++] = online->pose_column[p];
+            online->last.poses_added++;
+        }
+    }
+    online->edge_weight_in[k] = w;
+    online->last.edges_added++;
+    return pgem_update_edge(graph, k, pgem_update_lin(graph, ends[0]),
+                            pgem_update_lin(graph, ends[1]), w, 1.0);
+}
+
+/* Takes the seeds of the columns listed out again. */
+static int pgem_update_unseed(pgem_t *graph, const int *seeded, int count)
+{
+    pgem_online_t *online = &graph->online;
+    const int b = online->block;
+    for (int s = 0; s < count; s++) {
+        double *x = online->vector + (size_t)seeded[s] * (size_t)b * (size_t)b;
+        for (int c = 0; c < b; c++) {
+            x[c * b + c] = sqrt(PGEM_ONLINE_SEED);
+            online->beta[c] = 0.0;
+        }
+        const int status = pgem_online_rank_update(graph, seeded + s, 1, -1.0, b);
+        if (status != PGEM_OK) {
+            return status;
+        }
+    }
+    return PGEM_OK;
+}
+
+/* 1 if column j's step exceeds the threshold (negative: is not zero). */
+static int pgem_update_exceeds(const pgem_online_t *online, int j, double threshold)
+{
+    const double *d = online->delta + (size_t)j * (size_t)online->block;
+    double largest = 0.0;
+    for (int c = 0; c < online->block; c++) {
+        largest = fabs(d[c]) > largest ? fabs(d[c]) : largest;
+    }
+    return threshold < 0.0 ? largest > 0.0 : largest > threshold;
+}
+
+/* 1 if relinearising the poses due costs more than a rebuild: each of their edges is an
+ * update and a downdate along the path from its column, some (blocks on the path) x b^3
+ * flops, against the rebuild's factorisation, some sum of squared column counts x b^3 (the
+ * two estimates are compared as they are, as measured on City10000); or more poses are due
+ * than `limit` (0: no limit). */
+static int pgem_update_costly(const pgem_t *graph, double threshold, int limit)
+{
+    const pgem_online_t *online = &graph->online;
+    double work = 0.0;
+    int count = 0;
+    for (int q = 0; q < online->recomputed_count && work <= online->rebuild_work; q++) {
+        const int j = online->recomputed[q];
+        if (!pgem_update_exceeds(online, j, threshold)) {
+            continue;
+        }
+        count++;
+        int edges = 0;
+        for (int end = online->pose_edge[online->column_pose[j]]; end >= 0; end = online->edge_next[end]) {
+            edges++;
+        }
+        double path = 0.0;
+        for (int i = j; i >= 0 && path * edges <= online->rebuild_work; i = online->parent[i]) {
+            path += (double)online->count[i] + 1.0;
+        }
+        work += 2.0 * path * (double)edges;
+    }
+    return work > online->rebuild_work || (limit > 0 && count > limit);
+}
+
+/* Relinearises every pose whose step exceeds the threshold: each of their edges is added at
+ * the new point and removed at the old one; then the points move. Returns the poses moved in
+ * online->head (count in *moved). */
+static int pgem_update_relinearise(pgem_t *graph, double threshold, int *moved)
+{
+    pgem_online_t *online = &graph->online;
+    const int b = online->block;
+    const size_t size = (size_t)graph->pose_size;
+    int count = 0;
+    for (int j = 0; j < online->columns; j++) {
+        online->mark[online->column_pose[j]] = 0;
+    }
+    for (int q = 0; q < online->recomputed_count; q++) { /* the only steps that changed */
+        const int j = online->recomputed[q];
+        const int p = online->column_pose[j];
+        if (pgem_update_exceeds(online, j, threshold)) {
+            online->mark[p] = 1;
+            online->head[count++] = p;
+        }
+    }
+    double moved_from[PGEM_POSE_SIZE_MAX], moved_to[PGEM_POSE_SIZE_MAX];
+    for (int m = 0; m < count; m++) {
+        const uint32_t p = (uint32_t)online->head[m];
+        for (int end = online->pose_edge[p]; end >= 0; end = online->edge_next[end]) {
+            const uint32_t k = (uint32_t)end / 2u;
+            const uint32_t from = graph->store.edge_from[k], to = graph->store.edge_to[k];
+            const uint32_t other = from == p ? to : from;
+            const int other_marked = online->pose_column[other] >= 0 && online->mark[other];
+            if (!(online->edge_weight_in[k] > 0.0) || (other_marked && other < p)) {
+                continue;
+            }
+            const uint32_t ends[2] = {from, to};
+            double *points[2] = {moved_from, moved_to};
+            for (int s = 0; s < 2; s++) {
+                const int j = online->pose_column[ends[s]];
+                if (j >= 0 && online->mark[ends[s]]) {
+                    const double *d = online->delta + (size_t)j * (size_t)b;
+                    if (b == 6) {
+                        pgem_se3_boxplus(pgem_update_lin(graph, ends[s]), d, points[s]);
+                    } else {
+                        pgem_se2_boxplus(pgem_update_lin(graph, ends[s]), d, points[s]);
+                    }
+                } else {
+                    memcpy(points[s], pgem_update_lin(graph, ends[s]), size * sizeof(double));
+                }
+            }
+            const double w = online->edge_weight_in[k];
+            int status = pgem_update_edge(graph, k, moved_from, moved_to, w, 1.0);
+            if (status == PGEM_OK) {
+                status = pgem_update_edge(graph, k, pgem_update_lin(graph, from),
+                                          pgem_update_lin(graph, to), w, -1.0);
+            }
+            if (status != PGEM_OK) {
+                return status;
+            }
+        }
+    }
+    for (int m = 0; m < count; m++) {
+        const uint32_t p = (uint32_t)online->head[m];
+        const double *d = online->delta + (size_t)online->pose_column[p] * (size_t)b;
+        double *point = online->lin + (size_t)p * size;
+        if (b == 6) {
+            pgem_se3_boxplus(point, d, point);
+        } else {
+            pgem_se2_boxplus(point, d, point);
+        }
+    }
+    *moved = count;
+    online->last.relinearized = (uint32_t)count;
+    return PGEM_OK;
+}
+
+/* e^T S^-1 e for a symmetric positive definite n x n S (overwritten by its factor), or +inf
+ * if S is not positive definite. */
+static double pgem_update_quadratic(double *s, const double *e, int n)
+{
+    if (!pgem_online_cholesky(s, n)) {
+        return INFINITY;
+    }
+    double x[PGEM_TANGENT_SIZE_MAX], sum = 0.0;
+    for (int r = 0; r < n; r++) { /* x = L^-1 e, L(r, m) at s[m n + r]; e^T S^-1 e = |x|^2 */
+        double v = e[r];
+        for (int m = 0; m < r; m++) {
+            v -= s[m * n + r] * x[m];
+        }
+        x[r] = v / s[r * n + r];
+        sum += x[r] * x[r];
+    }
+    return sum;
+}
+
+/* Loop k's innovation distance under the factor and the current estimate: e^T (Omega^-1 +
+ * inflation J H^-1 J^T)^-1 e. */
+static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation)
+{
+    pgem_online_t *online = &graph->online;
+    const int n = graph->tangent;
+    double e[PGEM_TANGENT_SIZE_MAX], jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    double s[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0.0};
+    double covariance[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0.0};
+    pgem_edge_error(graph, k, e, jf, jt);
+    pgem_online_marginal(graph, online->pose_column[graph->store.edge_from[k]],
+                         online->pose_column[graph->store.edge_to[k]], jf, jt, n, s);
+    /* invert Omega by Gauss-Jordan on a copy (n <= 6) */
+    const double *o = graph->store.edge_information + (size_t)k * (size_t)(n * n);
+    double a[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    memcpy(a, o, (size_t)(n * n) * sizeof(double));
+    for (int r = 0; r < n; r++) {
+        for (int c = 0; c < n; c++) {
+            covariance[r * n + c] = r == c ? 1.0 : 0.0;
+        }
+    }
+    for (int c = 0; c < n; c++) {
+        const double pivot = a[c * n + c];
+        if (!(pivot > 0.0)) {
+            return INFINITY;
+        }
+        for (int m = 0; m < n; m++) {
+            a[c * n + m] /= pivot;
+            covariance[c * n + m] /= pivot;
+        }
+        for (int r = 0; r < n; r++) {
+            if (r == c) {
+                continue;
+            }
+            const double f = a[r * n + c];
+            for (int m = 0; m < n; m++) {
+                a[r * n + m] -= f * a[c * n + m];
+                covariance[r * n + m] -= f * covariance[c * n + m];
+            }
+        }
+    }
+    for (int q = 0; q < n * n; q++) {
+        s[q] = covariance[q] + inflation * s[q];
+    }
+    return pgem_update_quadratic(s, e, n);
+}
+
+/* The gate on loop k: in with weight 1 if its innovation passes, else pruned. Returns 1 if
+ * it went in. */
+static int pgem_update_gate(pgem_t *graph, uint32_t k, const pgem_update_settings_t *settings,
+                            int *seeded, int *seeded_count, int *status)
+{
+    pgem_online_t *online = &graph->online;
+    const uint32_t ends[2] = {graph->store.edge_from[k], graph->store.edge_to[k]};
+    for (int s = 0; s < 2; s++) {
+        const int held = graph->store.pose_fixed[ends[s]] || (graph->store.fixed_count == 0u && ends[s] == 0u);
+        if (!held && online->pose_column[ends[s]] < 0) {
+            graph->store.edge_active[k] = PGEM_EDGE_PRUNED; /* nothing predicts it yet */
+            return 0;
+        }
+    }
+    const double distance = pgem_update_innovation(graph, k, settings->inflation);
+    graph->robust.edge_distance[k] = distance;
+    if (!(distance <= settings->gate)) {
+        graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
+        return 0;
+    }
+    graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
+    graph->store.edge_weight[k] = 1.0;
+    *status = pgem_update_insert(graph, k, 1.0, seeded, seeded_count);
+    return 1;
+}
+
+/* New edges into the factor (loops through the gate when robust), then the pruned loops of
+ * the relinearised poses tested again. */
+static int pgem_update_edges(pgem_t *graph, const pgem_update_settings_t *settings, int moved)
+{
+    pgem_online_t *online = &graph->online;
+    int *seeded = online->next, seeded_count = 0, status = PGEM_OK;
+    for (uint32_t k = online->edges_seen; k < graph->store.edge_count && status == PGEM_OK; k++) {
+        const double w = pgem_update_weight(graph, k);
+        const int gated = settings->robust && graph->store.edge_kind[k] == PGEM_EDGE_LOOP;
+        if (!gated && w > 0.0 && !(online->edge_weight_in[k] > 0.0)) {
+            status = pgem_update_insert(graph, k, w, seeded, &seeded_count);
+        }
+    }
+    if (status == PGEM_OK) {
+        status = pgem_update_unseed(graph, seeded, seeded_count);
+    }
+    seeded_count = 0;
+    for (uint32_t k = online->edges_seen; k < graph->store.edge_count && status == PGEM_OK; k++) {
+        if (settings->robust && graph->store.edge_kind[k] == PGEM_EDGE_LOOP &&
+            graph->store.edge_active[k] != PGEM_EDGE_PRUNED && !(online->edge_weight_in[k] > 0.0)) {
+            const int in = pgem_update_gate(graph, k, settings, seeded, &seeded_count, &status);
+            online->last.loops_accepted += (uint32_t)in;
+            online->last.loops_rejected += (uint32_t)!in;
+        }
+    }
+    for (int m = 0; settings->robust && m < moved && status == PGEM_OK; m++) {
+        const uint32_t p = (uint32_t)online->head[m];
+        for (int end = online->pose_edge[p]; end >= 0 && status == PGEM_OK;
+             end = online->edge_next[end]) {
+            const uint32_t k = (uint32_t)end / 2u;
+            if (k < online->edges_seen && graph->store.edge_kind[k] == PGEM_EDGE_LOOP &&
+                graph->store.edge_active[k] == PGEM_EDGE_PRUNED) {
+                online->last.loops_readmitted +=
+                    (uint32_t)pgem_update_gate(graph, k, settings, seeded, &seeded_count, &status);
+            }
+        }
+    }
+    if (status == PGEM_OK) {
+        status = pgem_update_unseed(graph, seeded, seeded_count);
+    }
+    return status;
+}
+
+/* Orders and factorises everything at the current estimate. New loop closures are left for
+ * the gate when robust. */
+static int pgem_update_rebuild(pgem_t *graph, const pgem_update_settings_t *settings)
+{
+    pgem_online_t *online = &graph->online;
+    memcpy(online->lin, graph->store.pose, pgem_pose_bytes(graph));
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        const int fresh = k >= online->edges_seen;
+        const int gated = settings->robust && graph->store.edge_kind[k] == PGEM_EDGE_LOOP &&
+                          fresh && graph->store.edge_active[k] != PGEM_EDGE_PRUNED;
+        online->edge_weight_in[k] = gated ? 0.0 : pgem_update_weight(graph, k);
+    }
+    const int status = pgem_online_rebuild(graph, settings->recent);
+    online->last.rebuilt = 1;
+    online->updates = 0;
+    return status;
+}
+
+/* The estimate: every pose whose step was recomputed at its linearisation point plus it. */
+static void pgem_update_apply(pgem_t *graph)
+{
+    pgem_online_t *online = &graph->online;
+    const size_t size = (size_t)graph->pose_size, b = (size_t)online->block;
+    for (int q = 0; q < online->recomputed_count; q++) {
+        const int j = online->recomputed[q];
+        const size_t p = (size_t)online->column_pose[j];
+        if (b == 6u) {
+            pgem_se3_boxplus(online->lin + p * size, online->delta + (size_t)j * b, graph->store.pose + p * size);
+        } else {
+            pgem_se2_boxplus(online->lin + p * size, online->delta + (size_t)j * b, graph->store.pose + p * size);
+        }
+    }
+}
+
+static int pgem_update_run(pgem_t *graph, const pgem_update_settings_t *settings)
+{
+    pgem_online_t *online = &graph->online;
+    pgem_update_link(graph);
+    const double bound = settings->growth * (double)online->packed_blocks + (double)settings->slack;
+    const int rebuild = !online->ready || settings->rebuild || online->full ||
+                        (double)online->pool_used > bound;
+    int moved = 0;
+    const int many = !rebuild && pgem_update_costly(graph, settings->threshold, settings->movers);
+    int status = rebuild || many ? pgem_update_rebuild(graph, settings)
+                                 : pgem_update_relinearise(graph, settings->threshold, &moved);
+    if (status == PGEM_OK) {
+        status = pgem_update_edges(graph, settings, moved);
+    }
+    if (status == PGEM_OK && online->full && !online->last.rebuilt) {
+        status = pgem_update_rebuild(graph, settings); /* out of room: pack and go on */
+        if (status == PGEM_OK) {
+            status = pgem_update_edges(graph, settings, 0);
+        }
+    }
+    if (status != PGEM_OK) {
+        online->ready = 0;
+        return status;
+    }
+    pgem_online_back(graph, online->last.rebuilt ? -1.0 : settings->wildfire);
+    for (int q = 0; q < online->recomputed_count; q++) {
+        const double *d = online->delta + (size_t)online->recomputed[q] * (size_t)online->block;
+        if (!isfinite(pgem_norm(d, online->block))) {
+            online->ready = 0;
+            return pgem_fail(graph, PGEM_ERR_NUMERIC, "the online step is not finite");
+        }
+    }
+    pgem_update_apply(graph);
+    online->poses_seen = graph->store.pose_count;
+    online->edges_seen = graph->store.edge_count;
+    online->updates++;
+    return PGEM_OK;
+}
+
+int pgem_update(pgem_t *graph, const pgem_update_options_t *options,
+                pgem_update_summary_t *summary)
+{
+    if (summary != NULL) {
+        memset(summary, 0, sizeof *summary);
+    }
+    if (graph == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    pgem_online_t *online = &graph->online;
+    if (online->pool_blocks == 0u) {
+        return pgem_fail(graph, PGEM_ERR_CONFIG,
+                         "pgem_update needs config.online_fill (the incremental factor's room)");
+    }
+    pgem_update_settings_t settings;
+    int status = pgem_update_resolve(graph, options, &settings);
+    if (status != PGEM_OK) {
+        return status;
+    }
+    if (graph->store.edited_low != UINT32_MAX) { /* a pose set or held outside pgem_update */
+        if (graph->store.edited_low < online->poses_linked) {
+            online->ready = 0; /* conservative: that pose or a later one may be in the factor */
+        }
+        graph->store.edited_low = UINT32_MAX;
+    }
+    memset(&online->last, 0, sizeof online->last);
+    online->stamp++;
+    if (online->stamp <= 0) { /* wrapped: restart the stamps */
+        memset(online->touched, 0, (size_t)graph->config.max_poses * sizeof(int));
+        online->stamp = 1;
+    }
+    status = pgem_update_run(graph, &settings);
+    online->last.columns = (uint32_t)online->columns;
+    online->last.factor_blocks = online->pool_used;
+    if (summary != NULL) {
+        *summary = online->last;
+    }
+    return status;
+}
+
+int pgem_update_settle(pgem_t *graph, const pgem_robust_options_t *robust,
+                       pgem_robust_summary_t *summary)
+{
+    if (graph == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    if (summary != NULL) {
+        memset(summary, 0, sizeof *summary);
+    }
+    if (robust != NULL) {
+        pgem_robust_reset(graph); /* every loop back in: EM decides them all again */
+    }
+    const int status = robust != NULL ? pgem_robust_optimize(graph, robust, NULL, summary)
+                                      : pgem_optimize(graph, NULL, NULL);
+    graph->online.ready = 0;
+    return status;
+}

@@ -1,0 +1,333 @@
+/* pgem_update, the incremental solve: a stream ends (after the settle solve) at the batch
+ * optimum in 2D and 3D and is close to it before; odometry touches only the newest columns;
+ * updates allocate nothing; a pruned loop comes back; clear errors. */
+#include "test_util.h"
+
+#include "test_alloc_counters.h"
+
+/* A walk in the plane (or in space, with some height and roll) whose later poses see earlier
+ * ones: ground truth pose k into truth. */
+static void walk_truth(int dimension, int k, double *truth)
+{
+    const double angle = 0.21 * k;
+    const double radius = 6.0 + 0.5 * sin(0.05 * k);
+    if (dimension == 2) {
+        truth[0] = radius * cos(angle);
+        truth[1] = radius * sin(angle);
+        truth[2] = pgem_wrap_angle(angle + 1.5707963267948966);
+        return;
+    }
+    double tangent[6] = {radius * cos(angle), radius * sin(angle), 0.05 * k, 0.1 * sin(0.3 * k),
+                         0.05, angle + 1.5707963267948966};
+    pgem_se3_exp(tangent, truth);
+    truth[0] = tangent[0];
+    truth[1] = tangent[1];
+    truth[2] = tangent[2];
+}
+
+typedef struct stream {
+    int dimension;
+    int poses;
+    test_rng_t rng;
+    double truth[7 * 400];
+} stream_t;
+
+static pgem_t *stream_instance(int dimension, int poses)
+{
+    const uint32_t b = dimension == 3 ? 6u : 3u;
+    pgem_config_t config = {dimension, (uint32_t)poses, 4u * (uint32_t)poses, 0, 0,
+                            64u * b * b * (uint32_t)poses};
+    pgem_t *graph = NULL;
+    assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
+    return graph;
+}
+
+/* The measurement from pose a to pose b with noise (odometry noisy, loops slightly). */
+static void stream_measure(stream_t *s, int a, int b, double sigma, double *z)
+{
+    const int size = PGEM_POSE_SIZE(s->dimension), n = PGEM_TANGENT_SIZE(s->dimension);
+    double noise[6];
+    for (int d = 0; d < n; d++) {
+        noise[d] = sigma * test_gaussian(&s->rng);
+    }
+    if (s->dimension == 2) {
+        pgem_se2_between(s->truth + size * a, s->truth + size * b, z);
+        pgem_se2_boxplus(z, noise, z);
+    } else {
+        pgem_se3_between(s->truth + size * a, s->truth + size * b, z);
+        pgem_se3_boxplus(z, noise, z);
+    }
+}
+
+/* Adds pose k, placed by odometry from the current estimate of k - 1 as a front-end would,
+ * and its edges: odometry from k - 1, a loop to the pose one turn (30 poses) back. */
+static void stream_add(pgem_t *graph, stream_t *s, int k)
+{
+    const int size = PGEM_POSE_SIZE(s->dimension), n = PGEM_TANGENT_SIZE(s->dimension);
+    double information[36], z[7], guess[7];
+    test_diagonal_information(n, 400.0, information);
+    walk_truth(s->dimension, k, s->truth + size * k);
+    if (k == 0) {
+        assert_int_equal(pgem_add_pose(graph, 0, s->truth), PGEM_OK);
+        return;
+    }
+    stream_measure(s, k - 1, k, 0.05, z);
+    double previous[7];
+    assert_int_equal(pgem_get_pose(graph, (pgem_id_t)(k - 1), previous), PGEM_OK);
+    if (s->dimension == 2) {
+        pgem_se2_compose(previous, z, guess);
+    } else {
+        pgem_se3_compose(previous, z, guess);
+    }
+    assert_int_equal(pgem_add_pose(graph, (pgem_id_t)k, guess), PGEM_OK);
+    assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(k - 1), (pgem_id_t)k, z, information,
+                                   PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    if (k >= 30 && k % 3 == 0) {
+        stream_measure(s, k - 30, k, 0.01, z);
+        assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(k - 30), (pgem_id_t)k, z, information,
+                                       PGEM_EDGE_LOOP, NULL), PGEM_OK);
+    }
+}
+
+/* The same graph (poses at their stream guesses) in a fresh instance, solved in batch. */
+static double batch_chi2(const pgem_t *online, int dimension, int poses, const double *guesses)
+{
+    pgem_t *batch = stream_instance(dimension, poses);
+    const int size = PGEM_POSE_SIZE(dimension);
+    for (int k = 0; k < poses; k++) {
+        assert_int_equal(pgem_add_pose(batch, (pgem_id_t)k, guesses + size * k), PGEM_OK);
+    }
+    for (uint32_t e = 0; e < pgem_edge_count(online); e++) {
+        pgem_edge_view_t view;
+        assert_int_equal(pgem_edge_at(online, e, &view), PGEM_OK);
+        assert_int_equal(pgem_add_edge(batch, view.from, view.to, view.measurement,
+                                       view.information, view.kind, NULL), PGEM_OK);
+    }
+    pgem_summary_t summary;
+    assert_int_equal(pgem_optimize(batch, NULL, &summary), PGEM_OK);
+    const double chi2 = summary.final_chi2;
+    pgem_destroy(batch);
+    return chi2;
+}
+
+static void check_stream(int dimension, int poses, int robust)
+{
+    static stream_t s;
+    static double guesses[7 * 400];
+    memset(&s, 0, sizeof s);
+    s.dimension = dimension;
+    s.poses = poses;
+    s.rng.state = 11u + (uint64_t)dimension;
+    pgem_t *graph = stream_instance(dimension, poses);
+    pgem_update_options_t options;
+    memset(&options, 0, sizeof options);
+    options.robust = robust;
+    uint32_t rebuilds = 0, rejected = 0;
+    const int size = PGEM_POSE_SIZE(dimension);
+    for (int k = 0; k < poses; k++) {
+        stream_add(graph, &s, k);
+        assert_int_equal(pgem_get_pose(graph, (pgem_id_t)k, guesses + size * k), PGEM_OK);
+        if (k == 0) {
+            continue;
+        }
+        pgem_update_summary_t summary;
+        assert_int_equal(pgem_update(graph, &options, &summary), PGEM_OK);
+        rebuilds += (uint32_t)summary.rebuilt;
+        rejected += summary.loops_rejected;
+        assert_int_equal(summary.columns, k); /* every pose but the first, held one */
+    }
+    assert_int_equal(rejected, 0); /* robust: every (true) loop passed the gate */
+    assert_true(rebuilds >= 1u && rebuilds < (uint32_t)poses / 4u);
+    const double optimum = batch_chi2(graph, dimension, poses, guesses);
+    double online = 0.0;
+    for (uint32_t e = 0; e < pgem_edge_count(graph); e++) {
+        double chi2;
+        assert_int_equal(pgem_edge_chi2(graph, e, &chi2), PGEM_OK);
+        online += chi2;
+    }
+    /* one step per update from per-pose linearisation points: near the optimum already */
+    assert_true(online >= optimum * (1.0 - 1e-9));
+    assert_true(online <= optimum * 1.05);
+    pgem_robust_options_t em;
+    memset(&em, 0, sizeof em);
+    em.kernel = PGEM_KERNEL_EM;
+    pgem_robust_summary_t settled;
+    assert_int_equal(pgem_update_settle(graph, robust ? &em : NULL, &settled), PGEM_OK);
+    const double after = pgem_total_chi2(graph);
+    assert_true(fabs(after - optimum) <= 1e-6 * optimum);
+    /* the next update starts again from the settled estimate */
+    pgem_update_summary_t summary;
+    assert_int_equal(pgem_update(graph, &options, &summary), PGEM_OK);
+    assert_int_equal(summary.rebuilt, 1);
+    assert_true(fabs(pgem_total_chi2(graph) - optimum) <= 1e-6 * optimum);
+    pgem_destroy(graph);
+}
+
+static void test_stream_2d(void **state)
+{
+    (void)state;
+    check_stream(2, 300, 0);
+}
+
+static void test_stream_2d_robust(void **state)
+{
+    (void)state;
+    check_stream(2, 300, 1);
+}
+
+static void test_stream_3d(void **state)
+{
+    (void)state;
+    check_stream(3, 150, 1);
+}
+
+/* A stream up to `poses`, updated after every pose (relinearising nothing afterwards). */
+static pgem_t *stream_to(stream_t *s, int dimension, int poses)
+{
+    memset(s, 0, sizeof *s);
+    s->dimension = dimension;
+    s->rng.state = 5u;
+    pgem_t *graph = stream_instance(dimension, 400);
+    for (int k = 0; k < poses; k++) {
+        stream_add(graph, s, k);
+        if (k > 0) {
+            assert_int_equal(pgem_update(graph, NULL, NULL), PGEM_OK);
+        }
+    }
+    return graph;
+}
+
+/* New odometry changes the last columns only; a loop closure the path from its old pose up. */
+static void test_odometry_touches_few(void **state)
+{
+    (void)state;
+    static stream_t s;
+    pgem_t *graph = stream_to(&s, 2, 200);
+    pgem_update_options_t options;
+    memset(&options, 0, sizeof options);
+    options.relinearize_threshold = 1e9; /* isolate what the new edges touch */
+    pgem_update_summary_t summary;
+    assert_int_equal(pgem_update(graph, &options, &summary), PGEM_OK); /* nothing new */
+    assert_int_equal(summary.columns_touched, 0);
+    assert_int_equal(summary.rank_updates, 0);
+    stream_add(graph, &s, 200); /* odometry only: 200 % 3 != 0 */
+    assert_int_equal(pgem_update(graph, &options, &summary), PGEM_OK);
+    assert_int_equal(summary.rebuilt, 0);
+    assert_int_equal(summary.poses_added, 1);
+    assert_int_equal(summary.edges_added, 1);
+    assert_true(summary.columns_touched >= 1u && summary.columns_touched <= 3u);
+    assert_int_equal(summary.columns, 200);
+    const uint32_t odometry_touched = summary.columns_touched;
+    stream_add(graph, &s, 201); /* 201 % 3 == 0: odometry and a loop 30 poses back */
+    assert_int_equal(pgem_update(graph, &options, &summary), PGEM_OK);
+    assert_int_equal(summary.rebuilt, 0);
+    assert_int_equal(summary.edges_added, 2);
+    assert_true(summary.columns_touched > odometry_touched);
+    assert_true(summary.columns_touched < 200u);
+    pgem_destroy(graph);
+}
+
+/* Updates after the first allocate nothing (a rebuild's ordering may, as pgem_analyze: with the
+ * system CSparse it frees all it took); the block does not grow. */
+#if !TEST_UNDER_SANITIZER /* the counters need malloc, which AddressSanitizer owns */
+static void test_no_allocation(void **state)
+{
+    (void)state;
+    static stream_t s;
+    pgem_t *graph = stream_to(&s, 2, 60);
+    pgem_memory_stats_t before;
+    pgem_get_memory_stats(graph, &before);
+    int incremental = 0;
+    for (int k = 60; k < 300; k++) {
+        stream_add(graph, &s, k);
+        const long allocated = allocations, released = releases;
+        pgem_update_summary_t summary;
+        assert_int_equal(pgem_update(graph, NULL, &summary), PGEM_OK);
+        if (summary.rebuilt) {
+            assert_int_equal(allocations - allocated, releases - released);
+        } else {
+            assert_int_equal(allocations, allocated);
+            assert_int_equal(releases, released);
+            incremental++;
+        }
+    }
+    assert_true(incremental > 200);
+    pgem_memory_stats_t after;
+    pgem_get_memory_stats(graph, &after);
+    assert_int_equal(after.used_bytes, before.used_bytes);
+    assert_int_equal(after.block_bytes, before.block_bytes);
+    pgem_destroy(graph);
+}
+
+#endif
+
+/* A true loop closure whose new pose the front-end placed far off fails the gate; once the
+ * update has put the pose where its odometry says, the loop is tested again and comes back. */
+static void test_pruned_loop_comes_back(void **state)
+{
+    (void)state;
+    static stream_t s;
+    pgem_t *graph = stream_to(&s, 2, 40);
+    pgem_update_options_t options;
+    memset(&options, 0, sizeof options);
+    options.robust = 1;
+    double information[9], z[3], guess[3];
+    test_diagonal_information(3, 400.0, information);
+    walk_truth(2, 40, s.truth + 3 * 40);
+    stream_measure(&s, 39, 40, 0.0, z);
+    guess[0] = s.truth[3 * 40] + 5.0; /* far from where odometry puts it */
+    guess[1] = s.truth[3 * 40 + 1] - 4.0;
+    guess[2] = s.truth[3 * 40 + 2];
+    assert_int_equal(pgem_add_pose(graph, 40, guess), PGEM_OK);
+    assert_int_equal(pgem_add_edge(graph, 39, 40, z, information, PGEM_EDGE_ODOMETRY, NULL),
+                     PGEM_OK);
+    stream_measure(&s, 10, 40, 0.0, z);
+    assert_int_equal(pgem_add_edge(graph, 10, 40, z, information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
+    const uint32_t loop = pgem_edge_count(graph) - 1u;
+    pgem_update_summary_t summary;
+    assert_int_equal(pgem_update(graph, &options, &summary), PGEM_OK);
+    assert_int_equal(summary.loops_rejected, 1);
+    pgem_edge_view_t view;
+    assert_int_equal(pgem_edge_at(graph, loop, &view), PGEM_OK);
+    assert_int_equal(view.active, 0);
+    assert_int_equal(pgem_update(graph, &options, &summary), PGEM_OK);
+    assert_true(summary.relinearized >= 1u);
+    assert_int_equal(summary.loops_readmitted, 1);
+    assert_int_equal(pgem_edge_at(graph, loop, &view), PGEM_OK);
+    assert_int_equal(view.active, 1);
+    assert_true(view.weight == 1.0);
+    pgem_destroy(graph);
+}
+
+static void test_errors(void **state)
+{
+    (void)state;
+    assert_int_equal(pgem_update(NULL, NULL, NULL), PGEM_ERR_INVALID_ARGUMENT);
+    pgem_t *plain = test_create(2, 10, 20); /* no online_fill */
+    assert_int_equal(pgem_update(plain, NULL, NULL), PGEM_ERR_CONFIG);
+    assert_non_null(strstr(pgem_last_error(plain), "online_fill"));
+    pgem_destroy(plain);
+    pgem_t *graph = stream_instance(2, 10);
+    pgem_update_options_t options;
+    memset(&options, 0, sizeof options);
+    options.relinearize_threshold = (double)NAN;
+    assert_int_equal(pgem_update(graph, &options, NULL), PGEM_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(pgem_last_error(graph), "relinearize_threshold"));
+    pgem_destroy(graph);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_stream_2d),
+        cmocka_unit_test(test_stream_2d_robust),
+        cmocka_unit_test(test_stream_3d),
+        cmocka_unit_test(test_odometry_touches_few),
+#if !TEST_UNDER_SANITIZER
+        cmocka_unit_test(test_no_allocation),
+#endif
+        cmocka_unit_test(test_pruned_loop_comes_back),
+        cmocka_unit_test(test_errors),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
