@@ -216,8 +216,8 @@ static void pgem_add_diagonal_form(pgem_linear_t *linear, int b, int column, con
     }
 }
 
-int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
-                                 const double *a_to, double *out)
+void pgem_linear_marginal_diagonal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
+                                   const double *a_to, double *out)
 {
     pgem_linear_t *linear = graph->linear;
     const int b = linear->block;
@@ -229,6 +229,15 @@ int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, cons
     if (block_to >= 0) {
         pgem_add_diagonal_form(linear, b, block_to, a_to, out);
     }
+}
+
+int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
+                                 const double *a_to, double *out)
+{
+    pgem_linear_t *linear = graph->linear;
+    const int b = linear->block;
+    const int block_from = linear->pose_block[from], block_to = linear->pose_block[to];
+    pgem_linear_marginal_diagonal(graph, from, to, a_from, a_to, out); /* the two own terms */
     if (block_from < 0 || block_to < 0) {
         return PGEM_OK;
     }
@@ -265,17 +274,3 @@ int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, cons
     return PGEM_OK;
 }
 
-void pgem_linear_marginal_diagonal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
-                                   const double *a_to, double *out)
-{
-    pgem_linear_t *linear = graph->linear;
-    const int b = linear->block;
-    const int block_from = linear->pose_block[from], block_to = linear->pose_block[to];
-    memset(out, 0, (size_t)(b * b) * sizeof(double));
-    if (block_from >= 0) {
-        pgem_add_diagonal_form(linear, b, block_from, a_from, out);
-    }
-    if (block_to >= 0) {
-        pgem_add_diagonal_form(linear, b, block_to, a_to, out);
-    }
-}

@@ -154,24 +154,33 @@ static double pgem_rotation_sd(int n, const double *upper, const double *mu0, co
     return sqrt(variance);
 }
 
+/* Loop k's error e, the upper root U of its information (U^T U = information) and its
+ * whitened Jacobians A_from = U J_from, A_to = U J_to. */
+static void pgem_loop_whiten(pgem_t *graph, uint32_t k, double *e, double *upper, double *a_from,
+                             double *a_to)
+{
+    const int n = graph->tangent;
+    double jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    pgem_edge_error(graph, k, e, jf, jt);
+    pgem_information_root(graph->store.edge_information + (size_t)k * (size_t)(n * n), n, upper);
+    pgem_upper_times(upper, jf, n, a_from);
+    pgem_upper_times(upper, jt, n, a_to);
+}
+
 void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double inflation,
                           int from_inverse, pgem_innovation_t *out)
 {
     const int n = graph->tangent;
     /* zeroed where the analysers cannot see the loops that fill them */
     double e[PGEM_TANGENT_SIZE_MAX] = {0}, predicted[PGEM_TANGENT_SIZE_MAX] = {0};
-    double jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double upper[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double a_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double vectors[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double values[PGEM_TANGENT_SIZE_MAX] = {0}, mu0[PGEM_TANGENT_SIZE_MAX] = {0};
-    pgem_edge_error(graph, k, e, jf, jt);
-    pgem_information_root(graph->store.edge_information + (size_t)k * (size_t)(n * n), n, upper);
-    pgem_upper_times(upper, jf, n, a_from);
-    pgem_upper_times(upper, jt, n, a_to);
+    pgem_loop_whiten(graph, k, e, upper, a_from, a_to);
     if (from_inverse) {
         (void)pgem_linear_marginal_inverse(graph, graph->store.edge_from[k], graph->store.edge_to[k], a_from,
                                            a_to, m);
@@ -229,16 +238,11 @@ int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, d
 {
     const int n = graph->tangent;
     double e[PGEM_TANGENT_SIZE_MAX] = {0}, predicted[PGEM_TANGENT_SIZE_MAX] = {0};
-    double jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double upper[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double a_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    pgem_edge_error(graph, k, e, jf, jt);
-    pgem_information_root(graph->store.edge_information + (size_t)k * (size_t)(n * n), n, upper);
-    pgem_upper_times(upper, jf, n, a_from);
-    pgem_upper_times(upper, jt, n, a_to);
+    pgem_loop_whiten(graph, k, e, upper, a_from, a_to);
     pgem_predicted_error(graph, k, upper, e, a_from, a_to, predicted);
     const double chi2 = pgem_edge_mahalanobis(graph, k);
     double norm = 0.0;
