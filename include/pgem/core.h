@@ -91,7 +91,7 @@ int pgem_get_memory_parts(const pgem_config_t *config, pgem_memory_parts_t *part
  * `static unsigned char block[PGEM_MEMORY_BOUND(2, 500, 600, 16000)];`.
  * Per pose 357 bytes in 2D (677 in 3D), per edge 237 (701), per factor nonzero 8 plus 4 per
  * b x b block (b = 3 or 6), the region the analysis's scratch, the factorisation's dense
- * workspace and the solves' vectors share (PGEM_SHARED_BYTES) and 2400 for the instance
+ * workspace and the solves' vectors share (PGEM_SHARED_BYTES) and 3000 for the instance
  * itself and alignment. It includes CSparse's pool of the source-built mode (56 bytes per
  * pose, 24 per edge), so it holds for both modes, on 32- and 64-bit machines; the id map's
  * power-of-two size makes it exceed the exact figure by up to 8 bytes per pose. */
@@ -99,7 +99,7 @@ int pgem_get_memory_parts(const pgem_config_t *config, pgem_memory_parts_t *part
     ((size_t)(max_poses) * ((dimension) == 3 ? 677u : 357u) +                         \
      (size_t)(max_edges) * ((dimension) == 3 ? 701u : 237u) +                         \
      (size_t)(fill_budget) * 8u + (size_t)(fill_budget) / ((dimension) == 3 ? 36u : 9u) * 4u + \
-     PGEM_SHARED_BYTES(dimension, max_poses, max_edges) + 2400u)
+     PGEM_SHARED_BYTES(dimension, max_poses, max_edges) + 3000u)
 
 /** Bytes of the shared region: the most of the analysis's scratch (12 per edge, 16 per pose),
  * the first worker's dense workspace (PGEM_WORK_BYTES) and one pose block of doubles per pose
