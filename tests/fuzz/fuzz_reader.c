@@ -113,7 +113,18 @@ static void check_edges(const pgem_io_graph_t *graph)
         pgem_id_t gap = edge->from > edge->to ? edge->from - edge->to : edge->to - edge->from;
         FUZZ_CHECK(edge->line > 0);
         FUZZ_CHECK(has_pose(graph, edge->from) && has_pose(graph, edge->to));
-        FUZZ_CHECK(edge->kind == (gap == 1 ? PGEM_EDGE_ODOMETRY : PGEM_EDGE_LOOP));
+        /* the first edge between i and i + 1 is odometry, a later one between them a loop */
+        FUZZ_CHECK(gap == 1 || edge->kind == PGEM_EDGE_LOOP);
+        if (gap == 1) {
+            size_t before = 0;
+            for (size_t f = 0; f < graph->edge_count; ++f) {
+                const pgem_io_edge_t *other = &graph->edges[f];
+                before += f != e && other->kind == PGEM_EDGE_ODOMETRY &&
+                          ((other->from == edge->from && other->to == edge->to) ||
+                           (other->from == edge->to && other->to == edge->from));
+            }
+            FUZZ_CHECK(edge->kind == PGEM_EDGE_ODOMETRY ? before == 0 : before == 1);
+        }
         FUZZ_CHECK(all_finite(edge->measurement, (size_t)PGEM_POSE_SIZE(graph->dimension)));
         FUZZ_CHECK(all_finite(edge->information, n * n));
         FUZZ_CHECK(within_limits(edge->measurement, (size_t)PGEM_POSE_SIZE(graph->dimension),

@@ -287,7 +287,7 @@ static int pgem_update_relinearise(pgem_t *graph, double threshold, int *moved)
 static double pgem_update_quadratic(double *s, const double *e, int n)
 {
     if (!pgem_online_cholesky(s, n)) {
-        return INFINITY;
+        return (double)INFINITY;
     }
     double x[PGEM_TANGENT_SIZE_MAX], sum = 0.0;
     for (int r = 0; r < n; r++) { /* x = L^-1 e, L(r, m) at s[m n + r]; e^T S^-1 e = |x|^2 */
@@ -326,7 +326,7 @@ static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation
     for (int c = 0; c < n; c++) {
         const double pivot = a[c * n + c];
         if (!(pivot > 0.0)) {
-            return INFINITY;
+            return (double)INFINITY;
         }
         for (int m = 0; m < n; m++) {
             a[c * n + m] /= pivot;
