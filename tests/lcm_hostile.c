@@ -24,6 +24,8 @@
 
 #include <lcm/lcm.h>
 
+#include "test_clock.h"
+
 #include "channels.h"
 #include "pgem_command_t.h"
 #include "pgem_edge2_t.h"
@@ -31,24 +33,6 @@
 #include "pgem_status_t.h"
 
 #define FIRST_ID 1000000000000LL /* far above any real pose id of the tests */
-
-static double now_seconds(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
-static void sleep_until(double deadline)
-{
-    double left = deadline - now_seconds();
-    if (left > 0.0) {
-        struct timespec pause;
-        pause.tv_sec = (time_t)left;
-        pause.tv_nsec = (long)((left - (double)pause.tv_sec) * 1e9);
-        nanosleep(&pause, NULL);
-    }
-}
 
 static int pending(lcm_t *lcm, const pgem_channels_t *channels, long count, double rate,
                    const char *source, long sources)

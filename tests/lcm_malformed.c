@@ -29,6 +29,8 @@
 
 #include <lcm/lcm.h>
 
+#include "test_clock.h"
+
 #include "channels.h"
 #include "ingest.h"
 #include "pgem_command_t.h"
@@ -304,24 +306,6 @@ static void count(tally_t *tally, const message_t *m)
         tally->commands++; /* decoded, then refused */
     }
     tally->rejected[m->reason]++;
-}
-
-static double now_seconds(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
-static void sleep_until(double deadline)
-{
-    double left = deadline - now_seconds();
-    if (left > 0.0) {
-        struct timespec pause;
-        pause.tv_sec = (time_t)left;
-        pause.tv_nsec = (long)((left - (double)pause.tv_sec) * 1e9);
-        nanosleep(&pause, NULL);
-    }
 }
 
 static int parse(const char *text, double *value)

@@ -295,6 +295,24 @@ static int PGEM_DENSE_NAME(panel)(double *values, int h, int c0, int w)
     return -1;
 }
 
+/* Columns c0 .. c0 + w - 1 of a trapezoid (rows c0 on) take the product update of every column
+ * left of c0: the step before a panel of them is factorised. */
+static void PGEM_DENSE_NAME(left_update)(double *values, int height, int c0, int w, double *work,
+                                         size_t work_doubles)
+{
+    pgem_dense_update_t u;
+    memset(&u, 0, sizeof u);
+    u.source = values + c0; /* entry (c0, 0) */
+    u.step = height - 1;
+    u.m = height - c0;
+    u.n = w;
+    u.k = c0;
+    u.target = values;
+    u.target_height = height;
+    u.row0 = c0;
+    PGEM_DENSE_NAME(update)(&u, work, work_doubles);
+}
+
 /* Blocked left-looking Cholesky of a trapezoid's first `width` columns in panels of
  * PGEM_DENSE_PANEL: each panel first takes the product update of every column left of it. */
 static int PGEM_DENSE_NAME(factor_panels)(double *values, int height, int width, double *work,
@@ -303,17 +321,7 @@ static int PGEM_DENSE_NAME(factor_panels)(double *values, int height, int width,
     for (int c0 = 0; c0 < width; c0 += PGEM_DENSE_PANEL) {
         const int w = PGEM_DENSE_NAME(min)(PGEM_DENSE_PANEL, width - c0);
         if (c0 > 0) {
-            pgem_dense_update_t u;
-            memset(&u, 0, sizeof u);
-            u.source = values + c0; /* entry (c0, 0) */
-            u.step = height - 1;
-            u.m = height - c0;
-            u.n = w;
-            u.k = c0;
-            u.target = values;
-            u.target_height = height;
-            u.row0 = c0;
-            PGEM_DENSE_NAME(update)(&u, work, work_doubles);
+            PGEM_DENSE_NAME(left_update)(values, height, c0, w, work, work_doubles);
         }
         const int bad = PGEM_DENSE_NAME(panel)(values, height, c0, w);
         if (bad >= 0) {
@@ -336,17 +344,7 @@ static int PGEM_DENSE_NAME(factor)(double *values, int height, int width, double
     for (int c0 = 0; c0 < width; c0 += PGEM_DENSE_OUTER) {
         const int w = PGEM_DENSE_NAME(min)(PGEM_DENSE_OUTER, width - c0);
         if (c0 > 0) {
-            pgem_dense_update_t u;
-            memset(&u, 0, sizeof u);
-            u.source = values + c0; /* entry (c0, 0) */
-            u.step = height - 1;
-            u.m = height - c0;
-            u.n = w;
-            u.k = c0;
-            u.target = values;
-            u.target_height = height;
-            u.row0 = c0;
-            PGEM_DENSE_NAME(update)(&u, work, work_doubles);
+            PGEM_DENSE_NAME(left_update)(values, height, c0, w, work, work_doubles);
         }
         const ptrdiff_t corner = PGEM_DENSE_NAME(at)(height, c0, c0);
         const int bad = PGEM_DENSE_NAME(factor_panels)(values + corner, height - c0, w, work,
