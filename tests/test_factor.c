@@ -5,6 +5,9 @@
 #include "test_util.h"
 
 #include "linalg/linear.h"
+#ifdef PGEM_HAVE_METIS
+#include "pgem/metis.h"
+#endif
 #include "pgem/threads.h"
 
 /* A 3D lattice of side^3 poses: odometry along a snake through it, a loop closure to every
@@ -331,6 +334,106 @@ static void test_ordering_is_deterministic(void **state)
     pgem_destroy(b);
 }
 
+/* An orderer that counts its calls and eliminates the poses in the order `kind` says:
+ * 0 the natural one reversed, 1 not a permutation, 2 a failure. */
+typedef struct test_orderer {
+    int kind;
+    int calls;
+} test_orderer_t;
+
+static int test_order(void *orderer, int blocks, const int *colptr, const int *rows, int *order)
+{
+    test_orderer_t *test = orderer;
+    test->calls++;
+    assert_true(colptr[0] == 0 && colptr[blocks] > 0);
+    for (int j = 0; j < blocks; j++) {
+        for (int q = colptr[j]; q < colptr[j + 1]; q++) {
+            assert_true(rows[q] < j && (q == colptr[j] || rows[q] > rows[q - 1]));
+        }
+        order[j] = test->kind == 1 ? 0 : blocks - 1 - j;
+    }
+    return test->kind == 2;
+}
+
+/* The orderer is weighed by flops under AUTO (the natural order of a lattice loses to AMD, so
+ * nested dissection is tried too and wins), used alone when the choice names it, skipped when
+ * the choice is AMD or NESTED, and ignored when it fails or is no permutation. The orderings
+ * chosen alone are factorised on a small lattice: the natural order's band is slow under
+ * valgrind on the large one. */
+static void test_orderer_is_weighed(void **state)
+{
+    (void)state;
+    pgem_t *graph = lattice_3d(14, 1, 5);
+    test_orderer_t test = {0, 0};
+    const pgem_orderer_t orderer = {test_order, &test};
+    const pgem_factor_t *factor = &graph->linear->factor;
+    assert_int_equal(pgem_set_ordering(graph, PGEM_ORDER_AUTO, &orderer), PGEM_OK);
+    assert_int_equal(pgem_analyze(graph), PGEM_OK);
+    assert_int_equal(test.calls, 1);
+    assert_int_equal(factor->ordering, PGEM_ORDERING_NESTED);
+    assert_true(factor->orderer_flops > factor->amd_flops);
+    assert_true(factor->nested_flops > 0.0 && factor->nested_flops < factor->amd_flops);
+    pgem_destroy(graph);
+
+    graph = lattice_3d(6, 1, 5);
+    factor = &graph->linear->factor;
+    assert_int_equal(pgem_set_ordering(graph, PGEM_ORDER_ORDERER, &orderer), PGEM_OK);
+    check_residual(graph, "the orderer's ordering");
+    assert_int_equal(test.calls, 2);
+    assert_int_equal(factor->ordering, PGEM_ORDERING_ORDERER);
+    assert_true(factor->nested_flops < 0.0 && factor->orderer_flops > factor->amd_flops);
+    assert_true(factor->exact_flops == factor->orderer_flops);
+    for (int kind = 1; kind <= 2; kind++) {
+        test.kind = kind;
+        pgem_linear_invalidate(graph);
+        check_residual(graph, "a failing orderer");
+        assert_int_equal(factor->ordering, PGEM_ORDERING_AMD);
+        assert_true(factor->orderer_flops < 0.0);
+    }
+    test.kind = 0;
+    assert_int_equal(pgem_set_ordering(graph, PGEM_ORDER_AMD, &orderer), PGEM_OK);
+    check_residual(graph, "AMD alone");
+    assert_int_equal(factor->ordering, PGEM_ORDERING_AMD);
+    assert_int_equal(pgem_set_ordering(graph, PGEM_ORDER_NESTED, &orderer), PGEM_OK);
+    assert_int_equal(pgem_analyze(graph), PGEM_OK);
+    assert_int_equal(test.calls, 4);
+    assert_true(factor->orderer_flops < 0.0);
+    const pgem_orderer_t empty = {NULL, NULL};
+    assert_int_equal(pgem_set_ordering(graph, PGEM_ORDER_AUTO, &empty), PGEM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pgem_set_ordering(graph, PGEM_ORDER_ORDERER, NULL), PGEM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pgem_set_ordering(graph, (pgem_order_choice_t)7, NULL),
+                     PGEM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pgem_analyze(graph), PGEM_OK); /* the refusals changed nothing */
+    assert_int_equal(test.calls, 4);
+    pgem_destroy(graph);
+}
+
+#ifdef PGEM_HAVE_METIS
+/* METIS as the orderer: under AUTO on a large lattice it beats AMD, so it is kept and our own
+ * dissection is not run beside it; chosen alone, its ordering solves. */
+static void test_metis_orderer(void **state)
+{
+    (void)state;
+    pgem_t *graph = lattice_3d(14, 1, 5);
+    const pgem_orderer_t metis = pgem_metis_orderer();
+    const pgem_factor_t *factor = &graph->linear->factor;
+    assert_int_equal(pgem_set_ordering(graph, PGEM_ORDER_AUTO, &metis), PGEM_OK);
+    assert_int_equal(pgem_analyze(graph), PGEM_OK);
+    assert_int_equal(factor->ordering, PGEM_ORDERING_ORDERER);
+    assert_true(factor->orderer_flops > 0.0 && factor->orderer_flops < factor->amd_flops);
+    assert_true(factor->nested_flops < 0.0); /* not tried */
+    assert_true(factor->exact_flops == factor->orderer_flops);
+    pgem_destroy(graph);
+    graph = lattice_3d(8, 1, 5);
+    factor = &graph->linear->factor;
+    assert_int_equal(pgem_metis_use(graph, PGEM_ORDER_ORDERER), PGEM_OK);
+    check_residual(graph, "METIS");
+    assert_int_equal(factor->ordering, PGEM_ORDERING_ORDERER);
+    assert_true(factor->orderer_flops > 0.0);
+    pgem_destroy(graph);
+}
+#endif
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -339,6 +442,10 @@ int main(void)
         cmocka_unit_test(test_workers_give_the_same_bits),
         cmocka_unit_test(test_failure_is_the_same_on_every_worker_count),
         cmocka_unit_test(test_executor_checks),
+        cmocka_unit_test(test_orderer_is_weighed),
+#ifdef PGEM_HAVE_METIS
+        cmocka_unit_test(test_metis_orderer),
+#endif
         cmocka_unit_test(test_ordering_is_deterministic),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

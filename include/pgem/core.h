@@ -180,6 +180,36 @@ typedef struct pgem_executor {
  * (no run function, 0 workers or more than config.threads; the executor is left as it was). */
 int pgem_set_executor(pgem_t *instance, const pgem_executor_t *executor);
 
+/** Orders the free poses of a graph's factorisation, for an analysis to weigh against its own
+ * orderings: the block graph of `blocks` free poses comes as its upper pattern in compressed
+ * columns (colptr[blocks + 1]; rows[colptr[blocks]], each column's rows sorted, below its
+ * column, no diagonal, no duplicates), and order(orderer, ...) writes order[k] = the free pose
+ * eliminated k-th (a permutation of 0 .. blocks-1), returning 0, or nonzero if it could not
+ * (the analysis then keeps its own). It may allocate and take its time: it runs in the
+ * analysis, on the caller's thread. A hosted program plugs in METIS this way (pgem/metis.h);
+ * the core never links an ordering library. */
+typedef struct pgem_orderer {
+    int (*order)(void *orderer, int blocks, const int *colptr, const int *rows, int *order);
+    void *orderer; /**< passed to order */
+} pgem_orderer_t;
+
+/** Which ordering an analysis uses: AUTO measures AMD, and on large graphs (at least 2000 free
+ * poses and 1e9 flops under AMD, where the others can pay for themselves) nested dissection
+ * and the orderer, keeping the one whose factor needs the fewest flops; AMD, NESTED and
+ * ORDERER use that one alone (NESTED and ORDERER fall back to AMD when it cannot order). */
+typedef enum pgem_order_choice {
+    PGEM_ORDER_AUTO = 0,
+    PGEM_ORDER_AMD = 1,
+    PGEM_ORDER_NESTED = 2,
+    PGEM_ORDER_ORDERER = 3
+} pgem_order_choice_t;
+
+/** Sets how the instance's analyses order (choice) and the orderer they may use (copied;
+ * NULL: none); the next analysis orders anew (set it before pgem_copy, which hands over an
+ * ordering already made). Errors: INVALID_ARGUMENT (an unknown choice, an orderer without an order function,
+ * ORDERER without an orderer; nothing changed). */
+int pgem_set_ordering(pgem_t *instance, pgem_order_choice_t choice, const pgem_orderer_t *orderer);
+
 /** Copies the poses (estimates, held flags), edges (with their robust weights and states) of
  * `from` into `to`, an instance of the same dimension with no poses yet and room for them,
  * and hands over from's fill-reducing ordering when from was analysed for the graph it holds,

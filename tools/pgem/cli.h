@@ -138,6 +138,10 @@ int pgem_cli_write_weights(const pgem_t *instance, const char *path);
 /* Graphs from this many poses on get a line on stderr before their (seconds long) analysis. */
 #define PGEM_CLI_ANALYSIS_NOTICE_POSES 20000u
 
+/* Sets the ordering of the instances pgem_cli_load creates from an --ordering value (auto, amd,
+ * nested, metis; metis only in a build with METIS); 0 after printing why not. */
+int pgem_cli_set_ordering(const char *prefix, const char *text);
+
 /* Creates an instance sized for a file graph with `threads` workers and loads it, with the
  * fill budget set to exactly what the symbolic analysis asks for. *analysis_seconds (may be
  * NULL) receives the time of the analyses (a solve that follows does not repeat them).

@@ -10,6 +10,9 @@
 #include <time.h>
 
 #include "cli.h"
+#ifdef PGEM_HAVE_METIS
+#include "pgem/metis.h"
+#endif
 #include "pgem_random.h"
 
 double pgem_cli_now(void)
@@ -149,6 +152,39 @@ static int pgem_cli_try_load(const pgem_io_graph_t *file, const pgem_config_t *c
     return status;
 }
 
+/* The ordering every instance the CLI loads uses (pgem_cli_set_ordering). */
+static pgem_order_choice_t pgem_cli_ordering = PGEM_ORDER_AUTO;
+
+int pgem_cli_set_ordering(const char *prefix, const char *text)
+{
+    static const char *const names[] = {"auto", "amd", "nested", "metis"};
+    for (int k = 0; k < 4; k++) {
+        if (strcmp(text, names[k]) == 0) {
+#ifndef PGEM_HAVE_METIS
+            if (k == 3) {
+                fprintf(stderr, "%s: --ordering metis: this build has no METIS (libmetis-dev)\n",
+                        prefix);
+                return 0;
+            }
+#endif
+            pgem_cli_ordering = (pgem_order_choice_t)k;
+            return 1;
+        }
+    }
+    fprintf(stderr, "%s: --ordering takes auto, amd, nested or metis, got '%s'\n", prefix, text);
+    return 0;
+}
+
+/* The CLI's ordering onto instance: METIS as the orderer when the build has it. */
+static void pgem_cli_apply_ordering(pgem_t *instance)
+{
+#ifdef PGEM_HAVE_METIS
+    (void)pgem_metis_use(instance, pgem_cli_ordering);
+#else
+    (void)pgem_set_ordering(instance, pgem_cli_ordering, NULL);
+#endif
+}
+
 /* pgem_analyze, timed into *seconds. */
 static int pgem_cli_analyze(pgem_t *instance, double *seconds)
 {
@@ -180,6 +216,7 @@ int pgem_cli_load_quietly(const pgem_io_graph_t *file, const char *path, uint32_
         *instance = probe;
         return status;
     }
+    pgem_cli_apply_ordering(probe);
     if (file->pose_count >= PGEM_CLI_ANALYSIS_NOTICE_POSES) {
         fprintf(stderr, "pgem: ordering and analysing %zu poses and %zu edges...\n",
                 file->pose_count, file->edge_count);
@@ -197,6 +234,7 @@ int pgem_cli_load_quietly(const pgem_io_graph_t *file, const char *path, uint32_
             pgem_destroy(probe);
             return status;
         }
+        pgem_cli_apply_ordering(*instance);
         status = pgem_copy(*instance, probe);
         if (status == PGEM_OK) {
             status = pgem_cli_analyze(*instance, &more);

@@ -42,7 +42,8 @@ static void pgem_optimize_help(FILE *out, const void *context)
             "                        [--max-em-iterations N] [--gate X] [--literal]\n"
             "                        [--dormant-threshold D|off] [--distance innovation|point]\n"
             "                        [--odometry-inflation K] [--predictable-rotation R]\n"
-            "                        [--weights FILE] [--threads N] [--quiet] [--json]\n"
+            "                        [--weights FILE] [--threads N] [--ordering O] [--quiet]\n"
+            "                        [--json]\n"
             "\n"
             "Reads a g2o (VERTEX_SE2/EDGE_SE2, VERTEX_SE3:QUAT/EDGE_SE3:QUAT, FIX) or TORO 2D\n"
             "(VERTEX2/EDGE2) graph, optimizes it from its own initial estimate and prints one\n"
@@ -80,6 +81,9 @@ static void pgem_optimize_help(FILE *out, const void *context)
             "  --weights FILE      write one line per loop closure: from to weight state\n"
             "  --threads N         factorisation threads (default: the machine's, at most 8;\n"
             "                      the result is the same for any N)\n"
+            "  --ordering O        auto (default: AMD, and on large graphs the fewest flops of\n"
+            "                      AMD, nested dissection and METIS where built), amd, nested\n"
+            "                      or metis\n"
             "  --quiet             no per-iteration or progress lines\n"
             "  --json              print the summary as one JSON object on stdout (progress goes\n"
             "                      to stderr)\n");
@@ -160,6 +164,9 @@ static int pgem_optimize_value(void *user, const char *name, const char *value)
     if (strcmp(name, "--threads") == 0) {
         return pgem_optimize_threads(name, value, &args->threads);
     }
+    if (strcmp(name, "--ordering") == 0) {
+        return pgem_cli_set_ordering("pgem optimize", value);
+    }
     if (strcmp(name, "--solver") == 0 || strcmp(name, "--distance") == 0 ||
         strcmp(name, "--robust") == 0) {
         return pgem_optimize_enum_value(name, value, args);
@@ -190,7 +197,8 @@ static int pgem_optimize_positional(void *user, const char *argument)
 static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args)
 {
     static const char *const valued[] = {
-        "-o", "--output", "--weights", "--max-iterations", "--threads", "--solver", "--distance",
+        "-o", "--output", "--weights", "--max-iterations", "--threads", "--ordering", "--solver",
+        "--distance",
         "--robust", "--m-step-iterations", "--max-em-iterations", "--dormant-threshold",
         "--robust-scale", "--prune-threshold", "--gate", "--odometry-inflation",
         "--predictable-rotation"};

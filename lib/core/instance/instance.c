@@ -256,6 +256,29 @@ int pgem_set_executor(pgem_t *instance, const pgem_executor_t *executor)
     return PGEM_OK;
 }
 
+int pgem_set_ordering(pgem_t *instance, pgem_order_choice_t choice, const pgem_orderer_t *orderer)
+{
+    if (instance == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    const char *wrong = NULL;
+    if (choice != PGEM_ORDER_AUTO && choice != PGEM_ORDER_AMD && choice != PGEM_ORDER_NESTED &&
+        choice != PGEM_ORDER_ORDERER) {
+        wrong = "unknown ordering choice";
+    } else if (orderer != NULL && orderer->order == NULL) {
+        wrong = "an orderer needs an order function";
+    } else if (choice == PGEM_ORDER_ORDERER && orderer == NULL) {
+        wrong = "the ordering choice ORDERER needs an orderer";
+    }
+    if (wrong != NULL) {
+        pgem_message_clear(instance);
+        pgem_message_text(instance, wrong);
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    pgem_linear_set_ordering(instance, choice, orderer);
+    return PGEM_OK;
+}
+
 const pgem_config_t *pgem_get_config(const pgem_t *instance)
 {
     return instance != NULL ? &instance->config : NULL;

@@ -48,7 +48,8 @@ typedef struct pgem_factor_worker {
 /* The fill-reducing orderings (linalg/ordering.c). */
 typedef enum pgem_ordering {
     PGEM_ORDERING_AMD = 0,   /* CSparse's approximate minimum degree on the block graph */
-    PGEM_ORDERING_NESTED = 1 /* nested dissection of the block graph (linalg/nested.c) */
+    PGEM_ORDERING_NESTED = 1, /* nested dissection of the block graph (linalg/nested.c) */
+    PGEM_ORDERING_ORDERER = 2 /* the instance's orderer (pgem_set_ordering) */
 } pgem_ordering_t;
 
 typedef struct pgem_factor {
@@ -56,6 +57,7 @@ typedef struct pgem_factor {
     pgem_ordering_t ordering; /* the ordering the analysis chose */
     double amd_flops;       /* exact flops (as exact_flops) under each ordering it measured, */
     double nested_flops;    /* -1 if not tried */
+    double orderer_flops;
     int block_count;        /* block columns (free poses) */
     int super_count;        /* supernodes */
     int nonzeros;           /* values stored (exact pattern plus amalgamation's zeros) */

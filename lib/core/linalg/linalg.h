@@ -29,6 +29,10 @@ int pgem_linear_analyze(pgem_t *graph);
 /* The nonzeros the factor of the graph's structure (edge states as they are) needs, whatever
  * the budget; the ordering is kept (and the analysis, within the budget). */
 int pgem_linear_fill_needed(pgem_t *graph, uint32_t *nonzeros);
+/* How the next analyses order (choice) and the orderer they may use (NULL: none); the
+ * ordering is made anew (linalg/ordering.c; checked by pgem_set_ordering). */
+void pgem_linear_set_ordering(pgem_t *graph, pgem_order_choice_t choice,
+                              const pgem_orderer_t *orderer);
 /* Forgets the structure (edge states changed so that it no longer fits). */
 void pgem_linear_invalidate(pgem_t *graph);
 /* Keeps the structure fit for the next solve after edge states changed: invalidated when an

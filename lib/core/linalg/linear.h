@@ -62,6 +62,8 @@ struct pgem_linear {
                                   NULL outside a solve */
     uint32_t progress_iteration; /* the iteration the next factorisation belongs to */
     uint32_t topology;         /* the graph's topology version valid and ordered refer to */
+    pgem_orderer_t orderer;    /* an ordering to weigh against AMD's (order NULL: none) */
+    pgem_order_choice_t ordering_choice; /* which orderings the analysis uses */
 };
 
 /* Forgets the structure and the ordering if the graph's topology changed since they were

@@ -1,7 +1,8 @@
 /* The fill-reducing ordering of the free poses, chosen per graph: CSparse's AMD on the block
  * graph, and for graphs of at least PGEM_ND_MIN_BLOCKS free poses also nested dissection
- * (linalg/nested.c); the one whose factor needs fewer flops (from the elimination tree and
- * column counts of each) is kept, as CHOLMOD chooses among its orderings. Bare-metal builds
+ * (linalg/nested.c) and the orderer a hosted program set (pgem_set_ordering: METIS, lib/metis);
+ * the one whose factor needs the fewest flops (from the elimination tree and column counts of
+ * each) is kept, as CHOLMOD chooses among its orderings. Bare-metal builds
  * (PGEM_NO_NESTED) order by AMD alone: a microcontroller's RAM holds far fewer poses than
  * nested dissection needs to pay, and it saves 6.6 KiB of flash. CSparse allocates
  * here: from the heap with the system CSparse, from the block's pool with the source-built
@@ -107,46 +108,121 @@ static int pgem_order_nested(pgem_t *graph, int blocks, int *position, int *orde
     return status;
 }
 
+/* The instance's orderer's position of every free index, into position (order is workspace),
+ * after checking that it gave a permutation. */
+static int pgem_order_orderer(pgem_t *graph, int blocks, int *position, int *order)
+{
+    const int *colptr = pgem_linear_scratch(graph->linear);
+    const int *rows = colptr + blocks + 1;
+    const pgem_orderer_t *orderer = &graph->linear->orderer;
+    if (orderer->order(orderer->orderer, blocks, colptr, rows, order) != 0) {
+        return PGEM_ERR_OUT_OF_MEMORY;
+    }
+    for (int k = 0; k < blocks; k++) {
+        position[k] = -1;
+    }
+    for (int k = 0; k < blocks; k++) {
+        if (order[k] < 0 || order[k] >= blocks || position[order[k]] >= 0) {
+            return PGEM_ERR_INVALID_ARGUMENT; /* not a permutation: ignored */
+        }
+        position[order[k]] = k;
+    }
+    return PGEM_OK;
+}
+
+/* Tries ordering `kind` (nested dissection or the orderer) into candidate and keeps it in best
+ * when the choice names it, or under AUTO when it needs fewer flops than *best_flops. */
+static int pgem_order_try(pgem_t *graph, int block_count, pgem_ordering_t kind, int *best,
+                          double *best_flops)
+{
+    pgem_linear_t *linear = graph->linear;
+    int *colptr = pgem_linear_scratch(linear);
+    int *candidate = linear->factor.task_worker;
+    /* the free numbering's pattern again (an evaluation renumbers it) */
+    (void)pgem_pattern_number_free(graph);
+    pgem_pattern_build(graph, block_count, colptr, colptr + block_count + 1,
+                       colptr + block_count + 1 + graph->store.edge_count);
+    const int ok = (kind == PGEM_ORDERING_NESTED
+                        ? pgem_order_nested(graph, block_count, candidate, linear->factor.head)
+                        : pgem_order_orderer(graph, block_count, candidate,
+                                             linear->factor.head)) == PGEM_OK;
+    const double flops = ok ? pgem_order_flops(graph, block_count, candidate) : -1.0;
+    if (ok && flops < 0.0) {
+        return PGEM_ERR_OUT_OF_MEMORY;
+    }
+    *(kind == PGEM_ORDERING_NESTED ? &linear->factor.nested_flops
+                                   : &linear->factor.orderer_flops) = flops;
+    if (ok && (graph->linear->ordering_choice != PGEM_ORDER_AUTO || flops < *best_flops)) {
+        for (int k = 0; k < block_count; k++) {
+            best[k] = candidate[k];
+        }
+        *best_flops = flops;
+        linear->factor.ordering = kind;
+    }
+    return PGEM_OK;
+}
+
+/* AMD always (the fallback); under AUTO on large graphs also the orderer and, unless the
+ * orderer beat AMD, nested dissection, by flops; or the one the instance's choice names. */
 int pgem_pattern_order(pgem_t *graph, int block_count)
 {
     pgem_linear_t *linear = graph->linear;
     int *colptr = pgem_linear_scratch(linear);
     int *rows = colptr + block_count + 1;
     int *work = rows + graph->store.edge_count;
-    int *amd = linear->factor.order;       /* free until the schedule is built */
-    int *nested = linear->factor.task_worker;
+    int *best = linear->factor.order; /* free until the schedule is built */
+    const pgem_order_choice_t choice = graph->linear->ordering_choice;
     pgem_pattern_build(graph, block_count, colptr, rows, work);
-    int status = pgem_order_amd(graph, block_count, amd);
+    int status = pgem_order_amd(graph, block_count, best);
     linear->factor.ordering = PGEM_ORDERING_AMD;
     linear->factor.amd_flops = -1.0;
     linear->factor.nested_flops = -1.0;
-    if (status != PGEM_OK || block_count < PGEM_ND_MIN_BLOCKS) {
+    linear->factor.orderer_flops = -1.0;
+    if (status != PGEM_OK || choice == PGEM_ORDER_AMD ||
+        (choice == PGEM_ORDER_AUTO && block_count < PGEM_ND_MIN_BLOCKS)) {
         if (status == PGEM_OK) {
-            pgem_order_apply(graph, amd);
+            pgem_order_apply(graph, best);
         }
         return status;
     }
-    const double amd_flops = pgem_order_flops(graph, block_count, amd);
-    if (amd_flops < 0.0) {
+    double best_flops = pgem_order_flops(graph, block_count, best);
+    if (best_flops < 0.0) {
         return PGEM_ERR_OUT_OF_MEMORY;
     }
-    linear->factor.amd_flops = amd_flops;
-    if (amd_flops < PGEM_ND_MIN_FLOPS_PER_BLOCK * block_count || amd_flops < PGEM_ND_MIN_FLOPS) {
-        pgem_order_apply(graph, amd);
+    linear->factor.amd_flops = best_flops;
+    const int small = best_flops < PGEM_ND_MIN_FLOPS_PER_BLOCK * block_count ||
+                      best_flops < PGEM_ND_MIN_FLOPS;
+    if (choice == PGEM_ORDER_AUTO && small) {
+        pgem_order_apply(graph, best);
         return PGEM_OK;
     }
-    /* nested dissection: a failure there (no room) keeps AMD; it needs the free numbering's
-     * pattern again (the evaluation above renumbered it) */
-    (void)pgem_pattern_number_free(graph);
-    pgem_pattern_build(graph, block_count, colptr, rows, work);
-    const int nested_ok = pgem_order_nested(graph, block_count, nested, linear->factor.head) == PGEM_OK;
-    const double nested_flops = nested_ok ? pgem_order_flops(graph, block_count, nested) : -1.0;
-    if (nested_ok && nested_flops < 0.0) {
-        return PGEM_ERR_OUT_OF_MEMORY;
+    if (choice != PGEM_ORDER_NESTED && linear->orderer.order != NULL) {
+        status = pgem_order_try(graph, block_count, PGEM_ORDERING_ORDERER, best, &best_flops);
     }
-    const int use_nested = nested_ok && nested_flops < amd_flops;
-    linear->factor.ordering = use_nested ? PGEM_ORDERING_NESTED : PGEM_ORDERING_AMD;
-    linear->factor.nested_flops = nested_flops;
-    pgem_order_apply(graph, use_nested ? nested : amd);
-    return PGEM_OK;
+    /* Our own dissection is not run beside an orderer that beat AMD: a multilevel dissection
+     * such as METIS's orders better than ours on every large graph measured (grid3d 100000:
+     * 266G flops against 355G) and ours took twice its time there (DESIGN.md). */
+    const int orderer_won = linear->factor.ordering == PGEM_ORDERING_ORDERER;
+    if (status == PGEM_OK && choice != PGEM_ORDER_ORDERER &&
+        !(choice == PGEM_ORDER_AUTO && orderer_won)) {
+        status = pgem_order_try(graph, block_count, PGEM_ORDERING_NESTED, best, &best_flops);
+    }
+    if (status == PGEM_OK) {
+        pgem_order_apply(graph, best);
+    }
+    return status;
+}
+
+void pgem_linear_set_ordering(pgem_t *graph, pgem_order_choice_t choice,
+                              const pgem_orderer_t *orderer)
+{
+    pgem_linear_t *linear = graph->linear;
+    linear->ordering_choice = choice;
+    if (orderer != NULL) {
+        linear->orderer = *orderer;
+    } else {
+        linear->orderer.order = NULL;
+        linear->orderer.orderer = NULL;
+    }
+    pgem_linear_invalidate(graph); /* the next analysis orders anew */
 }
