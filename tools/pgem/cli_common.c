@@ -202,9 +202,9 @@ int pgem_cli_load_quietly(const pgem_io_graph_t *file, const char *path, uint32_
     if (analysis_seconds != NULL) {
         *analysis_seconds = 0.0;
     }
-    /* The factor's size is known only after the analysis: a probe instance with a factor of
-     * one nonzero is loaded and analysed (its analysis fails on the fill budget but reports
-     * the nonzeros needed), then copied, ordering included, into one of exactly that budget. */
+    /* The factor's size is known only after the ordering: a probe instance with a factor of
+     * one nonzero is loaded and asked what it needs (pgem_fill_needed), then copied, ordering
+     * included, into one of exactly that budget, whose analysis is then symbolic only. */
     pgem_config_t config;
     pgem_io_config(file, &config);
     config.threads = threads;
@@ -221,15 +221,16 @@ int pgem_cli_load_quietly(const pgem_io_graph_t *file, const char *path, uint32_
         fprintf(stderr, "pgem: ordering and analysing %zu poses and %zu edges...\n",
                 file->pose_count, file->edge_count);
     }
-    status = pgem_cli_analyze(probe, &seconds);
-    pgem_memory_stats_t stats;
-    pgem_get_memory_stats(probe, &stats);
-    if (status == PGEM_ERR_FILL_BUDGET) {
-        config.fill_budget = stats.factor_nonzeros;
+    uint32_t nonzeros = 0u;
+    const double start = pgem_cli_now();
+    status = pgem_fill_needed(probe, &nonzeros);
+    seconds = pgem_cli_now() - start;
+    if (status == PGEM_OK && nonzeros > probe_config.fill_budget) {
+        config.fill_budget = nonzeros;
         status = pgem_create(instance, &config);
         if (status != PGEM_OK) {
             snprintf(message, message_size, "cannot create an instance for a factor of %u "
-                     "nonzeros: %s", stats.factor_nonzeros, pgem_error_description(status));
+                     "nonzeros: %s", nonzeros, pgem_error_description(status));
             *instance = NULL;
             pgem_destroy(probe);
             return status;
@@ -241,7 +242,7 @@ int pgem_cli_load_quietly(const pgem_io_graph_t *file, const char *path, uint32_
         }
         pgem_destroy(probe);
     } else {
-        *instance = probe; /* a failure other than the budget is reported with the probe */
+        *instance = probe; /* analysed within its budget, or its failure is reported with it */
     }
     if (analysis_seconds != NULL) {
         *analysis_seconds = seconds + more;
