@@ -115,8 +115,8 @@ wait "$dump" || fail "in order: no complete graph dumped"
 agree ordered
 stop_bridge
 
-step "shuffled and every message sent twice, incremental updates: the same graph"
-start_bridge shuffled --incremental
+step "shuffled and every message sent twice, whole-graph solves (--full): the same graph"
+start_bridge shuffled --full
 start_dump shuffled
 "$SEND" input.g2o --rate "$RATE" --shuffle 7 --repeat 2 --wait 60 >shuffled.send.log 2>&1 ||
     fail "shuffled: not every edge accepted"
