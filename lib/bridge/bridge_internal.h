@@ -88,7 +88,8 @@ typedef struct bridge {
                                    on a whole graph starts afresh from the raw estimates */
     uint32_t solved_poses;      /* poses that took part in the last successful solve */
     uint32_t loop_count;        /* loop closures in the core */
-    uint32_t pruned_count;      /* of them pruned by the last solve */
+    uint32_t pruned_count;      /* of them pruned after the last solve or update */
+    uint32_t counted_edges;     /* edges whose state pruned_count has seen */
     int64_t solve_id;
     /* Publication buffers for graph_t, sized for the capacities. */
     int64_t *out_ids;
@@ -137,10 +138,12 @@ void bridge_graph_publish(bridge_t *bridge, const char *trigger,
                           int64_t solve_time_us);
 void bridge_graph_snapshot(bridge_t *bridge, const char *path);
 
-/* components.c (solver thread): the parts joined by odometry, each held at its smallest pose
- * id (or by a pose the front-end fixed); returns the parts that have edges. Visits only what
- * arrived since the last call; reset with the graph. */
+/* components.c (solver thread): the parts joined by odometry that have edges, each held at its
+ * smallest pose id (or by a pose the front-end fixed); returns how many there are. Visits only
+ * what arrived since the last call; reset with the graph. hold_lone also holds the poses no
+ * edge touches yet, for a whole-graph solve (O(poses)). */
 uint32_t bridge_components_hold(bridge_t *bridge);
+void bridge_components_hold_lone(bridge_t *bridge);
 void bridge_components_reset(bridge_t *bridge);
 
 /* status.c (either thread). */

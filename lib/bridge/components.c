@@ -75,15 +75,17 @@ static void join_edge(bridge_t *bridge, uint32_t k)
     anchor_of[root] = anchor;
 }
 
-/* Holds every part of the graph joined by odometry: a part without a pose the front-end fixed
- * gets its smallest pose id fixed (for one part that is the gauge the offline tools use,
- * whatever order the poses arrived in). Parts appear while edges wait for their poses or when
- * messages were lost; joined only by loop closures, which EM may prune, they would leave the
- * normal equations singular. A pose no edge touches yet (its odometry a few milliseconds
- * behind it) is held too but does not make the graph split: it changes no other pose. Flags
- * change only when the parts do, so an unchanged graph keeps its analysis. Only the poses and
- * edges added since the last call are visited (parts only ever join). Returns the number of
- * parts that have edges. */
+/* Holds every part of the graph joined by odometry that has an edge: a part without a pose the
+ * front-end fixed gets its smallest pose id fixed (for one part that is the gauge the offline
+ * tools use, whatever order the poses arrived in). Parts appear while edges wait for their
+ * poses or when messages were lost; joined only by loop closures, which EM may prune, they
+ * would leave the normal equations singular. A pose no edge touches yet (its odometry a few
+ * milliseconds behind it) changes no other pose and is left free here: an incremental update
+ * leaves it out of its factor, and fixing it only to free it when its odometry arrives would
+ * make the next update rebuild the factor (bridge_components_hold_lone holds such poses for a
+ * whole-graph solve). Flags change only when the parts do, so an unchanged graph keeps its
+ * analysis. Only the poses and edges added since the last call are visited (parts only ever
+ * join). Returns the number of parts that have edges. */
 uint32_t bridge_components_hold(bridge_t *bridge)
 {
     const uint32_t poses = pgem_pose_count(bridge->core);
@@ -92,15 +94,38 @@ uint32_t bridge_components_hold(bridge_t *bridge)
         bridge->component_anchor[i] = bridge->user_fixed[i] ? UINT32_MAX : i;
         bridge->part_edges[i] = 0;
     }
+    bridge->parts_poses = poses;
+    const uint32_t first = bridge->parts_edges;
     const uint32_t edges = pgem_edge_count(bridge->core);
-    for (uint32_t k = bridge->parts_edges; k < edges; ++k) {
+    for (uint32_t k = first; k < edges; ++k) {
         join_edge(bridge, k);
     }
-    for (uint32_t i = bridge->parts_poses; i < poses; ++i) { /* a new part's own gauge */
-        const uint32_t root = pgem_part_root(bridge->component, i);
-        hold_gauge(bridge, bridge->component_anchor[root] == i ? i : UINT32_MAX, 1);
-    }
-    bridge->parts_poses = poses;
     bridge->parts_edges = edges;
+    for (uint32_t j = first; j < edges; ++j) { /* the parts that got an edge: their gauge */
+        pgem_edge_view_t view;
+        uint32_t ends[2] = {0, 0};
+        if (pgem_edge_at(bridge->core, j, &view) != PGEM_OK ||
+            pgem_pose_index(bridge->core, view.from, &ends[0]) != PGEM_OK ||
+            pgem_pose_index(bridge->core, view.to, &ends[1]) != PGEM_OK) {
+            continue;
+        }
+        for (int s = 0; s < 2; ++s) {
+            const uint32_t anchor = bridge->component_anchor[pgem_part_root(bridge->component,
+                                                                            ends[s])];
+            hold_gauge(bridge, anchor, 1);
+        }
+    }
     return bridge->parts_with_edges;
+}
+
+/* Before a whole-graph solve: every part without edges (a pose whose edges have not arrived)
+ * held too, or its block of the normal equations would be empty. O(poses). */
+void bridge_components_hold_lone(bridge_t *bridge)
+{
+    for (uint32_t i = 0; i < bridge->parts_poses; ++i) {
+        const uint32_t root = pgem_part_root(bridge->component, i);
+        if (!bridge->part_edges[root] && bridge->component_anchor[root] == i) {
+            hold_gauge(bridge, i, 1);
+        }
+    }
 }

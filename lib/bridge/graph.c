@@ -2,6 +2,7 @@
  * snapshots. Only the solver thread calls these. */
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
+#include <math.h>
 #include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -189,6 +190,7 @@ static void reset_graph(bridge_t *bridge)
     bridge_components_reset(bridge);
     bridge->loop_count = 0;
     bridge->pruned_count = 0;
+    bridge->counted_edges = 0;
     bridge_graph_counts(bridge);
 }
 
@@ -300,14 +302,41 @@ static void update_options(const bridge_t *bridge, pgem_update_options_t *option
     options->odometry_inflation = bridge->options.robust.odometry_inflation;
 }
 
+/* The loop closures pruned after an update, from the count before it: the new loops it pruned,
+ * less the pruned ones it took back (no other loop changes state in an update). O(new). */
+static void count_pruned(bridge_t *bridge, const pgem_update_summary_t *update)
+{
+    const uint32_t edges = pgem_edge_count(bridge->core);
+    for (uint32_t k = bridge->counted_edges; k < edges; ++k) {
+        pgem_edge_view_t view;
+        pgem_edge_at(bridge->core, k, &view);
+        bridge->pruned_count += view.kind == PGEM_EDGE_LOOP && !view.active;
+    }
+    bridge->pruned_count -= update->loops_readmitted < bridge->pruned_count
+                                ? update->loops_readmitted
+                                : bridge->pruned_count;
+    bridge->counted_edges = edges;
+}
+
+/* One incremental update and the pruned count after it. */
+static int update_run(bridge_t *bridge)
+{
+    pgem_update_options_t options;
+    update_options(bridge, &options);
+    pgem_update_summary_t update;
+    const int status = pgem_update(bridge->core, &options, &update);
+    if (status == PGEM_OK) {
+        count_pruned(bridge, &update);
+    }
+    return status;
+}
+
 void bridge_graph_step(bridge_t *bridge)
 {
     if (bridge->restart_pending || bridge_components_hold(bridge) != 1) {
         return; /* the next solve restarts or holds several parts: it decides */
     }
-    pgem_update_options_t options;
-    update_options(bridge, &options);
-    if (pgem_update(bridge->core, &options, NULL) != PGEM_OK) {
+    if (update_run(bridge) != PGEM_OK) {
         bridge->restart_pending = 1; /* the next solve says why, from the front-end's estimates */
         return;
     }
@@ -315,23 +344,17 @@ void bridge_graph_step(bridge_t *bridge)
     memset(bridge->anchored, 0, bridge->solved_poses);
 }
 
-/* One incremental update (pgem_update); the summary gets what a robust solve's would say of
- * the loops and the weighted chi2. */
+/* One incremental update; the summary gets what a robust solve's would say of the loops. Its
+ * chi2 is not computed (NaN): that visits every edge, and the updates' cost must not grow
+ * with the map; the settle and --full solves report it. */
 static int update_solve(bridge_t *bridge, pgem_robust_summary_t *summary)
 {
-    pgem_update_options_t options;
-    update_options(bridge, &options);
-    int status = pgem_update(bridge->core, &options, NULL);
-    for (uint32_t k = 0; status == PGEM_OK && k < pgem_edge_count(bridge->core); ++k) {
-        pgem_edge_view_t view;
-        double chi2 = 0.0;
-        pgem_edge_at(bridge->core, k, &view);
-        pgem_edge_chi2(bridge->core, k, &chi2);
-        summary->loops += view.kind == PGEM_EDGE_LOOP;
-        summary->pruned += view.kind == PGEM_EDGE_LOOP && !view.active;
-        summary->final_chi2 += view.active ? view.weight * chi2 : 0.0;
-        summary->final_chi2_all += chi2;
-    }
+    const int status = update_run(bridge);
+    summary->loops = bridge->loop_count;
+    summary->pruned = bridge->pruned_count;
+    summary->final_chi2 = (double)NAN;
+    summary->final_chi2_all = (double)NAN;
+    summary->initial_chi2 = (double)NAN;
     summary->rejected = summary->pruned;
     summary->outcome = summary->loops == 0u                  ? PGEM_ROBUST_NO_LOOPS
                        : summary->pruned == summary->loops   ? PGEM_ROBUST_ALL_REJECTED
@@ -362,6 +385,9 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     const int incremental = !bridge->options.full && !restarted && parts == 1 &&
                             strcmp(trigger, "settle") != 0 && strcmp(trigger, "command") != 0 &&
                             strcmp(trigger, "recovery") != 0;
+    if (!incremental) {
+        bridge_components_hold_lone(bridge);
+    }
     int status = incremental ? update_solve(bridge, &summary)
                              : pgem_robust_optimize(bridge->core, &robust, NULL, &summary);
     if (status != PGEM_OK || parts > 1) {
@@ -378,7 +404,10 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
         snprintf(why, sizeof why, "%s: %s", pgem_error_name(status),
                  pgem_last_error(bridge->core));
     }
-    bridge->pruned_count = summary.pruned;
+    if (!incremental) {
+        bridge->pruned_count = summary.pruned;
+        bridge->counted_edges = pgem_edge_count(bridge->core);
+    }
     bridge_graph_counts(bridge);
     bridge_graph_publish(bridge, trigger, &summary, status == PGEM_OK, why, micros);
     double published = bridge_now();
