@@ -348,9 +348,12 @@ def main() -> int:
         if args.quick:
             files = [["input_M3500_g2o", "500"]]
             args.kills = 3
+        bridge = f"`pgem-lcm-bridge {args.bridge_args}`" if args.bridge_args.strip() \
+            else "the bridge's defaults"
         lines = ["# LCM bridge benchmark", "",
                  f"{time.strftime('%Y-%m-%d %H:%M')}, {os.cpu_count()} cores, URL `{URL}`, "
-                 f"{args.outliers} random false loop closures (seed 1).", ""]
+                 f"{args.outliers} random false loop closures (seed 1), latency with {bridge}.",
+                 ""]
         figures = []
         for name, rate in files:
             source = dataset(args.datasets, name)
