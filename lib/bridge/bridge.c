@@ -230,6 +230,7 @@ typedef struct schedule {
     double last_start;    /* start of the last solve */
     double last_end;      /* and its end */
     int unsettled;        /* the last solve was incremental: a settle solve is owed */
+    int stepped;          /* incremental: edges applied since the last update */
     const char *trigger;
 } schedule_t;
 
@@ -239,7 +240,7 @@ typedef struct schedule {
 static double solve_due(const bridge_t *bridge, const schedule_t *s)
 {
     const pgem_bridge_options_t *o = &bridge->options;
-    if (o->incremental && (s->dirty || s->unsolved)) {
+    if (!o->full && (s->dirty || s->unsolved)) {
         return 0.0; /* incremental updates: at once, for every batch of items */
     }
     double due = s->dirty      ? fmin(s->last_loop + o->debounce, s->first_loop + o->max_delay)
@@ -310,6 +311,7 @@ static void *solver_main(void *user)
         int drained = bridge->head == bridge->visible;
         int optimize = bridge->optimize_requested;
         int recovery = bridge->recovery_pending && drained;
+        const int replaying = bridge->recovery_pending; /* one full solve follows: no steps */
         int snapshot = bridge->snapshot_requested && drained;
         char path[PGEM_PATH_MAX];
         if (snapshot) {
@@ -328,7 +330,14 @@ static void *solver_main(void *user)
             s.last_item = now;
         }
         for (int i = 0; i < count; ++i) {
+            if (!bridge->options.full && !replaying && s.stepped &&
+                batch[i].type == PGEM_ITEM_POSE) {
+                bridge_graph_step(bridge); /* the edges of the poses before this one */
+                s.stepped = 0;
+            }
+            s.stepped |= batch[i].type == PGEM_ITEM_EDGE;
             if (batch[i].type == PGEM_ITEM_RESET) {
+                s.stepped = 0;
                 s.dirty = 0;
                 s.unsolved = 0;
                 s.unsettled = 0;
@@ -364,6 +373,7 @@ static void *solver_main(void *user)
             s.unsettled = !settle; /* (after a recovery too: it may have been a split graph) */
             s.dirty = 0;
             s.unsolved = 0;
+            s.stepped = 0;
         } else if (due) {
             s.unsolved = 0; /* poses without edges: nothing to solve */
             s.unsettled = 0;

@@ -47,12 +47,12 @@ typedef struct pgem_bridge_options {
                                   refused (a message names a file in it, never a path) */
     pgem_robust_options_t robust;  /* zeroed: EM with its defaults, as everywhere; kernel
                                       PGEM_KERNEL_NONE (--robust none): every loop at weight 1 */
-    int incremental;           /* 1: every batch of items gets a pgem_update at once (new loop
-                                  closures through its gate) and is published, the settle solve
-                                  (EM on everything, after idle_solve) stays; 0 (default): every
-                                  solve re-solves the whole graph with EM (debounced,
-                                  rate-limited). Opt-in until its loop-closure latency is
-                                  measured below the full solves' (DESIGN.md) */
+    int full;                  /* 0 (default): every pose that got edges gets an incremental
+                                  update (pgem_update, new loop closures through its gate),
+                                  published after each batch of items; the settle solve (EM
+                                  on everything, after idle_solve) follows once the stream is
+                                  quiet. 1: every solve re-solves the whole graph with EM
+                                  (debounced, rate-limited), as before issue 20 */
     pgem_bridge_log_fn log;    /* progress lines (NULL: silent) */
     void *log_user;
 } pgem_bridge_options_t;

@@ -76,16 +76,20 @@ typedef struct bridge {
     uint8_t *anchored;          /* per core pose: initial estimate re-anchored */
     uint8_t *user_fixed;        /* per core pose: fixed by the front-end */
     uint8_t *gauge_fixed;       /* per core pose: fixed by the bridge to hold its component */
-    uint32_t *component;        /* per core pose: union-find parent, then component root */
-    uint32_t *component_anchor; /* per root: index of the component's smallest pose id */
+    uint32_t *component;        /* per core pose: union-find parent over the odometry */
+    uint32_t *component_anchor; /* per root: index of the part's smallest pose id, UINT32_MAX
+                                   if the front-end fixed a pose in it */
     double *raw;                /* per core pose: the front-end's estimate, as received */
-    uint8_t *touched;           /* per core pose, scratch: 1 an edge touches it, 2 its part
-                                   has an edge */
+    uint8_t *part_edges;        /* per root: 1 if an edge touches the part */
+    uint32_t parts_poses;       /* poses already in the parts (components.c) */
+    uint32_t parts_edges;       /* edges already in the parts */
+    uint32_t parts_with_edges;  /* parts that have an edge */
     int restart_pending;        /* the last solve saw a split graph or failed: the next one
                                    on a whole graph starts afresh from the raw estimates */
     uint32_t solved_poses;      /* poses that took part in the last successful solve */
     uint32_t loop_count;        /* loop closures in the core */
-    uint32_t pruned_count;      /* of them pruned by the last solve */
+    uint32_t pruned_count;      /* of them pruned after the last solve or update */
+    uint32_t counted_edges;     /* edges whose state pruned_count has seen */
     int64_t solve_id;
     /* Publication buffers for graph_t, sized for the capacities. */
     int64_t *out_ids;
@@ -118,6 +122,12 @@ void bridge_graph_counts(bridge_t *bridge);
 int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item);
 /* Solves and publishes; trigger names why ("loops", "command", "recovery"). */
 void bridge_graph_solve(bridge_t *bridge, const char *trigger);
+/* One incremental update, not published: while a batch of items is applied, one per pose
+ * that got edges, so each pose's loop closures are gated under a map that already holds the
+ * loop closures before them (one update for a long batch would test them all against the
+ * estimate from before it, and reject the ones that agree with an earlier correction).
+ * Nothing when the next solve must restart or hold several parts. */
+void bridge_graph_step(bridge_t *bridge);
 /* The settle solve: every pose back to the front-end's estimate, every loop closure back in,
  * EM on the whole graph (trigger "settle"); run once the stream has been quiet for idle_solve
  * after incremental solves, so a paused robot's map is the one the offline tools compute. */
@@ -127,6 +137,14 @@ void bridge_graph_publish(bridge_t *bridge, const char *trigger,
                           const pgem_robust_summary_t *summary, int usable, const char *why,
                           int64_t solve_time_us);
 void bridge_graph_snapshot(bridge_t *bridge, const char *path);
+
+/* components.c (solver thread): the parts joined by odometry that have edges, each held at its
+ * smallest pose id (or by a pose the front-end fixed); returns how many there are. Visits only
+ * what arrived since the last call; reset with the graph. hold_lone also holds the poses no
+ * edge touches yet, for a whole-graph solve (O(poses)). */
+uint32_t bridge_components_hold(bridge_t *bridge);
+void bridge_components_hold_lone(bridge_t *bridge);
+void bridge_components_reset(bridge_t *bridge);
 
 /* status.c (either thread). */
 void bridge_publish_status(bridge_t *bridge);

@@ -2,6 +2,7 @@
  * snapshots. Only the solver thread calls these. */
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
+#include <math.h>
 #include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -19,7 +20,7 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
     bridge->core_config.max_poses = o->max_poses;
     bridge->core_config.max_edges = o->max_edges;
     bridge->core_config.fill_budget = o->fill_budget;
-    if (o->incremental) { /* the incremental factor's room: twice the core's default fill */
+    if (!o->full) { /* the incremental factor's room: twice the core's default fill */
         const uint64_t b = (uint64_t)PGEM_TANGENT_SIZE(o->dimension);
         const uint64_t fill = 2u * (uint64_t)PGEM_DEFAULT_FILL_PER_POSE * b * b * o->max_poses;
         bridge->core_config.online_fill = fill > (uint64_t)INT32_MAX ? (uint32_t)INT32_MAX
@@ -45,7 +46,7 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
     bridge->component = calloc(poses, sizeof *bridge->component);
     bridge->component_anchor = calloc(poses, sizeof *bridge->component_anchor);
     bridge->raw = calloc(poses * pose_size, sizeof *bridge->raw);
-    bridge->touched = calloc(poses, 1);
+    bridge->part_edges = calloc(poses, 1);
     bridge->out_ids = calloc(poses, sizeof *bridge->out_ids);
     bridge->out_values = calloc(poses * pose_size, sizeof *bridge->out_values);
     bridge->out_rows = calloc(poses, sizeof *bridge->out_rows);
@@ -55,7 +56,7 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
     if (bridge->core_block == NULL || bridge->edge_source == NULL ||
         bridge->edge_sequence == NULL || bridge->source_last == NULL ||
         bridge->anchored == NULL || bridge->user_fixed == NULL || bridge->gauge_fixed == NULL ||
-        bridge->component == NULL || bridge->component_anchor == NULL || bridge->raw == NULL || bridge->touched == NULL ||
+        bridge->component == NULL || bridge->component_anchor == NULL || bridge->raw == NULL || bridge->part_edges == NULL ||
         bridge->out_ids == NULL || bridge->out_values == NULL ||
         bridge->out_rows == NULL || bridge->out_loops == NULL || bridge->out_sources == NULL ||
         bridge->out_last == NULL) {
@@ -91,7 +92,7 @@ void bridge_graph_free(bridge_t *bridge)
     free(bridge->component);
     free(bridge->component_anchor);
     free(bridge->raw);
-    free(bridge->touched);
+    free(bridge->part_edges);
     free(bridge->out_ids);
     free(bridge->out_values);
     free(bridge->out_rows);
@@ -186,8 +187,10 @@ static void reset_graph(bridge_t *bridge)
     }
     bridge->solved_poses = 0;
     bridge->restart_pending = 0;
+    bridge_components_reset(bridge);
     bridge->loop_count = 0;
     bridge->pruned_count = 0;
+    bridge->counted_edges = 0;
     bridge_graph_counts(bridge);
 }
 
@@ -244,81 +247,6 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
     return 1;
 }
 
-/* Holds every part of the graph joined by odometry: a part without a pose the front-end fixed
- * gets its smallest pose id fixed (for one part that is the gauge the offline tools use,
- * whatever order the poses arrived in). Parts appear while edges wait for their poses or when
- * messages were lost; joined only by loop closures, which EM may prune, they would leave the
- * normal equations singular. Flags change only when the parts do, so an unchanged graph keeps
- * its analysis. Returns the number of parts that have edges. */
-static uint32_t hold_components(bridge_t *bridge)
-{
-    pgem_t *core = bridge->core;
-    uint32_t poses = pgem_pose_count(core);
-    uint32_t *parent = bridge->component;
-    for (uint32_t i = 0; i < poses; ++i) {
-        parent[i] = i;
-    }
-    /* One pass over the edges: odometry joins parts; any edge marks its poses (a pose no edge
-     * touches yet, its odometry a few milliseconds behind it, is held too but does not make
-     * the graph split: it changes no other pose). */
-    uint8_t *touched = bridge->touched;
-    memset(touched, 0, poses);
-    for (uint32_t k = 0; k < pgem_edge_count(core); ++k) {
-        pgem_edge_view_t view;
-        uint32_t a = 0;
-        uint32_t b = 0;
-        if (pgem_edge_at(core, k, &view) != PGEM_OK ||
-            pgem_pose_index(core, view.from, &a) != PGEM_OK ||
-            pgem_pose_index(core, view.to, &b) != PGEM_OK) {
-            continue;
-        }
-        touched[a] = 1;
-        touched[b] = 1;
-        if (view.kind == PGEM_EDGE_ODOMETRY) {
-            (void)pgem_part_join(parent, a, b);
-        }
-    }
-    /* component_anchor[root]: the part's smallest id, or UINT32_MAX if the front-end fixed a
-     * pose in it. */
-    uint32_t *anchor_of = bridge->component_anchor;
-    for (uint32_t i = 0; i < poses; ++i) {
-        anchor_of[i] = i;
-    }
-    for (uint32_t i = 0; i < poses; ++i) {
-        uint32_t root = pgem_part_root(parent, i);
-        if (anchor_of[root] == UINT32_MAX) {
-            continue;
-        }
-        pgem_id_t id = 0;
-        pgem_id_t best = 0;
-        pgem_pose_at(core, i, &id, NULL, NULL);
-        pgem_pose_at(core, anchor_of[root], &best, NULL, NULL);
-        if (bridge->user_fixed[i]) {
-            anchor_of[root] = UINT32_MAX;
-        } else if (id < best) {
-            anchor_of[root] = i;
-        }
-    }
-    for (uint32_t i = 0; i < poses; ++i) {
-        if (touched[i] & 1u) {
-            touched[pgem_part_root(parent, i)] |= 2u; /* the part has an edge */
-        }
-    }
-    uint32_t parts = 0;
-    for (uint32_t i = 0; i < poses; ++i) {
-        uint32_t root = pgem_part_root(parent, i);
-        parts += root == i && (touched[i] & 2u) != 0;
-        uint8_t want = anchor_of[root] == i;
-        if (want != bridge->gauge_fixed[i]) {
-            pgem_id_t id = 0;
-            pgem_pose_at(core, i, &id, NULL, NULL);
-            pgem_fix_pose(core, id, want);
-            bridge->gauge_fixed[i] = want;
-        }
-    }
-    return parts;
-}
-
 /* Every pose back to the front-end's estimate and every loop closure back in: the solve that
  * follows is the one an offline tool would run on the same graph. */
 static void restart_from_raw(bridge_t *bridge)
@@ -364,24 +292,69 @@ static void describe_outcome(const pgem_robust_summary_t *summary, char *text, s
 /* One incremental update (pgem_update, its gate on new loop closures with the robust
  * options' gate and inflation); the summary gets what a robust solve's would say of the loops
  * and the weighted chi2. */
-static int update_solve(bridge_t *bridge, pgem_robust_summary_t *summary)
+/* The update's options from the robust ones: its gate on new loop closures with their gate
+ * and inflation; kernel none keeps every loop in. */
+static void update_options(const bridge_t *bridge, pgem_update_options_t *options)
+{
+    memset(options, 0, sizeof *options);
+    options->robust = bridge->options.robust.kernel != PGEM_KERNEL_NONE;
+    options->gate = bridge->options.robust.gate;
+    options->odometry_inflation = bridge->options.robust.odometry_inflation;
+}
+
+/* The loop closures pruned after an update, from the count before it: the new loops it pruned,
+ * less the pruned ones it took back (no other loop changes state in an update). O(new). */
+static void count_pruned(bridge_t *bridge, const pgem_update_summary_t *update)
+{
+    const uint32_t edges = pgem_edge_count(bridge->core);
+    for (uint32_t k = bridge->counted_edges; k < edges; ++k) {
+        pgem_edge_view_t view;
+        pgem_edge_at(bridge->core, k, &view);
+        bridge->pruned_count += view.kind == PGEM_EDGE_LOOP && !view.active;
+    }
+    bridge->pruned_count -= update->loops_readmitted < bridge->pruned_count
+                                ? update->loops_readmitted
+                                : bridge->pruned_count;
+    bridge->counted_edges = edges;
+}
+
+/* One incremental update and the pruned count after it. */
+static int update_run(bridge_t *bridge)
 {
     pgem_update_options_t options;
-    memset(&options, 0, sizeof options);
-    options.robust = bridge->options.robust.kernel != PGEM_KERNEL_NONE; /* none: every loop in */
-    options.gate = bridge->options.robust.gate;
-    options.odometry_inflation = bridge->options.robust.odometry_inflation;
-    int status = pgem_update(bridge->core, &options, NULL);
-    for (uint32_t k = 0; status == PGEM_OK && k < pgem_edge_count(bridge->core); ++k) {
-        pgem_edge_view_t view;
-        double chi2 = 0.0;
-        pgem_edge_at(bridge->core, k, &view);
-        pgem_edge_chi2(bridge->core, k, &chi2);
-        summary->loops += view.kind == PGEM_EDGE_LOOP;
-        summary->pruned += view.kind == PGEM_EDGE_LOOP && !view.active;
-        summary->final_chi2 += view.active ? view.weight * chi2 : 0.0;
-        summary->final_chi2_all += chi2;
+    update_options(bridge, &options);
+    pgem_update_summary_t update;
+    const int status = pgem_update(bridge->core, &options, &update);
+    if (status == PGEM_OK) {
+        count_pruned(bridge, &update);
     }
+    return status;
+}
+
+void bridge_graph_step(bridge_t *bridge)
+{
+    if (bridge->restart_pending || bridge_components_hold(bridge) != 1) {
+        return; /* the next solve restarts or holds several parts: it decides */
+    }
+    if (update_run(bridge) != PGEM_OK) {
+        bridge->restart_pending = 1; /* the next solve says why, from the front-end's estimates */
+        return;
+    }
+    bridge->solved_poses = pgem_pose_count(bridge->core);
+    memset(bridge->anchored, 0, bridge->solved_poses);
+}
+
+/* One incremental update; the summary gets what a robust solve's would say of the loops. Its
+ * chi2 is not computed (NaN): that visits every edge, and the updates' cost must not grow
+ * with the map; the settle and --full solves report it. */
+static int update_solve(bridge_t *bridge, pgem_robust_summary_t *summary)
+{
+    const int status = update_run(bridge);
+    summary->loops = bridge->loop_count;
+    summary->pruned = bridge->pruned_count;
+    summary->final_chi2 = (double)NAN;
+    summary->final_chi2_all = (double)NAN;
+    summary->initial_chi2 = (double)NAN;
     summary->rejected = summary->pruned;
     summary->outcome = summary->loops == 0u                  ? PGEM_ROBUST_NO_LOOPS
                        : summary->pruned == summary->loops   ? PGEM_ROBUST_ALL_REJECTED
@@ -403,21 +376,25 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     pgem_robust_summary_t summary;
     memset(&summary, 0, sizeof summary);
     double start = bridge_now();
-    uint32_t parts = hold_components(bridge);
+    uint32_t parts = bridge_components_hold(bridge);
     int restarted = bridge->restart_pending && parts == 1;
     if (restarted) {
         restart_from_raw(bridge);
         bridge->restart_pending = 0;
     }
-    const int incremental = bridge->options.incremental && !restarted && parts == 1 &&
+    const int incremental = !bridge->options.full && !restarted && parts == 1 &&
                             strcmp(trigger, "settle") != 0 && strcmp(trigger, "command") != 0 &&
                             strcmp(trigger, "recovery") != 0;
+    if (!incremental) {
+        bridge_components_hold_lone(bridge);
+    }
     int status = incremental ? update_solve(bridge, &summary)
                              : pgem_robust_optimize(bridge->core, &robust, NULL, &summary);
     if (status != PGEM_OK || parts > 1) {
         bridge->restart_pending = 1;
     }
     int64_t micros = (int64_t)((bridge_now() - start) * 1e6);
+    double solved = bridge_now();
     char why[256] = "";
     if (status == PGEM_OK) {
         bridge->solved_poses = pgem_pose_count(bridge->core);
@@ -427,9 +404,13 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
         snprintf(why, sizeof why, "%s: %s", pgem_error_name(status),
                  pgem_last_error(bridge->core));
     }
-    bridge->pruned_count = summary.pruned;
+    if (!incremental) {
+        bridge->pruned_count = summary.pruned;
+        bridge->counted_edges = pgem_edge_count(bridge->core);
+    }
     bridge_graph_counts(bridge);
     bridge_graph_publish(bridge, trigger, &summary, status == PGEM_OK, why, micros);
+    double published = bridge_now();
     pthread_mutex_lock(&bridge->lock);
     bridge->solving = 0;
     bridge->solves++;
@@ -437,14 +418,14 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     if (status == PGEM_OK) {
         bridge_log(bridge,
                    "solve %lld (%s%s): %u poses, %u loops, %u pruned, chi2 %.6g, %u rounds, "
-                   "%.1f ms%s",
+                   "%.1f ms (publishing %.1f ms)%s",
                    (long long)bridge->solve_id, trigger,
                    restarted   ? ", restarted from the front-end's estimates"
                    : incremental ? ", incremental"
                                  : "",
                    pgem_pose_count(bridge->core), summary.loops, summary.pruned,
                    summary.final_chi2, summary.rounds, 1e-3 * (double)micros,
-                   parts > 1 ? " (graph in several parts: each held at its smallest id)" : "");
+                   1e3 * (published - solved), parts > 1 ? " (graph in several parts: each held at its smallest id)" : "");
         if (why[0] != '\0') {
             bridge_note(bridge, "solve %lld: %s", (long long)bridge->solve_id, why);
         }

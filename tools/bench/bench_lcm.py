@@ -168,8 +168,9 @@ def fresh_log(path: Path) -> Path:
     return path
 
 
-def latency_run(work: Path, name: str, corrupted: Path, rate: float) -> dict:
-    bridge = Bridge(fresh_log(work / f"{name}.latency.bridge.log"))
+def latency_run(work: Path, name: str, corrupted: Path, rate: float,
+                bridge_args: list[str]) -> dict:
+    bridge = Bridge(fresh_log(work / f"{name}.latency.bridge.log"), extra=bridge_args)
     csv = work / f"{name}.latency.csv"
     edges = count_edges(corrupted)
     result = send(corrupted, "--rate", str(rate), "--latency", str(csv), "--wait", "120",
@@ -327,6 +328,9 @@ def main() -> int:
     parser.add_argument("--json", type=Path, help="also write the figures as JSON (one entry per dataset)")
     parser.add_argument("--phases", default=",".join(PHASES),
                         help=f"comma-separated phases to run (default {','.join(PHASES)})")
+    parser.add_argument("--bridge-args", default="",
+                        help="extra pgem-lcm-bridge options for the latency phase, e.g. "
+                             "--bridge-args=--full (space-separated)")
     parser.add_argument("--build", type=Path, default=DEFAULT_BUILD,
                         help="build directory with the tools (default build/release)")
     args = parser.parse_args()
@@ -344,9 +348,12 @@ def main() -> int:
         if args.quick:
             files = [["input_M3500_g2o", "500"]]
             args.kills = 3
+        bridge = f"`pgem-lcm-bridge {args.bridge_args}`" if args.bridge_args.strip() \
+            else "the bridge's defaults"
         lines = ["# LCM bridge benchmark", "",
                  f"{time.strftime('%Y-%m-%d %H:%M')}, {os.cpu_count()} cores, URL `{URL}`, "
-                 f"{args.outliers} random false loop closures (seed 1).", ""]
+                 f"{args.outliers} random false loop closures (seed 1), latency with {bridge}.",
+                 ""]
         figures = []
         for name, rate in files:
             source = dataset(args.datasets, name)
@@ -358,7 +365,8 @@ def main() -> int:
             found = {"name": name, "rate": float(rate)}
             if "latency" in phases:
                 print(f"== {name}: latency at {rate} edges/s", flush=True)
-                found["latency"] = latency_run(work, name, corrupted, float(rate))
+                found["latency"] = latency_run(work, name, corrupted, float(rate),
+                                               args.bridge_args.split())
                 lines += latency_lines(found["latency"])
             if "ingest" in phases:
                 print(f"== {name}: sustained ingest", flush=True)

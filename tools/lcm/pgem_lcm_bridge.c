@@ -17,8 +17,8 @@ static void usage(FILE *out, const void *context)
     fprintf(out,
             "usage: pgem-lcm-bridge [options]\n"
             "Receives poses and edges from front-ends over LCM, updates the estimate\n"
-            "incrementally after every batch of messages (EM on the whole graph once the stream\n"
-            "goes quiet, or on command) and publishes the optimized graph and a status.\n"
+            "incrementally for every pose (EM on the whole graph once the stream goes quiet,\n"
+            "or on command) and publishes the optimized graph and a status.\n"
             "Stops cleanly on SIGINT or SIGTERM.\n"
             "\n"
             "  --dimension 2|3        pose dimension (default 2)\n"
@@ -34,14 +34,15 @@ static void usage(FILE *out, const void *context)
             "                         DIR (FILE a plain name; default: SNAPSHOT is refused)\n"
             "  --pending-timeout S    an edge waits at most S seconds for its poses, then it\n"
             "                         expires (60)\n"
-            "  --incremental          an incremental update (pgem_update) per batch of messages\n"
-            "                         instead of re-solving the whole graph with EM\n"
-            "                         (experimental); the settle solve after idle is the same\n"
-            "  --debounce S           without --incremental: quiet time after a loop closure\n"
-            "                         before solving (0.01)\n"
-            "  --max-delay S          without --incremental: longest a loop closure waits\n"
-            "                         while more arrive (0.1)\n"
-            "  --max-rate HZ          without --incremental: solves per second at most (20)\n"
+            "  --full                 re-solve the whole graph with EM for new loop closures\n"
+            "                         (debounced, rate-limited) instead of an incremental\n"
+            "                         update per pose; the settle solve after idle is the same\n"
+            "  --incremental          the default (kept for older command lines)\n"
+            "  --debounce S           with --full: quiet time after a loop closure before\n"
+            "                         solving (0.01)\n"
+            "  --max-delay S          with --full: longest a loop closure waits while more\n"
+            "                         arrive (0.1)\n"
+            "  --max-rate HZ          with --full: solves per second at most (20)\n"
             "  --status-period S      seconds between status messages (0.5)\n"
             "  --idle-solve S         solve edges not yet solved (odometry only, say) after S\n"
             "                         seconds without new messages (0.5)\n"
@@ -199,8 +200,10 @@ static int parse_flag(void *user, const char *name)
         p->options.robust.literal = 1;
     } else if (strcmp(name, "--restart") == 0) {
         p->options.robust.restart = 1;
+    } else if (strcmp(name, "--full") == 0) {
+        p->options.full = 1;
     } else if (strcmp(name, "--incremental") == 0) {
-        p->options.incremental = 1;
+        p->options.full = 0;
     } else {
         return 0;
     }

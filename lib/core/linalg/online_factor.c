@@ -109,6 +109,41 @@ int pgem_online_find(const pgem_online_t *online, int j, int i)
     return -1;
 }
 
+/* One rotation of a column's update: cosine, sine, sign x sine, 1 / cosine. */
+typedef struct pgem_online_rotation {
+    double cosine;
+    double sine;
+    double up;
+    double inverse;
+} pgem_online_rotation_t;
+
+/* The rotation applied to column c of an off-diagonal block (b rows) and the vector's rows
+ * (every rank-th entry of w); inlined with b a constant below, so the compiler unrolls it. */
+static inline void pgem_online_rotate_block(double *block, double *w, size_t rank,
+                                            const pgem_online_rotation_t *g, int b)
+{
+    for (int r = 0; r < b; r++) {
+        double *wr = w + (size_t)r * rank;
+        const double value = (block[r] + g->up * *wr) * g->inverse;
+        *wr = g->cosine * *wr - g->sine * value;
+        block[r] = value;
+    }
+}
+
+/* The same, dispatched on the block size: 3 (2D) and 6 (3D) as constants, the same operations
+ * in the same order, so the factor is bit for bit the generic loop's. */
+static void pgem_online_rotate_rows(double *block, double *w, size_t rank,
+                                    const pgem_online_rotation_t *g, int b)
+{
+    if (b == 3) {
+        pgem_online_rotate_block(block, w, rank, g, 3);
+    } else if (b == 6) {
+        pgem_online_rotate_block(block, w, rank, g, 6);
+    } else {
+        pgem_online_rotate_block(block, w, rank, g, b);
+    }
+}
+
 /* The rotations of column j with the `rank` vectors (online->vector, interleaved: entry
  * (scalar s, vector k) at s rank + k): for each scalar column, vector after vector, which is
  * the same as one full rank-one update after the other. */
@@ -142,15 +177,11 @@ static int pgem_online_rotate(pgem_online_t *online, int j, double sign, int ran
                 x[r * rank + k] = cosine * x[r * rank + k] - sine * value;
                 diagonal[c * b + r] = value;
             }
+            const pgem_online_rotation_t g = {cosine, sine, up, inverse};
             for (int q = 1; q <= count; q++) {
-                double *block = pgem_online_block(online, online->start[j] + q) + (size_t)c * (size_t)b;
-                double *w = online->vector + (size_t)online->rows[online->start[j] + q] * stride + k;
-                for (int r = 0; r < b; r++) {
-                    double *wr = w + (size_t)r * (size_t)rank;
-                    const double value = (block[r] + up * *wr) * inverse;
-                    *wr = cosine * *wr - sine * value;
-                    block[r] = value;
-                }
+                pgem_online_rotate_rows(pgem_online_block(online, online->start[j] + q) + (size_t)c * (size_t)b,
+                                        online->vector + (size_t)online->rows[online->start[j] + q] * stride + k,
+                                        (size_t)rank, &g, b);
             }
             x[c * rank + k] = 0.0;
         }

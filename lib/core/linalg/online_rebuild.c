@@ -296,6 +296,36 @@ int pgem_online_cholesky(double *d, int b)
     return 1;
 }
 
+/* target -= L_id L_jd^T for b x b blocks (column-major), the lower triangle only on the
+ * diagonal block; inlined with b a constant below, so the compiler unrolls it. */
+static inline void pgem_online_subtract_block(double *target, const double *lid,
+                                              const double *ljd, int b, int diagonal)
+{
+    for (int c = 0; c < b; c++) {
+        for (int r = (diagonal ? c : 0); r < b; r++) {
+            double sum = 0.0;
+            for (int m = 0; m < b; m++) {
+                sum += lid[m * b + r] * ljd[m * b + c];
+            }
+            target[c * b + r] -= sum;
+        }
+    }
+}
+
+/* The same, dispatched on the block size: 3 (2D) and 6 (3D) as constants, the same operations
+ * in the same order, so the factor is bit for bit the generic loop's. */
+static void pgem_online_subtract(double *target, const double *lid, const double *ljd, int b,
+                                 int diagonal)
+{
+    if (b == 3) {
+        pgem_online_subtract_block(target, lid, ljd, 3, diagonal);
+    } else if (b == 6) {
+        pgem_online_subtract_block(target, lid, ljd, 6, diagonal);
+    } else {
+        pgem_online_subtract_block(target, lid, ljd, b, diagonal);
+    }
+}
+
 /* Left-looking block factorisation of the assembled columns. */
 static int pgem_online_numeric(pgem_t *graph, int columns)
 {
@@ -320,17 +350,8 @@ static int pgem_online_numeric(pgem_t *graph, int columns)
             const double *ljd = online->values + (size_t)position[d] * bb;
             for (int q = position[d]; q <= end; q++) {
                 const int i = online->rows[q];
-                const double *lid = online->values + (size_t)q * bb;
-                double *target = online->values + (size_t)map[i] * bb;
-                for (int c = 0; c < b; c++) {
-                    for (int r = (i == j ? c : 0); r < b; r++) {
-                        double sum = 0.0;
-                        for (int m = 0; m < b; m++) {
-                            sum += lid[m * b + r] * ljd[m * b + c];
-                        }
-                        target[c * b + r] -= sum;
-                    }
-                }
+                pgem_online_subtract(online->values + (size_t)map[i] * bb,
+                                     online->values + (size_t)q * bb, ljd, b, i == j);
             }
             if (++position[d] <= end) {
                 const int row = online->rows[position[d]];

@@ -1,0 +1,131 @@
+/* The solver's parts of the graph joined by odometry, kept up to date as poses and edges
+ * arrive (new ones only: O(new) per solve), and the gauge pose that holds each part. */
+#include <string.h>
+
+#include "bridge_internal.h"
+
+void bridge_components_reset(bridge_t *bridge)
+{
+    bridge->parts_poses = 0;
+    bridge->parts_edges = 0;
+    bridge->parts_with_edges = 0;
+}
+
+/* Fixes (want 1) or frees pose index i as a part's gauge; UINT32_MAX: no pose. */
+static void hold_gauge(bridge_t *bridge, uint32_t i, uint8_t want)
+{
+    if (i == UINT32_MAX || bridge->gauge_fixed[i] == want) {
+        return;
+    }
+    pgem_id_t id = 0;
+    pgem_pose_at(bridge->core, i, &id, NULL, NULL);
+    pgem_fix_pose(bridge->core, id, want);
+    bridge->gauge_fixed[i] = want;
+}
+
+/* The anchor of two joined parts: none (UINT32_MAX) if the front-end fixed a pose in either,
+ * else the one with the smaller pose id. */
+static uint32_t merged_anchor(const bridge_t *bridge, uint32_t a, uint32_t b)
+{
+    if (a == UINT32_MAX || b == UINT32_MAX) {
+        return UINT32_MAX;
+    }
+    pgem_id_t id_a = 0;
+    pgem_id_t id_b = 0;
+    pgem_pose_at(bridge->core, a, &id_a, NULL, NULL);
+    pgem_pose_at(bridge->core, b, &id_b, NULL, NULL);
+    return id_a < id_b ? a : b;
+}
+
+/* Marks the part rooted at root as having an edge (counted once). */
+static void part_has_edge(bridge_t *bridge, uint32_t root)
+{
+    if (!bridge->part_edges[root]) {
+        bridge->part_edges[root] = 1;
+        bridge->parts_with_edges++;
+    }
+}
+
+/* Edge k into the parts: both its parts have an edge; odometry joins them, and the joined
+ * part keeps one gauge. */
+static void join_edge(bridge_t *bridge, uint32_t k)
+{
+    pgem_edge_view_t view;
+    uint32_t a = 0;
+    uint32_t b = 0;
+    if (pgem_edge_at(bridge->core, k, &view) != PGEM_OK ||
+        pgem_pose_index(bridge->core, view.from, &a) != PGEM_OK ||
+        pgem_pose_index(bridge->core, view.to, &b) != PGEM_OK) {
+        return;
+    }
+    uint32_t *parent = bridge->component;
+    const uint32_t root_a = pgem_part_root(parent, a);
+    const uint32_t root_b = pgem_part_root(parent, b);
+    part_has_edge(bridge, root_a);
+    part_has_edge(bridge, root_b);
+    if (view.kind != PGEM_EDGE_ODOMETRY || root_a == root_b) {
+        return;
+    }
+    uint32_t *anchor_of = bridge->component_anchor;
+    const uint32_t anchor = merged_anchor(bridge, anchor_of[root_a], anchor_of[root_b]);
+    const uint32_t root = pgem_part_join(parent, root_a, root_b);
+    bridge->parts_with_edges--; /* two parts with edges became one */
+    hold_gauge(bridge, anchor_of[root_a] == anchor ? UINT32_MAX : anchor_of[root_a], 0);
+    hold_gauge(bridge, anchor_of[root_b] == anchor ? UINT32_MAX : anchor_of[root_b], 0);
+    anchor_of[root] = anchor;
+}
+
+/* Holds every part of the graph joined by odometry that has an edge: a part without a pose the
+ * front-end fixed gets its smallest pose id fixed (for one part that is the gauge the offline
+ * tools use, whatever order the poses arrived in). Parts appear while edges wait for their
+ * poses or when messages were lost; joined only by loop closures, which EM may prune, they
+ * would leave the normal equations singular. A pose no edge touches yet (its odometry a few
+ * milliseconds behind it) changes no other pose and is left free here: an incremental update
+ * leaves it out of its factor, and fixing it only to free it when its odometry arrives would
+ * make the next update rebuild the factor (bridge_components_hold_lone holds such poses for a
+ * whole-graph solve). Flags change only when the parts do, so an unchanged graph keeps its
+ * analysis. Only the poses and edges added since the last call are visited (parts only ever
+ * join). Returns the number of parts that have edges. */
+uint32_t bridge_components_hold(bridge_t *bridge)
+{
+    const uint32_t poses = pgem_pose_count(bridge->core);
+    for (uint32_t i = bridge->parts_poses; i < poses; ++i) {
+        bridge->component[i] = i;
+        bridge->component_anchor[i] = bridge->user_fixed[i] ? UINT32_MAX : i;
+        bridge->part_edges[i] = 0;
+    }
+    bridge->parts_poses = poses;
+    const uint32_t first = bridge->parts_edges;
+    const uint32_t edges = pgem_edge_count(bridge->core);
+    for (uint32_t k = first; k < edges; ++k) {
+        join_edge(bridge, k);
+    }
+    bridge->parts_edges = edges;
+    for (uint32_t j = first; j < edges; ++j) { /* the parts that got an edge: their gauge */
+        pgem_edge_view_t view;
+        uint32_t ends[2] = {0, 0};
+        if (pgem_edge_at(bridge->core, j, &view) != PGEM_OK ||
+            pgem_pose_index(bridge->core, view.from, &ends[0]) != PGEM_OK ||
+            pgem_pose_index(bridge->core, view.to, &ends[1]) != PGEM_OK) {
+            continue;
+        }
+        for (int s = 0; s < 2; ++s) {
+            const uint32_t anchor = bridge->component_anchor[pgem_part_root(bridge->component,
+                                                                            ends[s])];
+            hold_gauge(bridge, anchor, 1);
+        }
+    }
+    return bridge->parts_with_edges;
+}
+
+/* Before a whole-graph solve: every part without edges (a pose whose edges have not arrived)
+ * held too, or its block of the normal equations would be empty. O(poses). */
+void bridge_components_hold_lone(bridge_t *bridge)
+{
+    for (uint32_t i = 0; i < bridge->parts_poses; ++i) {
+        const uint32_t root = pgem_part_root(bridge->component, i);
+        if (!bridge->part_edges[root] && bridge->component_anchor[root] == i) {
+            hold_gauge(bridge, i, 1);
+        }
+    }
+}
