@@ -85,6 +85,11 @@ int pgem_em_polish(pgem_t *graph, const pgem_solve_options_t *solve,
                    pgem_robust_summary_t *summary);
 int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
                       const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
+/* When every loop was rejected (robust/rescue.c): the longest runs of loops along a revisit,
+ * tried alone from the initial estimate; *rescued = 1 and the run active, polished, if one
+ * passes the adjustment's global chi-square test, else every loop pruned and polished again. */
+int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
+                   int *rescued);
 /* The consistency test (robust/gate.c): the gate, then the loops it re-admits or prunes under
  * the current (polished) estimate; returns how many changed state. */
 double pgem_em_gate_value(const pgem_t *graph, const pgem_robust_options_t *options);
