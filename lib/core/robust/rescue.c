@@ -1,7 +1,8 @@
-/* EM's second chance when every loop closure was rejected: a run of loops that a place
+/* EM's second chance when it accepted fewer loop closures than a run holds: a run of loops that a place
  * recogniser would produce along a revisit (poses a, a+1, ... matched to b, b+s, b+2s, ...,
  * s = +1 or -1) is tried alone from the initial estimate, and kept, with EM's passes run again
- * from it, if the map it gives passes the global chi-square test of the adjustment. */
+ * from it, if the map it gives passes the global chi-square test of the adjustment: a larger
+ * consistent set than EM's. */
 #include <math.h>
 
 #include "instance.h"
@@ -121,29 +122,42 @@ static int pgem_adjustment_consistent(const pgem_t *graph)
     return pgem_weighted_chi2(graph) <= dof * cube * cube * cube;
 }
 
-/* 1 if every loop closure is pruned (and there is one). */
-static int pgem_every_loop_pruned(const pgem_t *graph)
+/* Loops accepted; each loop's state marked in edge_checked (free between E-steps). */
+static uint32_t pgem_mark_accepted(pgem_t *graph)
 {
-    uint32_t loops = 0;
+    uint32_t accepted = 0;
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP) {
-            if (graph->store.edge_active[k] != PGEM_EDGE_PRUNED) {
-                return 0;
-            }
-            loops++;
+        const int active = graph->store.edge_kind[k] == PGEM_EDGE_LOOP && graph->store.edge_active[k] != PGEM_EDGE_PRUNED;
+        graph->robust.edge_checked[k] = (uint8_t)active;
+        accepted += (uint32_t)active;
+    }
+    return accepted;
+}
+
+/* Back to the loops marked accepted, at weight 1, from the initial estimate. */
+static void pgem_back_to_marked(pgem_t *graph)
+{
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (graph->robust.edge_checked[k]) {
+            graph->store.edge_weight[k] = 1.0;
+            graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
+        } else if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP) {
+            graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
         }
     }
-    return loops > 0u;
+    pgem_linear_invalidate(graph);
+    pgem_restore_initial(graph);
 }
 
 int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
                    int *rescued)
 {
     *rescued = 0;
-    if (!pgem_every_loop_pruned(graph)) {
+    const uint32_t accepted = pgem_mark_accepted(graph);
+    if (accepted >= PGEM_RESCUE_MIN_RUN) {
         return PGEM_OK;
     }
-    pgem_loop_run_t last = {0, 0, 0}, run;
+    pgem_loop_run_t last = {0, 0, 0}, run = {0, 0, 0};
     for (uint32_t attempt = 0; attempt < PGEM_RESCUE_ATTEMPTS && pgem_run_after(graph, &last, &run); attempt++) {
         pgem_run_alone(graph, &run);
         const int status = pgem_em_polish(graph, solve, summary);
@@ -154,9 +168,8 @@ int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust
         }
         last = run;
     }
-    if (last.length > 0u) { /* back to every loop rejected: the odometry alone */
-        const pgem_loop_run_t none = {0, 0, 0};
-        pgem_run_alone(graph, &none);
+    if (last.length > 0u) { /* back to EM's loops */
+        pgem_back_to_marked(graph);
         return pgem_em_polish(graph, solve, summary);
     }
     return PGEM_OK;
