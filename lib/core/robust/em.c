@@ -65,7 +65,10 @@ int pgem_em_polish(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust
 }
 
 /* From EM's rounds: the polish, then under the polished estimate the consistency test, and EM
- * again while it changes any loop's state (bounded by max_rounds passes). Ends polished. */
+ * again while it changes any loop's state; when it changes none and the outcome is degenerate
+ * (most loops rejected: the map rests on a few, and a false run among them bends it), the
+ * leave-run-out test, and the next pass if it pruned a run (bounded by max_rounds passes).
+ * Ends polished. */
 static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *later,
                           const pgem_solve_options_t *solve, pgem_robust_summary_t *summary, double gate)
 {
@@ -79,11 +82,12 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *later,
             pgem_robust_ended(summary, PGEM_ROBUST_ROUND_LIMIT);
             break;
         }
-        if (pgem_em_gate(graph, later, gate, summary) == 0u) {
+        if (pgem_em_gate(graph, later, gate, summary) > 0u) {
+            status = pgem_em_rounds(graph, later, solve, summary);
+        } else if (!pgem_most_rejected(graph) || pgem_em_leave_run_out(graph, summary, &status) == 0u) {
             pgem_robust_ended(summary, PGEM_ROBUST_CONVERGED);
             break;
         }
-        status = pgem_em_rounds(graph, later, solve, summary);
     }
     return status;
 }

@@ -1,58 +1,14 @@
-/* EM's second chance when it accepted fewer loop closures than a run holds: a run of loops that a place
- * recogniser would produce along a revisit (poses a, a+1, ... matched to b, b+s, b+2s, ...,
- * s = +1 or -1) is tried alone from the initial estimate, and kept, with EM's passes run again
- * from it, if the map it gives passes the global chi-square test of the adjustment: a larger
- * consistent set than EM's. */
-#include <math.h>
-
+/* EM's second chance when it rejected nearly every loop closure (more than PGEM_MOST_REJECTED
+ * of them): a run of loops that a place recogniser would produce along a revisit (poses a,
+ * a+1, ... matched to b, b+s, b+2s, ..., s = +1 or -1), longer than the set EM accepted, is
+ * tried alone from the initial estimate, and kept, with EM's passes run again from it, if the
+ * map it gives passes the global chi-square test of the adjustment: a larger consistent set
+ * than EM's. */
 #include "instance.h"
 #include "robust/robust.h"
 
-/* Runs shorter than this are not tried: one or two loops are what the consistency test
- * already re-examines one by one. */
-#define PGEM_RESCUE_MIN_RUN 3u
 /* Runs tried, longest first, before the outcome is left at every loop rejected. */
 #define PGEM_RESCUE_ATTEMPTS 3u
-/* Standard normal quantile of the global test (99.9%). */
-#define PGEM_RESCUE_Z 3.0902
-
-/* A run of loops: its first loop, its direction s (+1 or -1) and its length. */
-typedef struct pgem_loop_run {
-    uint32_t first;  /* edge index of the run's first loop */
-    int direction;   /* s: the second pose moves by s as the first moves by 1 */
-    uint32_t length; /* loops in the run */
-} pgem_loop_run_t;
-
-/* The loop from pose `from` + 1 to pose `to` + direction, if any (the first in edge order). */
-static uint32_t pgem_run_next(const pgem_t *graph, uint32_t k, int direction)
-{
-    const uint32_t from = graph->store.edge_from[k] + 1u;
-    const uint32_t to = (uint32_t)((int64_t)graph->store.edge_to[k] + direction);
-    for (uint32_t j = 0; j < graph->store.edge_count; j++) {
-        if (graph->store.edge_kind[j] == PGEM_EDGE_LOOP && graph->store.edge_from[j] == from &&
-            graph->store.edge_to[j] == to) {
-            return j;
-        }
-    }
-    return UINT32_MAX;
-}
-
-/* Loops in the run that starts at loop k in `direction` (0 if a loop precedes k in it). */
-static uint32_t pgem_run_length(const pgem_t *graph, uint32_t k, int direction)
-{
-    const uint32_t from = graph->store.edge_from[k], to = graph->store.edge_to[k];
-    for (uint32_t j = 0; j < graph->store.edge_count; j++) {
-        if (graph->store.edge_kind[j] == PGEM_EDGE_LOOP && graph->store.edge_from[j] + 1u == from &&
-            (int64_t)graph->store.edge_to[j] + direction == (int64_t)to) {
-            return 0; /* not a run's start */
-        }
-    }
-    uint32_t length = 0;
-    for (uint32_t j = k; j != UINT32_MAX && length < graph->store.edge_count; j = pgem_run_next(graph, j, direction)) {
-        length++;
-    }
-    return length;
-}
 
 /* 1 if run a comes before run b in the order of trial: longer first, then by first loop and
  * direction. */
@@ -68,7 +24,7 @@ static int pgem_run_before(const pgem_loop_run_t *a, const pgem_loop_run_t *b)
 }
 
 /* The first run in the order of trial after `last` (every run if last->length is 0), of at
- * least PGEM_RESCUE_MIN_RUN loops; 0 if there is none. */
+ * least PGEM_RUN_MIN loops; 0 if there is none. */
 static int pgem_run_after(const pgem_t *graph, const pgem_loop_run_t *last, pgem_loop_run_t *out)
 {
     int found = 0;
@@ -77,8 +33,8 @@ static int pgem_run_after(const pgem_t *graph, const pgem_loop_run_t *last, pgem
             continue;
         }
         for (int direction = 1; direction >= -1; direction -= 2) {
-            const pgem_loop_run_t run = {k, direction, pgem_run_length(graph, k, direction)};
-            if (run.length >= PGEM_RESCUE_MIN_RUN && (last->length == 0u || pgem_run_before(last, &run)) &&
+            const pgem_loop_run_t run = {k, direction, pgem_run_length(graph, k, direction, PGEM_RUN_ANY)};
+            if (run.length >= PGEM_RUN_MIN && (last->length == 0u || pgem_run_before(last, &run)) &&
                 (!found || pgem_run_before(&run, out))) {
                 *out = run;
                 found = 1;
@@ -88,16 +44,16 @@ static int pgem_run_after(const pgem_t *graph, const pgem_loop_run_t *last, pgem
     return found;
 }
 
-/* Every loop pruned at weight 0 but the run's, active at weight 1; the initial estimate. */
+/* Every loop pruned but the run's, active at weight 1 (the others keep their weights, so the
+ * consistency test may re-admit them); the initial estimate. */
 static void pgem_run_alone(pgem_t *graph, const pgem_loop_run_t *run)
 {
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP && graph->store.edge_active[k] != PGEM_EDGE_PRUNED) {
-            graph->store.edge_weight[k] = 0.0;
+        if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP) {
             graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
         }
     }
-    for (uint32_t j = run->first, n = 0; j != UINT32_MAX && n < run->length; j = pgem_run_next(graph, j, run->direction), n++) {
+    for (uint32_t j = run->first, n = 0; j != UINT32_MAX && n < run->length; j = pgem_run_next(graph, j, run->direction, PGEM_RUN_ANY), n++) {
         graph->store.edge_weight[j] = 1.0;
         graph->store.edge_active[j] = PGEM_EDGE_ACTIVE;
     }
@@ -117,9 +73,7 @@ static int pgem_adjustment_consistent(const pgem_t *graph)
     if (!(dof > 0.0)) {
         return 0;
     }
-    const double spread = sqrt(2.0 / (9.0 * dof));
-    const double cube = 1.0 - 2.0 / (9.0 * dof) + PGEM_RESCUE_Z * spread;
-    return pgem_weighted_chi2(graph) <= dof * cube * cube * cube;
+    return pgem_weighted_chi2(graph) <= pgem_chi2_quantile(dof);
 }
 
 /* Loops accepted; each loop's state marked in edge_checked (free between E-steps). */
@@ -153,12 +107,13 @@ int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust
                    int *rescued)
 {
     *rescued = 0;
-    const uint32_t accepted = pgem_mark_accepted(graph);
-    if (accepted >= PGEM_RESCUE_MIN_RUN) {
-        return PGEM_OK;
+    if (!pgem_most_rejected(graph)) {
+        return PGEM_OK; /* not a degenerate outcome */
     }
+    const uint32_t accepted = pgem_mark_accepted(graph);
     pgem_loop_run_t last = {0, 0, 0}, run = {0, 0, 0};
-    for (uint32_t attempt = 0; attempt < PGEM_RESCUE_ATTEMPTS && pgem_run_after(graph, &last, &run); attempt++) {
+    for (uint32_t attempt = 0; attempt < PGEM_RESCUE_ATTEMPTS && pgem_run_after(graph, &last, &run) &&
+                               run.length > accepted; attempt++) {
         pgem_run_alone(graph, &run);
         const int status = pgem_em_polish(graph, solve, summary);
         if (status == PGEM_OK && pgem_adjustment_consistent(graph)) {
