@@ -102,7 +102,7 @@ typedef struct pgem_loop_run {
 typedef enum pgem_run_members { PGEM_RUN_ANY, PGEM_RUN_ACCEPTED, PGEM_RUN_PRUNED } pgem_run_members_t;
 /* The loop after loop k in a run of `direction` among `members` (UINT32_MAX if none; the first
  * in edge order); the length of the run starting at loop k (0 if k is not a member or a member
- * precedes it). */
+ * precedes it; a loop without a successor counts 1, whatever precedes it). */
 uint32_t pgem_run_next(const pgem_t *graph, uint32_t k, int direction, pgem_run_members_t members);
 uint32_t pgem_run_length(const pgem_t *graph, uint32_t k, int direction, pgem_run_members_t members);
 /* 1 if more than PGEM_MOST_REJECTED of the loops (and at least one) are pruned. */

@@ -23,8 +23,8 @@ uint32_t pgem_run_next(const pgem_t *graph, uint32_t k, int direction, pgem_run_
     const uint32_t from = graph->store.edge_from[k] + 1u;
     const int64_t to = (int64_t)graph->store.edge_to[k] + direction;
     for (uint32_t j = 0; j < graph->store.edge_count; j++) {
-        if (pgem_run_member(graph, j, members) && graph->store.edge_from[j] == from &&
-            (int64_t)graph->store.edge_to[j] == to) {
+        if (graph->store.edge_from[j] == from && (int64_t)graph->store.edge_to[j] == to &&
+            pgem_run_member(graph, j, members)) {
             return j;
         }
     }
@@ -36,17 +36,20 @@ uint32_t pgem_run_length(const pgem_t *graph, uint32_t k, int direction, pgem_ru
     if (!pgem_run_member(graph, k, members)) {
         return 0;
     }
+    uint32_t next = pgem_run_next(graph, k, direction, members);
+    if (next == UINT32_MAX) {
+        return 1; /* shorter than any run tested: no need to look for a predecessor */
+    }
     const uint32_t from = graph->store.edge_from[k];
     const int64_t to = (int64_t)graph->store.edge_to[k];
     for (uint32_t j = 0; j < graph->store.edge_count; j++) {
-        if (pgem_run_member(graph, j, members) && graph->store.edge_from[j] + 1u == from &&
-            (int64_t)graph->store.edge_to[j] + direction == to) {
+        if (graph->store.edge_from[j] + 1u == from && (int64_t)graph->store.edge_to[j] + direction == to &&
+            pgem_run_member(graph, j, members)) {
             return 0; /* not a run's start */
         }
     }
-    uint32_t length = 0;
-    for (uint32_t j = k; j != UINT32_MAX && length < graph->store.edge_count;
-         j = pgem_run_next(graph, j, direction, members)) {
+    uint32_t length = 1;
+    for (; next != UINT32_MAX && length < graph->store.edge_count; next = pgem_run_next(graph, next, direction, members)) {
         length++;
     }
     return length;
