@@ -173,7 +173,8 @@ typedef struct pgem_robust_summary {
     uint32_t gn_iterations;          /**< Gauss-Newton iterations over all M-steps */
     uint32_t loops;                  /**< loop closures in the graph */
     uint32_t pruned;                 /**< of them pruned */
-    uint32_t readmitted;             /**< pruned loops re-admitted by the consistency test */
+    uint32_t readmitted;             /**< pruned loops re-admitted by the consistency test or the
+                                        rescue (a run of loops tried alone) */
     uint32_t gated;                  /**< accepted loops pruned by the consistency test */
     uint32_t rejected;               /**< loops rejected: pruned, or for the kernels that never
                                         prune (Cauchy, Huber, DCS) weighing below

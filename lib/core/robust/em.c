@@ -64,10 +64,39 @@ int pgem_em_polish(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust
     return status;
 }
 
-/* EM rounds; then, under the polished estimate, the consistency test, and EM again while it
- * changes any loop's state (bounded by max_rounds passes). Ends polished. With the innovation
- * distance, the first rounds are the paper's (point chi2, from wherever the estimate starts);
- * the test and the rounds after it measure loops against the map they produced. */
+/* From EM's rounds: the polish, then under the polished estimate the consistency test, and EM
+ * again while it changes any loop's state; when it changes none and the outcome is degenerate
+ * (most loops rejected: the map rests on a few, and a false run among them bends it), the
+ * leave-run-out test, and the next pass if it pruned a run (bounded by max_rounds passes).
+ * Ends polished. */
+static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *later,
+                          const pgem_solve_options_t *solve, pgem_robust_summary_t *summary, double gate)
+{
+    int status = PGEM_OK;
+    for (uint32_t pass = 0; status == PGEM_OK; pass++) {
+        status = pgem_em_polish(graph, solve, summary);
+        if (status != PGEM_OK) {
+            break;
+        }
+        if (pass == later->max_rounds) {
+            pgem_robust_ended(summary, PGEM_ROBUST_ROUND_LIMIT);
+            break;
+        }
+        if (pgem_em_gate(graph, later, gate, summary) > 0u) {
+            status = pgem_em_rounds(graph, later, solve, summary);
+        } else if (!pgem_most_rejected(graph) || pgem_em_leave_run_out(graph, summary, &status) == 0u) {
+            pgem_robust_ended(summary, PGEM_ROBUST_CONVERGED);
+            break;
+        }
+    }
+    return status;
+}
+
+/* EM rounds, then the passes of polish and consistency test. With the innovation distance,
+ * the first rounds are the paper's (point chi2, from wherever the estimate starts); the test
+ * and the rounds after it measure loops against the map they produced. If every loop ends
+ * rejected, a run of loops that passes the global test alone (robust/rescue.c) starts the
+ * passes again. */
 int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
                              const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
@@ -78,21 +107,15 @@ int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
         later.dormant_threshold = 0.0; /* the innovations need the factor of the whole matrix */
     }
     int status = pgem_em_rounds(graph, &first, solve, summary);
-    for (uint32_t pass = 0; status == PGEM_OK; pass++) {
-        status = pgem_em_polish(graph, solve, summary);
-        if (status != PGEM_OK) {
-            break;
-        }
-        if (pass == options->max_rounds) {
-            pgem_robust_ended(summary, PGEM_ROBUST_ROUND_LIMIT);
-            break;
-        }
-        if (pgem_em_gate(graph, &later, gate, summary) == 0u) {
-            pgem_robust_ended(summary, PGEM_ROBUST_CONVERGED);
-            break;
-        }
-        status = pgem_em_rounds(graph, &later, solve, summary);
+    if (status == PGEM_OK) {
+        status = pgem_em_passes(graph, &later, solve, summary, gate);
+    }
+    int rescued = 0;
+    if (status == PGEM_OK && summary->termination != PGEM_ROBUST_STOPPED) {
+        status = pgem_em_rescue(graph, solve, summary, &rescued);
+    }
+    if (status == PGEM_OK && rescued) {
+        status = pgem_em_passes(graph, &later, solve, summary, gate);
     }
     return status;
 }
-

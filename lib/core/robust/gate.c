@@ -27,7 +27,9 @@ uint32_t pgem_em_gate(pgem_t *graph, const pgem_robust_options_t *options, doubl
         if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
             continue;
         }
-        int consistent = graph->robust.edge_distance[k] < gate;
+        /* a loop the leave-run-out test pruned (weight 0) was tested with its run */
+        const int run_out = graph->store.edge_active[k] == PGEM_EDGE_PRUNED && graph->store.edge_weight[k] == 0.0;
+        const int consistent = graph->robust.edge_distance[k] < gate && !run_out;
         if (consistent != (graph->store.edge_active[k] != PGEM_EDGE_PRUNED)) {
             graph->store.edge_active[k] = consistent ? PGEM_EDGE_ACTIVE : PGEM_EDGE_PRUNED;
             summary->readmitted += (uint32_t)consistent;

@@ -7,6 +7,10 @@
 #include "pgem/robust.h"
 #include "solver/solver.h"
 
+/* The share of rejected loop closures above which the outcome is PGEM_ROBUST_MOST_REJECTED
+ * (robust/solve.c) and EM tries its rescue (robust/rescue.c). */
+#define PGEM_MOST_REJECTED 0.9
+
 /* What a robust solve keeps besides the graph's weights and states. */
 typedef struct pgem_robust_state {
     double *pose_initial;      /* [max_poses * pose_size] estimate before a robust solve */
@@ -85,6 +89,37 @@ int pgem_em_polish(pgem_t *graph, const pgem_solve_options_t *solve,
                    pgem_robust_summary_t *summary);
 int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
                       const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
+/* A run of loops (robust/runs.c): loops from poses a, a+1, ... to b, b+s, ... Runs shorter
+ * than PGEM_RUN_MIN are not tested as runs: one or two loops are what the consistency test
+ * examines one by one. */
+#define PGEM_RUN_MIN 3u
+typedef struct pgem_loop_run {
+    uint32_t first;  /* edge index of the run's first loop */
+    int direction;   /* s: the second pose moves by s (+1 or -1) as the first moves by 1 */
+    uint32_t length; /* loops in the run */
+} pgem_loop_run_t;
+/* Which loops may be members of a run. */
+typedef enum pgem_run_members { PGEM_RUN_ANY, PGEM_RUN_ACCEPTED, PGEM_RUN_PRUNED } pgem_run_members_t;
+/* The loop after loop k in a run of `direction` among `members` (UINT32_MAX if none; the first
+ * in edge order); the length of the run starting at loop k (0 if k is not a member or a member
+ * precedes it; a loop without a successor counts 1, whatever precedes it). */
+uint32_t pgem_run_next(const pgem_t *graph, uint32_t k, int direction, pgem_run_members_t members);
+uint32_t pgem_run_length(const pgem_t *graph, uint32_t k, int direction, pgem_run_members_t members);
+/* 1 if more than PGEM_MOST_REJECTED of the loops (and at least one) are pruned. */
+int pgem_most_rejected(const pgem_t *graph);
+/* The 99.9% quantile of the chi-square distribution with dof degrees of freedom
+ * (Wilson-Hilferty). */
+double pgem_chi2_quantile(double dof);
+/* When every loop was rejected (robust/rescue.c): the longest runs of loops along a revisit,
+ * tried alone from the initial estimate; *rescued = 1 and the run active, polished, if one
+ * passes the adjustment's global chi-square test, else every loop pruned and polished again. */
+int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
+                   int *rescued);
+/* The leave-run-out test (robust/leave_run.c), after a consistency test that changed nothing
+ * on a degenerate outcome (pgem_most_rejected): the first run of accepted loops whose leaving
+ * would make the chi2 fall by more than the 99.9% quantile for its rows is pruned at weight
+ * 0; returns 1 if one was (0 if none: the estimate is not moved). */
+uint32_t pgem_em_leave_run_out(pgem_t *graph, pgem_robust_summary_t *summary, int *status);
 /* The consistency test (robust/gate.c): the gate, then the loops it re-admits or prunes under
  * the current (polished) estimate; returns how many changed state. */
 double pgem_em_gate_value(const pgem_t *graph, const pgem_robust_options_t *options);

@@ -6,9 +6,6 @@
 #include "instance.h"
 #include "robust/robust.h"
 
-/* The share of rejected loop closures above which the outcome is PGEM_ROBUST_MOST_REJECTED. */
-#define PGEM_MOST_REJECTED 0.9
-
 static int pgem_plain(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
     pgem_robust_reset(graph);

@@ -1,0 +1,131 @@
+/* EM's second chance when it rejected nearly every loop closure (more than PGEM_MOST_REJECTED
+ * of them): a run of loops that a place recogniser would produce along a revisit (poses a,
+ * a+1, ... matched to b, b+s, b+2s, ..., s = +1 or -1), longer than the set EM accepted, is
+ * tried alone from the initial estimate, and kept, with EM's passes run again from it, if the
+ * map it gives passes the global chi-square test of the adjustment: a larger consistent set
+ * than EM's. */
+#include "instance.h"
+#include "robust/robust.h"
+
+/* Runs tried, longest first, before the outcome is left at every loop rejected. */
+#define PGEM_RESCUE_ATTEMPTS 3u
+
+/* 1 if run a comes before run b in the order of trial: longer first, then by first loop and
+ * direction. */
+static int pgem_run_before(const pgem_loop_run_t *a, const pgem_loop_run_t *b)
+{
+    if (a->length != b->length) {
+        return a->length > b->length;
+    }
+    if (a->first != b->first) {
+        return a->first < b->first;
+    }
+    return a->direction > b->direction;
+}
+
+/* The first run in the order of trial after `last` (every run if last->length is 0), of at
+ * least PGEM_RUN_MIN loops; 0 if there is none. */
+static int pgem_run_after(const pgem_t *graph, const pgem_loop_run_t *last, pgem_loop_run_t *out)
+{
+    int found = 0;
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
+            continue;
+        }
+        for (int direction = 1; direction >= -1; direction -= 2) {
+            const pgem_loop_run_t run = {k, direction, pgem_run_length(graph, k, direction, PGEM_RUN_ANY)};
+            if (run.length >= PGEM_RUN_MIN && (last->length == 0u || pgem_run_before(last, &run)) &&
+                (!found || pgem_run_before(&run, out))) {
+                *out = run;
+                found = 1;
+            }
+        }
+    }
+    return found;
+}
+
+/* Every loop pruned but the run's, active at weight 1 (the others keep their weights, so the
+ * consistency test may re-admit them); the initial estimate. */
+static void pgem_run_alone(pgem_t *graph, const pgem_loop_run_t *run)
+{
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP) {
+            graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
+        }
+    }
+    for (uint32_t j = run->first, n = 0; j != UINT32_MAX && n < run->length; j = pgem_run_next(graph, j, run->direction, PGEM_RUN_ANY), n++) {
+        graph->store.edge_weight[j] = 1.0;
+        graph->store.edge_active[j] = PGEM_EDGE_ACTIVE;
+    }
+    pgem_linear_invalidate(graph);
+    pgem_restore_initial(graph);
+}
+
+/* The global test of the adjustment after a polish: its chi2 below the 99.9% quantile of the
+ * chi-square distribution with the redundancy's degrees of freedom (Wilson-Hilferty). */
+static int pgem_adjustment_consistent(const pgem_t *graph)
+{
+    uint32_t rows = 0;
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        rows += graph->store.edge_active[k] != PGEM_EDGE_PRUNED ? (uint32_t)graph->tangent : 0u;
+    }
+    const double dof = (double)rows - (double)pgem_linear_unknowns(graph);
+    if (!(dof > 0.0)) {
+        return 0;
+    }
+    return pgem_weighted_chi2(graph) <= pgem_chi2_quantile(dof);
+}
+
+/* Loops accepted; each loop's state marked in edge_checked (free between E-steps). */
+static uint32_t pgem_mark_accepted(pgem_t *graph)
+{
+    uint32_t accepted = 0;
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        const int active = graph->store.edge_kind[k] == PGEM_EDGE_LOOP && graph->store.edge_active[k] != PGEM_EDGE_PRUNED;
+        graph->robust.edge_checked[k] = (uint8_t)active;
+        accepted += (uint32_t)active;
+    }
+    return accepted;
+}
+
+/* Back to the loops marked accepted, at weight 1, from the initial estimate. */
+static void pgem_back_to_marked(pgem_t *graph)
+{
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        if (graph->robust.edge_checked[k]) {
+            graph->store.edge_weight[k] = 1.0;
+            graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
+        } else if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP) {
+            graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
+        }
+    }
+    pgem_linear_invalidate(graph);
+    pgem_restore_initial(graph);
+}
+
+int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
+                   int *rescued)
+{
+    *rescued = 0;
+    if (!pgem_most_rejected(graph)) {
+        return PGEM_OK; /* not a degenerate outcome */
+    }
+    const uint32_t accepted = pgem_mark_accepted(graph);
+    pgem_loop_run_t last = {0, 0, 0}, run = {0, 0, 0};
+    for (uint32_t attempt = 0; attempt < PGEM_RESCUE_ATTEMPTS && pgem_run_after(graph, &last, &run) &&
+                               run.length > accepted; attempt++) {
+        pgem_run_alone(graph, &run);
+        const int status = pgem_em_polish(graph, solve, summary);
+        if (status == PGEM_OK && pgem_adjustment_consistent(graph)) {
+            summary->readmitted += run.length;
+            *rescued = 1;
+            return PGEM_OK;
+        }
+        last = run;
+    }
+    if (last.length > 0u) { /* back to EM's loops */
+        pgem_back_to_marked(graph);
+        return pgem_em_polish(graph, solve, summary);
+    }
+    return PGEM_OK;
+}
