@@ -46,18 +46,25 @@ static void part_has_edge(bridge_t *bridge, uint32_t root)
     }
 }
 
+/* Edge k's view and the pose indices of its two ends; 0 if it has none (a bad index). */
+static int edge_ends(const bridge_t *bridge, uint32_t k, pgem_edge_view_t *view, uint32_t ends[2])
+{
+    return pgem_edge_at(bridge->core, k, view) == PGEM_OK &&
+           pgem_pose_index(bridge->core, view->from, &ends[0]) == PGEM_OK &&
+           pgem_pose_index(bridge->core, view->to, &ends[1]) == PGEM_OK;
+}
+
 /* Edge k into the parts: both its parts have an edge; odometry joins them, and the joined
  * part keeps one gauge. */
 static void join_edge(bridge_t *bridge, uint32_t k)
 {
     pgem_edge_view_t view;
-    uint32_t a = 0;
-    uint32_t b = 0;
-    if (pgem_edge_at(bridge->core, k, &view) != PGEM_OK ||
-        pgem_pose_index(bridge->core, view.from, &a) != PGEM_OK ||
-        pgem_pose_index(bridge->core, view.to, &b) != PGEM_OK) {
+    uint32_t ends[2] = {0, 0};
+    if (!edge_ends(bridge, k, &view, ends)) {
         return;
     }
+    const uint32_t a = ends[0];
+    const uint32_t b = ends[1];
     uint32_t *parent = bridge->component;
     const uint32_t root_a = pgem_part_root(parent, a);
     const uint32_t root_b = pgem_part_root(parent, b);
@@ -104,9 +111,7 @@ uint32_t bridge_components_hold(bridge_t *bridge)
     for (uint32_t j = first; j < edges; ++j) { /* the parts that got an edge: their gauge */
         pgem_edge_view_t view;
         uint32_t ends[2] = {0, 0};
-        if (pgem_edge_at(bridge->core, j, &view) != PGEM_OK ||
-            pgem_pose_index(bridge->core, view.from, &ends[0]) != PGEM_OK ||
-            pgem_pose_index(bridge->core, view.to, &ends[1]) != PGEM_OK) {
+        if (!edge_ends(bridge, j, &view, ends)) {
             continue;
         }
         for (int s = 0; s < 2; ++s) {

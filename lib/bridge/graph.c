@@ -289,9 +289,6 @@ static void describe_outcome(const pgem_robust_summary_t *summary, char *text, s
     }
 }
 
-/* One incremental update (pgem_update, its gate on new loop closures with the robust
- * options' gate and inflation); the summary gets what a robust solve's would say of the loops
- * and the weighted chi2. */
 /* The update's options from the robust ones: its gate on new loop closures with their gate
  * and inflation; kernel none keeps every loop in. */
 static void update_options(const bridge_t *bridge, pgem_update_options_t *options)

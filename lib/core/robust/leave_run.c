@@ -11,48 +11,25 @@
 /* Runs whose own chi2 is below this share of the quantile are not tested (see below). */
 #define PGEM_RUN_SCREEN 0.1
 
-/* The run's loops pruned at weight 0. */
-static void pgem_run_out(pgem_t *graph, uint32_t first, int direction, uint32_t length)
-{
-    uint32_t j = first;
-    for (uint32_t n = 0; n < length && j != UINT32_MAX; n++) {
-        const uint32_t next = pgem_run_next(graph, j, direction, PGEM_RUN_ACCEPTED);
-        graph->store.edge_active[j] = PGEM_EDGE_PRUNED;
-        graph->store.edge_weight[j] = 0.0;
-        j = next;
-    }
-    pgem_linear_invalidate(graph);
-}
-
 /* The run's own chi2 under the current estimate: a lower bound of its fall. */
-static double pgem_run_chi2(const pgem_t *graph, uint32_t first, int direction, uint32_t length)
+static double pgem_run_chi2(const pgem_t *graph, const pgem_loop_run_t *run)
 {
     double chi2 = 0.0;
-    uint32_t j = first;
-    for (uint32_t n = 0; n < length && j != UINT32_MAX; n++) {
+    uint32_t j = run->first;
+    for (uint32_t n = 0; n < run->length && j != UINT32_MAX; n++) {
         chi2 += pgem_edge_mahalanobis(graph, j);
-        j = pgem_run_next(graph, j, direction, PGEM_RUN_ACCEPTED);
+        j = pgem_run_next(graph, j, run->direction, PGEM_RUN_ACCEPTED);
     }
     return chi2;
-}
-
-/* The run's loops at `weight`, still in the structure (weight 0: no contribution). */
-static void pgem_run_weight(pgem_t *graph, uint32_t first, int direction, uint32_t length, double weight)
-{
-    uint32_t j = first;
-    for (uint32_t n = 0; n < length && j != UINT32_MAX; n++) {
-        graph->store.edge_weight[j] = weight;
-        j = pgem_run_next(graph, j, direction, PGEM_RUN_ACCEPTED);
-    }
 }
 
 /* How much the chi2 falls when the run leaves, from the polished estimate: the chi2 of the
  * rest there, less the decrease the Gauss-Newton model of the rest predicts (exact for a
  * linear problem); the estimate is not moved. *status set if the factor fails. */
-static double pgem_run_fall(pgem_t *graph, uint32_t k, int direction, uint32_t length, int *status)
+static double pgem_run_fall(pgem_t *graph, const pgem_loop_run_t *run, int *status)
 {
     const double with = pgem_weighted_chi2(graph);
-    pgem_run_weight(graph, k, direction, length, 0.0);
+    pgem_run_set(graph, run, PGEM_RUN_ACCEPTED, 0.0, PGEM_RUN_KEEP_STATE); /* no contribution */
     *status = pgem_analyze(graph);
     double rest = 0.0, gain = 0.0;
     if (*status == PGEM_OK) {
@@ -66,7 +43,7 @@ static double pgem_run_fall(pgem_t *graph, uint32_t k, int direction, uint32_t l
     if (*status == PGEM_OK) {
         gain = pgem_linear_predicted_gain(graph, 0.0);
     }
-    pgem_run_weight(graph, k, direction, length, 1.0);
+    pgem_run_set(graph, run, PGEM_RUN_ACCEPTED, 1.0, PGEM_RUN_KEEP_STATE);
     return with - (rest - gain);
 }
 
@@ -75,23 +52,24 @@ uint32_t pgem_em_leave_run_out(pgem_t *graph, pgem_robust_summary_t *summary, in
     *status = PGEM_OK;
     for (uint32_t k = 0; k < graph->store.edge_count && *status == PGEM_OK; k++) {
         for (int direction = 1; direction >= -1 && *status == PGEM_OK; direction -= 2) {
-            const uint32_t length = pgem_run_length(graph, k, direction, PGEM_RUN_ACCEPTED);
-            if (length < PGEM_RUN_MIN) {
+            const pgem_loop_run_t run = {k, direction, pgem_run_length(graph, k, direction, PGEM_RUN_ACCEPTED)};
+            if (run.length < PGEM_RUN_MIN) {
                 continue;
             }
-            const double quantile = pgem_chi2_quantile((double)length * (double)graph->tangent);
-            const double own = pgem_run_chi2(graph, k, direction, length);
+            const double quantile = pgem_chi2_quantile((double)run.length * (double)graph->tangent);
+            const double own = pgem_run_chi2(graph, &run);
             /* the fall is at least the run's own chi2; a run whose own chi2 is below a tenth of
              * the quantile would need the map to have bent to it ten times over (leverage
              * above 0.9) to fail, and is not tested */
             if (own < PGEM_RUN_SCREEN * quantile) {
                 continue;
             }
-            if ((own > quantile || pgem_run_fall(graph, k, direction, length, status) > quantile) &&
-                *status == PGEM_OK) {
-                /* one run at a time: the others are tested from the next polish */
-                summary->gated += length;
-                pgem_run_out(graph, k, direction, length);
+            if ((own > quantile || pgem_run_fall(graph, &run, status) > quantile) && *status == PGEM_OK) {
+                /* one run at a time: the others are tested from the next polish; pruned at
+                 * weight 0, which the consistency test reads as left out with its run */
+                summary->gated += run.length;
+                pgem_run_set(graph, &run, PGEM_RUN_ACCEPTED, 0.0, PGEM_EDGE_PRUNED);
+                pgem_linear_invalidate(graph);
                 return 1;
             }
         }

@@ -53,10 +53,7 @@ static void pgem_run_alone(pgem_t *graph, const pgem_loop_run_t *run)
             graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
         }
     }
-    for (uint32_t j = run->first, n = 0; j != UINT32_MAX && n < run->length; j = pgem_run_next(graph, j, run->direction, PGEM_RUN_ANY), n++) {
-        graph->store.edge_weight[j] = 1.0;
-        graph->store.edge_active[j] = PGEM_EDGE_ACTIVE;
-    }
+    pgem_run_set(graph, run, PGEM_RUN_ANY, 1.0, PGEM_EDGE_ACTIVE);
     pgem_linear_invalidate(graph);
     pgem_restore_initial(graph);
 }

@@ -105,6 +105,17 @@ typedef enum pgem_run_members { PGEM_RUN_ANY, PGEM_RUN_ACCEPTED, PGEM_RUN_PRUNED
  * precedes it; a loop without a successor counts 1, whatever precedes it). */
 uint32_t pgem_run_next(const pgem_t *graph, uint32_t k, int direction, pgem_run_members_t members);
 uint32_t pgem_run_length(const pgem_t *graph, uint32_t k, int direction, pgem_run_members_t members);
+/* Every loop of run (walked among `members`) at weight, and at state (a pgem_edge_state_t) unless
+ * state is PGEM_RUN_KEEP_STATE. */
+#define PGEM_RUN_KEEP_STATE (-1)
+void pgem_run_set(pgem_t *graph, const pgem_loop_run_t *run, pgem_run_members_t members,
+                  double weight, int state);
+/* 1 if more than PGEM_MOST_REJECTED of `loops` loop closures (and at least one) are rejected:
+ * the degenerate outcome the summary reports and EM's rescue and leave-run-out test act on. */
+static inline int pgem_share_most_rejected(uint32_t rejected, uint32_t loops)
+{
+    return loops > 0u && (double)rejected > PGEM_MOST_REJECTED * (double)loops;
+}
 /* 1 if more than PGEM_MOST_REJECTED of the loops (and at least one) are pruned. */
 int pgem_most_rejected(const pgem_t *graph);
 /* The 99.9% quantile of the chi-square distribution with dof degrees of freedom

@@ -55,6 +55,20 @@ uint32_t pgem_run_length(const pgem_t *graph, uint32_t k, int direction, pgem_ru
     return length;
 }
 
+void pgem_run_set(pgem_t *graph, const pgem_loop_run_t *run, pgem_run_members_t members,
+                  double weight, int state)
+{
+    uint32_t j = run->first;
+    for (uint32_t n = 0; n < run->length && j != UINT32_MAX; n++) {
+        const uint32_t next = pgem_run_next(graph, j, run->direction, members); /* before the state changes */
+        graph->store.edge_weight[j] = weight;
+        if (state != PGEM_RUN_KEEP_STATE) {
+            graph->store.edge_active[j] = (uint8_t)state;
+        }
+        j = next;
+    }
+}
+
 double pgem_chi2_quantile(double dof)
 {
     const double spread = sqrt(2.0 / (9.0 * dof));
@@ -71,5 +85,5 @@ int pgem_most_rejected(const pgem_t *graph)
             accepted += graph->store.edge_active[k] != PGEM_EDGE_PRUNED;
         }
     }
-    return loops > 0u && (double)(loops - accepted) > PGEM_MOST_REJECTED * (double)loops;
+    return pgem_share_most_rejected(loops - accepted, loops);
 }

@@ -59,7 +59,7 @@ static void pgem_summarise(pgem_t *graph, const pgem_robust_options_t *options,
         summary->outcome = PGEM_ROBUST_NO_LOOPS;
     } else if (summary->rejected == summary->loops) {
         summary->outcome = PGEM_ROBUST_ALL_REJECTED;
-    } else if ((double)summary->rejected > PGEM_MOST_REJECTED * (double)summary->loops) {
+    } else if (pgem_share_most_rejected(summary->rejected, summary->loops)) {
         summary->outcome = PGEM_ROBUST_MOST_REJECTED;
     } else {
         summary->outcome = PGEM_ROBUST_LOOPS_ACCEPTED;
