@@ -187,6 +187,45 @@ else
     echo "(lcm-logger not installed: the recording step is not run)"
 fi
 
+step "a pause mid-stream: the settle gives way to the rest, which ends at the offline graph"
+# A larger graph, so the settle of the first half (EM on everything from the front-end's
+# estimates) is still running when the second half starts arriving.
+if [ -f "$DATASETS/2d/city10000.g2o" ]; then
+    "$PGEM" corrupt "$DATASETS/2d/city10000.g2o" -o pause_input.g2o --policy random --count 100 \
+        --seed 1 >/dev/null
+else
+    echo "(no datasets folder: a simulated 10000-pose Manhattan walk instead)"
+    "$PGEM" simulate --world manhattan --poses 10000 --seed 3 -o paused_clean.g2o >/dev/null
+    "$PGEM" corrupt paused_clean.g2o -o pause_input.g2o --policy random --count 100 --seed 1 \
+        >/dev/null
+fi
+"$PGEM" optimize pause_input.g2o --robust em --weights paused_offline.weights -o paused_offline.g2o \
+    --quiet
+edges_all=$edges
+edges=$(grep -c '^EDGE' pause_input.g2o)
+half=$((edges / 2))
+start_bridge paused
+start_dump paused
+"$SEND" pause_input.g2o --rate "$RATE" --count "$half" --wait 60 >paused.send1.log 2>&1 ||
+    fail "paused: first half not accepted"
+# (counted from here: a load stall mid-stream may have started an earlier one)
+settles=$(grep -c "settle: EM on the whole graph" paused.log || true)
+waited=0
+until [ "$(grep -c "settle: EM on the whole graph" paused.log || true)" -gt "$settles" ]; do
+    sleep 0.05
+    waited=$((waited + 1))
+    [ "$waited" -lt 600 ] || fail "paused: no settle started within 30 s of the pause"
+done
+"$SEND" pause_input.g2o --rate "$RATE" --first "$half" --wait 60 >paused.send2.log 2>&1 ||
+    fail "paused: second half not accepted"
+wait "$dump" || fail "paused: no complete graph dumped"
+"$COMPARE" paused.g2o paused_offline.g2o 1e-6 paused.weights paused_offline.weights \
+    >paused.compare || { cat paused.compare; fail "paused: the graph differs from the offline solve"; }
+stop_bridge
+grep "settle gave way" paused.log || fail "paused: the settle did not give way to the second half"
+if grep -q "failed" paused.log; then fail "paused: a solve failed"; fi
+edges=$edges_all
+
 step "only false loop closures: the published graph and the status say all were rejected"
 "$PGEM" simulate --world manhattan --poses 400 --seed 3 -o chain_src.g2o >/dev/null
 # the walk's odometry alone (consecutive ids), then 20 false loop closures

@@ -1,6 +1,7 @@
 /* pgem_update, the incremental solve: a stream ends (after the settle solve) at the batch
  * optimum in 2D and 3D and is close to it before; odometry touches only the newest columns;
- * updates allocate nothing; a pruned loop comes back; clear errors. */
+ * updates allocate nothing; a pruned loop comes back; a stopped batch solve is undone and the
+ * updates go on from the factor; clear errors. */
 #include "test_util.h"
 
 #include "test_alloc_counters.h"
@@ -299,6 +300,101 @@ static void test_pruned_loop_comes_back(void **state)
     pgem_destroy(graph);
 }
 
+/* Stops after the first Gauss-Newton iteration: a settle solve that gives way to new data. */
+static int stop_at_once(const pgem_iteration_t *iteration, void *user)
+{
+    (void)iteration;
+    ++*(int *)user;
+    return 1;
+}
+
+static void assert_same_graph(const pgem_t *a, const pgem_t *b)
+{
+    assert_int_equal(pgem_pose_count(a), pgem_pose_count(b));
+    assert_int_equal(pgem_edge_count(a), pgem_edge_count(b));
+    for (uint32_t i = 0; i < pgem_pose_count(a); i++) {
+        double pa[7], pb[7];
+        int fa = 0, fb = 0;
+        pgem_id_t id = 0;
+        assert_int_equal(pgem_pose_at(a, i, &id, pa, &fa), PGEM_OK);
+        assert_int_equal(pgem_pose_at(b, i, &id, pb, &fb), PGEM_OK);
+        assert_memory_equal(pa, pb, sizeof(double) * (size_t)PGEM_POSE_SIZE(pgem_dimension(a)));
+        assert_int_equal(fa, fb);
+    }
+    for (uint32_t e = 0; e < pgem_edge_count(a); e++) {
+        pgem_edge_view_t va, vb;
+        assert_int_equal(pgem_edge_at(a, e, &va), PGEM_OK);
+        assert_int_equal(pgem_edge_at(b, e, &vb), PGEM_OK);
+        assert_memory_equal(&va.weight, &vb.weight, sizeof va.weight);
+        assert_int_equal(va.active, vb.active);
+    }
+}
+
+/* A batch solve from other poses (as the bridge's settle starts from the front-end's
+ * estimates), with a pose held and every loop back in, stopped after one iteration and undone
+ * by pgem_update_restore: the graph is the twin's that never saw it, to the bit, and the next
+ * robust updates go on without a rebuild and stay the twin's. */
+static void test_settle_undone(void **state)
+{
+    (void)state;
+    static stream_t sa, sb;
+    pgem_t *a = stream_to(&sa, 2, 120), *b = stream_to(&sb, 2, 120);
+    pgem_update_options_t options;
+    memset(&options, 0, sizeof options);
+    options.robust = 1;
+    assert_int_equal(pgem_update(a, &options, NULL), PGEM_OK);
+    assert_int_equal(pgem_update(b, &options, NULL), PGEM_OK);
+    const size_t size = pgem_update_save_size(a);
+    assert_int_equal(size, 24u + 400u * 25u + 1600u * 18u);
+    unsigned char *saved = malloc(size + 1u);
+    assert_non_null(saved);
+    assert_int_equal(pgem_update_save(a, saved + 1, 100u), PGEM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pgem_update_save(a, saved + 1, size), PGEM_OK); /* any alignment */
+
+    for (uint32_t i = 1; i < pgem_pose_count(a); i++) { /* elsewhere, as a restart would put them */
+        double pose[3];
+        pgem_id_t id = 0;
+        assert_int_equal(pgem_pose_at(a, i, &id, pose, NULL), PGEM_OK);
+        pose[0] += 0.3;
+        pose[2] += 0.05;
+        assert_int_equal(pgem_set_pose(a, id, pose), PGEM_OK);
+    }
+    assert_int_equal(pgem_fix_pose(a, 60, 1), PGEM_OK);
+    pgem_robust_reset(a);
+    int iterations = 0;
+    pgem_solve_options_t solve;
+    memset(&solve, 0, sizeof solve);
+    solve.on_iteration = stop_at_once;
+    solve.user = &iterations;
+    pgem_robust_summary_t summary;
+    assert_int_equal(pgem_robust_optimize(a, NULL, &solve, &summary), PGEM_OK);
+    assert_int_equal(summary.termination, PGEM_ROBUST_STOPPED);
+    assert_int_equal(iterations, 1); /* the method ends with the iteration that asked */
+    assert_int_equal(summary.gn_iterations, 1);
+
+    assert_int_equal(pgem_update_restore(a, saved + 1, size), PGEM_OK);
+    assert_same_graph(a, b);
+    for (int k = 120; k < 150; k++) {
+        stream_add(a, &sa, k);
+        stream_add(b, &sb, k);
+        pgem_update_summary_t ua, ub;
+        assert_int_equal(pgem_update(a, &options, &ua), PGEM_OK);
+        assert_int_equal(pgem_update(b, &options, &ub), PGEM_OK);
+        assert_int_equal(ua.rebuilt, ub.rebuilt);
+        if (k == 120) {
+            assert_int_equal(ua.rebuilt, 0); /* the factor was current again */
+        }
+        assert_same_graph(a, b);
+    }
+    /* the graph grew since the save: refused, naming the counts, and nothing changes */
+    assert_int_equal(pgem_update_restore(a, saved + 1, size), PGEM_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(pgem_last_error(a), "nothing restored"));
+    assert_same_graph(a, b);
+    free(saved);
+    pgem_destroy(a);
+    pgem_destroy(b);
+}
+
 static void test_errors(void **state)
 {
     (void)state;
@@ -327,6 +423,7 @@ int main(void)
         cmocka_unit_test(test_no_allocation),
 #endif
         cmocka_unit_test(test_pruned_loop_comes_back),
+        cmocka_unit_test(test_settle_undone),
         cmocka_unit_test(test_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -162,7 +162,10 @@ typedef enum pgem_robust_termination {
     PGEM_ROBUST_ROUND_LIMIT = 1,      /**< EM: max_rounds rounds (or test passes) and loops were
                                          still changing state */
     PGEM_ROBUST_ITERATION_LIMIT = 2,  /**< IRLS: max_em_iterations before the weights settled */
-    PGEM_ROBUST_STOPPED = 3,          /**< on_round asked to stop */
+    PGEM_ROBUST_STOPPED = 3,          /**< on_round, or the solve options' on_iteration in
+                                         any of the method's Gauss-Newton solves, asked to
+                                         stop: the solve returned at once, its estimate
+                                         mid-solve (pgem_update_restore can undo it) */
     PGEM_ROBUST_FAILED = 4            /**< the solve failed (usable is 0; see the error) */
 } pgem_robust_termination_t;
 

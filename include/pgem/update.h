@@ -91,6 +91,27 @@ struct pgem_robust_summary;
 int pgem_update_settle(pgem_t *graph, const struct pgem_robust_options *robust,
                        struct pgem_robust_summary *summary);
 
+/** Bytes pgem_update_save needs at the instance's capacity: a header of 24 bytes, per pose
+ * its value and held flag (25 bytes in 2D, 57 in 3D), per edge 18 bytes (weight, state, the
+ * robust layer's last distance and check). 0 for NULL. */
+size_t pgem_update_save_size(const pgem_t *graph);
+
+/** Copies the estimate, every pose's held flag, every edge's robust weight and state and
+ * whether the incremental factor is current into buffer (size bytes, at least
+ * pgem_update_save_size; byte-packed, any alignment). With pgem_update_restore it undoes a
+ * batch solve that was stopped midway: a settle solve asked to give way to new data (the
+ * robust solve's on_round, or its solve options' on_iteration, returning non-zero ends it
+ * with PGEM_ROBUST_STOPPED). Nothing is allocated. Errors: INVALID_ARGUMENT (NULL, or size too
+ * small: the message says so). */
+int pgem_update_save(pgem_t *graph, void *buffer, size_t size);
+
+/** Puts back what pgem_update_save kept, when the graph still has the poses and edges it had
+ * then (else INVALID_ARGUMENT, naming both counts, and nothing changes): the estimate, held
+ * flags, weights and states are the saved ones to the bit, and since a batch solve leaves the
+ * incremental factor alone, the next pgem_update goes on from it without a rebuild if it was
+ * current at the save. The next batch solve analyses anew. */
+int pgem_update_restore(pgem_t *graph, const void *buffer, size_t size);
+
 /** Bytes config.online_fill scalar nonzeros add to pgem_memory_size (an upper bound) for
  * max_poses poses and max_edges edges: per pose 14 ints and a pose, two steps and a b x b
  * block of doubles, per edge 4 ints and a double, per nonzero 8 bytes and an int per b x b

@@ -362,7 +362,7 @@ static void *solver_main(void *user)
             int settle = !optimize && !recovery && !s.dirty && !s.unsolved;
             s.last_start = now;
             if (settle) {
-                bridge_graph_settle(bridge);
+                settle = bridge_graph_settle(bridge); /* 0: it gave way, and is still owed */
             } else {
                 bridge_graph_solve(bridge, optimize ? "command"
                                            : recovery ? "recovery"

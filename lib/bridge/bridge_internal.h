@@ -91,6 +91,16 @@ typedef struct bridge {
     uint32_t pruned_count;      /* of them pruned after the last solve or update */
     uint32_t counted_edges;     /* edges whose state pruned_count has seen */
     int64_t solve_id;
+    /* The settle's way back (incremental bridges): the core's estimate and loop states
+     * (pgem_update_save) and the bridge's per-pose flags from before it, so a settle that
+     * gives way to arriving items is undone and the incremental updates go on. */
+    unsigned char *settle_save;
+    size_t settle_save_size;
+    uint8_t *settle_anchored;
+    uint8_t *settle_gauge;
+    uint32_t settle_solved_poses;
+    int settle_yields;          /* the settle under way gives way to arriving items */
+    int settle_gave_way;        /* and it did */
     /* Publication buffers for graph_t, sized for the capacities. */
     int64_t *out_ids;
     double *out_values;
@@ -130,8 +140,11 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger);
 void bridge_graph_step(bridge_t *bridge);
 /* The settle solve: every pose back to the front-end's estimate, every loop closure back in,
  * EM on the whole graph (trigger "settle"); run once the stream has been quiet for idle_solve
- * after incremental solves, so a paused robot's map is the one the offline tools compute. */
-void bridge_graph_settle(bridge_t *bridge);
+ * after incremental solves, so a paused robot's map is the one the offline tools compute.
+ * With incremental updates it gives way to items that arrive while it runs: it stops after
+ * the Gauss-Newton iteration under way, the graph is put back as the last update left it
+ * (nothing is published), and it returns 0, still owed; else 1. */
+int bridge_graph_settle(bridge_t *bridge);
 /* Publishes the graph as it is, without solving (after a reset). */
 void bridge_graph_publish(bridge_t *bridge, const char *trigger,
                           const pgem_robust_summary_t *summary, int usable, const char *why,

@@ -77,6 +77,18 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
                  pgem_error_name(status));
         return -1;
     }
+    if (!o->full) { /* the settle's way back: sized once, for the capacities */
+        bridge->settle_save_size = pgem_update_save_size(bridge->core);
+        bridge->settle_save = malloc(bridge->settle_save_size);
+        bridge->settle_anchored = calloc(poses, 1);
+        bridge->settle_gauge = calloc(poses, 1);
+        if (bridge->settle_save == NULL || bridge->settle_anchored == NULL ||
+            bridge->settle_gauge == NULL) {
+            snprintf(message, message_size, "out of memory for %u poses and %u edges",
+                     (unsigned)o->max_poses, (unsigned)o->max_edges);
+            return -1;
+        }
+    }
     return 0;
 }
 
@@ -100,6 +112,9 @@ void bridge_graph_free(bridge_t *bridge)
     free(bridge->out_sources);
     free(bridge->out_last);
     free(bridge->out_buffer);
+    free(bridge->settle_save);
+    free(bridge->settle_anchored);
+    free(bridge->settle_gauge);
 }
 
 void bridge_graph_counts(bridge_t *bridge)
@@ -262,18 +277,72 @@ static void restart_from_raw(bridge_t *bridge)
     bridge->solved_poses = 0;
 }
 
-void bridge_graph_settle(bridge_t *bridge)
+/* 1 when the solve under way should stop: the bridge is stopping, or a settle that gives way
+ * sees items waiting in the queue. */
+static int should_stop(bridge_t *bridge)
 {
-    bridge->restart_pending = 1; /* honoured when the graph is whole (see bridge_graph_solve) */
-    bridge_graph_solve(bridge, "settle");
+    if (bridge->stopping) {
+        return 1;
+    }
+    if (!bridge->settle_yields) {
+        return 0;
+    }
+    pthread_mutex_lock(&bridge->lock);
+    const int arrived = bridge->visible != bridge->head;
+    pthread_mutex_unlock(&bridge->lock);
+    return arrived;
 }
 
-/* Stops a robust solve when the bridge is stopping. */
+/* Stops a robust solve after a round, or a settle after any Gauss-Newton iteration. */
 static int keep_going(const pgem_robust_progress_t *progress, void *user)
 {
     (void)progress;
-    const bridge_t *bridge = user;
-    return bridge->stopping ? 1 : 0;
+    return should_stop(user);
+}
+
+static int keep_iterating(const pgem_iteration_t *iteration, void *user)
+{
+    (void)iteration;
+    return should_stop(user);
+}
+
+/* What a settle that gives way puts back: the core's part, then the bridge's. */
+static void settle_save(bridge_t *bridge)
+{
+    const size_t poses = pgem_pose_count(bridge->core);
+    pgem_update_save(bridge->core, bridge->settle_save, bridge->settle_save_size);
+    memcpy(bridge->settle_anchored, bridge->anchored, poses);
+    memcpy(bridge->settle_gauge, bridge->gauge_fixed, poses);
+    bridge->settle_solved_poses = bridge->solved_poses;
+}
+
+static void settle_restore(bridge_t *bridge)
+{
+    const size_t poses = pgem_pose_count(bridge->core);
+    pgem_update_restore(bridge->core, bridge->settle_save, bridge->settle_save_size);
+    memcpy(bridge->anchored, bridge->settle_anchored, poses);
+    memcpy(bridge->gauge_fixed, bridge->settle_gauge, poses);
+    bridge->solved_poses = bridge->settle_solved_poses;
+    bridge->restart_pending = 0;
+}
+
+int bridge_graph_settle(bridge_t *bridge)
+{
+    /* It can give way when the incremental state it leaves is sound: one part, no restart
+     * owed (else the next solve restarts anyway, and might as well be this one). */
+    bridge->settle_yields = bridge->settle_save != NULL && !bridge->restart_pending &&
+                            bridge_components_hold(bridge) == 1;
+    if (bridge->settle_yields) {
+        settle_save(bridge);
+    }
+    bridge_log(bridge, "settle: EM on the whole graph (%u poses, %u edges) from the front-end's "
+                       "estimates%s", pgem_pose_count(bridge->core), pgem_edge_count(bridge->core),
+               bridge->settle_yields ? ", giving way to arriving items" : "");
+    bridge->restart_pending = 1; /* honoured when the graph is whole (see bridge_graph_solve) */
+    bridge->settle_gave_way = 0;
+    bridge_graph_solve(bridge, "settle");
+    bridge->settle_yields = 0;
+    return !bridge->settle_gave_way;
 }
 
 /* A successful solve's degenerate outcome in words (the graph's stats message and the
@@ -385,8 +454,26 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     if (!incremental) {
         bridge_components_hold_lone(bridge);
     }
+    pgem_solve_options_t solve;
+    memset(&solve, 0, sizeof solve);
+    solve.on_iteration = keep_iterating;
+    solve.user = bridge;
     int status = incremental ? update_solve(bridge, &summary)
-                             : pgem_robust_optimize(bridge->core, &robust, NULL, &summary);
+                             : pgem_robust_optimize(bridge->core, &robust,
+                                                    bridge->settle_yields ? &solve : NULL, &summary);
+    if (bridge->settle_yields && status == PGEM_OK &&
+        summary.termination == PGEM_ROBUST_STOPPED && !bridge->stopping) {
+        settle_restore(bridge); /* items arrived: the incremental map goes on from the last update */
+        bridge->settle_gave_way = 1;
+        pthread_mutex_lock(&bridge->lock);
+        bridge->solving = 0;
+        pthread_mutex_unlock(&bridge->lock);
+        bridge_log(bridge, "settle gave way to arriving items after %.1f ms (%u Gauss-Newton "
+                           "iterations): the graph is as the last update left it, and the settle "
+                           "waits for the next quiet time",
+                   1e3 * (bridge_now() - start), summary.gn_iterations);
+        return;
+    }
     if (status != PGEM_OK || parts > 1) {
         bridge->restart_pending = 1;
     }

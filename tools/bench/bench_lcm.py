@@ -19,8 +19,14 @@ loopback only, ttl=0), so no packet leaves the machine. Needs root (or CAP_SYS_A
    front-end resends the whole file (replays are recognised and ignored) and the dumped
    graph is compared with the offline ``pgem optimize --robust em`` solve.
 
+4. Pauses: the same stream with the sender silent --pauses times for --pause-seconds
+   (``pgem-lcm-send --pause-every``; longer than the bridge's idle time, 0.5 s, so its settle
+   solve of the whole graph starts), as a robot that stands still and drives on. The report
+   gives the latency of the loop closures sent in the first 2 s after a pause (those that
+   reach a bridge busy with its settle), and of them all.
+
 The report is printed as Markdown and written to --out; ``--json FILE`` writes the figures
-too. ``--phases`` runs only some of the three (bench_online.py runs the latency alone).
+too. ``--phases`` runs only some of the four (bench_online.py runs the latency alone).
 """
 
 from __future__ import annotations
@@ -97,7 +103,7 @@ def count_edges(path: Path) -> int:
         return sum(1 for line in handle if line.startswith(("EDGE", "EDGE2", "EDGE3")))
 
 
-PHASES = ("latency", "ingest", "recovery")
+PHASES = ("latency", "ingest", "recovery", "pause")
 REPLAYED = re.compile(r"(\d+) records replayed \((\d+) poses, (\d+) edges\)")
 
 
@@ -178,14 +184,7 @@ def latency_run(work: Path, name: str, corrupted: Path, rate: float,
     bridge.stop()
     if result.returncode != 0:
         raise BenchError(f"{name}: latency run failed:\n{result.stdout}{result.stderr}")
-    samples = []  # (latency ms, sequence, from, to, solve id)
-    sent = 0
-    for line in csv.read_text().splitlines()[1:]:
-        fields = line.split(",")
-        sent += 1
-        if len(fields) >= 5 and fields[3] != "":
-            samples.append((float(fields[3]), int(fields[0]), int(fields[1]), int(fields[2]),
-                            int(fields[4])))
+    samples, sent = latency_samples(csv)
     if not samples:
         raise BenchError(f"{name}: no latency samples in {csv}")
     summary = re.search(r"^latency: .*$", result.stdout, re.MULTILINE)
@@ -204,6 +203,55 @@ def latency_run(work: Path, name: str, corrupted: Path, rate: float,
         "solves": len(solves),
         "solve_median": statistics.median(solves) if solves else float("nan"),
         "solve_max": max(solves) if solves else float("nan"),
+    }
+
+
+def latency_samples(csv: Path) -> tuple[list[tuple], int]:
+    """(latency ms, sequence, from, to, solve id) of the loop closures seen, and how many sent."""
+    samples = []
+    sent = 0
+    for line in csv.read_text().splitlines()[1:]:
+        fields = line.split(",")
+        sent += 1
+        if len(fields) >= 5 and fields[3] != "":
+            samples.append((float(fields[3]), int(fields[0]), int(fields[1]), int(fields[2]),
+                            int(fields[4])))
+    return samples, sent
+
+
+def pause_run(work: Path, name: str, corrupted: Path, rate: float, pauses: int,
+              seconds: float, bridge_args: list[str]) -> dict:
+    """The stream with the sender silent `pauses` times (pgem-lcm-send --pause-every)."""
+    bridge = Bridge(fresh_log(work / f"{name}.pause.bridge.log"), extra=bridge_args)
+    csv = work / f"{name}.pause.csv"
+    edges = count_edges(corrupted)
+    every_n = max(1, edges // (pauses + 1))
+    result = send(corrupted, "--rate", str(rate), "--pause-every", str(every_n), "--pause",
+                  str(seconds), "--latency", str(csv), "--wait", "120",
+                  timeout=edges / rate + pauses * seconds + 300)
+    bridge.stop()
+    if result.returncode != 0:
+        raise BenchError(f"{name}: pause run failed:\n{result.stdout}{result.stderr}")
+    samples, sent = latency_samples(csv)
+    if not samples:
+        raise BenchError(f"{name}: no latency samples in {csv}")
+    since = {}
+    for line in csv.read_text().splitlines()[1:]:
+        fields = line.split(",")
+        if len(fields) >= 6 and fields[5] != "":
+            since[int(fields[0])] = float(fields[5])
+    log = bridge.log_path.read_text()
+    values = [sample[0] for sample in samples]
+    late = [sample[0] for sample in samples if since.get(sample[1], 1e9) < 2.0]
+    return {
+        "rate": rate, "pauses": pauses, "seconds": seconds, "loops": len(samples), "sent": sent,
+        "after_loops": len(late),
+        "after_median": percentile(late, 50) if late else float("nan"),
+        "after_p99": percentile(late, 99) if late else float("nan"),
+        "after_max": max(late) if late else float("nan"),
+        "median": percentile(values, 50), "p99": percentile(values, 99), "max": max(values),
+        "settles": len(re.findall(r"solve \d+ \(settle", log)),
+        "gave_way": log.count("settle gave way"),
     }
 
 
@@ -293,6 +341,18 @@ def latency_lines(lat: dict) -> list[str]:
             f"{lat['worst'][4]}. The sender's line: `{lat['sender']}`", ""]
 
 
+def pause_lines(run: dict) -> list[str]:
+    return [f"Pauses: the stream at {run['rate']:g} edges/s, the sender silent {run['pauses']} "
+            f"times for {run['seconds']:g} s; the bridge ran "
+            f"{run['settles']} settle solves to the end and {run['gave_way']} that gave way to "
+            f"arriving items. Latency of the {run['after_loops']} loop closures sent in the first 2 s "
+            f"after a pause, and of all {run['loops']} (seen of {run['sent']} sent):", "",
+            "| loops | median | p99 | max |", "|---|---|---|---|",
+            f"| after a pause | {run['after_median']:.1f} ms | {run['after_p99']:.1f} ms | "
+            f"{run['after_max']:.1f} ms |",
+            f"| all | {run['median']:.1f} ms | {run['p99']:.1f} ms | {run['max']:.1f} ms |", ""]
+
+
 def ingest_lines(ingest: list[dict]) -> list[str]:
     lines = ["Sustained ingest (every edge accepted?):", "",
              "| rate (edges/s) | sent | accepted | zero loss |", "|---|---|---|---|"]
@@ -322,6 +382,10 @@ def main() -> int:
     parser.add_argument("--ingest-rates", default="2000,5000,10000,20000,50000")
     parser.add_argument("--kills", type=int, default=5)
     parser.add_argument("--kill-rate", type=float, default=1000.0)
+    parser.add_argument("--pauses", type=int, default=4,
+                        help="pause phase: silent spells in the stream (default 4)")
+    parser.add_argument("--pause-seconds", type=float, default=1.0,
+                        help="pause phase: length of each (default 1.0 s)")
     parser.add_argument("--quick", action="store_true",
                         help="M3500 only, streamed at 500 edges/s, 3 kills")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
@@ -329,7 +393,7 @@ def main() -> int:
     parser.add_argument("--phases", default=",".join(PHASES),
                         help=f"comma-separated phases to run (default {','.join(PHASES)})")
     parser.add_argument("--bridge-args", default="",
-                        help="extra pgem-lcm-bridge options for the latency phase, e.g. "
+                        help="extra pgem-lcm-bridge options for the latency and pause phases, e.g. "
                              "--bridge-args=--full (space-separated)")
     parser.add_argument("--build", type=Path, default=DEFAULT_BUILD,
                         help="build directory with the tools (default build/release)")
@@ -368,6 +432,11 @@ def main() -> int:
                 found["latency"] = latency_run(work, name, corrupted, float(rate),
                                                args.bridge_args.split())
                 lines += latency_lines(found["latency"])
+            if "pause" in phases:
+                print(f"== {name}: {args.pauses} pauses of {args.pause_seconds:g} s", flush=True)
+                found["pause"] = pause_run(work, name, corrupted, float(rate), args.pauses,
+                                           args.pause_seconds, args.bridge_args.split())
+                lines += pause_lines(found["pause"])
             if "ingest" in phases:
                 print(f"== {name}: sustained ingest", flush=True)
                 found["ingest"] = ingest_run(work, name, corrupted,

@@ -45,6 +45,8 @@ typedef struct send_args {
     double wait;             /* --wait SECONDS; negative: do not wait */
     const char *latency;     /* --latency FILE.csv; NULL: not measured */
     int optimize;            /* --optimize: ask the bridge to solve at the end */
+    uint64_t pause_every;    /* --pause-every N: silent after every N edge messages; 0 never */
+    double pause_seconds;    /* --pause SECONDS: for how long (default 1) */
     int quiet;               /* --quiet: no progress lines */
 } send_args_t;
 
@@ -71,6 +73,8 @@ typedef struct send_mark {
     double seen;              /* clock when the first graph including it arrived; negative:
                                  none yet */
     int64_t solve_id;         /* that graph's solve */
+    double since_pause;       /* seconds from the end of the last --pause-every pause to its
+                                 send; negative: sent before any */
 } send_mark_t;
 
 /* --latency: the marks of every file edge, indexed by sequence (= file index). */
@@ -92,6 +96,7 @@ typedef struct send_context {
     char source[SEND_SOURCE_MAX + 1];
     int receiving;            /* subscribed (--wait, --latency): dispatch while sending */
     send_latency_t latency;
+    double pause_end;         /* clock when the last --pause-every pause ended; negative none */
 } send_context_t;
 
 /* --wait: the bridge's latest status and whether it shows every edge taken. */
@@ -108,7 +113,8 @@ static void send_usage(FILE *out)
     fprintf(out,
             "usage: pgem-lcm-send FILE [--rate HZ] [--source NAME] [--shuffle SEED] [--repeat N]\n"
             "                     [--first K] [--count N] [--wait SECONDS] [--latency FILE.csv]\n"
-            "                     [--optimize] [--quiet] [--url URL] [--channel-prefix P]\n"
+            "                     [--pause-every N [--pause SECONDS]] [--optimize] [--quiet]\n"
+            "                     [--url URL] [--channel-prefix P]\n"
             "                     [--pose-channel C] [--edge-channel C] [--graph-channel C]\n"
             "                     [--status-channel C] [--command-channel C]\n");
 }
@@ -151,12 +157,18 @@ static void send_help(FILE *out, const void *context)
             "                         loops include it (same source name and sequence); after\n"
             "                         the last message keep receiving until every one was seen\n"
             "                         or --wait SECONDS (default 10) pass. FILE.csv gets\n"
-            "                         'sequence,from,to,latency_ms,solve_id', one line per loop\n"
-            "                         closure sent in sequence order (the last two empty when\n"
-            "                         never seen); stdout a line with the median, p90, p99 and\n"
-            "                         maximum (nearest rank). Monotonic clock; a loop closure\n"
-            "                         the bridge already had from an earlier run counts from\n"
-            "                         this run's send\n"
+            "                         'sequence,from,to,latency_ms,solve_id,since_pause_s', one\n"
+            "                         line per loop closure sent in sequence order (latency and\n"
+            "                         solve empty when never seen; since_pause_s the seconds\n"
+            "                         from the end of the last --pause-every pause to its send,\n"
+            "                         empty before the first); stdout a line with the median,\n"
+            "                         p90, p99 and maximum (nearest rank). Monotonic clock; a\n"
+            "                         loop closure the bridge already had from an earlier run\n"
+            "                         counts from this run's send\n"
+            "  --pause-every N        stay silent after every N edge messages (before the next\n"
+            "                         pose), receiving meanwhile, as a robot that stands still\n"
+            "                         and drives on; the pacing resumes after it\n"
+            "  --pause SECONDS        how long each of those pauses lasts (default 1)\n"
             "  --optimize             at the end (with --wait, once the status shows every\n"
             "                         edge taken) ask the bridge to solve now (pgem.command_t\n"
             "                         OPTIMIZE): the bridge solves on new loop closures, so\n"
@@ -181,6 +193,12 @@ static int send_parse_value(void *user, const char *arg, const char *value)
     }
     if (strcmp(arg, "--wait") == 0) {
         return pgem_cli_parse_number(SEND_TOOL, arg, value, 0, &args->wait);
+    }
+    if (strcmp(arg, "--pause-every") == 0) {
+        return pgem_lcm_parse_u64(SEND_TOOL, arg, value, &args->pause_every);
+    }
+    if (strcmp(arg, "--pause") == 0) {
+        return pgem_cli_parse_number(SEND_TOOL, arg, value, 0, &args->pause_seconds);
     }
     if (strcmp(arg, "--latency") == 0) {
         if (value == NULL || value[0] == '\0') {
@@ -249,7 +267,8 @@ static int send_input(void *user, const char *argument)
 static int send_parse(int argc, char **argv, send_args_t *args)
 {
     static const char *const valued[] = {"--rate", "--wait", "--shuffle", "--first",
-                                         "--count", "--repeat", "--source", "--latency"};
+                                         "--count", "--repeat", "--source", "--latency",
+                                         "--pause-every", "--pause"};
     static const pgem_cli_parser_t parser = {
         NULL, valued, sizeof valued / sizeof valued[0], send_parse_value, send_flag, send_input,
         send_help, NULL, NULL};
@@ -262,6 +281,7 @@ static int send_parse(int argc, char **argv, send_args_t *args)
     args->repeat = 1;
     args->count = UINT64_MAX;
     args->wait = -1.0;
+    args->pause_seconds = 1.0;
     int status = pgem_lcm_parse_args(&args->lcm, &parser, args, argc, argv);
     if (status != 0) {
         return status;
@@ -482,6 +502,8 @@ typedef struct send_progress {
     double last_line;        /* clock of the last progress line */
     size_t poses;            /* pose messages sent */
     size_t edges;            /* edge messages sent */
+    size_t pause_edges;      /* edge messages sent since the last pause (--pause-every) */
+    size_t pauses;           /* pauses made */
 } send_progress_t;
 
 static void send_progress_line(const send_args_t *args, const send_plan_t *plan,
@@ -529,6 +551,7 @@ static void send_mark_sent(send_context_t *context, size_t index, double now)
         return;
     }
     latency->marks[index].sent = now;
+    latency->marks[index].since_pause = context->pause_end >= 0.0 ? now - context->pause_end : -1.0;
     latency->sent++;
 }
 
@@ -543,6 +566,22 @@ static int send_all(send_context_t *context, const send_args_t *args, send_progr
     progress->start = progress->last_line = pgem_cli_now();
     for (size_t k = 0; k < plan->count; k++) {
         const send_item_t *item = &plan->items[k];
+        if (args->pause_every > 0u && !item->edge && progress->pause_edges >= args->pause_every) {
+            /* silent, as a robot standing still (before a pose: never between a pose and
+             * its edges); the pacing resumes from here */
+            const double from = pgem_cli_now();
+            const int paused = send_pause(context, from + args->pause_seconds);
+            if (paused < 0) {
+                return PGEM_EXIT_FAILURE;
+            }
+            if (paused == 0) {
+                break;
+            }
+            context->pause_end = pgem_cli_now();
+            progress->start += context->pause_end - from;
+            progress->pause_edges = 0;
+            progress->pauses++;
+        }
         /* A message is due when the next edge is: poses travel with the edges after them. */
         int due = args->rate > 0.0
                       ? send_pause(context, progress->start + (double)progress->edges / args->rate)
@@ -570,6 +609,7 @@ static int send_all(send_context_t *context, const send_args_t *args, send_progr
             send_mark_sent(context, item->index, now);
         }
         progress->edges += item->edge != 0;
+        progress->pause_edges += item->edge != 0;
         progress->poses += item->edge == 0;
         send_progress_line(args, plan, progress, now);
     }
@@ -724,7 +764,7 @@ static int send_latency_init(send_latency_t *latency, const pgem_io_graph_t *gra
         return -1;
     }
     for (size_t e = 0; e < graph->edge_count; e++) {
-        latency->marks[e] = (send_mark_t){-1.0, -1.0, 0};
+        latency->marks[e] = (send_mark_t){-1.0, -1.0, 0, -1.0};
     }
     latency->edges = graph->edge_count;
     latency->source = source;
@@ -752,7 +792,7 @@ static int send_latency_csv(const send_args_t *args, const send_context_t *conte
     if (pgem_cli_file_open(&file, SEND_TOOL, args->latency) != 0) {
         return -1;
     }
-    int failed = fprintf(file.stream, "sequence,from,to,latency_ms,solve_id\n") < 0;
+    int failed = fprintf(file.stream, "sequence,from,to,latency_ms,solve_id,since_pause_s\n") < 0;
     for (size_t e = 0; e < latency->edges && !failed; e++) {
         const send_mark_t *mark = &latency->marks[e];
         const pgem_io_edge_t *edge = &context->graph->edges[e];
@@ -762,11 +802,15 @@ static int send_latency_csv(const send_args_t *args, const send_context_t *conte
         failed = fprintf(file.stream, "%zu,%llu,%llu,", e, (unsigned long long)edge->from,
                          (unsigned long long)edge->to) < 0;
         if (mark->seen >= 0.0) {
-            failed |= fprintf(file.stream, "%.3f,%lld\n", 1e3 * (mark->seen - mark->sent),
+            failed |= fprintf(file.stream, "%.3f,%lld,", 1e3 * (mark->seen - mark->sent),
                               (long long)mark->solve_id) < 0;
         } else {
-            failed |= fputs(",\n", file.stream) < 0;
+            failed |= fputs(",,", file.stream) < 0;
         }
+        if (mark->since_pause >= 0.0) {
+            failed |= fprintf(file.stream, "%.3f", mark->since_pause) < 0;
+        }
+        failed |= fputs("\n", file.stream) < 0;
     }
     return (pgem_cli_file_commit(&file, failed) == PGEM_EXIT_OK ? 0 : -1);
 }
@@ -872,6 +916,7 @@ static int send_subscribe(const send_args_t *args, send_context_t *context, send
         pgem_graph_t_subscription_set_queue_capacity(subscriptions->graph, SEND_GRAPH_QUEUE);
     }
     context->receiving = args->wait >= 0.0 || args->latency != NULL;
+    context->pause_end = -1.0;
     return 0;
 }
 
@@ -889,7 +934,7 @@ static void send_unsubscribe(send_context_t *context, send_subscriptions_t *subs
  * (--optimize). Returns a PGEM_EXIT_* code. */
 static int send_and_wait(const send_args_t *args, send_context_t *context, send_wait_t *wait)
 {
-    send_progress_t progress = {0.0, 0.0, 0, 0};
+    send_progress_t progress = {0.0, 0.0, 0, 0, 0, 0};
     int status = send_all(context, args, &progress);
     if (status == PGEM_EXIT_OK) {
         send_summary(args, context->plan, &progress);

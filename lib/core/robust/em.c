@@ -31,7 +31,7 @@ int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
     for (uint32_t round = 1; round <= options->max_rounds; round++) {
         int status = pgem_em_iterate(graph, options, solve, summary, round > 1u && !options->restart,
                                      &progress.largest_change);
-        if (status != PGEM_OK) {
+        if (status != PGEM_OK || pgem_robust_stopped(summary)) {
             return status;
         }
         const uint32_t pruned = pgem_prune(graph, options->prune_threshold);
@@ -61,6 +61,7 @@ int pgem_em_polish(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust
     }
     int status = pgem_optimize(graph, solve, &result);
     summary->gn_iterations += result.iterations;
+    pgem_robust_note_stop(summary, &result);
     return status;
 }
 
@@ -75,7 +76,7 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *later,
     int status = PGEM_OK;
     for (uint32_t pass = 0; status == PGEM_OK; pass++) {
         status = pgem_em_polish(graph, solve, summary);
-        if (status != PGEM_OK) {
+        if (status != PGEM_OK || pgem_robust_stopped(summary)) {
             break;
         }
         if (pass == later->max_rounds) {
@@ -84,6 +85,9 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *later,
         }
         if (pgem_em_gate(graph, later, gate, summary) > 0u) {
             status = pgem_em_rounds(graph, later, solve, summary);
+            if (pgem_robust_stopped(summary)) {
+                break;
+            }
         } else if (!pgem_most_rejected(graph) || pgem_em_leave_run_out(graph, summary, &status) == 0u) {
             pgem_robust_ended(summary, PGEM_ROBUST_CONVERGED);
             break;
@@ -107,14 +111,14 @@ int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
         later.dormant_threshold = 0.0; /* the innovations need the factor of the whole matrix */
     }
     int status = pgem_em_rounds(graph, &first, solve, summary);
-    if (status == PGEM_OK) {
+    if (status == PGEM_OK && !pgem_robust_stopped(summary)) {
         status = pgem_em_passes(graph, &later, solve, summary, gate);
     }
     int rescued = 0;
-    if (status == PGEM_OK && summary->termination != PGEM_ROBUST_STOPPED) {
+    if (status == PGEM_OK && !pgem_robust_stopped(summary)) {
         status = pgem_em_rescue(graph, solve, summary, &rescued);
     }
-    if (status == PGEM_OK && rescued) {
+    if (status == PGEM_OK && rescued && !pgem_robust_stopped(summary)) {
         status = pgem_em_passes(graph, &later, solve, summary, gate);
     }
     return status;

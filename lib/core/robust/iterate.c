@@ -25,6 +25,7 @@ static int pgem_m_step(pgem_t *graph, const pgem_robust_options_t *options,
     int status = pgem_optimize(graph, &inner, &result);
     summary->gn_iterations += result.iterations;
     summary->em_iterations++;
+    pgem_robust_note_stop(summary, &result);
     *settled = fabs(result.initial_chi2 - result.final_chi2) <= 1e-6 * fmax(result.initial_chi2, 1e-300);
     return status;
 }
@@ -52,7 +53,7 @@ int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
             return PGEM_OK;
         }
         status = pgem_m_step(graph, options, solve, summary, &settled);
-        if (status != PGEM_OK) {
+        if (status != PGEM_OK || pgem_robust_stopped(summary)) {
             return status;
         }
     }

@@ -113,6 +113,9 @@ int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust
                                run.length > accepted; attempt++) {
         pgem_run_alone(graph, &run);
         const int status = pgem_em_polish(graph, solve, summary);
+        if (pgem_robust_stopped(summary)) {
+            return status; /* asked to stop: the run is left as it is */
+        }
         if (status == PGEM_OK && pgem_adjustment_consistent(graph)) {
             summary->readmitted += run.length;
             *rescued = 1;

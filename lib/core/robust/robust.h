@@ -72,6 +72,21 @@ static inline void pgem_robust_ended(pgem_robust_summary_t *summary,
     }
 }
 
+/* 1 once the solve was asked to stop (on_round, or the solve options' on_iteration during any
+ * of its Gauss-Newton solves): every method returns at once, the estimate mid-solve. */
+static inline int pgem_robust_stopped(const pgem_robust_summary_t *summary)
+{
+    return summary->termination == PGEM_ROBUST_STOPPED;
+}
+
+/* A Gauss-Newton solve of the method whose iteration callback asked to stop stops the method. */
+static inline void pgem_robust_note_stop(pgem_robust_summary_t *summary, const pgem_summary_t *result)
+{
+    if (result->termination == PGEM_TERM_STOPPED) {
+        summary->termination = PGEM_ROBUST_STOPPED;
+    }
+}
+
 /* The round callback (if any) told of the round just done (progress->largest_change set by
  * the caller); returns 1, the termination PGEM_ROBUST_STOPPED, if it asks to stop. */
 int pgem_report_round(pgem_t *graph, const pgem_robust_options_t *options,
