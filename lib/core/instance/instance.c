@@ -24,9 +24,6 @@ static const char *pgem_config_problem(const pgem_config_t *config)
     if (config->online_fill > (uint32_t)INT32_MAX) {
         return "config.online_fill is above INT32_MAX";
     }
-    if (config->online_fill > (uint32_t)INT32_MAX) {
-        return "config.online_fill is above INT32_MAX";
-    }
     return NULL;
 }
 
