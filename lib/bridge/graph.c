@@ -80,8 +80,8 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
     if (!o->full) { /* the settle's way back: sized once, for the capacities */
         bridge->settle_save_size = pgem_update_save_size(bridge->core);
         bridge->settle_save = malloc(bridge->settle_save_size);
-        bridge->settle_anchored = calloc(poses, 1);
-        bridge->settle_gauge = calloc(poses, 1);
+        bridge->settle_anchored = malloc(poses + 1u);
+        bridge->settle_gauge = malloc(poses + 1u);
         if (bridge->settle_save == NULL || bridge->settle_anchored == NULL ||
             bridge->settle_gauge == NULL) {
             snprintf(message, message_size, "out of memory for %u poses and %u edges",
