@@ -306,22 +306,29 @@ static int keep_iterating(const pgem_iteration_t *iteration, void *user)
     return should_stop(user);
 }
 
-/* What a settle that gives way puts back: the core's part, then the bridge's. */
-static void settle_save(bridge_t *bridge)
+/* The bridge's part of what a settle that gives way puts back (the core's is
+ * pgem_update_save's): the per-pose flags it changes, kept or (back) put back. */
+static void settle_flags(bridge_t *bridge, int back)
 {
     const size_t poses = pgem_pose_count(bridge->core);
+    uint8_t *const live[2] = {bridge->anchored, bridge->gauge_fixed};
+    uint8_t *const kept[2] = {bridge->settle_anchored, bridge->settle_gauge};
+    for (int k = 0; k < 2; ++k) {
+        memcpy(back ? live[k] : kept[k], back ? kept[k] : live[k], poses);
+    }
+}
+
+static void settle_save(bridge_t *bridge)
+{
     pgem_update_save(bridge->core, bridge->settle_save, bridge->settle_save_size);
-    memcpy(bridge->settle_anchored, bridge->anchored, poses);
-    memcpy(bridge->settle_gauge, bridge->gauge_fixed, poses);
+    settle_flags(bridge, 0);
     bridge->settle_solved_poses = bridge->solved_poses;
 }
 
 static void settle_restore(bridge_t *bridge)
 {
-    const size_t poses = pgem_pose_count(bridge->core);
     pgem_update_restore(bridge->core, bridge->settle_save, bridge->settle_save_size);
-    memcpy(bridge->anchored, bridge->settle_anchored, poses);
-    memcpy(bridge->gauge_fixed, bridge->settle_gauge, poses);
+    settle_flags(bridge, 1);
     bridge->solved_poses = bridge->settle_solved_poses;
     bridge->restart_pending = 0;
 }
@@ -454,13 +461,13 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     if (!incremental) {
         bridge_components_hold_lone(bridge);
     }
-    pgem_solve_options_t solve;
-    memset(&solve, 0, sizeof solve);
-    solve.on_iteration = keep_iterating;
-    solve.user = bridge;
+    pgem_solve_options_t give_way; /* a settle that gives way looks after every iteration */
+    memset(&give_way, 0, sizeof give_way);
+    give_way.on_iteration = keep_iterating;
+    give_way.user = bridge;
+    const pgem_solve_options_t *solve = bridge->settle_yields ? &give_way : NULL;
     int status = incremental ? update_solve(bridge, &summary)
-                             : pgem_robust_optimize(bridge->core, &robust,
-                                                    bridge->settle_yields ? &solve : NULL, &summary);
+                             : pgem_robust_optimize(bridge->core, &robust, solve, &summary);
     if (bridge->settle_yields && status == PGEM_OK &&
         summary.termination == PGEM_ROBUST_STOPPED && !bridge->stopping) {
         settle_restore(bridge); /* items arrived: the incremental map goes on from the last update */

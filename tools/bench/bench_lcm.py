@@ -174,20 +174,46 @@ def fresh_log(path: Path) -> Path:
     return path
 
 
-def latency_run(work: Path, name: str, corrupted: Path, rate: float,
-                bridge_args: list[str]) -> dict:
-    bridge = Bridge(fresh_log(work / f"{name}.latency.bridge.log"), extra=bridge_args)
-    csv = work / f"{name}.latency.csv"
+def latency_samples(csv: Path) -> tuple[list[tuple], int, dict[int, float]]:
+    """(latency ms, sequence, from, to, solve id) of the loop closures seen, how many were sent,
+    and by sequence the seconds from the end of the sender's last pause to each send."""
+    samples = []
+    sent = 0
+    since = {}
+    for line in csv.read_text().splitlines()[1:]:
+        fields = line.split(",")
+        sent += 1
+        if len(fields) >= 5 and fields[3] != "":
+            samples.append((float(fields[3]), int(fields[0]), int(fields[1]), int(fields[2]),
+                            int(fields[4])))
+        if len(fields) >= 6 and fields[5] != "":
+            since[int(fields[0])] = float(fields[5])
+    return samples, sent, since
+
+
+def streamed(work: Path, name: str, phase: str, corrupted: Path, rate: float,
+             bridge_args: list[str], sender_args: list[str], extra_seconds: float = 0.0):
+    """The file streamed at `rate` into a fresh bridge, every loop closure's latency measured:
+    (samples, sent, since pause, the sender's stdout, the bridge)."""
+    bridge = Bridge(fresh_log(work / f"{name}.{phase}.bridge.log"), extra=bridge_args)
+    csv = work / f"{name}.{phase}.csv"
     edges = count_edges(corrupted)
-    result = send(corrupted, "--rate", str(rate), "--latency", str(csv), "--wait", "120",
-                  timeout=edges / rate + 300)
+    result = send(corrupted, "--rate", str(rate), *sender_args, "--latency", str(csv),
+                  "--wait", "120", timeout=edges / rate + extra_seconds + 300)
     bridge.stop()
     if result.returncode != 0:
-        raise BenchError(f"{name}: latency run failed:\n{result.stdout}{result.stderr}")
-    samples, sent = latency_samples(csv)
+        raise BenchError(f"{name}: {phase} run failed:\n{result.stdout}{result.stderr}")
+    samples, sent, since = latency_samples(csv)
     if not samples:
         raise BenchError(f"{name}: no latency samples in {csv}")
-    summary = re.search(r"^latency: .*$", result.stdout, re.MULTILINE)
+    return samples, sent, since, result.stdout, bridge
+
+
+def latency_run(work: Path, name: str, corrupted: Path, rate: float,
+                bridge_args: list[str]) -> dict:
+    samples, sent, _, stdout, bridge = streamed(work, name, "latency", corrupted, rate,
+                                                bridge_args, [])
+    summary = re.search(r"^latency: .*$", stdout, re.MULTILINE)
     values = [sample[0] for sample in samples]
     solves = bridge.solve_times()
     return {
@@ -206,40 +232,13 @@ def latency_run(work: Path, name: str, corrupted: Path, rate: float,
     }
 
 
-def latency_samples(csv: Path) -> tuple[list[tuple], int]:
-    """(latency ms, sequence, from, to, solve id) of the loop closures seen, and how many sent."""
-    samples = []
-    sent = 0
-    for line in csv.read_text().splitlines()[1:]:
-        fields = line.split(",")
-        sent += 1
-        if len(fields) >= 5 and fields[3] != "":
-            samples.append((float(fields[3]), int(fields[0]), int(fields[1]), int(fields[2]),
-                            int(fields[4])))
-    return samples, sent
-
-
 def pause_run(work: Path, name: str, corrupted: Path, rate: float, pauses: int,
               seconds: float, bridge_args: list[str]) -> dict:
     """The stream with the sender silent `pauses` times (pgem-lcm-send --pause-every)."""
-    bridge = Bridge(fresh_log(work / f"{name}.pause.bridge.log"), extra=bridge_args)
-    csv = work / f"{name}.pause.csv"
-    edges = count_edges(corrupted)
-    every_n = max(1, edges // (pauses + 1))
-    result = send(corrupted, "--rate", str(rate), "--pause-every", str(every_n), "--pause",
-                  str(seconds), "--latency", str(csv), "--wait", "120",
-                  timeout=edges / rate + pauses * seconds + 300)
-    bridge.stop()
-    if result.returncode != 0:
-        raise BenchError(f"{name}: pause run failed:\n{result.stdout}{result.stderr}")
-    samples, sent = latency_samples(csv)
-    if not samples:
-        raise BenchError(f"{name}: no latency samples in {csv}")
-    since = {}
-    for line in csv.read_text().splitlines()[1:]:
-        fields = line.split(",")
-        if len(fields) >= 6 and fields[5] != "":
-            since[int(fields[0])] = float(fields[5])
+    every_n = max(1, count_edges(corrupted) // (pauses + 1))
+    samples, sent, since, _, bridge = streamed(
+        work, name, "pause", corrupted, rate, bridge_args,
+        ["--pause-every", str(every_n), "--pause", str(seconds)], pauses * seconds)
     log = bridge.log_path.read_text()
     values = [sample[0] for sample in samples]
     late = [sample[0] for sample in samples if since.get(sample[1], 1e9) < 2.0]

@@ -503,7 +503,6 @@ typedef struct send_progress {
     size_t poses;            /* pose messages sent */
     size_t edges;            /* edge messages sent */
     size_t pause_edges;      /* edge messages sent since the last pause (--pause-every) */
-    size_t pauses;           /* pauses made */
 } send_progress_t;
 
 static void send_progress_line(const send_args_t *args, const send_plan_t *plan,
@@ -580,7 +579,6 @@ static int send_all(send_context_t *context, const send_args_t *args, send_progr
             context->pause_end = pgem_cli_now();
             progress->start += context->pause_end - from;
             progress->pause_edges = 0;
-            progress->pauses++;
         }
         /* A message is due when the next edge is: poses travel with the edges after them. */
         int due = args->rate > 0.0
@@ -934,7 +932,7 @@ static void send_unsubscribe(send_context_t *context, send_subscriptions_t *subs
  * (--optimize). Returns a PGEM_EXIT_* code. */
 static int send_and_wait(const send_args_t *args, send_context_t *context, send_wait_t *wait)
 {
-    send_progress_t progress = {0.0, 0.0, 0, 0, 0, 0};
+    send_progress_t progress = {0.0, 0.0, 0, 0, 0};
     int status = send_all(context, args, &progress);
     if (status == PGEM_EXIT_OK) {
         send_summary(args, context->plan, &progress);

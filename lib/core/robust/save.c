@@ -17,25 +17,45 @@ typedef struct pgem_saved_header {
     int32_t online_ready;
 } pgem_saved_header_t;
 
-static size_t pgem_saved_bytes(const pgem_t *graph, uint32_t poses, uint32_t edges)
+/* The saved arrays in buffer order after the header, for `poses` poses and `edges` edges: per
+ * pose its value and held flag, per edge its weight, state, last distance and check. Returns
+ * the bytes of header and arrays. */
+#define PGEM_SAVED_FIELDS 6
+static size_t pgem_saved_layout(const pgem_t *graph, size_t poses, size_t edges,
+                                unsigned char *fields[PGEM_SAVED_FIELDS],
+                                size_t lengths[PGEM_SAVED_FIELDS])
 {
-    const size_t per_pose = (size_t)graph->pose_size * sizeof(double) + 1u;
-    const size_t per_edge = 2u * sizeof(double) + 2u;
-    return sizeof(pgem_saved_header_t) + (size_t)poses * per_pose + (size_t)edges * per_edge;
+    unsigned char *const arrays[PGEM_SAVED_FIELDS] = {
+        (unsigned char *)graph->store.pose, graph->store.pose_fixed,
+        (unsigned char *)graph->store.edge_weight, graph->store.edge_active,
+        (unsigned char *)graph->robust.edge_distance, graph->robust.edge_checked};
+    const size_t bytes[PGEM_SAVED_FIELDS] = {poses * (size_t)graph->pose_size * sizeof(double),
+                                             poses, edges * sizeof(double), edges,
+                                             edges * sizeof(double), edges};
+    size_t total = sizeof(pgem_saved_header_t);
+    for (int f = 0; f < PGEM_SAVED_FIELDS; f++) {
+        fields[f] = arrays[f];
+        lengths[f] = bytes[f];
+        total += bytes[f];
+    }
+    return total;
 }
 
-/* Copies the arrays between the instance and the buffer, in buffer order after the header:
- * per pose its value and held flag, per edge its weight, state, last distance and check. */
+static size_t pgem_saved_bytes(const pgem_t *graph, size_t poses, size_t edges)
+{
+    unsigned char *fields[PGEM_SAVED_FIELDS];
+    size_t lengths[PGEM_SAVED_FIELDS];
+    return pgem_saved_layout(graph, poses, edges, fields, lengths);
+}
+
+/* Copies the arrays of the graph as it is between the instance and the buffer. */
 static void pgem_saved_copy(const pgem_t *graph, unsigned char *to_buffer, const unsigned char *from_buffer)
 {
-    const size_t poses = graph->store.pose_count, edges = graph->store.edge_count;
-    unsigned char *fields[6] = {(unsigned char *)graph->store.pose, graph->store.pose_fixed,
-                                (unsigned char *)graph->store.edge_weight, graph->store.edge_active,
-                                (unsigned char *)graph->robust.edge_distance, graph->robust.edge_checked};
-    const size_t lengths[6] = {poses * (size_t)graph->pose_size * sizeof(double), poses,
-                               edges * sizeof(double), edges, edges * sizeof(double), edges};
+    unsigned char *fields[PGEM_SAVED_FIELDS];
+    size_t lengths[PGEM_SAVED_FIELDS];
+    (void)pgem_saved_layout(graph, graph->store.pose_count, graph->store.edge_count, fields, lengths);
     size_t at = sizeof(pgem_saved_header_t);
-    for (int f = 0; f < 6; f++) {
+    for (int f = 0; f < PGEM_SAVED_FIELDS; f++) {
         if (to_buffer != NULL) {
             memcpy(to_buffer + at, fields[f], lengths[f]);
         } else {
