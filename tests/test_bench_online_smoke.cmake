@@ -2,8 +2,8 @@
 # clean and with 100 random false loops and KITTI 09 at alpha 1.00 into pgem-online-driver (one
 # update per 100 poses), next to each cell's batch optimum. The report must hold one batch row
 # and one pgem row per cell with its update count, the streamed final estimates at the batch
-# optimum's chi2 with the batch EM's precision and recall, the incremental mode reported as
-# missing from this build, and the targets.
+# optimum's chi2 with the batch EM's precision and recall, for the full re-solve and the
+# incremental update alike, and the targets.
 # Run by CTest as:
 #   cmake -DPYTHON=<python3> -DBENCH=<bench_online.py> -DPGEM=<pgem> -DOUT=<report.md>
 #         [-DDATASETS=<dir>] -P test_bench_online_smoke.cmake

@@ -1,7 +1,8 @@
 /* pgem_update, the incremental solve: a stream ends (after the settle solve) at the batch
  * optimum in 2D and 3D and is close to it before; odometry touches only the newest columns;
- * updates allocate nothing; a pruned loop comes back; a stopped batch solve is undone and the
- * updates go on from the factor; clear errors. */
+ * updates allocate nothing; a pruned loop comes back; refactoring what a relinearisation
+ * changes gives what rank updates give; relinearize_skip; a stopped batch solve is undone and
+ * the updates go on from the factor; clear errors. */
 #include "test_util.h"
 
 #include "test_alloc_counters.h"
@@ -272,6 +273,7 @@ static void test_pruned_loop_comes_back(void **state)
     pgem_update_options_t options;
     memset(&options, 0, sizeof options);
     options.robust = 1;
+    options.relinearize_skip = 1; /* the next update relinearises the pose */
     double information[9], z[3], guess[3];
     test_diagonal_information(3, 400.0, information);
     walk_truth(2, 40, s.truth + 3 * 40);
@@ -298,6 +300,99 @@ static void test_pruned_loop_comes_back(void **state)
     assert_int_equal(view.active, 1);
     assert_true(view.weight == 1.0);
     pgem_destroy(graph);
+}
+
+/* Twin streams updated with two sets of options from pose 30 on; what each update did into
+ * the arrays, the graphs' poses compared after every update. */
+typedef struct twin_record {
+    uint32_t relinearized[2][200];
+    uint32_t rank_updates[2];
+    int rebuilt[2][200];
+} twin_record_t;
+
+static void stream_twins(const pgem_update_options_t *oa, const pgem_update_options_t *ob,
+                         double tolerance, twin_record_t *record)
+{
+    static stream_t sa, sb;
+    pgem_t *a = stream_to(&sa, 2, 30), *b = stream_to(&sb, 2, 30);
+    memset(record, 0, sizeof *record);
+    for (int k = 30; k < 230; k++) {
+        stream_add(a, &sa, k);
+        stream_add(b, &sb, k);
+        pgem_update_summary_t ua, ub;
+        assert_int_equal(pgem_update(a, oa, &ua), PGEM_OK);
+        assert_int_equal(pgem_update(b, ob, &ub), PGEM_OK);
+        record->relinearized[0][k - 30] = ua.relinearized;
+        record->relinearized[1][k - 30] = ub.relinearized;
+        record->rebuilt[0][k - 30] = ua.rebuilt;
+        record->rebuilt[1][k - 30] = ub.rebuilt;
+        record->rank_updates[0] += ua.rank_updates;
+        record->rank_updates[1] += ub.rank_updates;
+        for (uint32_t i = 0; tolerance >= 0.0 && i < pgem_pose_count(a); i++) {
+            double pa[3], pb[3];
+            pgem_id_t id = 0;
+            assert_int_equal(pgem_pose_at(a, i, &id, pa, NULL), PGEM_OK);
+            assert_int_equal(pgem_pose_at(b, i, &id, pb, NULL), PGEM_OK);
+            for (int d = 0; d < 3; d++) {
+                assert_true(fabs(pa[d] - pb[d]) <= tolerance);
+            }
+        }
+    }
+    pgem_destroy(a);
+    pgem_destroy(b);
+}
+
+/* Relinearising by refactoring the columns it changes (relinearize_limit 1 forces it) gives
+ * the estimate the rank updates give, with fewer rank updates. */
+static void test_refactor_matches_rank_updates(void **state)
+{
+    (void)state;
+    pgem_update_options_t rank, refactor;
+    memset(&rank, 0, sizeof rank);
+    rank.relinearize_threshold = 1e-3; /* many small relinearisations */
+    rank.relinearize_skip = 1;
+    rank.reorder_growth = 100.0; /* no rebuild in between to hide the difference */
+    refactor = rank;
+    refactor.relinearize_limit = 1;
+    static twin_record_t record;
+    stream_twins(&rank, &refactor, 1e-9, &record);
+    uint32_t relinearized = 0;
+    for (int u = 0; u < 200; u++) {
+        assert_int_equal(record.relinearized[0][u], record.relinearized[1][u]);
+        relinearized += record.relinearized[0][u];
+    }
+    assert_true(relinearized > 100u);
+    assert_true(record.rank_updates[1] < record.rank_updates[0]);
+}
+
+/* relinearize_skip: poses are relinearised on every skip-th update after a rebuild only; with
+ * 1, on any update. */
+static void test_relinearize_skip(void **state)
+{
+    (void)state;
+    pgem_update_options_t every, skipping;
+    memset(&every, 0, sizeof every);
+    every.relinearize_threshold = 1e-3;
+    every.relinearize_skip = 1;
+    skipping = every;
+    skipping.relinearize_skip = 0; /* 10 */
+    static twin_record_t record;
+    stream_twins(&every, &skipping, -1.0, &record);
+    int since = -1, skipped = 0, relinearising[2] = {0, 0}; /* updates since b's last rebuild */
+    for (int u = 0; u < 200; u++) {
+        since = record.rebuilt[1][u] ? 0 : since < 0 ? -1 : since + 1;
+        if (since > 0 && record.relinearized[1][u] > 0u) {
+            assert_int_equal(since % 10, 0);
+            relinearising[1]++;
+        }
+        if (!record.rebuilt[0][u] && record.relinearized[0][u] > 0u) {
+            relinearising[0]++;
+            skipped += since > 0 && since % 10 != 0;
+        }
+    }
+    assert_true(relinearising[1] >= 5);
+    assert_true(skipped >= 20); /* with skip 1, the updates in between relinearise too */
+    assert_true(relinearising[0] > 2 * relinearising[1]);
 }
 
 /* Stops after the first Gauss-Newton iteration: a settle solve that gives way to new data. */
@@ -423,6 +518,8 @@ int main(void)
         cmocka_unit_test(test_no_allocation),
 #endif
         cmocka_unit_test(test_pruned_loop_comes_back),
+        cmocka_unit_test(test_refactor_matches_rank_updates),
+        cmocka_unit_test(test_relinearize_skip),
         cmocka_unit_test(test_settle_undone),
         cmocka_unit_test(test_errors),
     };

@@ -19,18 +19,29 @@ typedef struct pgem_update_options {
                                        the map's units); 0 means 0.1; negative: every update
                                        relinearises every pose that moved */
     double reorder_growth;        /**< the factor is re-ordered, relinearised and refactored
-                                       whole once its blocks exceed this many times those of
-                                       the last such rebuild, plus reorder_slack; 0 means 1.5 */
+                                       whole once the blocks of its pattern exceed this many
+                                       times those of the last such rebuild, plus
+                                       reorder_slack; 0 means 1.5 (the room columns keep to
+                                       grow in is not counted: when the pool runs out of
+                                       room, the update rebuilds to pack it) */
     uint32_t reorder_slack;       /**< blocks added to that bound (0 means 64 per 1000 poses
                                        of capacity, at least 256) */
     double wildfire_threshold;    /**< the back-substitution recomputes a pose's step only when
                                        the update touched its column or a step it depends on
                                        changed by more than this (iSAM2's "wildfire"); 0 means
                                        1e-3 (iSAM2's default); negative: every step, every update */
-    uint32_t relinearize_limit;   /**< the update rebuilds instead of relinearising when the
-                                       rank updates of the poses due would cost more than a
-                                       rebuild (estimated from the paths' blocks) or, if not 0,
-                                       more than this many poses are due */
+    uint32_t relinearize_limit;   /**< relinearising refactors the columns it changes (in
+                                       place, on the present pattern) instead of applying rank
+                                       updates when those would cost more (estimated from the
+                                       paths' blocks) or, if not 0, when more than this many
+                                       poses are due */
+    uint32_t relinearize_skip;    /**< poses are relinearised on every this-many-th update
+                                       only (iSAM2's relinearizeSkip), or sooner once this
+                                       many poses arrived since they last were (so updates
+                                       that each add many poses relinearise every time); in
+                                       between, the steps are taken from the same
+                                       linearisation points; 0 means 10 (iSAM2's default),
+                                       1: every update */
     uint32_t recent_last;         /**< a rebuild's ordering puts this many of the newest poses
                                        last, in arrival order; 0 means 8 */
     int robust;                   /**< 1: a new loop closure enters only if it passes the

@@ -62,7 +62,10 @@ static void online_usage(FILE *out)
             "\n"
             "  --mode full         what the LCM bridge does on every solve: EM on the whole graph,\n"
             "                      warm-started from the previous estimate (default)\n"
-            "  --mode incremental  the library's incremental update (refused by this build)\n"
+            "  --mode incremental  pgem_update after every pose (the robust gate on new loop\n"
+            "                      closures), then pgem_update_settle (EM) at the end of the\n"
+            "                      stream; the JSON lines add columns_touched, relinearized,\n"
+            "                      rebuilt, loops_accepted, loops_rejected, readmitted\n"
             "  --every N           one update per N poses and after the last (default 1)\n"
             "  --fill-budget N     factor nonzeros the block holds (default: the core's, as the\n"
             "                      bridge)\n"
@@ -75,7 +78,7 @@ static void online_usage(FILE *out)
             "  --quiet             no progress lines on stderr\n"
             "\n"
             "Exit codes: 0 streamed, 1 the input was rejected or the last update failed, 2 bad\n"
-            "command line (or a mode this build lacks), 3 a file could not be read or written.\n");
+            "command line, 3 a file could not be read or written.\n");
 }
 
 static const online_mode_t *online_find_mode(const char *name)

@@ -27,10 +27,12 @@ typedef struct pgem_online {
     uint32_t poses_linked;    /* poses with pose_edge and lin set up */
     uint32_t edges_linked;    /* edges on their poses' lists */
     uint32_t pool_blocks;     /* b x b blocks in the pool */
-    uint32_t pool_used;       /* blocks handed out (holes of moved columns included) */
-    uint32_t packed_blocks;   /* blocks the last rebuild needed, packed */
-    double rebuild_work;      /* sum over the columns of (blocks)^2 at the last rebuild */
+    uint32_t pool_used;       /* blocks handed out (holes of moved columns and room included) */
+    uint32_t live_blocks;     /* blocks of the columns' patterns: the factor's size */
+    uint32_t packed_blocks;   /* live_blocks after the last rebuild */
     uint32_t updates;         /* pgem_update calls that changed the factor since the rebuild */
+    uint32_t skipped;         /* updates since poses were last relinearised (or the rebuild) */
+    uint32_t skipped_poses;   /* poses added since then */
     int full;                 /* 1: a column could not grow (the pool is full): rebuild */
     int *pose_column;         /* [max_poses] block column of each pose, -1 (held, or not yet in) */
     int *column_pose;         /* [max_poses] pose of each block column */
@@ -110,8 +112,17 @@ int pgem_online_append(struct pgem *graph, uint32_t p, double seed);
 int pgem_online_cholesky(double *d, int n);
 /* Pool block of block row i in column j (its diagonal block for i == j), or -1. */
 int pgem_online_find(const pgem_online_t *online, int j, int i);
-/* forward = L^-1 forward over every column (a rebuild's, forward holding -J^T W e). */
-void pgem_online_forward(struct pgem *graph);
+/* Marks touched the columns whose values relinearising the `count` poses listed changes
+ * (theirs, their neighbours' and all their ancestors) and lists them in online->adjacent;
+ * returns how many, and in *work the cost of refactoring them (the sum over the columns of
+ * the squared number of blocks they update there: blocks updated, x b^3 flops). */
+int pgem_online_affected(struct pgem *graph, const int *poses, int count, double *work);
+/* Takes those `count` marks off again. */
+void pgem_online_unaffected(struct pgem *graph, int count);
+/* Refactors the `count` columns pgem_online_affected marked at lin, in place on the present
+ * pattern and from the present values of the other columns, with their part of forward.
+ * PGEM_OK or PGEM_ERR_NOT_POSITIVE_DEFINITE (online->ready cleared). */
+int pgem_online_refactor(struct pgem *graph, int count);
 /* delta = L^-T forward from the roots down, recomputing a column when it was touched by this
  * update or a row's step changed by more than tolerance (negative: every column); the
  * recomputed columns into online->recomputed. */

@@ -60,6 +60,7 @@ static int pgem_online_grow(pgem_online_t *online, int j, const int *add, int m)
         }
     }
     online->count[j] = count + m;
+    online->live_blocks += (uint32_t)m;
     if (online->parent[j] != rows[0]) {
         pgem_online_set_parent(online, j, rows[0]);
     }
@@ -252,6 +253,7 @@ int pgem_online_append(pgem_t *graph, uint32_t p, double seed)
     online->start[j] = (int)online->pool_used;
     online->pool_used += (uint32_t)room + 1u;
     online->count[j] = 0;
+    online->live_blocks += 1u;
     online->capacity[j] = room;
     online->parent[j] = -2; /* not linked yet */
     online->child[j] = -1;
@@ -271,17 +273,6 @@ int pgem_online_append(pgem_t *graph, uint32_t p, double seed)
     return PGEM_OK;
 }
 
-/* x = D^-1 x for a lower triangular diagonal block stored by column. */
-static void pgem_online_lower_solve(const double *diagonal, int b, double *x)
-{
-    for (int c = 0; c < b; c++) {
-        x[c] /= diagonal[c * b + c];
-        for (int r = c + 1; r < b; r++) {
-            x[r] -= diagonal[c * b + r] * x[c];
-        }
-    }
-}
-
 /* x = D^-T x. */
 static void pgem_online_upper_solve(const double *diagonal, int b, double *x)
 {
@@ -291,26 +282,6 @@ static void pgem_online_upper_solve(const double *diagonal, int b, double *x)
             sum -= diagonal[c * b + r] * x[r];
         }
         x[c] = sum / diagonal[c * b + c];
-    }
-}
-
-void pgem_online_forward(pgem_t *graph)
-{
-    pgem_online_t *online = &graph->online;
-    const int b = online->block;
-    double *y = online->forward;
-    for (int j = 0; j < online->columns; j++) {
-        double *x = y + (size_t)j * (size_t)b;
-        pgem_online_lower_solve(pgem_online_block(online, online->start[j]), b, x);
-        for (int q = 1; q <= online->count[j]; q++) {
-            const double *block = pgem_online_block(online, online->start[j] + q);
-            double *target = y + (size_t)online->rows[online->start[j] + q] * (size_t)b;
-            for (int c = 0; c < b; c++) {
-                for (int r = 0; r < b; r++) {
-                    target[r] -= block[c * b + r] * x[c];
-                }
-            }
-        }
     }
 }
 

@@ -159,7 +159,7 @@ static int pgem_online_symbolic(pgem_t *graph, int columns)
 {
     pgem_online_t *online = &graph->online;
     int *children = online->head, *sibling = online->next, *gather = online->position;
-    uint64_t used = 0;
+    uint64_t used = 0, live = 0;
     for (int j = 0; j < columns; j++) {
         children[j] = -1;
         online->mark[j] = -1;
@@ -196,6 +196,7 @@ static int pgem_online_symbolic(pgem_t *graph, int columns)
         online->start[j] = (int)used;
         online->count[j] = count;
         online->capacity[j] = room;
+        live += (uint64_t)count + 1u;
         online->rows[used] = j;
         memcpy(online->rows + used + 1u, gather, (size_t)count * sizeof(int));
         used += (uint64_t)room + 1u;
@@ -214,55 +215,97 @@ static int pgem_online_symbolic(pgem_t *graph, int columns)
         return PGEM_ERR_FILL_BUDGET;
     }
     online->pool_used = (uint32_t)used;
+    online->live_blocks = (uint32_t)live;
     return PGEM_OK;
 }
 
-/* Adds H's blocks of every edge in the system at lin, and its gradient, negated, into forward. */
+/* 1 if column j is refactored: every column (partial 0), else those this update touched. */
+static int pgem_online_in(const pgem_online_t *online, int j, int partial)
+{
+    return j >= 0 && (!partial || online->touched[j] == online->stamp);
+}
+
+/* Adds edge k at lin to the columns being refactored: H's blocks into their pool blocks, the
+ * gradient, negated, into forward. */
+static void pgem_online_add_edge(pgem_t *graph, uint32_t k, int partial)
+{
+    pgem_online_t *online = &graph->online;
+    const int b = online->block;
+    const size_t bb = (size_t)b * (size_t)b, size = (size_t)graph->pose_size;
+    const double w = online->edge_weight_in[k];
+    const int ends[2] = {online->pose_column[graph->store.edge_from[k]],
+                         online->pose_column[graph->store.edge_to[k]]};
+    if (!(w > 0.0) || (!pgem_online_in(online, ends[0], partial) &&
+                       !pgem_online_in(online, ends[1], partial))) {
+        return;
+    }
+    double a[2][PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {{0.0}};
+    double r[PGEM_TANGENT_SIZE_MAX] = {0.0};
+    pgem_online_edge(graph, k, online->lin + graph->store.edge_from[k] * size,
+                     online->lin + graph->store.edge_to[k] * size, w, a[0], a[1], r);
+    for (int s = 0; s < 2; s++) {
+        if (!pgem_online_in(online, ends[s], partial)) {
+            continue; /* the blocks of column ends[s] */
+        }
+        for (int t = 0; t < 2; t++) {
+            if (ends[t] < ends[s]) {
+                continue;
+            }
+            /* block (row ends[t], column ends[s]) += A_t^T A_s */
+            const int q = ends[s] == ends[t] ? online->start[ends[s]]
+                                             : pgem_online_find(online, ends[s], ends[t]);
+            double *block = online->values + (size_t)q * bb;
+            for (int c = 0; c < b; c++) {
+                for (int row = (s == t ? c : 0); row < b; row++) {
+                    double sum = 0.0;
+                    for (int m = 0; m < b; m++) {
+                        sum += a[t][m * b + row] * a[s][m * b + c];
+                    }
+                    block[c * b + row] += sum;
+                }
+            }
+        }
+        double *g = online->forward + (size_t)ends[s] * (size_t)b;
+        for (int c = 0; c < b; c++) {
+            for (int m = 0; m < b; m++) {
+                g[c] -= a[s][m * b + c] * r[m];
+            }
+        }
+    }
+}
+
+/* Every edge of the system into the zeroed factor. */
 static void pgem_online_assemble(pgem_t *graph, int columns)
+{
+    pgem_online_t *online = &graph->online;
+    const size_t bb = (size_t)online->block * (size_t)online->block;
+    memset(online->values, 0, (size_t)online->pool_used * bb * sizeof(double));
+    memset(online->forward, 0, (size_t)columns * (size_t)online->block * sizeof(double));
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        pgem_online_add_edge(graph, k, 0);
+    }
+}
+
+/* The edges of the touched columns (the `count` listed) into those columns, zeroed first;
+ * an edge with both ends touched is added once, from its lower column. */
+static void pgem_online_assemble_touched(pgem_t *graph, const int *touched, int count)
 {
     pgem_online_t *online = &graph->online;
     const int b = online->block;
     const size_t bb = (size_t)b * (size_t)b;
-    memset(online->values, 0, (size_t)online->pool_used * bb * sizeof(double));
-    memset(online->forward, 0, (size_t)columns * (size_t)b * sizeof(double));
-    double a[2][PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {{0.0}};
-    double r[PGEM_TANGENT_SIZE_MAX] = {0.0};
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        const double w = online->edge_weight_in[k];
-        const int ends[2] = {online->pose_column[graph->store.edge_from[k]],
-                             online->pose_column[graph->store.edge_to[k]]};
-        if (!(w > 0.0) || (ends[0] < 0 && ends[1] < 0)) {
-            continue;
-        }
-        const size_t size = (size_t)graph->pose_size;
-        pgem_online_edge(graph, k, online->lin + graph->store.edge_from[k] * size,
-                         online->lin + graph->store.edge_to[k] * size, w, a[0], a[1], r);
-        for (int s = 0; s < 2; s++) {
-            for (int t = 0; t < 2; t++) {
-                if (ends[s] < 0 || ends[t] < ends[s]) {
-                    continue;
-                }
-                /* block (row ends[t], column ends[s]) += A_t^T A_s */
-                const int q = ends[s] == ends[t] ? online->start[ends[s]]
-                                                 : pgem_online_find(online, ends[s], ends[t]);
-                double *block = online->values + (size_t)q * bb;
-                for (int c = 0; c < b; c++) {
-                    for (int row = (s == t ? c : 0); row < b; row++) {
-                        double sum = 0.0;
-                        for (int m = 0; m < b; m++) {
-                            sum += a[t][m * b + row] * a[s][m * b + c];
-                        }
-                        block[c * b + row] += sum;
-                    }
-                }
-            }
-            if (ends[s] >= 0) {
-                double *g = online->forward + (size_t)ends[s] * (size_t)b;
-                for (int c = 0; c < b; c++) {
-                    for (int m = 0; m < b; m++) {
-                        g[c] -= a[s][m * b + c] * r[m];
-                    }
-                }
+    for (int t = 0; t < count; t++) {
+        const int j = touched[t];
+        memset(online->values + (size_t)online->start[j] * bb, 0,
+               (size_t)(online->count[j] + 1) * bb * sizeof(double));
+        memset(online->forward + (size_t)j * (size_t)b, 0, (size_t)b * sizeof(double));
+    }
+    for (int t = 0; t < count; t++) {
+        const int j = touched[t];
+        for (int end = online->pose_edge[online->column_pose[j]]; end >= 0;
+             end = online->edge_next[end]) {
+            const int other = online->pose_column[pgem_online_other(graph, end)];
+            if (!pgem_online_in(online, other, 1) || j < other) {
+                pgem_online_add_edge(graph, (uint32_t)end / 2u, 1);
             }
         }
     }
@@ -326,19 +369,53 @@ static void pgem_online_subtract(double *target, const double *lid, const double
     }
 }
 
-/* Left-looking block factorisation of the assembled columns. */
-static int pgem_online_numeric(pgem_t *graph, int columns)
+/* forward's rows of column j's blocks from block q on -= L(rows, j) forward_j. */
+static void pgem_online_propagate(pgem_online_t *online, int j, int q)
+{
+    const int b = online->block;
+    const size_t bb = (size_t)b * (size_t)b;
+    const double *x = online->forward + (size_t)j * (size_t)b;
+    for (const int end = online->start[j] + online->count[j]; q <= end; q++) {
+        const double *block = online->values + (size_t)q * bb;
+        double *target = online->forward + (size_t)online->rows[q] * (size_t)b;
+        for (int c = 0; c < b; c++) {
+            for (int r = 0; r < b; r++) {
+                target[r] -= block[c * b + r] * x[c];
+            }
+        }
+    }
+}
+
+/* Left-looking block factorisation of the assembled columns (partial: only the touched
+ * ones, from the present values of the others), with the forward solve L y = forward over
+ * the same columns. Column d waits in the list of the next row it updates (head, next,
+ * position); the rows of an untouched column that are touched are the last ones (they are
+ * its ancestors, and the touched columns are closed towards the root). */
+static int pgem_online_numeric(pgem_t *graph, int columns, int partial)
 {
     pgem_online_t *online = &graph->online;
     const int b = online->block;
     const size_t bb = (size_t)b * (size_t)b;
-    int *head = online->head, *next = online->next, *position = online->position;
+    int *head = online->adjacent_start, *next = online->next, *position = online->position;
     int *map = online->list;
     for (int j = 0; j < columns; j++) {
         head[j] = -1;
     }
     for (int j = 0; j < columns; j++) {
         const int first = online->start[j];
+        if (!pgem_online_in(online, j, partial)) {
+            int q = first + online->count[j] + 1;
+            while (q > first + 1 && pgem_online_in(online, online->rows[q - 1], partial)) {
+                q--;
+            }
+            if (q <= first + online->count[j]) { /* its factor stays; it updates rows q.. */
+                position[j] = q;
+                next[j] = head[online->rows[q]];
+                head[online->rows[q]] = j;
+                pgem_online_propagate(online, j, q);
+            }
+            continue;
+        }
         for (int q = 0; q <= online->count[j]; q++) {
             map[online->rows[first + q]] = first + q;
         }
@@ -386,6 +463,14 @@ static int pgem_online_numeric(pgem_t *graph, int columns)
             next[j] = head[row];
             head[row] = j;
         }
+        double *x = online->forward + (size_t)j * (size_t)b; /* x = D^-1 x */
+        for (int c = 0; c < b; c++) {
+            x[c] /= diagonal[c * b + c];
+            for (int r = c + 1; r < b; r++) {
+                x[r] -= diagonal[c * b + r] * x[c];
+            }
+        }
+        pgem_online_propagate(online, j, first + 1);
     }
     return PGEM_OK;
 }
@@ -428,22 +513,78 @@ int pgem_online_rebuild(pgem_t *graph, int recent)
         online->columns = 0;
         return status;
     }
-    online->packed_blocks = online->pool_used;
-    online->rebuild_work = 0.0;
-    for (int j = 0; j < columns; j++) {
-        const double blocks = (double)online->count[j] + 1.0;
-        online->rebuild_work += blocks * blocks;
-    }
+    online->packed_blocks = online->live_blocks;
     pgem_online_link_tree(online);
     memset(online->delta, 0, (size_t)columns * (size_t)online->block * sizeof(double));
     pgem_online_assemble(graph, columns);
-    status = pgem_online_numeric(graph, columns);
+    status = pgem_online_numeric(graph, columns, 0);
     if (status != PGEM_OK) {
         online->columns = 0;
         return status;
     }
-    pgem_online_forward(graph);
     online->last.columns_touched += (uint32_t)columns;
     online->ready = 1;
+    return PGEM_OK;
+}
+
+/* Marks column j and its ancestors touched, listing the new ones; returns how many. */
+static int pgem_online_touch_path(pgem_online_t *online, int j, int *list, int count)
+{
+    for (; j >= 0 && online->touched[j] != online->stamp; j = online->parent[j]) {
+        online->touched[j] = online->stamp;
+        list[count++] = j;
+    }
+    return count;
+}
+
+int pgem_online_affected(pgem_t *graph, const int *poses, int count, double *work)
+{
+    pgem_online_t *online = &graph->online;
+    int *list = online->adjacent, marked = 0;
+    for (int m = 0; m < count; m++) {
+        const uint32_t p = (uint32_t)poses[m];
+        marked = pgem_online_touch_path(online, online->pose_column[p], list, marked);
+        for (int end = online->pose_edge[p]; end >= 0; end = online->edge_next[end]) {
+            if (online->edge_weight_in[end / 2] > 0.0) {
+                marked = pgem_online_touch_path(
+                    online, online->pose_column[pgem_online_other(graph, end)], list, marked);
+            }
+        }
+    }
+    double sum = 0.0;
+    for (int j = 0; j < online->columns && marked > 0; j++) {
+        const int first = online->start[j];
+        int q = first + online->count[j] + 1;
+        if (online->touched[j] == online->stamp) {
+            q = first;
+        }
+        while (q > first + 1 && online->touched[online->rows[q - 1]] == online->stamp) {
+            q--;
+        }
+        const double blocks = (double)(first + online->count[j] + 1 - q);
+        sum += blocks * blocks;
+    }
+    *work = sum;
+    return marked;
+}
+
+void pgem_online_unaffected(pgem_t *graph, int count)
+{
+    pgem_online_t *online = &graph->online;
+    for (int t = 0; t < count; t++) {
+        online->touched[online->adjacent[t]] = 0; /* stamps start at 1 */
+    }
+}
+
+int pgem_online_refactor(pgem_t *graph, int count)
+{
+    pgem_online_t *online = &graph->online;
+    pgem_online_assemble_touched(graph, online->adjacent, count);
+    const int status = pgem_online_numeric(graph, online->columns, 1);
+    if (status != PGEM_OK) {
+        online->ready = 0;
+        return status;
+    }
+    online->last.columns_touched += (uint32_t)count;
     return PGEM_OK;
 }
