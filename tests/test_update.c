@@ -490,6 +490,133 @@ static void test_settle_undone(void **state)
     pgem_destroy(b);
 }
 
+/* A false loop from pose a to pose b: the true relative pose shifted by (3 m, -2 m, 1 rad),
+ * as certain as a true loop. */
+static void add_false_loop(pgem_t *graph, stream_t *s, int a, int b)
+{
+    double z[3], shifted[3], information[9];
+    const double shift[3] = {3.0, -2.0, 1.0};
+    test_diagonal_information(3, 400.0, information);
+    pgem_se2_between(s->truth + 3 * a, s->truth + 3 * b, z);
+    pgem_se2_compose(z, shift, shifted);
+    assert_int_equal(pgem_add_edge(graph, (pgem_id_t)a, (pgem_id_t)b, shifted, information,
+                                   PGEM_EDGE_LOOP, NULL), PGEM_OK);
+}
+
+/* 1 if edge k is one of the false loops the adoption test adds (a loop not 30 poses long). */
+static int is_false_loop(const pgem_t *graph, uint32_t k)
+{
+    pgem_edge_view_t view;
+    assert_int_equal(pgem_edge_at(graph, k, &view), PGEM_OK);
+    return view.kind == PGEM_EDGE_LOOP && view.to - view.from != 30u;
+}
+
+/* A whole-graph EM pass on a copy taken at pose 150 of a stream with false loops (one of them
+ * let in without the gate, so the updates' map is bent), adopted after 40 more updates: the
+ * poses the pass held are its, the later ones keep their place relative to the pass's newest
+ * pose, every verdict the pass made is taken (the bending loop pruned), the loops added since
+ * are judged again, the next update rebuilds, nothing is allocated, and at the end every true
+ * loop is in and every false one out. A pass that is not a prefix is refused and changes
+ * nothing; a graph without the incremental factor's room is refused. */
+static void test_adopt_pass(void **state)
+{
+    (void)state;
+    static stream_t s;
+    memset(&s, 0, sizeof s);
+    s.dimension = 2;
+    s.rng.state = 7u;
+    pgem_t *live = stream_instance(2, 400);
+    pgem_update_options_t gated, open;
+    memset(&gated, 0, sizeof gated);
+    gated.robust = 1;
+    open = gated;
+    open.robust = 0;
+    pgem_t *pass = test_create(2, 400, 1600);
+    for (int k = 0; k <= 190; k++) {
+        stream_add(live, &s, k);
+        int bend = 0;
+        if (k > 40 && k % 25 == 10) {
+            add_false_loop(live, &s, k - 37, k);
+            bend = k == 110; /* this one enters at weight 1 */
+        }
+        if (k > 0) {
+            assert_int_equal(pgem_update(live, bend ? &open : &gated, NULL), PGEM_OK);
+        }
+        if (k != 150) {
+            continue;
+        }
+        assert_int_equal(pgem_copy(pass, live), PGEM_OK);
+        pgem_robust_reset(pass);
+        pgem_robust_options_t em;
+        memset(&em, 0, sizeof em);
+        em.kernel = PGEM_KERNEL_EM;
+        assert_int_equal(pgem_robust_optimize(pass, &em, NULL, NULL), PGEM_OK);
+    }
+    const uint32_t n = pgem_pose_count(pass), m = pgem_edge_count(pass);
+    assert_int_equal(n, 151);
+    double newest[3], carried[3], before[3], after[3];
+    assert_int_equal(pgem_get_pose(live, 150, newest), PGEM_OK);
+    assert_int_equal(pgem_get_pose(live, 190, carried), PGEM_OK);
+    pgem_se2_between(newest, carried, before);
+
+    /* not a prefix: refused, nothing changes */
+    pgem_t *other = test_create(2, 400, 1600);
+    const double origin[3] = {0.0, 0.0, 0.0};
+    assert_int_equal(pgem_add_pose(other, 5, origin), PGEM_OK);
+    pgem_t *twin = test_create(2, 400, 1600);
+    assert_int_equal(pgem_copy(twin, live), PGEM_OK);
+    assert_int_equal(pgem_update_adopt(live, other, NULL), PGEM_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(pgem_last_error(live), "pose index 0"));
+    assert_same_graph(live, twin);
+    assert_int_equal(pgem_update_adopt(twin, pass, NULL), PGEM_ERR_CONFIG); /* no online_fill */
+    assert_int_equal(pgem_update_adopt(live, live, NULL), PGEM_ERR_INVALID_ARGUMENT);
+
+    pgem_adopt_summary_t summary;
+#if !TEST_UNDER_SANITIZER
+    const long allocated = allocations;
+#endif
+    assert_int_equal(pgem_update_adopt(live, pass, &summary), PGEM_OK);
+#if !TEST_UNDER_SANITIZER
+    assert_int_equal(allocations, allocated);
+#endif
+    assert_int_equal(summary.poses_adopted, n);
+    assert_int_equal(summary.poses_carried, 40);
+    assert_int_equal(summary.edges_adopted, m);
+    assert_true(summary.loops_changed >= 1u); /* the bending loop at least */
+    for (uint32_t i = 0; i < n; i++) {
+        double a[3], b[3];
+        assert_int_equal(pgem_pose_at(live, i, NULL, a, NULL), PGEM_OK);
+        assert_int_equal(pgem_pose_at(pass, i, NULL, b, NULL), PGEM_OK);
+        assert_memory_equal(a, b, sizeof a);
+    }
+    for (uint32_t k = 0; k < m; k++) {
+        pgem_edge_view_t a, b;
+        assert_int_equal(pgem_edge_at(live, k, &a), PGEM_OK);
+        assert_int_equal(pgem_edge_at(pass, k, &b), PGEM_OK);
+        assert_int_equal(a.active, b.active);
+        assert_memory_equal(&a.weight, &b.weight, sizeof a.weight);
+        assert_int_equal(a.active, !is_false_loop(live, k)); /* EM got them all right */
+    }
+    assert_int_equal(pgem_get_pose(live, 150, newest), PGEM_OK);
+    assert_int_equal(pgem_get_pose(live, 190, carried), PGEM_OK);
+    pgem_se2_between(newest, carried, after);
+    for (int d = 0; d < 3; d++) {
+        assert_true(fabs(after[d] - before[d]) < 1e-9);
+    }
+    pgem_update_summary_t update;
+    assert_int_equal(pgem_update(live, &gated, &update), PGEM_OK);
+    assert_int_equal(update.rebuilt, 1);
+    for (uint32_t k = 0; k < pgem_edge_count(live); k++) {
+        pgem_edge_view_t view;
+        assert_int_equal(pgem_edge_at(live, k, &view), PGEM_OK);
+        assert_int_equal(view.active, !is_false_loop(live, k));
+    }
+    pgem_destroy(other);
+    pgem_destroy(twin);
+    pgem_destroy(pass);
+    pgem_destroy(live);
+}
+
 static void test_errors(void **state)
 {
     (void)state;
@@ -521,6 +648,7 @@ int main(void)
         cmocka_unit_test(test_refactor_matches_rank_updates),
         cmocka_unit_test(test_relinearize_skip),
         cmocka_unit_test(test_settle_undone),
+        cmocka_unit_test(test_adopt_pass),
         cmocka_unit_test(test_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -102,6 +102,34 @@ struct pgem_robust_summary;
 int pgem_update_settle(pgem_t *graph, const struct pgem_robust_options *robust,
                        struct pgem_robust_summary *summary);
 
+/** What pgem_update_adopt did. */
+typedef struct pgem_adopt_summary {
+    uint32_t poses_adopted;   /**< poses that took the pass's estimate */
+    uint32_t poses_carried;   /**< poses added since the pass, moved with the correction */
+    uint32_t edges_adopted;   /**< edges that took the pass's weight and state */
+    uint32_t loops_changed;   /**< of those, loop closures whose verdict the pass changed
+                                   (accepted by the updates, pruned by the pass, or back) */
+    uint32_t loops_rejudged;  /**< loop closures added since the pass that the updates had
+                                   pruned, given to the next update's gate again */
+} pgem_adopt_summary_t;
+
+/** Takes a whole-graph robust pass into the incremental graph while the updates go on: the
+ * live map gets batch EM's decisions without waiting for the stream to pause. The host copies
+ * the graph into a second instance (pgem_init of a block of its own, sized up front, then
+ * pgem_copy), solves the copy there (pgem_robust_reset and pgem_robust_optimize, on another
+ * thread, or a lower-priority task on firmware) while pgem_update goes on with new poses and
+ * edges on `graph`, then calls this on the thread that owns `graph`. `pass` must hold a prefix
+ * of graph: its poses and edges are graph's first ones, in the same order (ids, held flags,
+ * ends, kinds). Then: the poses the pass holds take its estimate, and every pose added since
+ * is carried along with the correction (placed as the updates had it relative to the first
+ * pose an edge joins it to, odometry first); the edges the pass holds take its weights and
+ * verdicts; loop closures added since go to the next update's gate again, under the corrected
+ * map. The next pgem_update rebuilds the factor at that estimate. Nothing is allocated; pass
+ * is only read. Errors: INVALID_ARGUMENT (NULL, or pass is not a prefix of graph: the message
+ * names the pose or edge index; nothing changes), DIMENSION, CONFIG (graph has no
+ * config.online_fill). summary may be NULL. */
+int pgem_update_adopt(pgem_t *graph, const pgem_t *pass, pgem_adopt_summary_t *summary);
+
 /** Bytes pgem_update_save needs at the instance's capacity: a header of 24 bytes, per pose
  * its value and held flag (25 bytes in 2D, 57 in 3D), per edge 18 bytes (weight, state, the
  * robust layer's last distance and check). 0 for NULL. */

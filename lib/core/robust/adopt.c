@@ -1,0 +1,157 @@
+/* A whole-graph robust pass taken back into the incremental graph (pgem_update_adopt): the
+ * pass solved a copy of the graph as it was when the copy was taken, while updates went on
+ * adding poses and edges; its estimate and loop decisions replace the updates' for what it
+ * holds, and what arrived since moves with it. */
+#include <string.h>
+
+#include "instance.h"
+#include "pgem/update.h"
+#include "robust/robust.h"
+
+/* Refuses the adoption: nothing changed. */
+static int pgem_adopt_refused(pgem_t *graph, const char *what, uint64_t index, const char *why)
+{
+    pgem_message_clear(graph);
+    pgem_message_text(graph, "pgem_update_adopt: ");
+    pgem_message_text(graph, what);
+    pgem_message_u64(graph, index);
+    pgem_message_text(graph, why);
+    pgem_message_text(graph, ": nothing adopted");
+    return PGEM_ERR_INVALID_ARGUMENT;
+}
+
+/* The pass must hold a prefix of the graph: the same poses (ids, held flags) and edges (ends,
+ * kinds) in the same order. */
+static int pgem_adopt_check(pgem_t *graph, const pgem_t *pass)
+{
+    const pgem_store_t *g = &graph->store, *s = &pass->store;
+    if (s->pose_count > g->pose_count || s->edge_count > g->edge_count) {
+        return pgem_adopt_refused(graph, "the pass holds ", s->pose_count > g->pose_count ? s->pose_count : s->edge_count,
+                                  s->pose_count > g->pose_count ? " poses, more than the graph"
+                                                                : " edges, more than the graph");
+    }
+    for (uint32_t p = 0; p < s->pose_count; p++) {
+        if (s->pose_id[p] != g->pose_id[p] || s->pose_fixed[p] != g->pose_fixed[p]) {
+            return pgem_adopt_refused(graph, "pose index ", p,
+                                      " differs between the pass and the graph (id or held flag)");
+        }
+    }
+    for (uint32_t k = 0; k < s->edge_count; k++) {
+        if (s->edge_from[k] != g->edge_from[k] || s->edge_to[k] != g->edge_to[k] ||
+            s->edge_kind[k] != g->edge_kind[k]) {
+            return pgem_adopt_refused(graph, "edge index ", k,
+                                      " differs between the pass and the graph (ends or kind)");
+        }
+    }
+    return PGEM_OK;
+}
+
+/* Pose x, new since the pass, placed as the graph had it relative to pose y (whose new value
+ * is in store.pose, old one in old): new(x) = new(y) old(y)^-1 old(x). */
+static void pgem_adopt_carry(pgem_t *graph, const double *old, uint32_t x, uint32_t y)
+{
+    const size_t size = (size_t)graph->pose_size;
+    double inverse[PGEM_POSE_SIZE_MAX], relative[PGEM_POSE_SIZE_MAX];
+    double *pose = graph->store.pose;
+    if (graph->tangent == 6) {
+        pgem_se3_inverse(old + y * size, inverse);
+        pgem_se3_compose(inverse, old + x * size, relative);
+        pgem_se3_compose(pose + y * size, relative, pose + x * size);
+    } else {
+        pgem_se2_inverse(old + y * size, inverse);
+        pgem_se2_compose(inverse, old + x * size, relative);
+        pgem_se2_compose(pose + y * size, relative, pose + x * size);
+    }
+}
+
+/* The poses added since the pass follow the correction: each is carried along by the first
+ * edge joining it to a pose already placed (odometry edges first, in arrival order, so a
+ * trajectory is carried down its chain); held poses stay; a pose no edge reaches stays. */
+static uint32_t pgem_adopt_carry_new(pgem_t *graph, const double *old, uint32_t placed_poses,
+                                     uint32_t first_edge, int *placed)
+{
+    const pgem_store_t *store = &graph->store;
+    uint32_t carried = 0;
+    for (uint32_t p = placed_poses; p < store->pose_count; p++) {
+        placed[p] = store->pose_fixed[p] != 0u;
+    }
+    for (int sweep = 0; sweep < 2; sweep++) {
+        for (uint32_t k = first_edge; k < store->edge_count; k++) {
+            if (sweep == 0 && store->edge_kind[k] != PGEM_EDGE_ODOMETRY) {
+                continue;
+            }
+            const uint32_t a = store->edge_from[k], b = store->edge_to[k];
+            const int known_a = a < placed_poses || placed[a];
+            const int known_b = b < placed_poses || placed[b];
+            if (known_a != known_b) {
+                const uint32_t x = known_a ? b : a;
+                pgem_adopt_carry(graph, old, x, known_a ? a : b);
+                placed[x] = 1;
+                carried++;
+            }
+        }
+    }
+    return carried;
+}
+
+int pgem_update_adopt(pgem_t *graph, const pgem_t *pass, pgem_adopt_summary_t *summary)
+{
+    if (summary != NULL) {
+        memset(summary, 0, sizeof *summary);
+    }
+    if (graph == NULL || pass == NULL || graph == pass) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    if (graph->config.dimension != pass->config.dimension) {
+        return pgem_fail(graph, PGEM_ERR_DIMENSION, "pgem_update_adopt: the instances' dimensions differ");
+    }
+    pgem_online_t *online = &graph->online;
+    if (online->pool_blocks == 0u) {
+        return pgem_fail(graph, PGEM_ERR_CONFIG,
+                         "pgem_update_adopt needs config.online_fill (the incremental factor's room)");
+    }
+    int status = pgem_adopt_check(graph, pass);
+    if (status != PGEM_OK) {
+        return status;
+    }
+    pgem_store_t *store = &graph->store;
+    const pgem_store_t *from = &pass->store;
+    const size_t size = (size_t)graph->pose_size;
+    /* The updates' estimate, kept where the next update's rebuild takes its points from anew. */
+    memcpy(online->lin, store->pose, (size_t)store->pose_count * size * sizeof(double));
+    memcpy(store->pose, from->pose, (size_t)from->pose_count * size * sizeof(double));
+    const uint32_t carried = pgem_adopt_carry_new(graph, online->lin, from->pose_count,
+                                                  from->edge_count, online->next);
+    uint32_t changed = 0, rejudged = 0;
+    for (uint32_t k = 0; k < from->edge_count; k++) {
+        const uint8_t state = from->edge_active[k] == PGEM_EDGE_PRUNED ? PGEM_EDGE_PRUNED : PGEM_EDGE_ACTIVE;
+        changed += store->edge_kind[k] == PGEM_EDGE_LOOP &&
+                   (store->edge_active[k] == PGEM_EDGE_PRUNED) != (state == PGEM_EDGE_PRUNED);
+        store->edge_active[k] = state;
+        store->edge_weight[k] = from->edge_weight[k];
+        graph->robust.edge_distance[k] = pass->robust.edge_distance[k];
+        graph->robust.edge_checked[k] = pass->robust.edge_checked[k];
+    }
+    for (uint32_t k = from->edge_count; k < store->edge_count; k++) {
+        if (store->edge_kind[k] == PGEM_EDGE_LOOP) { /* judged again under the adopted map */
+            rejudged += store->edge_active[k] == PGEM_EDGE_PRUNED;
+            store->edge_active[k] = PGEM_EDGE_ACTIVE;
+            store->edge_weight[k] = 1.0;
+        }
+    }
+    if (online->edges_seen > from->edge_count) {
+        online->edges_seen = from->edge_count; /* the next update gates the later loops anew */
+    }
+    online->ready = 0;
+    store->topology++; /* loops changed state: the next analysis is anew */
+    pgem_linear_invalidate(graph);
+    pgem_message_clear(graph);
+    if (summary != NULL) {
+        summary->poses_adopted = from->pose_count;
+        summary->poses_carried = carried;
+        summary->edges_adopted = from->edge_count;
+        summary->loops_changed = changed;
+        summary->loops_rejudged = rejudged;
+    }
+    return PGEM_OK;
+}
