@@ -515,7 +515,7 @@ static int is_false_loop(const pgem_t *graph, uint32_t k)
  * let in without the gate, so the updates' map is bent), adopted after 40 more updates: the
  * poses the pass held are its, the later ones keep their place relative to the pass's newest
  * pose, every verdict the pass made is taken (the bending loop pruned), the loops added since
- * are judged again, the next update rebuilds, nothing is allocated, and at the end every true
+ * keep the gate's verdicts, the next update rebuilds, nothing is allocated, and at the end every true
  * loop is in and every false one out. A pass that is not a prefix is refused and changes
  * nothing; a graph without the incremental factor's room is refused. */
 static void test_adopt_pass(void **state)

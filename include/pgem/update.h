@@ -50,13 +50,17 @@ typedef struct pgem_update_options {
                                        it is pruned; pruned loops whose poses were
                                        relinearised are tested again and come back when they
                                        pass. 0: every loop enters with its weight. */
-    int pending;                  /**< robust, 1: a loop closure that passes the gate only
-                                       because the map is uncertain (it fails it with the map
-                                       taken as certain: e^T Omega e above the gate) waits,
-                                       pruned, for a whole-graph pass (pgem_update_adopt) or
-                                       a relinearisation of its poses to judge it, instead of
-                                       bending the map now. For hosts that run such passes;
-                                       without them a drift-correcting loop would wait long */
+    double pending;               /**< robust, > 0: a loop closure that passes the gate only
+                                       because the map is uncertain, its error alone (e^T
+                                       Omega e, the map taken as certain) above `pending`
+                                       times the gate, waits, pruned, for a whole-graph pass
+                                       (pgem_update_adopt) or a relinearisation of its poses
+                                       to judge it, instead of bending the map now. For hosts
+                                       that run such passes (the LCM bridge uses 10: with 1,
+                                       true loops of a map still one Gauss-Newton step from
+                                       its optimum waited too, and a fast stream left
+                                       thousands waiting); without passes a drift-correcting
+                                       loop would wait long. 0: none */
     double gate;                  /**< robust: 0 means the 99.9 % chi-square quantile (16.27 in
                                        2D, 22.46 in 3D) */
     double odometry_inflation;    /**< robust: the map's covariance factor in the gate; 0
@@ -116,8 +120,6 @@ typedef struct pgem_adopt_summary {
     uint32_t edges_adopted;   /**< edges that took the pass's weight and state */
     uint32_t loops_changed;   /**< of those, loop closures whose verdict the pass changed
                                    (accepted by the updates, pruned by the pass, or back) */
-    uint32_t loops_rejudged;  /**< loop closures added since the pass that the updates had
-                                   pruned, given to the next update's gate again */
 } pgem_adopt_summary_t;
 
 /** Takes a whole-graph robust pass into the incremental graph while the updates go on: the
@@ -131,8 +133,8 @@ typedef struct pgem_adopt_summary {
  * copy). Then: the poses the pass holds take its estimate, and every pose added since
  * is carried along with the correction (placed as the updates had it relative to the first
  * pose an edge joins it to, odometry first); the edges the pass holds take its weights and
- * verdicts; loop closures added since go to the next update's gate again, under the corrected
- * map. The next pgem_update rebuilds the factor at that estimate. Nothing is allocated; pass
+ * verdicts; loop closures added since keep the updates' verdicts (the next pass judges them).
+ * The next pgem_update rebuilds the factor at that estimate. Nothing is allocated; pass
  * is only read. Errors: INVALID_ARGUMENT (NULL, or pass is not a prefix of graph: the message
  * names the pose or edge index; nothing changes), DIMENSION, CONFIG (graph has no
  * config.online_fill). summary may be NULL. */

@@ -384,7 +384,8 @@ static void update_options(const bridge_t *bridge, pgem_update_options_t *option
     options->robust = bridge->options.robust.kernel != PGEM_KERNEL_NONE;
     options->gate = bridge->options.robust.gate;
     options->odometry_inflation = bridge->options.robust.odometry_inflation;
-    options->pending = bridge->pass_on; /* the pass judges what the map cannot yet */
+    options->pending = bridge->pass_on ? 10.0 : 0.0; /* the pass judges what the map cannot
+                                                        yet (DESIGN.md, "Live EM passes") */
 }
 
 /* The loop closures pruned after an update, from the count before it: the new loops it pruned,
@@ -563,6 +564,28 @@ static void recount_pruned(bridge_t *bridge)
     bridge->counted_edges = edges;
 }
 
+/* 1 when every loop closure the pass judged has the same verdict in the live map (accepted or
+ * pruned): adopting it would change only the estimate, by EM's soft weights, and cost the
+ * update a rebuild. O(edges of the pass). */
+static int same_verdicts(const pgem_t *live, const pgem_t *pass)
+{
+    const uint32_t edges = pgem_edge_count(pass);
+    if (edges > pgem_edge_count(live)) {
+        return 0;
+    }
+    for (uint32_t k = 0; k < edges; ++k) {
+        pgem_edge_view_t a, b;
+        pgem_edge_at(live, k, &a);
+        pgem_edge_at(pass, k, &b);
+        /* accepted: in, above the prune threshold's default (pgem eval's --reject-below) */
+        const int in_live = a.active && a.weight >= 0.01, in_pass = b.active && b.weight >= 0.01;
+        if (a.kind == PGEM_EDGE_LOOP && in_live != in_pass) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
 /* A finished pass into the live map, when the graph it copied is still the live one's prefix:
  * its estimate and verdicts (pgem_update_adopt), then an update at them (a rebuild, with the
  * loops that arrived since gated again), published. */
@@ -578,6 +601,10 @@ static void adopt_pass(bridge_t *bridge)
                    : pass->generation != bridge->generation ? "the graph was re-solved or reset since its copy"
                    : pass->summary.termination == PGEM_ROBUST_STOPPED ? "stopped"
                                                                        : "the graph is in several parts");
+        return;
+    }
+    if (same_verdicts(bridge->core, pass->core)) {
+        pass->agreed++; /* the live map holds what the pass found: no rebuild for nothing */
         return;
     }
     pgem_adopt_summary_t adopted;
@@ -611,12 +638,12 @@ static void adopt_pass(bridge_t *bridge)
     bridge_graph_publish(bridge, "em-pass", &summary, status == PGEM_OK, why, micros);
     bridge_log(bridge,
                "live EM pass %llu: EM on %u poses and %u loops (%u pruned, %u rounds) in %.0f ms, "
-               "%.0f ms after its copy; adopted: %u verdicts changed, %u later poses carried, "
-               "%u later loops judged again; now %u of %u loops pruned (%.1f ms: adopt %.1f, update %.1f)",
+               "%.0f ms after its copy; adopted: %u verdicts changed, %u later poses carried; "
+               "now %u of %u loops pruned (%.1f ms: adopt %.1f, update %.1f)",
                (unsigned long long)pass->passes, adopted.poses_adopted, pass->loops_at_copy,
                pass->summary.pruned, pass->summary.rounds, 1e3 * pass->solve_took,
                1e3 * pass->took, adopted.loops_changed, adopted.poses_carried,
-               adopted.loops_rejudged, bridge->pruned_count, bridge->loop_count,
+               bridge->pruned_count, bridge->loop_count,
                1e-3 * (double)micros, 1e3 * (adopted_at - start), 1e3 * (updated_at - adopted_at));
     if (status != PGEM_OK) {
         bridge_note(bridge, "the update after live EM pass %llu failed: %s",

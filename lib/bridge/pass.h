@@ -41,6 +41,7 @@ typedef struct bridge_pass {
     pgem_robust_summary_t summary;
     uint32_t loops_at_copy;        /* loop closures the copy holds */
     uint64_t passes;               /* adopted so far */
+    uint64_t agreed;               /* passes that found the live map's verdicts: not adopted */
 } bridge_pass_t;
 
 /* Sizes the copy's block for the live instance's capacities (no incremental factor) and

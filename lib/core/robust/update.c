@@ -18,7 +18,7 @@ typedef struct pgem_update_settings {
     uint32_t slack;
     int recent;        /* newest poses ordered last by a rebuild */
     int robust;        /* gate new loops */
-    int pending;       /* loops that pass only by the map's uncertainty wait */
+    double pending;    /* loops whose chi2 alone exceeds this many gates wait (0: none) */
     double gate;       /* innovation threshold */
     double inflation;  /* the map's covariance factor in the innovation */
     int rebuild;       /* rebuild now */
@@ -37,7 +37,8 @@ static int pgem_update_resolve(pgem_t *graph, const pgem_update_options_t *optio
         pgem_check_option(graph, o->reorder_growth, "reorder_growth") != PGEM_OK ||
         pgem_check_option(graph, o->gate, "gate") != PGEM_OK ||
         pgem_check_option(graph, o->wildfire_threshold, "wildfire_threshold") != PGEM_OK ||
-        pgem_check_option(graph, o->odometry_inflation, "odometry_inflation") != PGEM_OK) {
+        pgem_check_option(graph, o->odometry_inflation, "odometry_inflation") != PGEM_OK ||
+        pgem_check_option(graph, o->pending, "pending") != PGEM_OK) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
     out->threshold = o->relinearize_threshold != 0.0 ? o->relinearize_threshold : 0.1;
@@ -46,7 +47,7 @@ static int pgem_update_resolve(pgem_t *graph, const pgem_update_options_t *optio
     out->slack = o->reorder_slack != 0u ? o->reorder_slack : (scaled > 256u ? scaled : 256u);
     out->recent = o->recent_last != 0u ? (int)(o->recent_last > 1000000u ? 1000000u : o->recent_last) : 8;
     out->robust = o->robust != 0;
-    out->pending = o->pending != 0;
+    out->pending = o->pending;
     out->gate = o->gate > 0.0 ? o->gate : (graph->tangent == 6 ? 22.458 : 16.266);
     out->inflation = o->odometry_inflation > 0.0 ? o->odometry_inflation : 1.0;
     out->rebuild = o->rebuild != 0;
@@ -78,10 +79,17 @@ static void pgem_update_link(pgem_t *graph)
     online->edges_linked = graph->store.edge_count;
 }
 
-/* The weight edge k should have in the factor: 0 when pruned or dormant. */
+/* A loop weighing less than this stays out of the incremental factor, as EM keeps its
+ * dormant loops out of its own (its default dormant threshold, the prune threshold / 100):
+ * an adopted pass's false loops at weights of 1e-6 would otherwise enter the factor's pattern
+ * and fill it (long-range false loops), for no change in the estimate. */
+#define PGEM_UPDATE_WEIGHT_FLOOR 1e-4
+
+/* The weight edge k should have in the factor: 0 when pruned, dormant or below the floor. */
 static double pgem_update_weight(const pgem_t *graph, uint32_t k)
 {
-    return graph->store.edge_active[k] == PGEM_EDGE_ACTIVE ? graph->store.edge_weight[k] : 0.0;
+    const double w = graph->store.edge_weight[k];
+    return graph->store.edge_active[k] == PGEM_EDGE_ACTIVE && w >= PGEM_UPDATE_WEIGHT_FLOOR ? w : 0.0;
 }
 
 /* Adds (sign 1) or removes (sign -1) an edge linearised at the poses given: its rows as one
@@ -408,9 +416,9 @@ static int pgem_update_gate(pgem_t *graph, uint32_t k, const pgem_update_setting
     double plain = 0.0;
     const double distance = pgem_update_innovation(graph, k, settings->inflation, &plain);
     graph->robust.edge_distance[k] = distance;
-    /* pending: a loop that passes only because the map is uncertain (it fails the gate with
-     * the map taken as certain) waits for the whole-graph pass rather than bend the map */
-    if (!(distance <= settings->gate) || (settings->pending && !(plain <= settings->gate))) {
+    /* pending: a loop that passes only because the map is uncertain (its error alone is
+     * `pending` gates or more) waits for the whole-graph pass rather than bend the map */
+    if (!(distance <= settings->gate) || (settings->pending > 0.0 && !(plain <= settings->pending * settings->gate))) {
         graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
         return 0;
     }
