@@ -617,6 +617,82 @@ static void test_adopt_pass(void **state)
     pgem_destroy(live);
 }
 
+/* An odometry-only stretch of 80 poses (drift), then a loop closure from pose 0 to 80: it
+ * fails the gate with the map taken as certain but passes with the map's covariance. The
+ * plain gate lets it in; with `pending` it waits, pruned, and the verdict of a whole-graph
+ * pass adopted (pgem_update_adopt) is the one that holds (EM, seeing one loop that bends the
+ * whole stretch and nothing that agrees with it, prunes it). */
+static void drift_stream(pgem_t *graph, stream_t *s)
+{
+    double information[9], z[3], guess[3];
+    test_diagonal_information(3, 400.0, information);
+    for (int k = 0; k <= 80; k++) {
+        walk_truth(2, k, s->truth + 3 * k);
+        if (k == 0) {
+            assert_int_equal(pgem_add_pose(graph, 0, s->truth), PGEM_OK);
+            continue;
+        }
+        stream_measure(s, k - 1, k, 0.05, z);
+        double previous[3];
+        assert_int_equal(pgem_get_pose(graph, (pgem_id_t)(k - 1), previous), PGEM_OK);
+        pgem_se2_compose(previous, z, guess);
+        assert_int_equal(pgem_add_pose(graph, (pgem_id_t)k, guess), PGEM_OK);
+        assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(k - 1), (pgem_id_t)k, z, information,
+                                       PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+        assert_int_equal(pgem_update(graph, NULL, NULL), PGEM_OK);
+    }
+    stream_measure(s, 0, 80, 0.0, z);
+    assert_int_equal(pgem_add_edge(graph, 0, 80, z, information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
+}
+
+static void test_pending_loop_waits_for_pass(void **state)
+{
+    (void)state;
+    static stream_t sa, sb;
+    memset(&sa, 0, sizeof sa);
+    memset(&sb, 0, sizeof sb);
+    sa.dimension = sb.dimension = 2;
+    sa.rng.state = sb.rng.state = 3u;
+    pgem_t *a = stream_instance(2, 400), *b = stream_instance(2, 400);
+    drift_stream(a, &sa);
+    drift_stream(b, &sb);
+    const uint32_t loop = pgem_edge_count(a) - 1u;
+    pgem_update_options_t options;
+    memset(&options, 0, sizeof options);
+    options.robust = 1;
+    pgem_update_summary_t summary;
+    assert_int_equal(pgem_update(a, &options, &summary), PGEM_OK);
+    pgem_edge_view_t view;
+    assert_int_equal(pgem_edge_at(a, loop, &view), PGEM_OK);
+    assert_int_equal(view.active, 1); /* the map's covariance makes it pass */
+    double plain_chi2 = 0.0;
+    assert_int_equal(pgem_edge_chi2(b, loop, &plain_chi2), PGEM_OK);
+    assert_true(plain_chi2 > 16.266); /* and alone it would fail the gate */
+    options.pending = 1;
+    assert_int_equal(pgem_update(b, &options, &summary), PGEM_OK);
+    assert_true(summary.loops_rejected >= 1u);
+    assert_int_equal(pgem_edge_at(b, loop, &view), PGEM_OK);
+    assert_int_equal(view.active, 0);
+    pgem_t *pass = test_create(2, 400, 1600);
+    assert_int_equal(pgem_copy(pass, b), PGEM_OK);
+    pgem_robust_reset(pass);
+    pgem_robust_options_t em;
+    memset(&em, 0, sizeof em);
+    em.kernel = PGEM_KERNEL_EM;
+    assert_int_equal(pgem_robust_optimize(pass, &em, NULL, NULL), PGEM_OK);
+    pgem_adopt_summary_t adopted;
+    assert_int_equal(pgem_update_adopt(b, pass, &adopted), PGEM_OK);
+    assert_int_equal(pgem_update(b, &options, &summary), PGEM_OK);
+    pgem_edge_view_t judged;
+    assert_int_equal(pgem_edge_at(pass, loop, &judged), PGEM_OK);
+    assert_int_equal(pgem_edge_at(b, loop, &view), PGEM_OK);
+    assert_int_equal(view.active, judged.active); /* the pass's verdict, whichever it is */
+    assert_int_equal(adopted.loops_changed, (uint32_t)judged.active);
+    pgem_destroy(pass);
+    pgem_destroy(a);
+    pgem_destroy(b);
+}
+
 static void test_errors(void **state)
 {
     (void)state;
@@ -649,6 +725,7 @@ int main(void)
         cmocka_unit_test(test_relinearize_skip),
         cmocka_unit_test(test_settle_undone),
         cmocka_unit_test(test_adopt_pass),
+        cmocka_unit_test(test_pending_loop_waits_for_pass),
         cmocka_unit_test(test_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -50,6 +50,13 @@ typedef struct pgem_update_options {
                                        it is pruned; pruned loops whose poses were
                                        relinearised are tested again and come back when they
                                        pass. 0: every loop enters with its weight. */
+    int pending;                  /**< robust, 1: a loop closure that passes the gate only
+                                       because the map is uncertain (it fails it with the map
+                                       taken as certain: e^T Omega e above the gate) waits,
+                                       pruned, for a whole-graph pass (pgem_update_adopt) or
+                                       a relinearisation of its poses to judge it, instead of
+                                       bending the map now. For hosts that run such passes;
+                                       without them a drift-correcting loop would wait long */
     double gate;                  /**< robust: 0 means the 99.9 % chi-square quantile (16.27 in
                                        2D, 22.46 in 3D) */
     double odometry_inflation;    /**< robust: the map's covariance factor in the gate; 0
@@ -119,8 +126,9 @@ typedef struct pgem_adopt_summary {
  * pgem_copy), solves the copy there (pgem_robust_reset and pgem_robust_optimize, on another
  * thread, or a lower-priority task on firmware) while pgem_update goes on with new poses and
  * edges on `graph`, then calls this on the thread that owns `graph`. `pass` must hold a prefix
- * of graph: its poses and edges are graph's first ones, in the same order (ids, held flags,
- * ends, kinds). Then: the poses the pass holds take its estimate, and every pose added since
+ * of graph: its poses and edges are graph's first ones, in the same order (ids, ends, kinds;
+ * the pass may hold poses that graph leaves free, such as poses no edge reached yet at the
+ * copy). Then: the poses the pass holds take its estimate, and every pose added since
  * is carried along with the correction (placed as the updates had it relative to the first
  * pose an edge joins it to, odometry first); the edges the pass holds take its weights and
  * verdicts; loop closures added since go to the next update's gate again, under the corrected

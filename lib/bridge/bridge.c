@@ -276,9 +276,10 @@ static void wait_until(bridge_t *bridge, double when)
 static void wait_for_work(bridge_t *bridge, const schedule_t *s)
 {
     while (!bridge->stopping && bridge->visible == bridge->head && !bridge->optimize_requested &&
-           !bridge->snapshot_requested) {
-        if (solve_owed(s)) {
-            double due = solve_due(bridge, s);
+           !bridge->snapshot_requested && bridge->pass.state != BRIDGE_PASS_DONE) {
+        const double pass_due = bridge_graph_pass_due(bridge);
+        if (solve_owed(s) || isfinite(pass_due)) {
+            const double due = fmin(solve_owed(s) ? solve_due(bridge, s) : (double)INFINITY, pass_due);
             if (bridge_now() >= due) {
                 return;
             }
@@ -380,6 +381,9 @@ static void *solver_main(void *user)
         }
         if (snapshot) {
             bridge_graph_snapshot(bridge, path);
+        }
+        if (!bridge->options.full && !replaying) {
+            bridge_graph_pass(bridge); /* adopt a finished live EM pass, start the next */
         }
     }
     return NULL;
@@ -548,10 +552,15 @@ int pgem_bridge_run(const pgem_bridge_options_t *options, int (*stop)(void), cha
     const pgem_bridge_options_t *o = &bridge->options;
     bridge_log(bridge,
                "listening: %s (poses), %s (edges), %s (commands); publishing %s and %s; "
-               "%dD, %u poses, %u edges, core block %.1f MiB",
+               "%dD, %u poses, %u edges, core block %.1f MiB%s",
                o->channels.pose, o->channels.edge, o->channels.command, o->channels.graph,
                o->channels.status, o->dimension, (unsigned)o->max_poses,
-               (unsigned)o->max_edges, (double)bridge->core_block_size / 1048576.0);
+               (unsigned)o->max_edges, (double)bridge->core_block_size / 1048576.0,
+               bridge->pass_on ? ", live EM pass block" : "");
+    if (bridge->pass_on) {
+        bridge_log(bridge, "live EM passes on: the copy's block %.1f MiB (--no-live-em: none)",
+                   (double)bridge->pass.block_size / 1048576.0);
+    }
     double next_status = bridge_now();
     while (!stop()) {
         double now = bridge_now();

@@ -53,6 +53,11 @@ typedef struct pgem_bridge_options {
                                   on everything, after idle_solve) follows once the stream is
                                   quiet. 1: every solve re-solves the whole graph with EM
                                   (debounced, rate-limited), as before issue 20 */
+    int no_live_em;            /* incremental bridges run whole-graph EM passes while the
+                                  stream goes on (on a copy of the graph in a block of its
+                                  own, on a thread of its own; each adopted into the live map
+                                  when done, at most half the time busy): 1 turns them off,
+                                  leaving the per-update gate alone until the settle */
     pgem_bridge_log_fn log;    /* progress lines (NULL: silent) */
     void *log_user;
 } pgem_bridge_options_t;

@@ -10,6 +10,7 @@
 #include "bridge.h"
 #include "ingest.h"
 #include "journal.h"
+#include "pass.h"
 #include "pgem/pgem.h"
 #include "pgem_graph_t.h"
 
@@ -101,6 +102,15 @@ typedef struct bridge {
     uint32_t settle_solved_poses;
     int settle_yields;          /* the settle under way gives way to arriving items */
     int settle_gave_way;        /* and it did */
+    /* The live EM pass (incremental bridges, pass.c): whole-graph EM on a copy while the
+     * updates go on, adopted when done. */
+    bridge_pass_t pass;
+    int pass_on;                /* the bridge runs passes */
+    uint64_t generation;        /* +1 when the estimate is replaced other than by an update or
+                                   a pass (reset, a whole-graph solve): an older copy is dropped */
+    uint32_t pass_loops;        /* loop closures the last pass's copy held */
+    double pass_next;           /* no pass starts before this (the last one's end plus its
+                                   time: passes take at most half the time) */
     /* Publication buffers for graph_t, sized for the capacities. */
     int64_t *out_ids;
     double *out_values;
@@ -138,6 +148,13 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger);
  * estimate from before it, and reject the ones that agree with an earlier correction).
  * Nothing when the next solve must restart or hold several parts. */
 void bridge_graph_step(bridge_t *bridge);
+/* The live EM pass, after each batch: adopts a finished pass (an update at its estimate and
+ * verdicts, published as "em-pass") and starts the next one when loop closures arrived since
+ * the last copy. Nothing when passes are off. */
+void bridge_graph_pass(bridge_t *bridge);
+/* (L held) When the next pass is owed (loop closures arrived since the last copy and the
+ * pass is idle): its earliest start; +inf when none is. */
+double bridge_graph_pass_due(const bridge_t *bridge);
 /* The settle solve: every pose back to the front-end's estimate, every loop closure back in,
  * EM on the whole graph (trigger "settle"); run once the stream has been quiet for idle_solve
  * after incremental solves, so a paused robot's map is the one the offline tools compute.

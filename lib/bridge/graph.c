@@ -77,6 +77,13 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
                  pgem_error_name(status));
         return -1;
     }
+    bridge->pass_on = !o->full && !o->no_live_em && o->robust.kernel != PGEM_KERNEL_NONE;
+    if (bridge->pass_on && bridge_pass_init(&bridge->pass, &bridge->core_config, &o->robust,
+                                            &bridge->lock, &bridge->wake, message,
+                                            message_size) != 0) {
+        bridge->pass_on = 0;
+        return -1;
+    }
     if (!o->full) { /* the settle's way back: sized once, for the capacities */
         bridge->settle_save_size = pgem_update_save_size(bridge->core);
         bridge->settle_save = malloc(bridge->settle_save_size);
@@ -94,6 +101,7 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
 
 void bridge_graph_free(bridge_t *bridge)
 {
+    bridge_pass_free(&bridge->pass); /* before the core it copies from goes */
     free(bridge->core_block);
     free(bridge->edge_source);
     free(bridge->edge_sequence);
@@ -202,6 +210,9 @@ static void reset_graph(bridge_t *bridge)
     }
     bridge->solved_poses = 0;
     bridge->restart_pending = 0;
+    bridge->generation++;
+    bridge->pass.cancel = 1; /* a pass of the old graph stops after its round */
+    bridge->pass_loops = 0;
     bridge_components_reset(bridge);
     bridge->loop_count = 0;
     bridge->pruned_count = 0;
@@ -373,6 +384,7 @@ static void update_options(const bridge_t *bridge, pgem_update_options_t *option
     options->robust = bridge->options.robust.kernel != PGEM_KERNEL_NONE;
     options->gate = bridge->options.robust.gate;
     options->odometry_inflation = bridge->options.robust.odometry_inflation;
+    options->pending = bridge->pass_on; /* the pass judges what the map cannot yet */
 }
 
 /* The loop closures pruned after an update, from the count before it: the new loops it pruned,
@@ -417,6 +429,15 @@ void bridge_graph_step(bridge_t *bridge)
     memset(bridge->anchored, 0, bridge->solved_poses);
 }
 
+/* The outcome a robust solve would give for the summary's loops and pruned counts. */
+static void summary_outcome(pgem_robust_summary_t *summary)
+{
+    summary->outcome = summary->loops == 0u                  ? PGEM_ROBUST_NO_LOOPS
+                       : summary->pruned == summary->loops   ? PGEM_ROBUST_ALL_REJECTED
+                       : 10u * summary->pruned > 9u * summary->loops ? PGEM_ROBUST_MOST_REJECTED
+                                                             : PGEM_ROBUST_LOOPS_ACCEPTED;
+}
+
 /* One incremental update; the summary gets what a robust solve's would say of the loops. Its
  * chi2 is not computed (NaN): that visits every edge, and the updates' cost must not grow
  * with the map; the settle and --full solves report it. */
@@ -429,10 +450,7 @@ static int update_solve(bridge_t *bridge, pgem_robust_summary_t *summary)
     summary->final_chi2_all = (double)NAN;
     summary->initial_chi2 = (double)NAN;
     summary->rejected = summary->pruned;
-    summary->outcome = summary->loops == 0u                  ? PGEM_ROBUST_NO_LOOPS
-                       : summary->pruned == summary->loops   ? PGEM_ROBUST_ALL_REJECTED
-                       : 10u * summary->pruned > 9u * summary->loops ? PGEM_ROBUST_MOST_REJECTED
-                                                             : PGEM_ROBUST_LOOPS_ACCEPTED;
+    summary_outcome(summary);
     summary->usable = status == PGEM_OK;
     summary->estimate_changed = status == PGEM_OK;
     return status;
@@ -484,6 +502,10 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     if (status != PGEM_OK || parts > 1) {
         bridge->restart_pending = 1;
     }
+    if (!incremental) { /* the estimate is the solve's: a pass of an older copy is dropped */
+        bridge->generation++;
+        bridge->pass.cancel = 1;
+    }
     int64_t micros = (int64_t)((bridge_now() - start) * 1e6);
     double solved = bridge_now();
     char why[256] = "";
@@ -525,6 +547,124 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
                     why);
     }
     bridge_publish_status(bridge);
+}
+
+/* Loop closures pruned, counted over the whole graph (after a pass changed verdicts
+ * anywhere): O(edges), once per pass. */
+static void recount_pruned(bridge_t *bridge)
+{
+    const uint32_t edges = pgem_edge_count(bridge->core);
+    bridge->pruned_count = 0;
+    for (uint32_t k = 0; k < edges; ++k) {
+        pgem_edge_view_t view;
+        pgem_edge_at(bridge->core, k, &view);
+        bridge->pruned_count += view.kind == PGEM_EDGE_LOOP && !view.active;
+    }
+    bridge->counted_edges = edges;
+}
+
+/* A finished pass into the live map, when the graph it copied is still the live one's prefix:
+ * its estimate and verdicts (pgem_update_adopt), then an update at them (a rebuild, with the
+ * loops that arrived since gated again), published. */
+static void adopt_pass(bridge_t *bridge)
+{
+    bridge_pass_t *pass = &bridge->pass;
+    const double start = bridge_now();
+    if (pass->status != PGEM_OK || pass->summary.termination == PGEM_ROBUST_STOPPED ||
+        pass->generation != bridge->generation || bridge->restart_pending ||
+        bridge_components_hold(bridge) != 1) {
+        bridge_log(bridge, "live EM pass dropped (%s)",
+                   pass->status != PGEM_OK ? pgem_error_name(pass->status)
+                   : pass->generation != bridge->generation ? "the graph was re-solved or reset since its copy"
+                   : pass->summary.termination == PGEM_ROBUST_STOPPED ? "stopped"
+                                                                       : "the graph is in several parts");
+        return;
+    }
+    pgem_adopt_summary_t adopted;
+    int status = pgem_update_adopt(bridge->core, pass->core, &adopted);
+    if (status != PGEM_OK) {
+        bridge_note(bridge, "live EM pass not adopted: %s", pgem_last_error(bridge->core));
+        return;
+    }
+    pgem_robust_summary_t summary;
+    memset(&summary, 0, sizeof summary);
+    const double adopted_at = bridge_now();
+    status = update_solve(bridge, &summary);
+    const double updated_at = bridge_now();
+    recount_pruned(bridge);
+    summary.pruned = bridge->pruned_count;
+    summary.rejected = summary.pruned;
+    summary.rounds = pass->summary.rounds;
+    summary_outcome(&summary);
+    char why[256] = "";
+    if (status == PGEM_OK) {
+        bridge->solved_poses = pgem_pose_count(bridge->core);
+        memset(bridge->anchored, 0, bridge->solved_poses);
+        describe_outcome(&summary, why, sizeof why);
+    } else {
+        bridge->restart_pending = 1; /* the next solve says why, from the front-end's estimates */
+        snprintf(why, sizeof why, "%s: %s", pgem_error_name(status), pgem_last_error(bridge->core));
+    }
+    pass->passes++;
+    const int64_t micros = (int64_t)((bridge_now() - start) * 1e6);
+    bridge_graph_counts(bridge);
+    bridge_graph_publish(bridge, "em-pass", &summary, status == PGEM_OK, why, micros);
+    bridge_log(bridge,
+               "live EM pass %llu: EM on %u poses and %u loops (%u pruned, %u rounds) in %.0f ms, "
+               "%.0f ms after its copy; adopted: %u verdicts changed, %u later poses carried, "
+               "%u later loops judged again; now %u of %u loops pruned (%.1f ms: adopt %.1f, update %.1f)",
+               (unsigned long long)pass->passes, adopted.poses_adopted, pass->loops_at_copy,
+               pass->summary.pruned, pass->summary.rounds, 1e3 * pass->solve_took,
+               1e3 * pass->took, adopted.loops_changed, adopted.poses_carried,
+               adopted.loops_rejudged, bridge->pruned_count, bridge->loop_count,
+               1e-3 * (double)micros, 1e3 * (adopted_at - start), 1e3 * (updated_at - adopted_at));
+    if (status != PGEM_OK) {
+        bridge_note(bridge, "the update after live EM pass %llu failed: %s",
+                    (unsigned long long)pass->passes, why);
+    }
+    bridge_publish_status(bridge);
+}
+
+double bridge_graph_pass_due(const bridge_t *bridge)
+{
+    return bridge->pass_on && bridge->pass.state == BRIDGE_PASS_IDLE &&
+                   bridge->loop_count != bridge->pass_loops
+               ? bridge->pass_next
+               : (double)INFINITY;
+}
+
+void bridge_graph_pass(bridge_t *bridge)
+{
+    if (!bridge->pass_on) {
+        return;
+    }
+    const int state = bridge_pass_state(&bridge->pass);
+    if (state == BRIDGE_PASS_RUNNING) {
+        return;
+    }
+    const double now = bridge_now();
+    if (state == BRIDGE_PASS_DONE) {
+        adopt_pass(bridge);
+        bridge->pass_next = now + bridge->pass.took; /* at most half the time in passes */
+        bridge_pass_release(&bridge->pass);
+    }
+    /* The next one: when loop closures arrived since the last copy, the map is whole and up to
+     * date, and the last pass's time has passed since it ended. */
+    if (now < bridge->pass_next || bridge->loop_count == bridge->pass_loops) {
+        return;
+    }
+    if (bridge->restart_pending || bridge->solved_poses != pgem_pose_count(bridge->core) ||
+        bridge_components_hold(bridge) != 1) {
+        bridge->pass_next = now + 0.05; /* not now: look again a little later */
+        return;
+    }
+    if (bridge_pass_start(&bridge->pass, bridge->core, bridge->raw, bridge->generation, now) != 0) {
+        bridge_note(bridge, "live EM pass: cannot copy the graph: %s",
+                    pgem_last_error(bridge->pass.core));
+        bridge->pass_on = 0;
+        return;
+    }
+    bridge->pass_loops = bridge->loop_count;
 }
 
 static int ensure_buffer(bridge_t *bridge, size_t size)

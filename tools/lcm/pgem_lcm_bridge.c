@@ -38,6 +38,12 @@ static void usage(FILE *out, const void *context)
             "                         (debounced, rate-limited) instead of an incremental\n"
             "                         update per pose; the settle solve after idle is the same\n"
             "  --incremental          the default (kept for older command lines)\n"
+            "  --no-live-em           incremental: no whole-graph EM passes while the stream\n"
+            "                         goes on (by default one runs on a copy of the graph, on\n"
+            "                         a thread of its own, and its verdicts and estimate are\n"
+            "                         taken into the live map when it ends; the copy's block\n"
+            "                         is sized at start, about the core block without the\n"
+            "                         incremental factor's room)\n"
             "  --debounce S           with --full: quiet time after a loop closure before\n"
             "                         solving (0.01)\n"
             "  --max-delay S          with --full: longest a loop closure waits while more\n"
@@ -204,6 +210,8 @@ static int parse_flag(void *user, const char *name)
         p->options.full = 1;
     } else if (strcmp(name, "--incremental") == 0) {
         p->options.full = 0;
+    } else if (strcmp(name, "--no-live-em") == 0) {
+        p->options.no_live_em = 1;
     } else {
         return 0;
     }

@@ -20,8 +20,8 @@ static int pgem_adopt_refused(pgem_t *graph, const char *what, uint64_t index, c
     return PGEM_ERR_INVALID_ARGUMENT;
 }
 
-/* The pass must hold a prefix of the graph: the same poses (ids, held flags) and edges (ends,
- * kinds) in the same order. */
+/* The pass must hold a prefix of the graph: the same poses (ids) and edges (ends, kinds) in
+ * the same order. Held flags may differ (a pass holds the poses no edge reached yet). */
 static int pgem_adopt_check(pgem_t *graph, const pgem_t *pass)
 {
     const pgem_store_t *g = &graph->store, *s = &pass->store;
@@ -31,9 +31,9 @@ static int pgem_adopt_check(pgem_t *graph, const pgem_t *pass)
                                                                 : " edges, more than the graph");
     }
     for (uint32_t p = 0; p < s->pose_count; p++) {
-        if (s->pose_id[p] != g->pose_id[p] || s->pose_fixed[p] != g->pose_fixed[p]) {
+        if (s->pose_id[p] != g->pose_id[p]) {
             return pgem_adopt_refused(graph, "pose index ", p,
-                                      " differs between the pass and the graph (id or held flag)");
+                                      " has another id in the pass than in the graph");
         }
     }
     for (uint32_t k = 0; k < s->edge_count; k++) {

@@ -18,6 +18,7 @@ typedef struct pgem_update_settings {
     uint32_t slack;
     int recent;        /* newest poses ordered last by a rebuild */
     int robust;        /* gate new loops */
+    int pending;       /* loops that pass only by the map's uncertainty wait */
     double gate;       /* innovation threshold */
     double inflation;  /* the map's covariance factor in the innovation */
     int rebuild;       /* rebuild now */
@@ -45,6 +46,7 @@ static int pgem_update_resolve(pgem_t *graph, const pgem_update_options_t *optio
     out->slack = o->reorder_slack != 0u ? o->reorder_slack : (scaled > 256u ? scaled : 256u);
     out->recent = o->recent_last != 0u ? (int)(o->recent_last > 1000000u ? 1000000u : o->recent_last) : 8;
     out->robust = o->robust != 0;
+    out->pending = o->pending != 0;
     out->gate = o->gate > 0.0 ? o->gate : (graph->tangent == 6 ? 22.458 : 16.266);
     out->inflation = o->odometry_inflation > 0.0 ? o->odometry_inflation : 1.0;
     out->rebuild = o->rebuild != 0;
@@ -337,7 +339,7 @@ static double pgem_update_quadratic(double *s, const double *e, int n)
 
 /* Loop k's innovation distance under the factor and the current estimate: e^T (Omega^-1 +
  * inflation J H^-1 J^T)^-1 e. */
-static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation)
+static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation, double *plain)
 {
     pgem_online_t *online = &graph->online;
     const int n = graph->tangent;
@@ -350,6 +352,12 @@ static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation
                          online->pose_column[graph->store.edge_to[k]], jf, jt, n, s);
     /* invert Omega by Gauss-Jordan on a copy (n <= 6) */
     const double *o = graph->store.edge_information + (size_t)k * (size_t)(n * n);
+    *plain = 0.0; /* e^T Omega e: the loop's chi2 with the map taken as certain */
+    for (int r = 0; r < n; r++) {
+        for (int c = 0; c < n; c++) {
+            *plain += e[r] * o[r * n + c] * e[c];
+        }
+    }
     double a[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     memcpy(a, o, (size_t)(n * n) * sizeof(double));
     for (int r = 0; r < n; r++) {
@@ -397,9 +405,12 @@ static int pgem_update_gate(pgem_t *graph, uint32_t k, const pgem_update_setting
             return 0;
         }
     }
-    const double distance = pgem_update_innovation(graph, k, settings->inflation);
+    double plain = 0.0;
+    const double distance = pgem_update_innovation(graph, k, settings->inflation, &plain);
     graph->robust.edge_distance[k] = distance;
-    if (!(distance <= settings->gate)) {
+    /* pending: a loop that passes only because the map is uncertain (it fails the gate with
+     * the map taken as certain) waits for the whole-graph pass rather than bend the map */
+    if (!(distance <= settings->gate) || (settings->pending && !(plain <= settings->gate))) {
         graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
         return 0;
     }
