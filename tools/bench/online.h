@@ -49,6 +49,7 @@ typedef struct online_state {
     void *pass_block;             /* its memory, re-initialised for every pass */
     size_t pass_bytes;            /* pgem_memory_size of its configuration */
     int pass_pending;             /* a pass was solved and waits to be adopted */
+    int pending;                  /* --mode incremental: pgem_update_options_t.pending */
 } online_state_t;
 
 /* Creates the instance for capacities (max_poses, max_edges, fill_budget; 0 = the core's

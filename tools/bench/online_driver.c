@@ -27,6 +27,7 @@ typedef struct online_args {
     uint32_t checkpoints;         /* --checkpoints K: the live estimate written K times (0: never) */
     const char *checkpoint_dir;   /* --checkpoint-dir DIR */
     int no_settle;                /* --no-settle: the stream's end is not followed by a settle */
+    int no_pending;               /* --no-pending: with --live-em, the gate as without passes */
 } online_args_t;
 
 /* What the stream did so far. */
@@ -60,7 +61,7 @@ static void online_usage(FILE *out)
     fprintf(out,
             "usage: " ONLINE_TOOL " IN [--mode full|incremental] [--every N] [--fill-budget N]\n"
             "                          [--guess anchored|file] [--time-limit S] [-o OUT.g2o]\n"
-            "                          [--weights FILE] [--live-em N] [--no-settle]\n"
+            "                          [--weights FILE] [--live-em N [--no-pending]] [--no-settle]\n"
             "                          [--checkpoints K --checkpoint-dir DIR] [--quiet]\n"
             "\n"
             "Feeds a g2o or TORO graph to the pgem library as a stream: pose k (its VERTEX line,\n"
@@ -97,9 +98,16 @@ static void online_usage(FILE *out)
             "                      the updates and takes up to N poses' time. Its time is not\n"
             "                      update time: a JSON line of type pass gives it, one of type\n"
             "                      adopt each adoption. A pass costs about a batch EM of the graph\n"
-            "                      so far; a sensible N gives it that long at the stream's rate\n"
-            "                      with room to spare. bench_live.py uses 100 (10 s of a 10 Hz\n"
-            "                      stream; batch EM of City10000 + 100 false loops takes 0.75 s)\n"
+            "                      so far, which must fit in N poses' time at the stream's rate;\n"
+            "                      the shorter N, the sooner the pass's verdicts reach the map.\n"
+            "                      bench_live.py uses 10: 1 s of a 10 Hz stream, beside 0.07-0.75 s\n"
+            "                      for batch EM of KITTI to City10000 + 100 false loops here, about\n"
+            "                      the LCM bridge's schedule (a pass once the last one's time has\n"
+            "                      passed: at most half a core).\n"
+            "                      As the LCM bridge with its passes, the updates then hold back a\n"
+            "                      loop closure that passes the gate only because the map is\n"
+            "                      uncertain, for a pass to judge (pgem_update_options_t.pending)\n"
+            "  --no-pending        with --live-em: the gate lets such loops in, as without passes\n"
             "  --no-settle         incremental mode: no settle solve at the end of the stream, so\n"
             "                      the summary, -o and --weights are the live map\n"
             "  --checkpoints K     write the live estimate at every 1/K of the stream's poses\n"
@@ -199,6 +207,8 @@ static int online_parse(int argc, char **argv, online_args_t *args)
             args->quiet = 1;
         } else if (strcmp(arg, "--no-settle") == 0) {
             args->no_settle = 1;
+        } else if (strcmp(arg, "--no-pending") == 0) {
+            args->no_pending = 1;
         } else if (arg[0] == '-' && arg[1] != '\0') {
             fprintf(stderr, ONLINE_TOOL ": unknown option '%s' (see --help)\n", arg);
             return PGEM_EXIT_USAGE;
@@ -220,6 +230,10 @@ static int online_parse(int argc, char **argv, online_args_t *args)
     if ((args->live_em > 0u || args->no_settle) && args->mode->settle == NULL) {
         fprintf(stderr, ONLINE_TOOL ": %s needs --mode incremental\n",
                 args->live_em > 0u ? "--live-em" : "--no-settle");
+        return PGEM_EXIT_USAGE;
+    }
+    if (args->no_pending && args->live_em == 0u) {
+        fprintf(stderr, ONLINE_TOOL ": --no-pending goes with --live-em\n");
         return PGEM_EXIT_USAGE;
     }
     if ((args->checkpoints > 0u) != (args->checkpoint_dir != NULL)) {
@@ -289,9 +303,10 @@ static void online_summary_line(const online_args_t *args, const online_stream_t
     online_json_number("final_chi2_with_rejected", run->status == PGEM_OK ? s->final_chi2_all : ONLINE_NONE);
     printf(",\"block_bytes\":%zu,\"fill_budget\":%u,\"factor_nonzeros_peak\":%u,\"analyses\":%u",
            state->block_bytes, stats.factor_budget, run->factor_peak, stats.analyses);
-    printf(",\"settle\":\"%s\",\"live_em\":%u,\"passes\":%u,\"passes_failed\":%u,\"adopted\":%u",
+    printf(",\"settle\":\"%s\",\"live_em\":%u,\"pending\":%s,\"passes\":%u,\"passes_failed\":%u,"
+           "\"adopted\":%u",
            args->mode->settle == NULL ? "none" : args->no_settle ? "skipped" : "done", args->live_em,
-           run->passes, run->passes_failed, run->adopted);
+           state->pending ? "true" : "false", run->passes, run->passes_failed, run->adopted);
     online_json_number("pass_seconds", run->pass_seconds);
     online_json_number("pass_seconds_max", run->pass_max);
     online_json_number("adopt_seconds", run->adopt_seconds);
@@ -553,6 +568,7 @@ static int online_open(const online_args_t *args, const pgem_io_graph_t *file,
     if (online_state_init(state, &config, args->guess) != 0) {
         return -1;
     }
+    state->pending = args->live_em > 0u && !args->no_pending; /* as the bridge with its passes */
     return args->live_em > 0u ? online_pass_init(state) : 0;
 }
 

@@ -164,14 +164,16 @@ static int online_update_full(online_state_t *state, pgem_robust_summary_t *summ
     return status;
 }
 
-/* --mode incremental: pgem_update after every pose (the robust gate on new loop closures,
- * the core's defaults otherwise); its counters go into the update line's fields. */
+/* --mode incremental: pgem_update after every pose (the robust gate on new loop closures, with
+ * --live-em loops that pass it only by the map's uncertainty pending for the pass, the core's
+ * defaults otherwise); its counters go into the update line's fields. */
 static int online_update_incremental(online_state_t *state, pgem_robust_summary_t *summary,
                                      double *seconds)
 {
     pgem_update_options_t options;
     memset(&options, 0, sizeof options);
     options.robust = 1;
+    options.pending = state->pending;
     memset(summary, 0, sizeof *summary);
     memset(&state->step, 0, sizeof state->step);
     double start = pgem_cli_now();
