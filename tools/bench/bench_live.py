@@ -378,9 +378,9 @@ def store_run(cache: bench_real.Cache, job: bench_real.PeerJob, record: Run, out
 def compare_decisions(mine: Path, batch: Path, reject_below: float) -> dict[str, int]:
     """The method's loop verdicts against batch EM's on the same graph, pairs matched in order
     (both files list a pair's copies in file order): loops, kept (by the method, pruned by batch
-    EM), rejected (by the method, kept by batch EM), missing (not in the method's file)."""
+    EM), dropped (rejected by the method, kept by batch EM), missing (not in the method's file)."""
     ours, theirs = bench_online.read_weights(mine), bench_online.read_weights(batch)
-    found = {"loops": 0, "kept": 0, "rejected": 0, "missing": 0}
+    found = {"loops": 0, "kept": 0, "dropped": 0, "missing": 0}
     for pair, queue in theirs.items():
         mine_queue = ours.get(pair, collections.deque())
         for _, state in queue:
@@ -392,7 +392,7 @@ def compare_decisions(mine: Path, batch: Path, reject_below: float) -> dict[str,
             mine_rejected = my_state == "pruned" or weight < reject_below
             batch_rejected = state == "pruned"
             found["kept"] += batch_rejected and not mine_rejected
-            found["rejected"] += mine_rejected and not batch_rejected
+            found["dropped"] += mine_rejected and not batch_rejected
     return found
 
 
@@ -506,9 +506,9 @@ def decisions_cell(entry: dict[str, Any]) -> str:
     """+kept / -rejected against batch EM ('=' when the same verdicts)."""
     if "loops" not in entry:
         return "-"
-    if entry["kept"] == entry["rejected"] == entry["missing"] == 0:
+    if entry["kept"] == entry["dropped"] == entry["missing"] == 0:
         return "="
-    text = f"+{entry['kept']} / -{entry['rejected']}"
+    text = f"+{entry['kept']} / -{entry['dropped']}"
     return text + (f" ({entry['missing']} missing)" if entry["missing"] else "")
 
 
