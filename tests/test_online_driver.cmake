@@ -2,7 +2,8 @@
 # followed by the edges it completes, file order within a pose, whatever order the file lists
 # them in), one update per pose or per --every poses, the bridge's placement of new poses
 # (--guess anchored against file), an edge-only file, 3D, the time limit, the files written,
-# --mode incremental (the core's pgem_update), and the refusals (bad options, bad input).
+# --mode incremental (the core's pgem_update), --live-em (the pass and its adoption), the
+# checkpoints and --no-settle, and the refusals (bad options, bad input).
 # Run by CTest as: cmake -DPGEM=<pgem-online-driver> -DWORK=<scratch folder> -P test_online_driver.cmake
 include("${CMAKE_CURRENT_LIST_DIR}/cli_test_helpers.cmake")
 
@@ -133,6 +134,57 @@ if(NOT EXISTS "${WORK}/incremental.g2o")
   fail("incremental: the file was not written")
 endif()
 
+# ---- --live-em 2: a pass every 2 poses, adopted at the next pass point; checkpoints ----------
+# Pass points after poses 1 and 3 (0-based): the first pass (poses 0-1) is solved after update 1
+# and adopted before update 3, which rebuilds; the second (poses 0-3) is never adopted: no point
+# follows. Checkpoint 1 of 2 after pose 2 (ceil(5 / 2) = 3 poses), checkpoint 2 at the end, and
+# no settle: the summary and -o are the live map.
+file(MAKE_DIRECTORY "${WORK}/live")
+pgem_ok(live square.g2o --mode incremental --live-em 2 --no-settle --checkpoints 2
+        --checkpoint-dir live --quiet -o live.g2o)
+driver_lines(live)
+list(LENGTH live_lines n)
+if(NOT n EQUAL 10)
+  fail("live: ${n} lines instead of 4 updates, 2 passes, 1 adoption, 2 checkpoints and the summary:\n${live_out}")
+endif()
+list(GET live_lines 1 line)
+expect("${line}" type pass pass 1 pose 1 poses 2 edges 1 status PGEM_OK outcome no_loops)
+list(GET live_lines 3 line)
+expect("${line}" type checkpoint checkpoint 1 of 2 poses 3 edges 2 end OFF)
+list(GET live_lines 4 line)
+expect("${line}" type adopt pose 3 poses 4 edges 4 pass_poses 2 status PGEM_OK poses_adopted 2
+       poses_carried 2 edges_adopted 1 loops_changed 0)
+update_is(live 5 update 3 pose 3 rebuilt 1 loops_accepted 1)
+list(GET live_lines 6 line)
+expect("${line}" type pass pass 2 pose 3 poses 4 edges 4 status PGEM_OK loops 1 pruned 0)
+tiny("${line}" final_chi2)
+list(GET live_lines 8 line)
+expect("${line}" type checkpoint checkpoint 2 of 2 poses 5 edges 6 end ON)
+expect("${live_summary}" mode incremental updates 4 settle skipped live_em 2 pending ON passes 2
+       passes_failed 0 adopted 1 checkpoints 2 graph_loops 2 graph_pruned 0 status PGEM_OK)
+equals("${live_summary}" final_chi2 "")
+foreach(file checkpoint_01.g2o checkpoint_01.weights checkpoint_02.g2o checkpoint_02.weights)
+  if(NOT EXISTS "${WORK}/live/${file}")
+    fail("live: ${file} not written")
+  endif()
+endforeach()
+file(STRINGS "${WORK}/live/checkpoint_01.g2o" vertices REGEX "^VERTEX_SE2")
+list(LENGTH vertices n)
+if(NOT n EQUAL 3)
+  fail("live: checkpoint 1 has ${n} poses instead of 3")
+endif()
+file(READ "${WORK}/live/checkpoint_02.weights" weights)
+contains(live "${weights}" "3 0 1 accepted\n4 1 1 accepted\n")
+# --no-pending: the gate as without passes (the same verdicts on this consistent square)
+pgem_ok(gate square.g2o --mode incremental --live-em 2 --no-pending --no-settle --quiet)
+driver_lines(gate)
+expect("${gate_summary}" live_em 2 pending OFF passes 2 adopted 1 graph_loops 2 graph_pruned 0)
+file(READ "${WORK}/live/checkpoint_02.g2o" final_checkpoint)
+file(READ "${WORK}/live.g2o" final_live)
+if(NOT final_checkpoint STREQUAL final_live)
+  fail("live: without a settle, -o should be the last checkpoint")
+endif()
+
 # ---- refusals ----------------------------------------------------------------------------------
 pgem_fails(2 mode "--mode takes full or incremental" square.g2o --mode fast)
 pgem_fails(2 every0 "--every needs at least 1 pose" square.g2o --every 0)
@@ -141,6 +193,12 @@ pgem_fails(2 limit0 "--time-limit needs a positive number" square.g2o --time-lim
 pgem_fails(2 unknown "unknown option '--fast'" square.g2o --fast)
 pgem_fails(2 noinput "no input file" --every 2)
 pgem_fails(2 two "more than one input file" square.g2o edges.g2o)
+pgem_fails(2 livefull "--live-em needs --mode incremental" square.g2o --live-em 2)
+pgem_fails(2 live0 "--live-em needs at least 1 pose" square.g2o --mode incremental --live-em 0)
+pgem_fails(2 settlefull "--no-settle needs --mode incremental" square.g2o --no-settle)
+pgem_fails(2 pending "--no-pending goes with --live-em" square.g2o --mode incremental --no-pending)
+pgem_fails(2 checkdir "--checkpoints and --checkpoint-dir go together" square.g2o --checkpoints 2)
+pgem_fails(3 nodir "nothere/checkpoint_01.g2o" square.g2o --checkpoints 2 --checkpoint-dir nothere)
 pgem_fails(3 missing "missing.g2o" missing.g2o)
 file(WRITE "${WORK}/poses.g2o" "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\n")
 pgem_fails(1 noedges "poses.g2o has no edges: nothing to stream" poses.g2o)

@@ -223,9 +223,11 @@ class Watch:
                  f"about {bench_robust.format_duration(left)} to go in this run")
 
 
-def stream_process(command: Sequence[str], kill_after: float, log: Path, watch: Watch) -> tuple[int, list, dict, bool]:
+def stream_process(command: Sequence[str], kill_after: float, log: Path, watch: Watch,
+                   others: list[dict[str, Any]] | None = None) -> tuple[int, list, dict, bool]:
     """Runs a streaming process (JSON lines on stdout: updates, then a summary; stderr into log),
-    killed after kill_after seconds; (exit status, update lines, summary, killed)."""
+    killed after kill_after seconds; (exit status, update lines, summary, killed). Lines of any
+    other type go to `others` when given."""
     log.parent.mkdir(parents=True, exist_ok=True)
     updates: list[dict[str, Any]] = []
     summary: dict[str, Any] = {}
@@ -250,6 +252,8 @@ def stream_process(command: Sequence[str], kill_after: float, log: Path, watch: 
                     watch.line(line)
                 elif line.get("type") == "summary":
                     summary = line
+                elif others is not None:
+                    others.append(line)
             code = proc.wait()
         finally:
             timer.cancel()

@@ -44,12 +44,32 @@ typedef struct online_state {
     int restart_pending;          /* an update failed: the next starts from the raw guesses */
     uint32_t restarts;            /* updates that started from the raw guesses */
     pgem_update_summary_t step;   /* --mode incremental: the last pgem_update's summary */
+    pgem_config_t config;         /* the instance's configuration, kept for the pass's */
+    pgem_t *pass;                 /* --live-em: the whole-graph pass's instance (NULL: none) */
+    void *pass_block;             /* its memory, re-initialised for every pass */
+    size_t pass_bytes;            /* pgem_memory_size of its configuration */
+    int pass_pending;             /* a pass was solved and waits to be adopted */
+    int pending;                  /* --mode incremental: pgem_update_options_t.pending */
 } online_state_t;
 
 /* Creates the instance for capacities (max_poses, max_edges, fill_budget; 0 = the core's
  * default fill, as the bridge); prints what failed. 0 or -1. */
 int online_state_init(online_state_t *state, const pgem_config_t *config, online_guess_t guess);
 void online_state_free(online_state_t *state);
+
+/* --live-em: the second instance, same dimension and capacities, no online_fill; prints what
+ * failed. 0 or -1. */
+int online_pass_init(online_state_t *state);
+
+/* A pass: the pass instance re-initialised, the graph copied into it, every pose set to the
+ * stream's guess (what batch EM on the graph received so far starts from), every loop back in
+ * and EM with its defaults; *seconds is the copy and the solve. Returns the library's status
+ * (the pass waits for online_pass_adopt only when it succeeded). */
+int online_pass_run(online_state_t *state, pgem_robust_summary_t *summary, double *seconds);
+
+/* pgem_update_adopt of the waiting pass into the graph; *seconds is its wall time. Returns the
+ * library's status; the pass no longer waits either way. */
+int online_pass_adopt(online_state_t *state, pgem_adopt_summary_t *summary, double *seconds);
 
 /* Adds pose p of the stream with its guess; adds one edge of the file and, with
  * ONLINE_GUESS_ANCHORED, places its new pose. Print the core's refusal; 0 or -1. */

@@ -11,6 +11,7 @@ int online_state_init(online_state_t *state, const pgem_config_t *config, online
 {
     char message[512];
     memset(state, 0, sizeof *state);
+    state->config = *config;
     state->dimension = config->dimension;
     state->guess = guess;
     state->block_bytes = pgem_memory_size(config);
@@ -35,6 +36,7 @@ int online_state_init(online_state_t *state, const pgem_config_t *config, online
 void online_state_free(online_state_t *state)
 {
     free(state->block);
+    free(state->pass_block);
     free(state->raw);
     free(state->placed);
     memset(state, 0, sizeof *state);
@@ -162,14 +164,16 @@ static int online_update_full(online_state_t *state, pgem_robust_summary_t *summ
     return status;
 }
 
-/* --mode incremental: pgem_update after every pose (the robust gate on new loop closures,
- * the core's defaults otherwise); its counters go into the update line's fields. */
+/* --mode incremental: pgem_update after every pose (the robust gate on new loop closures, with
+ * --live-em loops that pass it only by the map's uncertainty pending for the pass, the core's
+ * defaults otherwise); its counters go into the update line's fields. */
 static int online_update_incremental(online_state_t *state, pgem_robust_summary_t *summary,
                                      double *seconds)
 {
     pgem_update_options_t options;
     memset(&options, 0, sizeof options);
     options.robust = 1;
+    options.pending = state->pending;
     memset(summary, 0, sizeof *summary);
     memset(&state->step, 0, sizeof state->step);
     double start = pgem_cli_now();
@@ -207,6 +211,63 @@ static int online_settle_incremental(online_state_t *state, pgem_robust_summary_
     double start = pgem_cli_now();
     int status = pgem_update_settle(state->core, &robust, summary);
     *seconds = pgem_cli_now() - start;
+    return status;
+}
+
+int online_pass_init(online_state_t *state)
+{
+    pgem_config_t config = state->config;
+    config.online_fill = 0u; /* the pass only solves: no incremental factor */
+    state->pass_bytes = pgem_memory_size(&config);
+    state->pass_block = state->pass_bytes > 0 ? malloc(state->pass_bytes) : NULL;
+    if (state->pass_block == NULL) {
+        fprintf(stderr, "pgem-online-driver: out of memory for the pass's block (%zu bytes)\n",
+                state->pass_bytes);
+        return -1;
+    }
+    return 0;
+}
+
+int online_pass_run(online_state_t *state, pgem_robust_summary_t *summary, double *seconds)
+{
+    pgem_config_t config = state->config;
+    config.online_fill = 0u;
+    pgem_robust_options_t robust;
+    memset(&robust, 0, sizeof robust);
+    robust.kernel = PGEM_KERNEL_EM;
+    memset(summary, 0, sizeof *summary);
+    state->pass_pending = 0;
+    const double start = pgem_cli_now();
+    /* Re-initialising empties the instance: the copy below is the graph as it is now. */
+    int status = pgem_init(&state->pass, &config, state->pass_block, state->pass_bytes);
+    if (status == PGEM_OK) {
+        status = pgem_copy(state->pass, state->core);
+    }
+    const size_t size = (size_t)PGEM_POSE_SIZE(state->dimension);
+    for (uint32_t i = 0; status == PGEM_OK && i < pgem_pose_count(state->pass); i++) {
+        pgem_id_t id = 0;
+        pgem_pose_at(state->pass, i, &id, NULL, NULL);
+        status = pgem_set_pose(state->pass, id, state->raw + i * size);
+    }
+    if (status == PGEM_OK) {
+        pgem_robust_reset(state->pass);
+        status = pgem_robust_optimize(state->pass, &robust, NULL, summary);
+    }
+    *seconds = pgem_cli_now() - start;
+    state->pass_pending = status == PGEM_OK && summary->usable;
+    return status;
+}
+
+int online_pass_adopt(online_state_t *state, pgem_adopt_summary_t *summary, double *seconds)
+{
+    const double start = pgem_cli_now();
+    int status = pgem_update_adopt(state->core, state->pass, summary);
+    *seconds = pgem_cli_now() - start;
+    state->pass_pending = 0;
+    if (status == PGEM_OK) { /* every pose placed: new ones are placed from them */
+        state->solved_poses = pgem_pose_count(state->core);
+        memset(state->placed, 0, state->solved_poses);
+    }
     return status;
 }
 
