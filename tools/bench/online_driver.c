@@ -377,11 +377,10 @@ static void online_adopt(const online_args_t *args, const online_stream_t *strea
     run->adopt_seconds += seconds;
     printf("{\"type\":\"adopt\",\"pose\":%zu,\"id\":%llu,\"poses\":%u,\"edges\":%u,"
            "\"pass_poses\":%u,\"seconds\":%.9f,\"status\":\"%s\",\"poses_adopted\":%u,"
-           "\"poses_carried\":%u,\"edges_adopted\":%u,\"loops_changed\":%u,\"loops_rejudged\":%u}\n",
+           "\"poses_carried\":%u,\"edges_adopted\":%u,\"loops_changed\":%u}\n",
            pose, (unsigned long long)stream->file->poses[pose].id, pgem_pose_count(state->core),
            pgem_edge_count(state->core), pass_poses, seconds, pgem_error_name(status),
-           adopt.poses_adopted, adopt.poses_carried, adopt.edges_adopted, adopt.loops_changed,
-           adopt.loops_rejudged);
+           adopt.poses_adopted, adopt.poses_carried, adopt.edges_adopted, adopt.loops_changed);
     if (status != PGEM_OK && !args->quiet) {
         fprintf(stderr, ONLINE_TOOL ": adopting the pass at pose %zu failed: %s\n", pose,
                 pgem_last_error(state->core));

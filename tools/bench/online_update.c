@@ -173,7 +173,7 @@ static int online_update_incremental(online_state_t *state, pgem_robust_summary_
     pgem_update_options_t options;
     memset(&options, 0, sizeof options);
     options.robust = 1;
-    options.pending = state->pending;
+    options.pending = state->pending ? 10.0 : 0.0; /* the LCM bridge's factor with its passes */
     memset(summary, 0, sizeof *summary);
     memset(&state->step, 0, sizeof state->step);
     double start = pgem_cli_now();
