@@ -59,7 +59,7 @@ from pathlib import Path
 URL = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304"
 SKIP = 77
 REPLAYED = re.compile(r"(\d+) records replayed \((\d+) poses, (\d+) edges\)")
-TORN = re.compile(r"cut (\d+) bytes of a torn last record, skipped (\d+) damaged bytes")
+TORN = re.compile(r"cut (\d+) bytes of a torn last record")
 SYNC_WORD = b"\xed\xa1\xda\x01"
 
 

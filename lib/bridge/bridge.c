@@ -420,18 +420,15 @@ static int journal_report(bridge_t *bridge, const pgem_journal_info_t *info, cha
         return -1;
     }
     const pgem_ingest_counts_t counts = bridge->counts;
-    bridge_log(bridge, "journal %s: %lld records replayed (%lld poses, %lld edges)", o->journal,
-               (long long)(info->records - total), (long long)counts.accepted_poses,
-               (long long)counts.accepted_edges);
+    bridge_log(bridge, "journal %s: %lld records replayed (%lld poses, %lld edges), %lld with a "
+               "checksum", o->journal, (long long)(info->records - total),
+               (long long)counts.accepted_poses, (long long)counts.accepted_edges,
+               (long long)info->checked);
     if (total > 0) {
         bridge_note(bridge, "journal %s: %lld more records refused on replay (%s)", o->journal,
                     (long long)total, reasons);
     }
-    if (info->torn_bytes > 0 || info->skipped_bytes > 0) {
-        bridge_note(bridge, "journal %s: cut %lld bytes of a torn last record, skipped "
-                    "%lld damaged bytes", o->journal, (long long)info->torn_bytes,
-                    (long long)info->skipped_bytes);
-    }
+    bridge_journal_damage(bridge, info);
     return 0;
 }
 
@@ -439,8 +436,9 @@ static int open_journal(bridge_t *bridge, char *message, size_t message_size)
 {
     const pgem_bridge_options_t *o = &bridge->options;
     pgem_journal_info_t info;
-    bridge->journal = pgem_journal_open(o->journal, o->journal_sync, on_journal_record, bridge,
-                                        &info, message, message_size);
+    bridge->journal = pgem_journal_open(o->journal, o->journal_sync, on_journal_record,
+                                        bridge_journal_recognise, bridge, &info, message,
+                                        message_size);
     if (bridge->journal == NULL) {
         return -1;
     }

@@ -185,4 +185,12 @@ void bridge_note(bridge_t *bridge, const char *format, ...)
 #endif
     ;
 
+/* held.c (start and reception thread): the files the bridge holds. */
+/* Logs each damaged stretch the journal's replay skipped and notes the summary (and a torn
+ * last record cut). */
+void bridge_journal_damage(bridge_t *bridge, const pgem_journal_info_t *info);
+/* The journal's recognise hook: a record without a checksum holds a message the bridge takes
+ * (an input type's exact layout; the type of its channel for the bridge's own channels). */
+int bridge_journal_recognise(void *user, const char *channel, const void *data, size_t size);
+
 #endif /* PGEM_BRIDGE_INTERNAL_H */

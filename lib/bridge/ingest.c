@@ -1014,6 +1014,22 @@ static pgem_role_t role_of(const void *data, size_t size)
     return PGEM_ROLE_ANY;
 }
 
+pgem_role_t pgem_ingest_wire_role(const void *data, size_t size)
+{
+    if (wire_ok(data, size, __pgem_pose2_t_get_hash(), STRING_AFTER_UTIME, POSE2_TAIL) ||
+        wire_ok(data, size, __pgem_pose3_t_get_hash(), STRING_AFTER_UTIME, POSE3_TAIL)) {
+        return PGEM_ROLE_POSE;
+    }
+    if (wire_ok(data, size, __pgem_edge2_t_get_hash(), STRING_AFTER_UTIME, EDGE2_TAIL) ||
+        wire_ok(data, size, __pgem_edge3_t_get_hash(), STRING_AFTER_UTIME, EDGE3_TAIL)) {
+        return PGEM_ROLE_EDGE;
+    }
+    if (wire_ok(data, size, __pgem_command_t_get_hash(), COMMAND_STRING, 0)) {
+        return PGEM_ROLE_COMMAND;
+    }
+    return PGEM_ROLE_ANY;
+}
+
 void pgem_ingest_message(pgem_ingest_t *ingest, pgem_role_t role, const void *data, size_t size,
                          int64_t utime, pgem_ingest_result_t *result)
 {

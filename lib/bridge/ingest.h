@@ -173,6 +173,11 @@ void pgem_ingest_counts(const pgem_ingest_t *ingest, pgem_ingest_counts_t *count
 uint32_t pgem_ingest_source_count(const pgem_ingest_t *ingest);
 const char *pgem_ingest_source_name(const pgem_ingest_t *ingest, uint32_t index);
 
+/* The role of bytes laid out exactly as one of the input types (pose2_t, pose3_t, edge2_t,
+ * edge3_t, command_t: fingerprint, one well-formed string, nothing more or less): POSE, EDGE or
+ * COMMAND; ANY when they are none of them. Checks the layout only, not the values. */
+pgem_role_t pgem_ingest_wire_role(const void *data, size_t size);
+
 /* A SNAPSHOT file name the bridge accepts: 1 to PGEM_SNAPSHOT_NAME_MAX bytes of [A-Za-z0-9._-],
  * not starting with '.': no folder, no way out of the snapshot folder, no hidden file. */
 int pgem_snapshot_name_ok(const char *name);
