@@ -382,7 +382,7 @@ static void test_open_errors(void **state)
     assert_non_null(strstr(message, "/nonexistent-dir/j.lcmlog"));
 }
 
-/* ---- damage in the middle (issue 31) ----------------------------------------------------- */
+/* ---- damage in the middle, the lock, a moved or swapped journal (issue 31) --------------- */
 
 #define SWEEP_RECORDS 60
 
@@ -703,6 +703,142 @@ static void test_damaged_last_record(void **state)
     pgem_journal_close(journal);
     free(bytes);
     remove(path);
+}
+
+/* Issue 31: two bridges on one --journal both ran; after a restart one's acknowledged edges
+ * were gone and the other's poses mixed in. The journal is locked while open: a second open
+ * (another process, or this one) is refused, naming the file, and changes nothing. */
+static void test_second_open_is_refused(void **state)
+{
+    (void)state;
+    char path[512];
+    char message[512];
+    seen_t seen;
+    pgem_journal_info_t info;
+    path_for(path, sizeof path, "journal_locked.lcmlog");
+    pgem_journal_t *journal = reopen(path, &seen, &info);
+    append_records(journal, 0, 5);
+    off_t size = file_size(path);
+    assert_null(pgem_journal_open(path, 0, NULL, NULL, NULL, NULL, message, sizeof message));
+    assert_non_null(strstr(message, "journal_locked.lcmlog: the journal is locked by another "
+                                    "process (is another pgem-lcm-bridge running on it?): "
+                                    "refusing to start, nothing was changed"));
+    assert_int_equal(file_size(path), size);
+    append_records(journal, 5, 1); /* the first goes on */
+    pgem_journal_close(journal);
+    journal = reopen(path, &seen, &info); /* closed: free again */
+    expect_records(&seen, 6);
+    pgem_journal_close(journal);
+    remove(path);
+}
+
+/* Issue 31: a symlink swapped in for the journal was followed at the restart, and the other
+ * file's tail cut. The journal's path is never followed: a symlink there is refused at open,
+ * naming its target, and the target is not touched (a dangling one is not created either). */
+static void test_symlink_is_refused(void **state)
+{
+    (void)state;
+    char path[512];
+    char target[512];
+    char message[512];
+    seen_t seen;
+    pgem_journal_info_t info;
+    path_for(target, sizeof target, "journal_other.lcmlog");
+    path_for(path, sizeof path, "journal_link.lcmlog");
+    pgem_journal_t *journal = reopen(target, &seen, &info);
+    append_records(journal, 0, 5);
+    pgem_journal_close(journal);
+    FILE *file = fopen(target, "ab");
+    assert_non_null(file);
+    fputc(0xED, file); /* a tail a replay through the link would have cut */
+    fclose(file);
+    off_t size = file_size(target);
+    assert_int_equal(symlink(target, path), 0);
+    assert_null(pgem_journal_open(path, 0, NULL, NULL, NULL, NULL, message, sizeof message));
+    assert_non_null(strstr(message, "journal_link.lcmlog is a symbolic link (to '"));
+    assert_non_null(strstr(message, "journal_other.lcmlog'): refusing to follow it"));
+    assert_int_equal(file_size(target), size);
+    remove(target);
+    assert_null(pgem_journal_open(path, 0, NULL, NULL, NULL, NULL, message, sizeof message));
+    assert_non_null(strstr(message, "is a symbolic link"));
+    struct stat st;
+    assert_int_equal(stat(target, &st), -1);
+    remove(path);
+}
+
+/* Appends one record; returns pgem_journal_append's result and its message. */
+static int try_append(pgem_journal_t *journal, int i, char *message, size_t size)
+{
+    unsigned char data[64];
+    memset(data, i, sizeof data);
+    char channel[16];
+    snprintf(channel, sizeof channel, "CH%d", i % 3);
+    return pgem_journal_append(journal, channel, data, (size_t)(i % 60) + 1, 1000 + i, message,
+                               size);
+}
+
+/* Issue 31: the journal renamed (log rotation) or deleted while the bridge ran, or a symlink
+ * swapped in: acknowledgements went on into a file no restart would read. Every append now
+ * checks that the path still names the open file and its size is the journal's: if not, the
+ * record is refused, saying what happened, and nothing is written; put back, appends go on. */
+static void test_moved_journal_refuses(void **state)
+{
+    (void)state;
+    char path[512];
+    char moved[512];
+    char other[512];
+    char message[512];
+    seen_t seen;
+    pgem_journal_info_t info;
+    path_for(path, sizeof path, "journal_moving.lcmlog");
+    path_for(moved, sizeof moved, "journal_moving.lcmlog.1");
+    path_for(other, sizeof other, "journal_moving_other.lcmlog");
+    pgem_journal_t *journal = reopen(path, &seen, &info);
+    append_records(journal, 0, 3);
+    assert_int_equal(pgem_journal_check(journal, message, sizeof message), 0);
+
+    /* renamed: refused, nothing written; renamed back: accepted */
+    assert_int_equal(rename(path, moved), 0);
+    off_t size = file_size(moved);
+    assert_int_equal(try_append(journal, 3, message, sizeof message), -1);
+    assert_non_null(strstr(message, "journal_moving.lcmlog no longer names the journal (renamed "
+                                    "or rotated away): put it back, or restart on its new name"));
+    assert_int_equal(pgem_journal_check(journal, message, sizeof message), -1);
+    assert_int_equal(file_size(moved), size);
+    /* a new file at the path (logrotate's create) */
+    spill(path, (const unsigned char *)"", 0);
+    assert_int_equal(try_append(journal, 3, message, sizeof message), -1);
+    assert_non_null(strstr(message, "names another file now"));
+    assert_int_equal(file_size(path), 0);
+    assert_int_equal(rename(moved, path), 0);
+    append_records(journal, 3, 1);
+
+    /* a symlink swapped in: not followed, its target unchanged */
+    spill(other, (const unsigned char *)"other\n", 6);
+    assert_int_equal(rename(path, moved), 0);
+    assert_int_equal(symlink(other, path), 0);
+    assert_int_equal(try_append(journal, 4, message, sizeof message), -1);
+    assert_non_null(strstr(message, "is now a symbolic link, not the journal (not followed)"));
+    assert_int_equal(file_size(other), 6);
+    assert_int_equal(remove(path), 0);
+    assert_int_equal(rename(moved, path), 0);
+
+    /* cut behind its back (a rotation that copies and truncates) */
+    assert_int_equal(truncate(path, 0), 0);
+    assert_int_equal(try_append(journal, 4, message, sizeof message), -1);
+    assert_non_null(strstr(message, "changed behind the bridge's back (0 bytes, it wrote "));
+    assert_int_equal(file_size(path), 0);
+    pgem_journal_close(journal);
+
+    /* deleted: the message says where the records still are */
+    journal = reopen(path, &seen, &info);
+    append_records(journal, 0, 2);
+    assert_int_equal(remove(path), 0);
+    assert_int_equal(try_append(journal, 2, message, sizeof message), -1);
+    assert_non_null(strstr(message, "journal_moving.lcmlog was deleted (its records are in "
+                                    "/proc/"));
+    pgem_journal_close(journal);
+    remove(other);
 }
 
 /* A journal written with checksums, then appended to by a writer that numbers its events one
@@ -1153,6 +1289,9 @@ int main(void)
         cmocka_unit_test(test_damage_sweep_lcm_logger),
         cmocka_unit_test(test_bad_length_is_not_a_torn_tail),
         cmocka_unit_test(test_damaged_last_record),
+        cmocka_unit_test(test_second_open_is_refused),
+        cmocka_unit_test(test_symlink_is_refused),
+        cmocka_unit_test(test_moved_journal_refuses),
         cmocka_unit_test(test_status_counts_only_journaled),
         cmocka_unit_test(test_full_journal_refuses_and_recovers),
         cmocka_unit_test(test_journal_that_does_not_fit),

@@ -560,10 +560,12 @@ int pgem_bridge_run(const pgem_bridge_options_t *options, int (*stop)(void), cha
                    (double)bridge->pass.block_size / 1048576.0);
     }
     double next_status = bridge_now();
+    int journal_away = 0;
     while (!stop()) {
         double now = bridge_now();
         if (now >= next_status) {
             expire_quietly(bridge);
+            bridge_journal_watch(bridge, &journal_away);
             bridge_publish_status(bridge);
             next_status = now + o->status_period;
         }

@@ -192,5 +192,9 @@ void bridge_journal_damage(bridge_t *bridge, const pgem_journal_info_t *info);
 /* The journal's recognise hook: a record without a checksum holds a message the bridge takes
  * (an input type's exact layout; the type of its channel for the bridge's own channels). */
 int bridge_journal_recognise(void *user, const char *channel, const void *data, size_t size);
+/* Every status period: is the journal still at its path? Noted once when it is not (every
+ * message that would change the graph is refused meanwhile) and once when it is back; *away
+ * carries the state between calls. */
+void bridge_journal_watch(bridge_t *bridge, int *away);
 
 #endif /* PGEM_BRIDGE_INTERNAL_H */

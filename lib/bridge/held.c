@@ -1,5 +1,6 @@
-/* The files the bridge holds (issue 31): what its journal's replay skipped, and which journal
- * records without a checksum hold a message the bridge takes. At start. */
+/* The files the bridge holds (issue 31): what its journal's replay skipped, which journal
+ * records without a checksum hold a message the bridge takes, and the periodic look that the
+ * journal is still where a restart finds it. Reception thread (and start). */
 #define _POSIX_C_SOURCE 200809L
 #include <stdio.h>
 #include <string.h>
@@ -54,4 +55,19 @@ int bridge_journal_recognise(void *user, const char *channel, const void *data, 
         return role == PGEM_ROLE_COMMAND;
     }
     return 1; /* a journal written under another --channel-prefix */
+}
+
+void bridge_journal_watch(bridge_t *bridge, int *away)
+{
+    char message[512];
+    if (bridge->journal == NULL) {
+        return;
+    }
+    int now = pgem_journal_check(bridge->journal, message, sizeof message) != 0;
+    if (now && !*away) {
+        bridge_note(bridge, "journal: %s; nothing is accepted meanwhile", message);
+    } else if (!now && *away) {
+        bridge_note(bridge, "journal %s is in place again: accepting", bridge->options.journal);
+    }
+    *away = now;
 }

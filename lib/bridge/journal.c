@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -26,6 +27,10 @@ struct pgem_journal {
     char broken[256];       /* why appends stopped for good ("" while they work) */
     int64_t records;
     uint32_t count;         /* the next record's count (its event number's high half) */
+    off_t end;              /* the file's size as the journal left it */
+    int away;               /* the last check found the path not naming the file */
+    dev_t dev;              /* the open file */
+    ino_t ino;
     unsigned char *buffer;  /* one record being written or read */
     size_t buffer_size;
     char path[1024];
@@ -381,6 +386,48 @@ static int journal_acceptable(pgem_journal_t *journal, off_t file_size, const re
     return -1;
 }
 
+/* ---- opening: one bridge per file, never through a symlink --------------------------------- */
+
+static void describe_open_error(const char *path, char *message, size_t message_size)
+{
+    int saved = errno;
+    struct stat st;
+    if (saved == ELOOP && lstat(path, &st) == 0 && S_ISLNK(st.st_mode)) {
+        char target[512];
+        ssize_t length = readlink(path, target, sizeof target - 1);
+        target[length > 0 ? length : 0] = '\0';
+        snprintf(message, message_size,
+                 "%s is a symbolic link (to '%s'): refusing to follow it for the journal (a "
+                 "link swapped in would have the bridge replay, cut and append to another "
+                 "file); give the journal's own path", path, target);
+        return;
+    }
+    snprintf(message, message_size, "%s: cannot open the journal: %s", path, strerror(saved));
+}
+
+/* The lock: one process per journal. flock, not fcntl's record locks: a flock belongs to the
+ * open file, so it holds against a second open in the same process too, and closing another
+ * descriptor of the file does not drop it. */
+static int journal_lock(const pgem_journal_t *journal, char *message, size_t message_size)
+{
+    while (flock(journal->fd, LOCK_EX | LOCK_NB) != 0) {
+        if (errno == EINTR) {
+            continue;
+        }
+        if (errno == EWOULDBLOCK) {
+            snprintf(message, message_size,
+                     "%s: the journal is locked by another process (is another pgem-lcm-bridge "
+                     "running on it?): refusing to start, nothing was changed (two bridges on "
+                     "one journal would mix their records)", journal->path);
+        } else {
+            snprintf(message, message_size, "%s: cannot lock the journal: %s", journal->path,
+                     strerror(errno));
+        }
+        return -1;
+    }
+    return 0;
+}
+
 pgem_journal_t *pgem_journal_open(const char *path, int sync, pgem_journal_record_fn on_record,
                                   pgem_journal_recognise_fn recognise, void *user,
                                   pgem_journal_info_t *info, char *message,
@@ -401,9 +448,14 @@ pgem_journal_t *pgem_journal_open(const char *path, int sync, pgem_journal_recor
     snprintf(journal->path, sizeof journal->path, "%s", path);
     journal->sync = sync;
     journal->count = 1;
-    journal->fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    journal->fd = open(path, O_RDWR | O_CREAT | O_NOFOLLOW | O_NOCTTY | O_CLOEXEC, 0644);
+    if (journal->fd < 0) {
+        describe_open_error(path, message, message_size);
+        pgem_journal_close(journal);
+        return NULL;
+    }
     struct stat st;
-    if (journal->fd < 0 || fstat(journal->fd, &st) != 0) {
+    if (fstat(journal->fd, &st) != 0) {
         snprintf(message, message_size, "%s: cannot open the journal: %s", path, strerror(errno));
         pgem_journal_close(journal);
         return NULL;
@@ -414,6 +466,12 @@ pgem_journal_t *pgem_journal_open(const char *path, int sync, pgem_journal_recor
         pgem_journal_close(journal);
         return NULL;
     }
+    if (journal_lock(journal, message, message_size) != 0) {
+        pgem_journal_close(journal);
+        return NULL;
+    }
+    journal->dev = st.st_dev; /* to notice a rename, a deletion or a replacement */
+    journal->ino = st.st_ino;
     reader_t reader = {on_record, recognise, user};
     if (journal_acceptable(journal, st.st_size, &reader, message, message_size) != 0) {
         pgem_journal_close(journal);
@@ -439,10 +497,68 @@ pgem_journal_t *pgem_journal_open(const char *path, int sync, pgem_journal_recor
         pgem_journal_close(journal);
         return NULL;
     }
+    journal->end = end;
     return journal;
 }
 
 /* ---- appending ------------------------------------------------------------------------------ */
+
+/* Whether the path still names the open journal and the file is `size` bytes long: 0, or -1
+ * with what happened. */
+static int journal_in_place(const pgem_journal_t *journal, off_t size, char *message,
+                            size_t message_size)
+{
+    struct stat own;
+    struct stat at;
+    if (fstat(journal->fd, &own) != 0) {
+        snprintf(message, message_size, "%s: cannot check the journal: %s", journal->path,
+                 strerror(errno));
+        return -1;
+    }
+    if (own.st_nlink == 0) {
+        snprintf(message, message_size,
+                 "%s was deleted (its records are in /proc/%ld/fd/%d: copy that to the path, "
+                 "then restart)", journal->path, (long)getpid(), journal->fd);
+        return -1;
+    }
+    if (own.st_size != size) {
+        snprintf(message, message_size,
+                 "%s changed behind the bridge's back (%lld bytes, it wrote %lld: truncated, or "
+                 "written by another program): restart on the file that holds its records",
+                 journal->path, (long long)own.st_size, (long long)size);
+        return -1;
+    }
+    if (lstat(journal->path, &at) != 0) {
+        if (errno == ENOENT) {
+            snprintf(message, message_size,
+                     "%s no longer names the journal (renamed or rotated away): put it back, "
+                     "or restart on its new name", journal->path);
+        } else {
+            snprintf(message, message_size, "%s: cannot check the journal's path: %s",
+                     journal->path, strerror(errno));
+        }
+        return -1;
+    }
+    if (S_ISLNK(at.st_mode)) {
+        snprintf(message, message_size,
+                 "%s is now a symbolic link, not the journal (not followed): put the journal "
+                 "back", journal->path);
+        return -1;
+    }
+    if (at.st_dev != journal->dev || at.st_ino != journal->ino) {
+        snprintf(message, message_size,
+                 "%s names another file now (the journal was renamed or replaced): put it "
+                 "back, or restart on its new name", journal->path);
+        return -1;
+    }
+    return 0;
+}
+
+int pgem_journal_check(pgem_journal_t *journal, char *message, size_t message_size)
+{
+    journal->away = journal_in_place(journal, journal->end, message, message_size) != 0;
+    return journal->away ? -1 : 0;
+}
 
 /* Takes a record that did not make it back out of the file, so the journal holds exactly what
  * was acknowledged; when even that fails, no later append is trusted. */
@@ -468,6 +584,9 @@ int pgem_journal_append(pgem_journal_t *journal, const char *channel, const void
         snprintf(message, message_size, "%s: record too large for the journal", journal->path);
         return -1;
     }
+    if (journal->away && pgem_journal_check(journal, message, message_size) != 0) {
+        return -1; /* still away: nothing written where no restart looks */
+    }
     size_t total = HEADER_BYTES + channel_length + size;
     if (reserve(journal, total) != 0) {
         snprintf(message, message_size, "%s: out of memory", journal->path);
@@ -482,7 +601,7 @@ int pgem_journal_append(pgem_journal_t *journal, const char *channel, const void
     memcpy(p + HEADER_BYTES, channel, channel_length); // NOLINT(bugprone-not-null-terminated-result): LCM logs store the channel without its NUL
     memcpy(p + HEADER_BYTES + channel_length, data, size);
     put_u32(p + 8, record_crc(p, p + HEADER_BYTES, channel_length + size));
-    off_t start = lseek(journal->fd, 0, SEEK_CUR);
+    off_t start = journal->end;
     size_t done = 0;
     while (done < total) {
         ssize_t wrote = write(journal->fd, p + done, total - done);
@@ -508,6 +627,19 @@ int pgem_journal_append(pgem_journal_t *journal, const char *channel, const void
         }
         return -1;
     }
+    /* Acknowledged only if the path still names the file (checked after the write, so a
+     * rename before it or during it is seen): else the record is taken back out of the file
+     * it went to, when nothing else was written there since, and refused. */
+    off_t end = start + (off_t)total;
+    if (journal_in_place(journal, end, message, message_size) != 0) {
+        struct stat own;
+        if (fstat(journal->fd, &own) == 0 && own.st_size == end) {
+            journal_undo(journal, start, "the journal moved");
+        }
+        journal->away = 1;
+        return -1;
+    }
+    journal->end = end;
     journal->records++;
     if (journal->count < COUNT_MAX) {
         journal->count++;
@@ -524,7 +656,7 @@ void pgem_journal_close(pgem_journal_t *journal)
 {
     if (journal != NULL) {
         if (journal->fd >= 0) {
-            close(journal->fd);
+            close(journal->fd); /* releases the lock */
         }
         free(journal->buffer);
         free(journal);

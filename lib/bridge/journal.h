@@ -12,7 +12,11 @@
  * than the record's before it (a writer counting in ones appended it), is taken by its
  * structure and payload. A record that fails its checks in the middle of the file is
  * skipped, counted and reported with its byte offsets, and reading resumes at the next record
- * that passes them; only a torn last record is ever cut, and no byte of a record is rewritten. */
+ * that passes them; only a torn last record is ever cut, and no byte of a record is rewritten.
+ *
+ * The file is held with an exclusive lock (flock) while open, so a second bridge on the same
+ * journal is refused; its path is opened without following a symbolic link, and every append
+ * checks that the path still names the open file (not renamed, deleted or replaced). */
 #ifndef PGEM_BRIDGE_JOURNAL_H
 #define PGEM_BRIDGE_JOURNAL_H
 
@@ -49,9 +53,10 @@ typedef struct pgem_journal_info {
 /* Largest record accepted (channel + data); a larger header is damage. */
 #define PGEM_JOURNAL_RECORD_MAX (16u << 20)
 
-/* Opens the journal at path, creating it if absent. A file that is not a regular file, or is
- * not empty and holds no LCM log record (neither at its start nor, after damage, further in),
- * is refused unchanged. An existing
+/* Opens the journal at path, creating it if absent, and locks it (a file another process holds
+ * locked is refused: another bridge runs on it). A path that is a symbolic link is refused
+ * (never followed), and so is a file that is not a regular file, or is not empty and holds no
+ * LCM log record (neither at its start nor, after damage, further in), unchanged. An existing
  * journal is replayed through on_record first (may be NULL), damaged records are skipped (see
  * above; recognise may be NULL), a torn last record is truncated, and appends go after the
  * last byte kept. sync != 0 makes every append fdatasync(2) (survives power loss, slower).
@@ -63,11 +68,19 @@ pgem_journal_t *pgem_journal_open(const char *path, int sync, pgem_journal_recor
 
 /* Appends one record; 0 on success, -1 with message on failure. A failed record is taken back
  * out of the file, so the journal holds exactly the records that succeeded, and the next
- * append may succeed (a disk that had no room may have room again). When it cannot be taken
- * back, or an fdatasync failed (the disk's state is then unknown), every later append fails
- * too, saying why. */
+ * append may succeed (a disk that had no room may have room again). A record fails too when,
+ * after its write, the path no longer names the open file (renamed, rotated, deleted,
+ * replaced, a symlink put there) or the file's size is not what the journal wrote (cut or
+ * written by another program): a restart would not replay it. From then on nothing is
+ * written until the file is back in place (pgem_journal_check says so too). When a record
+ * cannot be taken back, or an fdatasync failed (the disk's state is then unknown), every
+ * later append fails too, saying why. */
 int pgem_journal_append(pgem_journal_t *journal, const char *channel, const void *data,
                         size_t size, int64_t utime, char *message, size_t message_size);
+
+/* 0 while the path names the open journal and its size is what the journal wrote; else -1
+ * with what happened in message (the check every append makes, for a periodic look). */
+int pgem_journal_check(pgem_journal_t *journal, char *message, size_t message_size);
 
 /* Records in the file (replayed plus appended). */
 int64_t pgem_journal_records(const pgem_journal_t *journal);
