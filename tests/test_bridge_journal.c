@@ -13,6 +13,7 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <fcntl.h>
 
 #include <cmocka.h>
 #include <lcm/eventlog.h>
@@ -841,6 +842,39 @@ static void test_moved_journal_refuses(void **state)
     remove(other);
 }
 
+/* Issue 31: a SNAPSHOT named like the journal, in --snapshot-dir, replaced the journal. The
+ * bridge asks pgem_journal_is_named before it takes a SNAPSHOT's name: the journal's file
+ * under any name (a hard link) and the journal's name in its folder are the journal. */
+static void test_journal_is_named(void **state)
+{
+    (void)state;
+    char path[512];
+    char link_path[512];
+    char message[256];
+    path_for(path, sizeof path, "journal_named.lcmlog");
+    path_for(link_path, sizeof link_path, "journal_named_link.lcmlog");
+    pgem_journal_t *journal = pgem_journal_open(path, 0, NULL, NULL, NULL, NULL, message,
+                                                sizeof message);
+    assert_non_null(journal);
+    const char *tmp = getenv("PGEM_TEST_TMP");
+    int dir = open(tmp != NULL ? tmp : "/tmp", O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    assert_true(dir >= 0);
+    assert_int_equal(pgem_journal_is_named(journal, dir, "journal_named.lcmlog"), 1);
+    assert_int_equal(pgem_journal_is_named(journal, dir, "journal_named.lcmlog.weights"), 0);
+    assert_int_equal(pgem_journal_is_named(journal, dir, "map.g2o"), 0);
+    assert_int_equal(link(path, link_path), 0);
+    assert_int_equal(pgem_journal_is_named(journal, dir, "journal_named_link.lcmlog"), 1);
+    remove(link_path);
+    remove(path); /* gone, the name in its folder is still the journal's */
+    assert_int_equal(pgem_journal_is_named(journal, dir, "journal_named.lcmlog"), 1);
+    int root = open("/", O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    assert_true(root >= 0);
+    assert_int_equal(pgem_journal_is_named(journal, root, "journal_named.lcmlog"), 0);
+    close(root);
+    close(dir);
+    pgem_journal_close(journal);
+}
+
 /* A journal written with checksums, then appended to by a writer that numbers its events one
  * after the last (the bridge before issue 31 did, and was run again on a newer journal): its
  * records carry no checksum though their numbers are 2^32 and more, and are read as such. */
@@ -1292,6 +1326,7 @@ int main(void)
         cmocka_unit_test(test_second_open_is_refused),
         cmocka_unit_test(test_symlink_is_refused),
         cmocka_unit_test(test_moved_journal_refuses),
+        cmocka_unit_test(test_journal_is_named),
         cmocka_unit_test(test_status_counts_only_journaled),
         cmocka_unit_test(test_full_journal_refuses_and_recovers),
         cmocka_unit_test(test_journal_that_does_not_fit),

@@ -483,6 +483,9 @@ static int start(bridge_t *bridge, char *message, size_t message_size)
     if (o->journal != NULL && open_journal(bridge, message, message_size) != 0) {
         return -1;
     }
+    if (o->snapshot_dir != NULL) {
+        pgem_ingest_set_snapshot_check(bridge->ingest, bridge_snapshot_check, bridge);
+    }
     bridge->lcm = o->lcm != NULL ? o->lcm : lcm_create(o->url);
     if (bridge->lcm == NULL) {
         const char *url = o->url != NULL ? o->url : getenv("LCM_DEFAULT_URL");

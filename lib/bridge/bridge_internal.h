@@ -196,5 +196,8 @@ int bridge_journal_recognise(void *user, const char *channel, const void *data, 
  * message that would change the graph is refused meanwhile) and once when it is back; *away
  * carries the state between calls. */
 void bridge_journal_watch(bridge_t *bridge, int *away);
+/* The ingest's SNAPSHOT hook: refuses a NAME whose NAME or NAME.weights in the snapshot
+ * folder is the journal or the file the bridge's standard output or error goes to. */
+int bridge_snapshot_check(void *user, const char *name, char *message, size_t message_size);
 
 #endif /* PGEM_BRIDGE_INTERNAL_H */

@@ -1,9 +1,12 @@
 /* The files the bridge holds (issue 31): what its journal's replay skipped, which journal
- * records without a checksum hold a message the bridge takes, and the periodic look that the
- * journal is still where a restart finds it. Reception thread (and start). */
+ * records without a checksum hold a message the bridge takes, the periodic look that the
+ * journal is still where a restart finds it, and SNAPSHOT's refusal of a name that is the
+ * journal or the file its output goes to. Reception thread (and start). */
 #define _POSIX_C_SOURCE 200809L
+#include <fcntl.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "bridge_internal.h"
 
@@ -70,4 +73,47 @@ void bridge_journal_watch(bridge_t *bridge, int *away)
         bridge_note(bridge, "journal %s is in place again: accepting", bridge->options.journal);
     }
     *away = now;
+}
+
+/* What a SNAPSHOT of `name` would replace that the bridge holds: its journal, or the file its
+ * standard output or error goes to; "" when nothing. */
+static const char *held(const bridge_t *bridge, const char *name)
+{
+    if (bridge->journal != NULL &&
+        pgem_journal_is_named(bridge->journal, bridge->snapshot_dir, name)) {
+        return "the bridge's journal";
+    }
+    struct stat target;
+    if (fstatat(bridge->snapshot_dir, name, &target, AT_SYMLINK_NOFOLLOW) != 0) {
+        return "";
+    }
+    static const char *const streams[3] = {"", "the bridge's standard output",
+                                           "the bridge's standard error"};
+    for (int fd = 1; fd <= 2; ++fd) {
+        struct stat st;
+        if (fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_dev == target.st_dev &&
+            st.st_ino == target.st_ino) {
+            return streams[fd];
+        }
+    }
+    return "";
+}
+
+int bridge_snapshot_check(void *user, const char *name, char *message, size_t message_size)
+{
+    const bridge_t *bridge = user;
+    char weights[PGEM_SNAPSHOT_NAME_MAX + 16];
+    snprintf(weights, sizeof weights, "%s.weights", name);
+    const char *targets[2] = {name, weights};
+    for (int i = 0; i < 2; ++i) {
+        const char *what = held(bridge, targets[i]);
+        if (what[0] != '\0') {
+            snprintf(message, message_size,
+                     "SNAPSHOT %s refused: %s/%s is %s, which the snapshot would replace; "
+                     "choose another name", name, bridge->options.snapshot_dir, targets[i],
+                     what);
+            return -1;
+        }
+    }
+    return 0;
 }

@@ -153,6 +153,16 @@ void pgem_ingest_destroy(pgem_ingest_t *ingest);
 /* The admit hook (NULL: everything that passes the checks is admitted). */
 void pgem_ingest_set_admit(pgem_ingest_t *ingest, pgem_admit_fn admit, void *user);
 
+/* Offered the file name of every SNAPSHOT that passes the ingest's own checks: 0 lets it
+ * through; anything else rejects it (reason `command`) with the message the hook wrote (the
+ * bridge refuses a name that is its journal). */
+typedef int (*pgem_snapshot_check_fn)(void *user, const char *name, char *message,
+                                      size_t message_size);
+
+/* The SNAPSHOT hook (NULL: every plain name passes). */
+void pgem_ingest_set_snapshot_check(pgem_ingest_t *ingest, pgem_snapshot_check_fn check,
+                                    void *user);
+
 /* Handles one message that arrived at `utime` (microseconds; LCM's receive time, or a journal
  * record's): first expires the edges that have waited longer than the pending timeout by then.
  * Never fails as a call: every outcome is in *result. */

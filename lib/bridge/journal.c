@@ -31,6 +31,10 @@ struct pgem_journal {
     int away;               /* the last check found the path not naming the file */
     dev_t dev;              /* the open file */
     ino_t ino;
+    int folder_known;       /* its folder, for pgem_journal_is_named */
+    dev_t folder_dev;
+    ino_t folder_ino;
+    const char *name;       /* the path's last component (in path) */
     unsigned char *buffer;  /* one record being written or read */
     size_t buffer_size;
     char path[1024];
@@ -428,6 +432,30 @@ static int journal_lock(const pgem_journal_t *journal, char *message, size_t mes
     return 0;
 }
 
+/* Remembers the file (to notice a rename, a deletion or a replacement) and its folder and
+ * name (for pgem_journal_is_named). */
+static void journal_identity(pgem_journal_t *journal, const struct stat *st)
+{
+    journal->dev = st->st_dev;
+    journal->ino = st->st_ino;
+    const char *slash = strrchr(journal->path, '/');
+    journal->name = slash != NULL ? slash + 1 : journal->path;
+    char folder[sizeof journal->path];
+    if (slash == NULL) {
+        snprintf(folder, sizeof folder, ".");
+    } else {
+        size_t length = slash == journal->path ? 1 : (size_t)(slash - journal->path);
+        memcpy(folder, journal->path, length);
+        folder[length] = '\0';
+    }
+    struct stat folder_st;
+    if (stat(folder, &folder_st) == 0) {
+        journal->folder_known = 1;
+        journal->folder_dev = folder_st.st_dev;
+        journal->folder_ino = folder_st.st_ino;
+    }
+}
+
 pgem_journal_t *pgem_journal_open(const char *path, int sync, pgem_journal_record_fn on_record,
                                   pgem_journal_recognise_fn recognise, void *user,
                                   pgem_journal_info_t *info, char *message,
@@ -470,8 +498,7 @@ pgem_journal_t *pgem_journal_open(const char *path, int sync, pgem_journal_recor
         pgem_journal_close(journal);
         return NULL;
     }
-    journal->dev = st.st_dev; /* to notice a rename, a deletion or a replacement */
-    journal->ino = st.st_ino;
+    journal_identity(journal, &st);
     reader_t reader = {on_record, recognise, user};
     if (journal_acceptable(journal, st.st_size, &reader, message, message_size) != 0) {
         pgem_journal_close(journal);
@@ -558,6 +585,17 @@ int pgem_journal_check(pgem_journal_t *journal, char *message, size_t message_si
 {
     journal->away = journal_in_place(journal, journal->end, message, message_size) != 0;
     return journal->away ? -1 : 0;
+}
+
+int pgem_journal_is_named(const pgem_journal_t *journal, int dir, const char *name)
+{
+    struct stat st;
+    if (fstatat(dir, name, &st, AT_SYMLINK_NOFOLLOW) == 0 && st.st_dev == journal->dev &&
+        st.st_ino == journal->ino) {
+        return 1;
+    }
+    return journal->folder_known && fstat(dir, &st) == 0 && st.st_dev == journal->folder_dev &&
+           st.st_ino == journal->folder_ino && strcmp(name, journal->name) == 0;
 }
 
 /* Takes a record that did not make it back out of the file, so the journal holds exactly what

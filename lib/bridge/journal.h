@@ -82,6 +82,10 @@ int pgem_journal_append(pgem_journal_t *journal, const char *channel, const void
  * with what happened in message (the check every append makes, for a periodic look). */
 int pgem_journal_check(pgem_journal_t *journal, char *message, size_t message_size);
 
+/* 1 if `name` in the folder open as `dir` is the journal: the same file, or the journal's own
+ * name in its own folder (whatever that name holds now); else 0. */
+int pgem_journal_is_named(const pgem_journal_t *journal, int dir, const char *name);
+
 /* Records in the file (replayed plus appended). */
 int64_t pgem_journal_records(const pgem_journal_t *journal);
 
