@@ -728,6 +728,64 @@ static void test_snapshot_takes_a_plain_name(void **state)
     pgem_ingest_destroy(ingest);
 }
 
+/* Issue 31: a SNAPSHOT named like the journal replaced it. The ingest offers a plain name to
+ * the bridge's SNAPSHOT hook; a refusal there is reason command with the hook's message, and
+ * a name the hook lets through is the command as before. */
+static int refuse_journal_name(void *user, const char *name, char *message, size_t size)
+{
+    int *asked = user;
+    (*asked)++;
+    if (strcmp(name, "j.lcmlog") != 0) {
+        return 0;
+    }
+    snprintf(message, size, "SNAPSHOT %s refused: snapshots/%s is the bridge's journal", name,
+             name);
+    return -1;
+}
+
+static void test_snapshot_hook(void **state)
+{
+    (void)state;
+    sink_t sink;
+    int asked = 0;
+    pgem_ingest_t *ingest = make_ingest(2, 4, 4, 4, &sink);
+    pgem_ingest_set_snapshot_check(ingest, refuse_journal_name, &asked);
+    pgem_ingest_result_t r =
+        feed(ingest, PGEM_ROLE_COMMAND, command(PGEM_COMMAND_T_SNAPSHOT, "j.lcmlog"));
+    assert_int_equal(r.verdict, PGEM_VERDICT_REJECTED);
+    assert_int_equal(r.reason, PGEM_REJECT_COMMAND);
+    assert_string_equal(r.message, "SNAPSHOT j.lcmlog refused: snapshots/j.lcmlog is the "
+                                   "bridge's journal");
+    r = feed(ingest, PGEM_ROLE_COMMAND, command(PGEM_COMMAND_T_SNAPSHOT, "map.g2o"));
+    assert_int_equal(r.verdict, PGEM_VERDICT_COMMAND);
+    assert_string_equal(r.path, "map.g2o");
+    r = feed(ingest, PGEM_ROLE_COMMAND, command(PGEM_COMMAND_T_SNAPSHOT, "../j.lcmlog"));
+    assert_int_equal(r.reason, PGEM_REJECT_COMMAND); /* not a plain name: not even asked */
+    assert_int_equal(asked, 2);
+    pgem_ingest_counts_t counts;
+    pgem_ingest_counts(ingest, &counts);
+    assert_int_equal(counts.rejected[PGEM_REJECT_COMMAND], 2);
+    pgem_ingest_destroy(ingest);
+}
+
+/* What the journal's replay asks of a record without a checksum before resuming at it after
+ * damage: the exact layout of an input type, any of them, and nothing else. */
+static void test_wire_role(void **state)
+{
+    (void)state;
+    wire_t pose = pose2(1, 0, 0, 0);
+    wire_t edge = edge2(0, 0, 1);
+    wire_t snapshot = command(PGEM_COMMAND_T_SNAPSHOT, "map.g2o");
+    assert_int_equal(pgem_ingest_wire_role(pose.bytes, pose.size), PGEM_ROLE_POSE);
+    assert_int_equal(pgem_ingest_wire_role(edge.bytes, edge.size), PGEM_ROLE_EDGE);
+    assert_int_equal(pgem_ingest_wire_role(snapshot.bytes, snapshot.size), PGEM_ROLE_COMMAND);
+    assert_int_equal(pgem_ingest_wire_role(pose.bytes, pose.size - 1), PGEM_ROLE_ANY);
+    assert_int_equal(pgem_ingest_wire_role(edge.bytes, edge.size + 1), PGEM_ROLE_ANY);
+    edge.bytes[3] ^= 0x10; /* the fingerprint */
+    assert_int_equal(pgem_ingest_wire_role(edge.bytes, edge.size), PGEM_ROLE_ANY);
+    assert_int_equal(pgem_ingest_wire_role(NULL, 0), PGEM_ROLE_ANY);
+}
+
 /* The admit hook (the bridge's journal): a refusal is reason journal, and nothing changes, so
  * the front-end's resend is accepted once the journal takes it. */
 typedef struct gate {
@@ -1019,6 +1077,8 @@ int main(void)
         cmocka_unit_test(test_source_names_are_printable_utf8),
         cmocka_unit_test(test_kind_named_as_sent),
         cmocka_unit_test(test_snapshot_takes_a_plain_name),
+        cmocka_unit_test(test_snapshot_hook),
+        cmocka_unit_test(test_wire_role),
         cmocka_unit_test(test_admit_hook_refusal_changes_nothing),
         cmocka_unit_test(test_pending_edges_expire),
         cmocka_unit_test(test_pending_flood_is_shared_fairly),

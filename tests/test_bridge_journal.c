@@ -13,6 +13,7 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <fcntl.h>
 
 #include <cmocka.h>
 #include <lcm/eventlog.h>
@@ -82,11 +83,33 @@ static void expect_records(const seen_t *seen, int count)
     }
 }
 
+static void put_be(unsigned char *p, uint64_t value, int bytes)
+{
+    for (int i = bytes - 1; i >= 0; --i) {
+        p[i] = (unsigned char)(value & 0xFF);
+        value >>= 8;
+    }
+}
+
+/* CRC-32 as zlib computes it, one bit at a time (the journal's is table-driven). */
+static uint32_t crc32_bitwise(uint32_t crc, const void *data, size_t size)
+{
+    const unsigned char *p = data;
+    crc = ~crc;
+    for (size_t i = 0; i < size; ++i) {
+        crc ^= p[i];
+        for (int bit = 0; bit < 8; ++bit) {
+            crc = (crc >> 1) ^ ((crc & 1u) != 0 ? 0xEDB88320u : 0u);
+        }
+    }
+    return ~crc;
+}
+
 static pgem_journal_t *reopen(const char *path, seen_t *seen, pgem_journal_info_t *info)
 {
     char message[256];
     memset(seen, 0, sizeof *seen);
-    pgem_journal_t *journal = pgem_journal_open(path, 0, collect, seen, info, message,
+    pgem_journal_t *journal = pgem_journal_open(path, 0, collect, NULL, seen, info, message,
                                                 sizeof message);
     assert_non_null(journal);
     return journal;
@@ -173,7 +196,11 @@ static void test_damage_is_skipped_and_reported(void **state)
     assert_int_equal(seen.count, 2);
     assert_int_equal(seen.utime[0], 1000);
     assert_int_equal(seen.utime[1], 1002);
-    assert_true(info.skipped_bytes > 0);
+    assert_int_equal(info.skipped, 1);
+    assert_int_equal(info.damage[0].start, 28 + 3 + 1);
+    assert_int_equal(info.damage[0].end, 2 * (28 + 3) + 1 + 2);
+    assert_int_equal(info.skipped_bytes, 28 + 3 + 2);
+    assert_string_equal(info.damage[0].why, "no sync word");
     pgem_journal_close(journal);
 }
 
@@ -199,7 +226,7 @@ static void test_not_a_journal_is_refused(void **state)
     assert_non_null(file);
     fputs(text, file);
     fclose(file);
-    pgem_journal_t *journal = pgem_journal_open(path, 0, NULL, NULL, NULL, message,
+    pgem_journal_t *journal = pgem_journal_open(path, 0, NULL, NULL, NULL, NULL, message,
                                                 sizeof message);
     assert_null(journal);
     assert_non_null(strstr(message, "journal_not_a_log.g2o is not an LCM log (its first bytes "
@@ -213,14 +240,15 @@ static void test_not_a_journal_is_refused(void **state)
     fwrite(lying, 1, sizeof lying, file);
     fputs(text, file);
     fclose(file);
-    assert_null(pgem_journal_open(path, 0, NULL, NULL, NULL, message, sizeof message));
+    assert_null(pgem_journal_open(path, 0, NULL, NULL, NULL, NULL, message, sizeof message));
     assert_non_null(strstr(message, "is not an LCM log"));
     assert_int_equal(file_size(path), (off_t)(sizeof lying + sizeof text - 1));
     /* a folder and a device */
     const char *dir = getenv("PGEM_TEST_TMP");
-    assert_null(pgem_journal_open(dir != NULL ? dir : "/tmp", 0, NULL, NULL, NULL, message,
+    assert_null(pgem_journal_open(dir != NULL ? dir : "/tmp", 0, NULL, NULL, NULL, NULL,
+                                  message, sizeof message));
+    assert_null(pgem_journal_open("/dev/null", 0, NULL, NULL, NULL, NULL, message,
                                   sizeof message));
-    assert_null(pgem_journal_open("/dev/null", 0, NULL, NULL, NULL, message, sizeof message));
     assert_non_null(strstr(message, "/dev/null: not a regular file"));
     /* three bytes of a sync word: the first record, torn; cut, and the journal starts */
     file = fopen(path, "wb");
@@ -290,7 +318,20 @@ static void test_lcm_reads_the_journal(void **state)
     while ((event = lcm_eventlog_read_next_event(log)) != NULL) {
         char channel[16];
         snprintf(channel, sizeof channel, "CH%d", count % 3);
-        assert_int_equal(event->eventnum, count);
+        /* the event number: the record's count from 1, then its CRC-32 (checked here by a
+         * bit-by-bit CRC over the record as LCM read it) */
+        assert_int_equal(event->eventnum >> 32, count + 1);
+        unsigned char header[28];
+        put_be(header, 0xEDA1DA01u, 4);
+        put_be(header + 4, (uint64_t)event->eventnum >> 32, 4);
+        put_be(header + 12, (uint64_t)event->timestamp, 8);
+        put_be(header + 20, (uint64_t)event->channellen, 4);
+        put_be(header + 24, (uint64_t)event->datalen, 4);
+        uint32_t crc = crc32_bitwise(0, header, 8);
+        crc = crc32_bitwise(crc, header + 12, 16);
+        crc = crc32_bitwise(crc, event->channel, (size_t)event->channellen);
+        crc = crc32_bitwise(crc, event->data, (size_t)event->datalen);
+        assert_int_equal(event->eventnum & 0xFFFFFFFF, crc);
         assert_int_equal(event->timestamp, 1000 + count);
         assert_int_equal(event->channellen, (int32_t)strlen(channel));
         assert_memory_equal(event->channel, channel, strlen(channel));
@@ -336,10 +377,568 @@ static void test_open_errors(void **state)
 {
     (void)state;
     char message[256] = "";
-    pgem_journal_t *journal = pgem_journal_open("/nonexistent-dir/j.lcmlog", 0, NULL, NULL,
+    pgem_journal_t *journal = pgem_journal_open("/nonexistent-dir/j.lcmlog", 0, NULL, NULL, NULL,
                                                 NULL, message, sizeof message);
     assert_null(journal);
     assert_non_null(strstr(message, "/nonexistent-dir/j.lcmlog"));
+}
+
+/* ---- damage in the middle, the lock, a moved or swapped journal (issue 31) --------------- */
+
+#define SWEEP_RECORDS 60
+
+static unsigned char *slurp(const char *path, size_t *size)
+{
+    FILE *file = fopen(path, "rb");
+    assert_non_null(file);
+    assert_int_equal(fseek(file, 0, SEEK_END), 0);
+    long length = ftell(file);
+    assert_true(length >= 0);
+    rewind(file);
+    unsigned char *bytes = malloc((size_t)length + 1);
+    assert_non_null(bytes);
+    assert_int_equal(fread(bytes, 1, (size_t)length, file), (size_t)length);
+    fclose(file);
+    *size = (size_t)length;
+    return bytes;
+}
+
+static void spill(const char *path, const unsigned char *bytes, size_t size)
+{
+    FILE *file = fopen(path, "wb");
+    assert_non_null(file);
+    assert_int_equal(fwrite(bytes, 1, size, file), size);
+    assert_int_equal(fclose(file), 0);
+}
+
+/* Where record i of append_records' journal starts (header, "CHn", i % 60 + 1 data bytes). */
+static off_t record_offset(int i)
+{
+    off_t offset = 0;
+    for (int k = 0; k < i; ++k) {
+        offset += 28 + 3 + k % 60 + 1;
+    }
+    return offset;
+}
+
+/* Records 0..count-1 as lcm-logger writes them (LCM's own writer: event numbers from 0, no
+ * checksum), the records append_records writes. */
+static void write_lcm_log(const char *path, int count)
+{
+    remove(path);
+    lcm_eventlog_t *log = lcm_eventlog_create(path, "w");
+    assert_non_null(log);
+    for (int i = 0; i < count; ++i) {
+        unsigned char data[64];
+        memset(data, i, sizeof data);
+        char channel[16];
+        snprintf(channel, sizeof channel, "CH%d", i % 3);
+        lcm_eventlog_event_t event;
+        event.eventnum = i;
+        event.timestamp = 1000 + i;
+        event.channellen = (int32_t)strlen(channel);
+        event.datalen = i % 60 + 1;
+        event.channel = channel;
+        event.data = data;
+        assert_int_equal(lcm_eventlog_write_event(log, &event), 0);
+    }
+    lcm_eventlog_destroy(log);
+}
+
+/* The test records' "message type": channel CH<i % 3>, i % 60 + 1 bytes of value i. */
+static int recognise_test_record(void *user, const char *channel, const void *data, size_t size)
+{
+    (void)user;
+    const unsigned char *bytes = data;
+    if (size == 0 || size != (size_t)(bytes[0] % 60) + 1) {
+        return 0;
+    }
+    for (size_t k = 1; k < size; ++k) {
+        if (bytes[k] != bytes[0]) {
+            return 0;
+        }
+    }
+    char expected[16];
+    snprintf(expected, sizeof expected, "CH%d", bytes[0] % 3);
+    return strcmp(channel, expected) == 0;
+}
+
+/* seen holds records 0..count-1 but (perhaps) `damaged`; returns 1 if that one is there. Every
+ * record is whole and in order; the damaged one, when there, has its channel and data. */
+static int expect_all_but(const seen_t *seen, int count, int damaged)
+{
+    int there = seen->count == count;
+    if (!there) {
+        assert_int_equal(seen->count, count - 1);
+    }
+    for (int j = 0; j < seen->count; ++j) {
+        int i = there || j < damaged ? j : j + 1;
+        char channel[16];
+        snprintf(channel, sizeof channel, "CH%d", i % 3);
+        assert_string_equal(seen->channel[j], channel);
+        assert_int_equal(seen->size[j], (size_t)(i % 60) + 1);
+        for (size_t k = 0; k < seen->size[j]; ++k) {
+            assert_int_equal(seen->data[j][k], (unsigned char)i);
+        }
+        if (i != damaged) {
+            assert_int_equal(seen->utime[j], 1000 + i);
+        }
+    }
+    return there;
+}
+
+/* Damages byte `at` of the clean journal into `copy` by pattern p; 0 if the byte stays. */
+static int damage(const unsigned char *clean, size_t size, size_t at, int p, const char *copy)
+{
+    unsigned char *bytes = malloc(size);
+    assert_non_null(bytes);
+    memcpy(bytes, clean, size);
+    static const int xors[] = {0x01, 0x80, 0xFF};
+    bytes[at] = p < 3 ? (unsigned char)(bytes[at] ^ xors[p]) : p == 3 ? 0x00 : 0xFF;
+    int changed = bytes[at] != clean[at];
+    spill(copy, bytes, size);
+    free(bytes);
+    return changed;
+}
+
+/* Damage to one record of the journal: every byte of its header five ways (flip the lowest
+ * bit, the highest, all; set 0x00, 0xFF) and, in a journal with checksums, every byte of its
+ * channel and data one way (without a checksum nothing can tell a changed payload byte).
+ * Each must lose at most that record: the others replay, whole and in order; the damaged one
+ * is skipped (reported at exactly its offsets) or replays with its channel and data as
+ * written (a header byte nothing checks without a checksum: the event number, a timestamp);
+ * no byte of the file changes; appends go after it and replay next time. */
+static void damage_sweep(int checked, int damaged)
+{
+    char path[512];
+    char copy[512];
+    path_for(path, sizeof path, checked ? "journal_sweep.lcmlog" : "journal_sweep_lcm.lcmlog");
+    path_for(copy, sizeof copy, "journal_sweep_copy.lcmlog");
+    seen_t seen;
+    pgem_journal_info_t info;
+    char message[256];
+    if (checked) {
+        pgem_journal_t *journal = reopen(path, &seen, &info);
+        append_records(journal, 0, SWEEP_RECORDS);
+        pgem_journal_close(journal);
+    } else {
+        write_lcm_log(path, SWEEP_RECORDS);
+    }
+    size_t size = 0;
+    unsigned char *clean = slurp(path, &size);
+    assert_int_equal(size, (size_t)record_offset(SWEEP_RECORDS));
+    const size_t start = (size_t)record_offset(damaged);
+    const size_t end = (size_t)record_offset(damaged + 1);
+    int skipped = 0;
+    int kept = 0;
+    for (size_t at = start; at < (checked ? end : start + 28); ++at) {
+        for (int p = 0; p < (at < start + 28 ? 5 : 1); ++p) {
+            if (!damage(clean, size, at, p, copy)) {
+                continue;
+            }
+            size_t before_size = 0;
+            unsigned char *before = slurp(copy, &before_size);
+            memset(&seen, 0, sizeof seen);
+            pgem_journal_t *journal =
+                pgem_journal_open(copy, 0, collect, recognise_test_record, &seen, &info,
+                                  message, sizeof message);
+            if (journal == NULL) {
+                fail_msg("byte %zu, pattern %d: %s", at - start, p, message);
+            }
+            int there = expect_all_but(&seen, SWEEP_RECORDS, damaged);
+            assert_int_equal(info.torn_bytes, 0);
+            if (there) {
+                kept++;
+                assert_int_equal(info.skipped, 0);
+            } else {
+                skipped++;
+                assert_int_equal(info.skipped, 1);
+                assert_int_equal(info.damage[0].start, (int64_t)start);
+                assert_int_equal(info.damage[0].end, (int64_t)end);
+                assert_int_equal(info.skipped_bytes, (int64_t)(end - start));
+            }
+            size_t after_size = 0;
+            unsigned char *after = slurp(copy, &after_size);
+            assert_int_equal(after_size, before_size);
+            assert_memory_equal(after, before, before_size);
+            free(after);
+            free(before);
+            /* the next record goes after the last one, and the damage is still skipped */
+            append_records(journal, SWEEP_RECORDS, 1);
+            pgem_journal_close(journal);
+            memset(&seen, 0, sizeof seen);
+            journal = pgem_journal_open(copy, 0, collect, recognise_test_record, &seen, &info,
+                                        message, sizeof message);
+            assert_non_null(journal);
+            assert_int_equal(seen.count, SWEEP_RECORDS + there);
+            assert_int_equal(seen.data[seen.count - 1][0], SWEEP_RECORDS);
+            assert_int_equal(info.skipped, !there);
+            pgem_journal_close(journal);
+        }
+    }
+    print_message("%s journal, record %d of %d damaged: %d ways skipped it alone, %d left it "
+                  "whole\n", checked ? "checksummed" : "lcm-logger", damaged, SWEEP_RECORDS,
+                  skipped, kept);
+    assert_true(skipped > 0);
+    free(clean);
+    remove(copy);
+    remove(path);
+}
+
+static void test_damage_sweep_checksummed(void **state)
+{
+    (void)state;
+    damage_sweep(1, SWEEP_RECORDS / 2);
+    damage_sweep(1, 0); /* the first record */
+}
+
+static void test_damage_sweep_lcm_logger(void **state)
+{
+    (void)state;
+    damage_sweep(0, SWEEP_RECORDS / 2);
+}
+
+typedef struct tally {
+    int64_t count;
+    int64_t last_utime;
+    int out_of_order;
+} tally_t;
+
+static void count_record(void *user, const char *channel, const void *data, size_t size,
+                         int64_t utime)
+{
+    (void)channel;
+    (void)data;
+    (void)size;
+    tally_t *tally = user;
+    tally->out_of_order += utime <= tally->last_utime;
+    tally->last_utime = utime;
+    tally->count++;
+}
+
+/* Issue 31, as measured: one damaged length byte in record 200 of a 3999-record journal was
+ * taken for a torn last record ("cut 478706 bytes"): 95 % of the acknowledged records gone.
+ * Now that record alone is skipped, and the file keeps every byte. */
+static void test_bad_length_is_not_a_torn_tail(void **state)
+{
+    (void)state;
+    char path[512];
+    char message[256];
+    for (int checked = 1; checked >= 0; --checked) {
+        path_for(path, sizeof path, "journal_3999.lcmlog");
+        if (checked) {
+            pgem_journal_t *journal = pgem_journal_open(path, 0, NULL, NULL, NULL, NULL, message,
+                                                        sizeof message);
+            assert_non_null(journal);
+            append_records(journal, 0, 3999);
+            pgem_journal_close(journal);
+        } else {
+            write_lcm_log(path, 3999);
+        }
+        size_t size = 0;
+        unsigned char *bytes = slurp(path, &size);
+        size_t at = (size_t)record_offset(200);
+        bytes[at + 25] = 0x07; /* the data length grows by 458752 bytes: past the end */
+        spill(path, bytes, size);
+        tally_t tally = {0, 0, 0};
+        pgem_journal_info_t info;
+        pgem_journal_t *journal = pgem_journal_open(path, 0, count_record,
+                                                    recognise_test_record, &tally, &info,
+                                                    message, sizeof message);
+        assert_non_null(journal);
+        pgem_journal_close(journal);
+        assert_int_equal(tally.count, 3998);
+        assert_int_equal(tally.out_of_order, 0);
+        assert_int_equal(info.records, 3998);
+        assert_int_equal(info.torn_bytes, 0);
+        assert_int_equal(info.skipped, 1);
+        assert_int_equal(info.damage[0].start, (int64_t)at);
+        assert_int_equal(info.damage[0].end, (int64_t)record_offset(201));
+        assert_int_equal(file_size(path), (off_t)size);
+        free(bytes);
+        remove(path);
+    }
+}
+
+/* The last record damaged: a checksum that fails leaves it in place, skipped (it is whole: no
+ * torn tail), and the next record goes after it; a length that runs past the end is what a
+ * torn record looks like, and is cut. Either way one record is lost. */
+static void test_damaged_last_record(void **state)
+{
+    (void)state;
+    char path[512];
+    seen_t seen;
+    pgem_journal_info_t info;
+    path_for(path, sizeof path, "journal_last.lcmlog");
+    pgem_journal_t *journal = reopen(path, &seen, &info);
+    append_records(journal, 0, 10);
+    pgem_journal_close(journal);
+    size_t size = 0;
+    unsigned char *bytes = slurp(path, &size);
+    const off_t last = record_offset(9);
+    bytes[size - 1] ^= 0x01; /* its last data byte */
+    spill(path, bytes, size);
+    journal = reopen(path, &seen, &info);
+    expect_records(&seen, 9);
+    assert_int_equal(info.skipped, 1);
+    assert_int_equal(info.damage[0].start, last);
+    assert_int_equal(info.damage[0].end, (int64_t)size);
+    assert_string_equal(info.damage[0].why, "checksum mismatch");
+    assert_int_equal(info.torn_bytes, 0);
+    assert_int_equal(file_size(path), (off_t)size);
+    append_records(journal, 9, 1);
+    pgem_journal_close(journal);
+    journal = reopen(path, &seen, &info);
+    expect_records(&seen, 10);
+    assert_int_equal(info.skipped, 1);
+    pgem_journal_close(journal);
+    /* a data length past the end of the file: cut as a torn record */
+    bytes[size - 1] ^= 0x01;
+    bytes[last + 26] = 0x01;
+    spill(path, bytes, size);
+    journal = reopen(path, &seen, &info);
+    expect_records(&seen, 9);
+    assert_int_equal(info.torn_bytes, (int64_t)size - last);
+    assert_int_equal(info.skipped, 0);
+    assert_int_equal(file_size(path), last);
+    pgem_journal_close(journal);
+    free(bytes);
+    remove(path);
+}
+
+/* Issue 31: two bridges on one --journal both ran; after a restart one's acknowledged edges
+ * were gone and the other's poses mixed in. The journal is locked while open: a second open
+ * (another process, or this one) is refused, naming the file, and changes nothing. */
+static void test_second_open_is_refused(void **state)
+{
+    (void)state;
+    char path[512];
+    char message[512];
+    seen_t seen;
+    pgem_journal_info_t info;
+    path_for(path, sizeof path, "journal_locked.lcmlog");
+    pgem_journal_t *journal = reopen(path, &seen, &info);
+    append_records(journal, 0, 5);
+    off_t size = file_size(path);
+    assert_null(pgem_journal_open(path, 0, NULL, NULL, NULL, NULL, message, sizeof message));
+    assert_non_null(strstr(message, "journal_locked.lcmlog: the journal is locked by another "
+                                    "process (is another pgem-lcm-bridge running on it?): "
+                                    "refusing to start, nothing was changed"));
+    assert_int_equal(file_size(path), size);
+    append_records(journal, 5, 1); /* the first goes on */
+    pgem_journal_close(journal);
+    journal = reopen(path, &seen, &info); /* closed: free again */
+    expect_records(&seen, 6);
+    pgem_journal_close(journal);
+    remove(path);
+}
+
+/* Issue 31: a symlink swapped in for the journal was followed at the restart, and the other
+ * file's tail cut. The journal's path is never followed: a symlink there is refused at open,
+ * naming its target, and the target is not touched (a dangling one is not created either). */
+static void test_symlink_is_refused(void **state)
+{
+    (void)state;
+    char path[512];
+    char target[512];
+    char message[512];
+    seen_t seen;
+    pgem_journal_info_t info;
+    path_for(target, sizeof target, "journal_other.lcmlog");
+    path_for(path, sizeof path, "journal_link.lcmlog");
+    pgem_journal_t *journal = reopen(target, &seen, &info);
+    append_records(journal, 0, 5);
+    pgem_journal_close(journal);
+    FILE *file = fopen(target, "ab");
+    assert_non_null(file);
+    fputc(0xED, file); /* a tail a replay through the link would have cut */
+    fclose(file);
+    off_t size = file_size(target);
+    assert_int_equal(symlink(target, path), 0);
+    assert_null(pgem_journal_open(path, 0, NULL, NULL, NULL, NULL, message, sizeof message));
+    assert_non_null(strstr(message, "journal_link.lcmlog is a symbolic link (to '"));
+    assert_non_null(strstr(message, "journal_other.lcmlog'): refusing to follow it"));
+    assert_int_equal(file_size(target), size);
+    remove(target);
+    assert_null(pgem_journal_open(path, 0, NULL, NULL, NULL, NULL, message, sizeof message));
+    assert_non_null(strstr(message, "is a symbolic link"));
+    struct stat st;
+    assert_int_equal(stat(target, &st), -1);
+    remove(path);
+}
+
+/* Appends one record; returns pgem_journal_append's result and its message. */
+static int try_append(pgem_journal_t *journal, int i, char *message, size_t size)
+{
+    unsigned char data[64];
+    memset(data, i, sizeof data);
+    char channel[16];
+    snprintf(channel, sizeof channel, "CH%d", i % 3);
+    return pgem_journal_append(journal, channel, data, (size_t)(i % 60) + 1, 1000 + i, message,
+                               size);
+}
+
+/* Issue 31: the journal renamed (log rotation) or deleted while the bridge ran, or a symlink
+ * swapped in: acknowledgements went on into a file no restart would read. Every append now
+ * checks that the path still names the open file and its size is the journal's: if not, the
+ * record is refused, saying what happened, and nothing is written; put back, appends go on. */
+static void test_moved_journal_refuses(void **state)
+{
+    (void)state;
+    char path[512];
+    char moved[512];
+    char other[512];
+    char message[512];
+    seen_t seen;
+    pgem_journal_info_t info;
+    path_for(path, sizeof path, "journal_moving.lcmlog");
+    path_for(moved, sizeof moved, "journal_moving.lcmlog.1");
+    path_for(other, sizeof other, "journal_moving_other.lcmlog");
+    pgem_journal_t *journal = reopen(path, &seen, &info);
+    append_records(journal, 0, 3);
+    assert_int_equal(pgem_journal_check(journal, message, sizeof message), 0);
+
+    /* renamed: refused, nothing written; renamed back: accepted */
+    assert_int_equal(rename(path, moved), 0);
+    off_t size = file_size(moved);
+    assert_int_equal(try_append(journal, 3, message, sizeof message), -1);
+    assert_non_null(strstr(message, "journal_moving.lcmlog no longer names the journal (renamed "
+                                    "or rotated away): put it back, or restart on its new name"));
+    assert_int_equal(pgem_journal_check(journal, message, sizeof message), -1);
+    assert_int_equal(file_size(moved), size);
+    /* a new file at the path (logrotate's create) */
+    spill(path, (const unsigned char *)"", 0);
+    assert_int_equal(try_append(journal, 3, message, sizeof message), -1);
+    assert_non_null(strstr(message, "names another file now"));
+    assert_int_equal(file_size(path), 0);
+    assert_int_equal(rename(moved, path), 0);
+    append_records(journal, 3, 1);
+
+    /* a symlink swapped in: not followed, its target unchanged */
+    spill(other, (const unsigned char *)"other\n", 6);
+    assert_int_equal(rename(path, moved), 0);
+    assert_int_equal(symlink(other, path), 0);
+    assert_int_equal(try_append(journal, 4, message, sizeof message), -1);
+    assert_non_null(strstr(message, "is now a symbolic link, not the journal (not followed)"));
+    assert_int_equal(file_size(other), 6);
+    assert_int_equal(remove(path), 0);
+    assert_int_equal(rename(moved, path), 0);
+
+    /* cut behind its back (a rotation that copies and truncates) */
+    assert_int_equal(truncate(path, 0), 0);
+    assert_int_equal(try_append(journal, 4, message, sizeof message), -1);
+    assert_non_null(strstr(message, "changed behind the bridge's back (0 bytes, it wrote "));
+    assert_int_equal(file_size(path), 0);
+    pgem_journal_close(journal);
+
+    /* deleted: the message says where the records still are */
+    journal = reopen(path, &seen, &info);
+    append_records(journal, 0, 2);
+    assert_int_equal(remove(path), 0);
+    assert_int_equal(try_append(journal, 2, message, sizeof message), -1);
+    assert_non_null(strstr(message, "journal_moving.lcmlog was deleted (its records are in "
+                                    "/proc/"));
+    pgem_journal_close(journal);
+    remove(other);
+}
+
+/* Issue 31: a SNAPSHOT named like the journal, in --snapshot-dir, replaced the journal. The
+ * bridge asks pgem_journal_is_named before it takes a SNAPSHOT's name: the journal's file
+ * under any name (a hard link) and the journal's name in its folder are the journal. */
+static void test_journal_is_named(void **state)
+{
+    (void)state;
+    char path[512];
+    char link_path[512];
+    char message[256];
+    path_for(path, sizeof path, "journal_named.lcmlog");
+    path_for(link_path, sizeof link_path, "journal_named_link.lcmlog");
+    pgem_journal_t *journal = pgem_journal_open(path, 0, NULL, NULL, NULL, NULL, message,
+                                                sizeof message);
+    assert_non_null(journal);
+    const char *tmp = getenv("PGEM_TEST_TMP");
+    int dir = open(tmp != NULL ? tmp : "/tmp", O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    assert_true(dir >= 0);
+    assert_int_equal(pgem_journal_is_named(journal, dir, "journal_named.lcmlog"), 1);
+    assert_int_equal(pgem_journal_is_named(journal, dir, "journal_named.lcmlog.weights"), 0);
+    assert_int_equal(pgem_journal_is_named(journal, dir, "map.g2o"), 0);
+    assert_int_equal(link(path, link_path), 0);
+    assert_int_equal(pgem_journal_is_named(journal, dir, "journal_named_link.lcmlog"), 1);
+    remove(link_path);
+    remove(path); /* gone, the name in its folder is still the journal's */
+    assert_int_equal(pgem_journal_is_named(journal, dir, "journal_named.lcmlog"), 1);
+    int root = open("/", O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    assert_true(root >= 0);
+    assert_int_equal(pgem_journal_is_named(journal, root, "journal_named.lcmlog"), 0);
+    close(root);
+    close(dir);
+    pgem_journal_close(journal);
+}
+
+/* A journal written with checksums, then appended to by a writer that numbers its events one
+ * after the last (the bridge before issue 31 did, and was run again on a newer journal): its
+ * records carry no checksum though their numbers are 2^32 and more, and are read as such. */
+static void test_older_writer_appends(void **state)
+{
+    (void)state;
+    char path[512];
+    seen_t seen;
+    pgem_journal_info_t info;
+    path_for(path, sizeof path, "journal_older.lcmlog");
+    pgem_journal_t *journal = reopen(path, &seen, &info);
+    append_records(journal, 0, 5);
+    pgem_journal_close(journal);
+    size_t size = 0;
+    unsigned char *bytes = slurp(path, &size);
+    const unsigned char *last = bytes + record_offset(4);
+    uint64_t event = 0;
+    for (int k = 4; k < 12; ++k) {
+        event = event << 8 | last[k];
+    }
+    FILE *file = fopen(path, "ab");
+    assert_non_null(file);
+    for (int i = 5; i < 8; ++i) {
+        unsigned char header[28];
+        unsigned char data[64];
+        memset(data, i, sizeof data);
+        char channel[16];
+        snprintf(channel, sizeof channel, "CH%d", i % 3);
+        put_be(header, 0xEDA1DA01u, 4);
+        put_be(header + 4, ++event, 8);
+        put_be(header + 12, (uint64_t)(1000 + i), 8);
+        put_be(header + 20, strlen(channel), 4);
+        put_be(header + 24, (uint64_t)(i % 60 + 1), 4);
+        fwrite(header, 1, sizeof header, file);
+        fwrite(channel, 1, strlen(channel), file);
+        fwrite(data, 1, (size_t)(i % 60 + 1), file);
+    }
+    fclose(file);
+    free(bytes);
+    journal = reopen(path, &seen, &info);
+    expect_records(&seen, 8);
+    assert_int_equal(info.checked, 5);
+    assert_int_equal(info.skipped, 0);
+    append_records(journal, 8, 1); /* numbered after the older writer's, with a checksum */
+    pgem_journal_close(journal);
+    journal = reopen(path, &seen, &info);
+    expect_records(&seen, 9);
+    assert_int_equal(info.checked, 6);
+    pgem_journal_close(journal);
+    remove(path);
+}
+
+static void test_crc32(void **state)
+{
+    (void)state;
+    assert_int_equal(pgem_journal_crc32(0, "123456789", 9), 0xCBF43926u); /* the check value */
+    assert_int_equal(pgem_journal_crc32(pgem_journal_crc32(0, "1234", 4), "56789", 5),
+                     0xCBF43926u);
+    unsigned char bytes[256];
+    for (int i = 0; i < 256; ++i) {
+        bytes[i] = (unsigned char)(i * 37 + 11);
+    }
+    assert_int_equal(pgem_journal_crc32(0, bytes, sizeof bytes),
+                     crc32_bitwise(0, bytes, sizeof bytes));
 }
 
 /* ---- a running bridge: its statuses acknowledge only what is journaled ------------------ */
@@ -624,7 +1223,7 @@ static void test_full_journal_refuses_and_recovers(void **state)
     pgem_journal_info_t info;
     char message[256];
     memset(&seen, 0, sizeof seen);
-    pgem_journal_t *journal = pgem_journal_open(path, 0, NULL, NULL, &info, message,
+    pgem_journal_t *journal = pgem_journal_open(path, 0, NULL, NULL, NULL, &info, message,
                                                 sizeof message);
     assert_non_null(journal);
     assert_int_equal(info.records, 150);
@@ -659,7 +1258,7 @@ static void test_journal_that_does_not_fit(void **state)
     char path[512];
     char message[512];
     path_for(path, sizeof path, "pgem_test_fit.lcmlog");
-    pgem_journal_t *journal = pgem_journal_open(path, 0, NULL, NULL, NULL, message,
+    pgem_journal_t *journal = pgem_journal_open(path, 0, NULL, NULL, NULL, NULL, message,
                                                 sizeof message);
     assert_non_null(journal);
     static char source[] = "fe";
@@ -718,6 +1317,16 @@ int main(void)
         cmocka_unit_test(test_lcm_reads_the_journal),
         cmocka_unit_test(test_journal_reads_lcm_logs),
         cmocka_unit_test(test_open_errors),
+        cmocka_unit_test(test_crc32),
+        cmocka_unit_test(test_older_writer_appends),
+        cmocka_unit_test(test_damage_sweep_checksummed),
+        cmocka_unit_test(test_damage_sweep_lcm_logger),
+        cmocka_unit_test(test_bad_length_is_not_a_torn_tail),
+        cmocka_unit_test(test_damaged_last_record),
+        cmocka_unit_test(test_second_open_is_refused),
+        cmocka_unit_test(test_symlink_is_refused),
+        cmocka_unit_test(test_moved_journal_refuses),
+        cmocka_unit_test(test_journal_is_named),
         cmocka_unit_test(test_status_counts_only_journaled),
         cmocka_unit_test(test_full_journal_refuses_and_recovers),
         cmocka_unit_test(test_journal_that_does_not_fit),

@@ -34,6 +34,14 @@ Scenarios (all by default; --only picks some):
              acknowledges more than the journal holds, refusals are counted under `journal`
              and named, a SIGKILL and restart recover exactly what was acknowledged, and with
              room again the resend completes the offline graph.
+  journal    the journal attacked (issue 31): a second bridge on it is refused and changes
+             nothing; SNAPSHOT named like it, like a hard link to it or like the bridge's log
+             is refused; renamed away, every message is refused (journal) and the status says
+             why, renamed back they are accepted; a symlink to another log swapped in is not
+             followed and refused at the restart, the other log unchanged; a damaged length
+             byte in record 200 loses that record alone (no byte cut), the resend restores it;
+             deleted, messages are refused and the copy from the /proc path the message names
+             replays every acknowledged record.
 
 Environment (CTest sets it): PGEM, BRIDGE, SEND, DUMP, COMPARE, MALFORMED, HOSTILE (paths of
 the built programs), DATASETS (the shared datasets folder; a simulated graph stands in without it), WORK
@@ -59,7 +67,7 @@ from pathlib import Path
 URL = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304"
 SKIP = 77
 REPLAYED = re.compile(r"(\d+) records replayed \((\d+) poses, (\d+) edges\)")
-TORN = re.compile(r"cut (\d+) bytes of a torn last record, skipped (\d+) damaged bytes")
+TORN = re.compile(r"cut (\d+) bytes of a torn last record")
 SYNC_WORD = b"\xed\xa1\xda\x01"
 
 
@@ -831,9 +839,167 @@ def full_disk_scenario(graph: Path, edges: int) -> dict:
             "recovered_records": records, "final_edges": final["accepted_edges"]}
 
 
+# ---- g: the journal damaged, shared, moved, swapped, overwritten (issue 31) --------------
+
+
+SKIPPED = re.compile(r"skipped damaged bytes (\d+)-(\d+)")
+
+
+def acknowledged(status: dict) -> int:
+    return status["accepted_poses"] + status["accepted_edges"]
+
+
+def wait_acknowledged(monitor: Monitor, count: int, what: str) -> dict:
+    return monitor.wait_status(what, lambda s: acknowledged(s) >= count and s["queued"] == 0,
+                               30)
+
+
+def journal_scenario(graph: Path) -> dict:
+    folder = Path("journaled").resolve()
+    folder.mkdir()
+    journal = folder / "j.lcmlog"
+    first = 2000
+    step(f"journal: a bridge journals {first} edges and their poses; its journal and its log "
+         "in its --snapshot-dir")
+    bridge = Bridge(folder / "bridge.log", "--journal", str(journal), "--snapshot-dir",
+                    str(folder), "--status-period", "0.1")
+    bridge.start()
+    monitor = Monitor("journaled")
+    poses, sent = sent_counts(finish(sender(graph, "--count", str(first), "--rate", "5000",
+                                            "--wait", "60"), "the front-end"))
+    status = wait_acknowledged(monitor, poses + sent, "with every message acknowledged")
+    expect(status["journal_records"] == poses + sent,
+           f"journal: {status['journal_records']} records for {poses + sent} messages")
+
+    step("journal: a second bridge on the same journal is refused, the journal unchanged")
+    before = journal.read_bytes()
+    second = subprocess.run([program("BRIDGE"), "--journal", str(journal)], capture_output=True,
+                            text=True, timeout=60)
+    expect(second.returncode == 1 and "the journal is locked by another process" in
+           second.stderr and str(journal) in second.stderr,
+           f"journal: the second bridge exited {second.returncode}:\n{second.stderr}")
+    expect(journal.read_bytes() == before, "journal: the second bridge changed the journal")
+    print(f"lock: {second.stderr.strip().splitlines()[-1]}")
+
+    step("journal: SNAPSHOT named like the journal, like a hard link to it (as NAME.weights) "
+         "or like the bridge's log: refused; the journal still the journal")
+    (folder / "copy.weights").hardlink_to(journal)
+    inode = journal.stat().st_ino
+    refusals = (("j.lcmlog", "is the bridge's journal"), ("copy", "is the bridge's journal"),
+                ("bridge.log", "is the bridge's standard output"))
+    for count, (name, why) in enumerate(refusals, start=1):
+        hostile("snapshot", name)
+        status = monitor.wait_status(f"with SNAPSHOT {name} refused",
+                                     lambda s, c=count: s["rejected"]["command"] >= c, 10)
+        expect(f"SNAPSHOT {name} refused" in status["message"] and why in status["message"],
+               f"snapshot {name}: {status['message']!r}")
+    (folder / "copy.weights").unlink()
+    hostile("snapshot", "map.g2o")
+    deadline = time.monotonic() + 20
+    while not (folder / "map.g2o.weights").exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    expect((folder / "map.g2o.weights").exists(), "snapshot: a plain name was not written")
+    expect(journal.stat().st_ino == inode and journal.read_bytes() == before,
+           "snapshot: the journal was replaced or changed")
+    print(f"snapshot: {status['message']}")
+
+    step("journal: renamed away (log rotation): refused while away, accepted when back")
+    rotated = folder / "j.lcmlog.1"
+    journal.rename(rotated)
+    more = sender(graph, "--first", str(first), "--count", "50", "--rate", "2000")
+    finish(more, "the front-end, journal away")
+    status = monitor.wait_status("refusing under journal",
+                                 lambda s: s["rejected"].get("journal", 0) > 0, 10)
+    expect("no longer names the journal" in status["message"],
+           f"rotation: the status does not say why: {status['message']!r}")
+    time.sleep(0.3)
+    status = monitor.status()
+    expect(acknowledged(status) == poses + sent and rotated.read_bytes() == before,
+           f"rotation: acknowledged {acknowledged(status)} (had {poses + sent}), or the "
+           "rotated file changed")
+    expect("no longer names the journal" in bridge.log_text(), "rotation: not in the log")
+    refused = status["rejected"]["journal"]
+    rotated.rename(journal)
+    finish(sender(graph, "--first", str(first), "--count", "50", "--rate", "2000", "--wait",
+                  "30"), "the resend")  # its poses the 2000 edges needed already are replays
+    status = monitor.wait_status("after the rename back", lambda s: s["accepted_edges"] ==
+                                 sent + 50 and s["queued"] == 0, 30)
+    total = acknowledged(status)
+    expect(status["journal_records"] == total, f"rotation: {status}")
+    print(f"rotation: {refused} messages refused while the journal was away "
+          f"({status['rejected']['journal']} in all), then {total} acknowledged = journaled")
+
+    step("journal: a symlink to another log swapped in: not followed while running, refused "
+         "at the restart; the other file unchanged")
+    victim = folder / "other.lcmlog"
+    victim.write_bytes(before + before[:40])  # an LCM log with a torn-looking tail
+    victim_bytes = victim.read_bytes()
+    real = folder / "j.real"
+    journal.rename(real)
+    journal.symlink_to(victim)
+    finish(sender(graph, "--first", str(first + 50), "--count", "20", "--rate", "2000"),
+           "the front-end, symlink in place")
+    status = monitor.wait_status("refusing with the symlink in place",
+                                 lambda s: "symbolic link" in s["message"], 10)
+    bridge.stop()
+    restart = subprocess.run([program("BRIDGE"), "--journal", str(journal)],
+                             capture_output=True, text=True, timeout=60)
+    expect(restart.returncode == 1 and "is a symbolic link" in restart.stderr,
+           f"symlink: the restart exited {restart.returncode}:\n{restart.stderr}")
+    expect(victim.read_bytes() == victim_bytes, "symlink: the other file was changed")
+    print(f"symlink: {restart.stderr.strip().splitlines()[-1]}")
+    journal.unlink()
+    real.rename(journal)
+
+    step("journal: one damaged length byte in record 200: that record skipped, every other "
+         "replayed, no byte cut")
+    records = journal_records(journal)
+    expect(sum(records[-1]) == journal.stat().st_size and len(records) == total,
+           f"damage: the journal holds {len(records)} whole records, {total} acknowledged")
+    data = bytearray(journal.read_bytes())
+    offset, length = records[200]
+    data[offset + 25] = 0x7F  # the data length grows by 8 MiB: past the end of the file
+    journal.write_bytes(bytes(data))
+    size = journal.stat().st_size
+    replayed, _, _ = bridge.start()
+    skipped = SKIPPED.search(bridge.new_text)
+    expect(replayed == total - 1 and bridge.torn_bytes() == 0 and skipped is not None and
+           (int(skipped.group(1)), int(skipped.group(2))) == (offset, offset + length),
+           f"damage: {replayed} of {total - 1} records replayed, {bridge.torn_bytes()} bytes "
+           f"cut, skipped {skipped.groups() if skipped else None} (the record is bytes "
+           f"{offset}-{offset + length})")
+    expect(journal.stat().st_size == size, "damage: the journal's size changed")
+    # the front-end resends what it is unsure of; the lost record lands again
+    finish(sender(graph, "--count", str(first + 50), "--rate", "5000", "--wait", "60"),
+           "the resend after the damage")
+    status = wait_acknowledged(monitor, total, "with the lost record resent")
+    expect(acknowledged(status) == total and status["journal_records"] == total,
+           f"damage: {acknowledged(status)} acknowledged after the resend, {total} expected")
+    print(f"damage: {replayed} of {total} records replayed, bytes {offset}-{offset + length} "
+          "skipped and left in place; the resend restored the lost one")
+
+    step("journal: deleted while running: refused; the copy the message names restores it")
+    journal.unlink()
+    finish(sender(graph, "--first", str(first + 50), "--count", "20", "--rate", "2000"),
+           "the front-end, journal deleted")
+    status = monitor.wait_status("refusing with the journal deleted",
+                                 lambda s: "was deleted" in s["message"], 10)
+    where = re.search(r"records are in (/proc/\d+/fd/\d+)", status["message"])
+    expect(where is not None, f"deleted: no way back named: {status['message']!r}")
+    shutil.copyfile(where.group(1), journal)
+    expect(acknowledged(status) == total, f"deleted: {acknowledged(status)} acknowledged")
+    bridge.stop()
+    replayed, _, _ = bridge.start()
+    expect(replayed == total, f"deleted: the restart replayed {replayed} of {total} records")
+    bridge.stop()
+    monitor.stop()
+    print(f"deleted: refused; the copy from {where.group(1)} replayed all {total} records")
+    return {"records": total, "refused_while_away": refused}
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--only", default="kills,malformed,two,restart,hostile,full")
+    parser.add_argument("--only", default="kills,malformed,two,restart,hostile,full,journal")
     parser.add_argument("--kills", type=int, default=int(os.environ.get("KILLS", "20")))
     parser.add_argument("--min-delay", type=float, default=0.05,
                         help="shortest time between a restart and the next kill (s)")
@@ -872,6 +1038,8 @@ def main() -> int:
             figures["hostile"] = hostile_scenario(graph, edges)
         if "full" in only:
             figures["full"] = full_disk_scenario(graph, edges)
+        if "journal" in only:
+            figures["journal"] = journal_scenario(graph)
     except (Failure, subprocess.CalledProcessError, subprocess.TimeoutExpired) as error:
         print(f"FAIL: {error}")
         for log in sorted(Path(".").glob("*.log")):

@@ -420,18 +420,15 @@ static int journal_report(bridge_t *bridge, const pgem_journal_info_t *info, cha
         return -1;
     }
     const pgem_ingest_counts_t counts = bridge->counts;
-    bridge_log(bridge, "journal %s: %lld records replayed (%lld poses, %lld edges)", o->journal,
-               (long long)(info->records - total), (long long)counts.accepted_poses,
-               (long long)counts.accepted_edges);
+    bridge_log(bridge, "journal %s: %lld records replayed (%lld poses, %lld edges), %lld with a "
+               "checksum", o->journal, (long long)(info->records - total),
+               (long long)counts.accepted_poses, (long long)counts.accepted_edges,
+               (long long)info->checked);
     if (total > 0) {
         bridge_note(bridge, "journal %s: %lld more records refused on replay (%s)", o->journal,
                     (long long)total, reasons);
     }
-    if (info->torn_bytes > 0 || info->skipped_bytes > 0) {
-        bridge_note(bridge, "journal %s: cut %lld bytes of a torn last record, skipped "
-                    "%lld damaged bytes", o->journal, (long long)info->torn_bytes,
-                    (long long)info->skipped_bytes);
-    }
+    bridge_journal_damage(bridge, info);
     return 0;
 }
 
@@ -439,8 +436,9 @@ static int open_journal(bridge_t *bridge, char *message, size_t message_size)
 {
     const pgem_bridge_options_t *o = &bridge->options;
     pgem_journal_info_t info;
-    bridge->journal = pgem_journal_open(o->journal, o->journal_sync, on_journal_record, bridge,
-                                        &info, message, message_size);
+    bridge->journal = pgem_journal_open(o->journal, o->journal_sync, on_journal_record,
+                                        bridge_journal_recognise, bridge, &info, message,
+                                        message_size);
     if (bridge->journal == NULL) {
         return -1;
     }
@@ -484,6 +482,9 @@ static int start(bridge_t *bridge, char *message, size_t message_size)
     }
     if (o->journal != NULL && open_journal(bridge, message, message_size) != 0) {
         return -1;
+    }
+    if (o->snapshot_dir != NULL) {
+        pgem_ingest_set_snapshot_check(bridge->ingest, bridge_snapshot_check, bridge);
     }
     bridge->lcm = o->lcm != NULL ? o->lcm : lcm_create(o->url);
     if (bridge->lcm == NULL) {
@@ -562,10 +563,12 @@ int pgem_bridge_run(const pgem_bridge_options_t *options, int (*stop)(void), cha
                    (double)bridge->pass.block_size / 1048576.0);
     }
     double next_status = bridge_now();
+    int journal_away = 0;
     while (!stop()) {
         double now = bridge_now();
         if (now >= next_status) {
             expire_quietly(bridge);
+            bridge_journal_watch(bridge, &journal_away);
             bridge_publish_status(bridge);
             next_status = now + o->status_period;
         }

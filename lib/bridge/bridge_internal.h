@@ -185,4 +185,19 @@ void bridge_note(bridge_t *bridge, const char *format, ...)
 #endif
     ;
 
+/* held.c (start and reception thread): the files the bridge holds. */
+/* Logs each damaged stretch the journal's replay skipped and notes the summary (and a torn
+ * last record cut). */
+void bridge_journal_damage(bridge_t *bridge, const pgem_journal_info_t *info);
+/* The journal's recognise hook: a record without a checksum holds a message the bridge takes
+ * (an input type's exact layout; the type of its channel for the bridge's own channels). */
+int bridge_journal_recognise(void *user, const char *channel, const void *data, size_t size);
+/* Every status period: is the journal still at its path? Noted once when it is not (every
+ * message that would change the graph is refused meanwhile) and once when it is back; *away
+ * carries the state between calls. */
+void bridge_journal_watch(bridge_t *bridge, int *away);
+/* The ingest's SNAPSHOT hook: refuses a NAME whose NAME or NAME.weights in the snapshot
+ * folder is the journal or the file the bridge's standard output or error goes to. */
+int bridge_snapshot_check(void *user, const char *name, char *message, size_t message_size);
+
 #endif /* PGEM_BRIDGE_INTERNAL_H */

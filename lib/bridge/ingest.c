@@ -69,6 +69,8 @@ struct pgem_ingest {
     void *user;
     pgem_admit_fn admit;
     void *admit_user;
+    pgem_snapshot_check_fn snapshot_check;
+    void *snapshot_user;
     table_t poses;            /* key (id, 0) */
     table_t edges;            /* key (source, sequence) */
     waiting_t *pending;       /* max_pending slots */
@@ -250,6 +252,13 @@ void pgem_ingest_set_admit(pgem_ingest_t *ingest, pgem_admit_fn admit, void *use
 {
     ingest->admit = admit;
     ingest->admit_user = user;
+}
+
+void pgem_ingest_set_snapshot_check(pgem_ingest_t *ingest, pgem_snapshot_check_fn check,
+                                    void *user)
+{
+    ingest->snapshot_check = check;
+    ingest->snapshot_user = user;
 }
 
 void pgem_ingest_counts(const pgem_ingest_t *ingest, pgem_ingest_counts_t *counts)
@@ -859,7 +868,9 @@ static int snapshot_ok(pgem_ingest_t *ingest, const char *name, pgem_ingest_resu
                  "SNAPSHOT takes a file name of 1 to %d bytes of A-Z a-z 0-9 . _ - (not "
                  "starting with '.'), written in the bridge's --snapshot-dir; got '%s'",
                  PGEM_SNAPSHOT_NAME_MAX, pgem_io_escape(shown, sizeof shown, name));
-    } else {
+    } else if (ingest->snapshot_check == NULL ||
+               ingest->snapshot_check(ingest->snapshot_user, name, result->message,
+                                      sizeof result->message) == 0) {
         return 1;
     }
     reject(ingest, result, PGEM_REJECT_COMMAND);
@@ -1009,6 +1020,22 @@ static pgem_role_t role_of(const void *data, size_t size)
         return PGEM_ROLE_EDGE;
     }
     if (type == __pgem_command_t_get_hash()) {
+        return PGEM_ROLE_COMMAND;
+    }
+    return PGEM_ROLE_ANY;
+}
+
+pgem_role_t pgem_ingest_wire_role(const void *data, size_t size)
+{
+    if (wire_ok(data, size, __pgem_pose2_t_get_hash(), STRING_AFTER_UTIME, POSE2_TAIL) ||
+        wire_ok(data, size, __pgem_pose3_t_get_hash(), STRING_AFTER_UTIME, POSE3_TAIL)) {
+        return PGEM_ROLE_POSE;
+    }
+    if (wire_ok(data, size, __pgem_edge2_t_get_hash(), STRING_AFTER_UTIME, EDGE2_TAIL) ||
+        wire_ok(data, size, __pgem_edge3_t_get_hash(), STRING_AFTER_UTIME, EDGE3_TAIL)) {
+        return PGEM_ROLE_EDGE;
+    }
+    if (wire_ok(data, size, __pgem_command_t_get_hash(), COMMAND_STRING, 0)) {
         return PGEM_ROLE_COMMAND;
     }
     return PGEM_ROLE_ANY;

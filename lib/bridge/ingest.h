@@ -153,6 +153,16 @@ void pgem_ingest_destroy(pgem_ingest_t *ingest);
 /* The admit hook (NULL: everything that passes the checks is admitted). */
 void pgem_ingest_set_admit(pgem_ingest_t *ingest, pgem_admit_fn admit, void *user);
 
+/* Offered the file name of every SNAPSHOT that passes the ingest's own checks: 0 lets it
+ * through; anything else rejects it (reason `command`) with the message the hook wrote (the
+ * bridge refuses a name that is its journal). */
+typedef int (*pgem_snapshot_check_fn)(void *user, const char *name, char *message,
+                                      size_t message_size);
+
+/* The SNAPSHOT hook (NULL: every plain name passes). */
+void pgem_ingest_set_snapshot_check(pgem_ingest_t *ingest, pgem_snapshot_check_fn check,
+                                    void *user);
+
 /* Handles one message that arrived at `utime` (microseconds; LCM's receive time, or a journal
  * record's): first expires the edges that have waited longer than the pending timeout by then.
  * Never fails as a call: every outcome is in *result. */
@@ -172,6 +182,11 @@ void pgem_ingest_counts(const pgem_ingest_t *ingest, pgem_ingest_counts_t *count
  * freed by expiry names "" until a new source takes it. */
 uint32_t pgem_ingest_source_count(const pgem_ingest_t *ingest);
 const char *pgem_ingest_source_name(const pgem_ingest_t *ingest, uint32_t index);
+
+/* The role of bytes laid out exactly as one of the input types (pose2_t, pose3_t, edge2_t,
+ * edge3_t, command_t: fingerprint, one well-formed string, nothing more or less): POSE, EDGE or
+ * COMMAND; ANY when they are none of them. Checks the layout only, not the values. */
+pgem_role_t pgem_ingest_wire_role(const void *data, size_t size);
 
 /* A SNAPSHOT file name the bridge accepts: 1 to PGEM_SNAPSHOT_NAME_MAX bytes of [A-Za-z0-9._-],
  * not starting with '.': no folder, no way out of the snapshot folder, no hidden file. */
