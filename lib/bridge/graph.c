@@ -376,6 +376,20 @@ static void describe_outcome(const pgem_robust_summary_t *summary, char *text, s
     }
 }
 
+/* After a solve or an update: the poses it solved (none re-anchored since) and the outcome
+ * in words, or why it failed. */
+static void solved_or_not(bridge_t *bridge, int status, const pgem_robust_summary_t *summary,
+                          char *why, size_t why_size)
+{
+    if (status == PGEM_OK) {
+        bridge->solved_poses = pgem_pose_count(bridge->core);
+        memset(bridge->anchored, 0, bridge->solved_poses);
+        describe_outcome(summary, why, why_size);
+    } else {
+        snprintf(why, why_size, "%s: %s", pgem_error_name(status), pgem_last_error(bridge->core));
+    }
+}
+
 /* The update's options from the robust ones: its gate on new loop closures with their gate
  * and inflation; kernel none keeps every loop in. */
 static void update_options(const bridge_t *bridge, pgem_update_options_t *options)
@@ -510,14 +524,7 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     int64_t micros = (int64_t)((bridge_now() - start) * 1e6);
     double solved = bridge_now();
     char why[256] = "";
-    if (status == PGEM_OK) {
-        bridge->solved_poses = pgem_pose_count(bridge->core);
-        memset(bridge->anchored, 0, bridge->solved_poses);
-        describe_outcome(&summary, why, sizeof why);
-    } else {
-        snprintf(why, sizeof why, "%s: %s", pgem_error_name(status),
-                 pgem_last_error(bridge->core));
-    }
+    solved_or_not(bridge, status, &summary, why, sizeof why);
     if (!incremental) {
         bridge->pruned_count = summary.pruned;
         bridge->counted_edges = pgem_edge_count(bridge->core);
@@ -604,7 +611,27 @@ static void adopt_pass(bridge_t *bridge)
         return;
     }
     if (same_verdicts(bridge->core, pass->core)) {
-        pass->agreed++; /* the live map holds what the pass found: no rebuild for nothing */
+        /* The live map holds what the pass found: no rebuild for nothing. Its graph goes out
+         * again, so a consumer knows a pass confirmed the map up to then. */
+        pass->agreed++;
+        pass->passes++;
+        pgem_robust_summary_t same;
+        memset(&same, 0, sizeof same);
+        same.loops = bridge->loop_count;
+        same.pruned = bridge->pruned_count;
+        same.rejected = same.pruned;
+        same.rounds = pass->summary.rounds;
+        same.final_chi2 = same.final_chi2_all = same.initial_chi2 = (double)NAN;
+        summary_outcome(&same);
+        char why[256] = "";
+        describe_outcome(&same, why, sizeof why);
+        bridge_graph_publish(bridge, "em-pass", &same, 1, why, 0);
+        bridge_log(bridge,
+                   "live EM pass %llu: EM on %u poses and %u loops (%u pruned, %u rounds) in "
+                   "%.0f ms: the live map has the same verdicts, nothing to adopt",
+                   (unsigned long long)pass->passes, pgem_pose_count(pass->core),
+                   pass->loops_at_copy, pass->summary.pruned, pass->summary.rounds,
+                   1e3 * pass->solve_took);
         return;
     }
     pgem_adopt_summary_t adopted;
@@ -624,13 +651,9 @@ static void adopt_pass(bridge_t *bridge)
     summary.rounds = pass->summary.rounds;
     summary_outcome(&summary);
     char why[256] = "";
-    if (status == PGEM_OK) {
-        bridge->solved_poses = pgem_pose_count(bridge->core);
-        memset(bridge->anchored, 0, bridge->solved_poses);
-        describe_outcome(&summary, why, sizeof why);
-    } else {
+    solved_or_not(bridge, status, &summary, why, sizeof why);
+    if (status != PGEM_OK) {
         bridge->restart_pending = 1; /* the next solve says why, from the front-end's estimates */
-        snprintf(why, sizeof why, "%s: %s", pgem_error_name(status), pgem_last_error(bridge->core));
     }
     pass->passes++;
     const int64_t micros = (int64_t)((bridge_now() - start) * 1e6);

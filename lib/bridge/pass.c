@@ -1,6 +1,8 @@
 /* The live EM pass's thread and its copy of the graph (see pass.h). */
-#define _GNU_SOURCE /* SCHED_IDLE */
-#include <sched.h>
+#define _GNU_SOURCE /* syscall */
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -17,12 +19,10 @@ static int pass_keep_going(const pgem_robust_progress_t *progress, void *user)
 static void *pass_main(void *user)
 {
     bridge_pass_t *pass = user;
-#if defined(SCHED_IDLE)
-    /* The pass has what the solver and reception threads leave: updates keep their latency. */
-    struct sched_param lowest;
-    memset(&lowest, 0, sizeof lowest);
-    (void)pthread_setschedparam(pthread_self(), SCHED_IDLE, &lowest);
-#endif
+    /* Below the solver and reception threads (nice 10: about a tenth of a core's share when
+     * they compete for it, all of it when they wait), so updates keep their latency; not
+     * SCHED_IDLE, which starved the passes whenever anything else ran on the machine. */
+    (void)setpriority(PRIO_PROCESS, (id_t)syscall(SYS_gettid), 10);
     pthread_mutex_lock(pass->lock);
     for (;;) {
         while (!pass->quit && pass->state != BRIDGE_PASS_RUNNING) {

@@ -40,7 +40,7 @@ typedef struct bridge_pass {
     int status;                    /* the solve's */
     pgem_robust_summary_t summary;
     uint32_t loops_at_copy;        /* loop closures the copy holds */
-    uint64_t passes;               /* adopted so far */
+    uint64_t passes;               /* ended and looked at so far (adopted or agreed) */
     uint64_t agreed;               /* passes that found the live map's verdicts: not adopted */
 } bridge_pass_t;
 
