@@ -111,6 +111,7 @@ typedef struct bridge {
     uint32_t pass_loops;        /* loop closures the last pass's copy held */
     double pass_next;           /* no pass starts before this (the last one's end plus its
                                    time: passes take at most half the time) */
+    double pass_took;           /* the last pass's time, copy to result (s) */
     /* Publication buffers for graph_t, sized for the capacities. */
     int64_t *out_ids;
     double *out_values;

@@ -390,6 +390,10 @@ static void solved_or_not(bridge_t *bridge, int status, const pgem_robust_summar
     }
 }
 
+/* Passes that take longer than this (copy to result) turn the pending gate off until one is
+ * quicker again. */
+#define PASS_PENDING_SECONDS 1.0
+
 /* The update's options from the robust ones: its gate on new loop closures with their gate
  * and inflation; kernel none keeps every loop in. */
 static void update_options(const bridge_t *bridge, pgem_update_options_t *options)
@@ -398,8 +402,11 @@ static void update_options(const bridge_t *bridge, pgem_update_options_t *option
     options->robust = bridge->options.robust.kernel != PGEM_KERNEL_NONE;
     options->gate = bridge->options.robust.gate;
     options->odometry_inflation = bridge->options.robust.odometry_inflation;
-    options->pending = bridge->pass_on ? 10.0 : 0.0; /* the pass judges what the map cannot
-                                                        yet (DESIGN.md, "Live EM passes") */
+    /* The pass judges what the map cannot yet (DESIGN.md, "Live EM passes"), while passes
+     * come within a second: a loop held back waits up to two passes, and passes slower than
+     * that (a large map on a slow or busy machine) left the live map drifting for want of
+     * the loops held back, and the bridge behind the stream. */
+    options->pending = bridge->pass_on && bridge->pass_took <= PASS_PENDING_SECONDS ? 10.0 : 0.0;
 }
 
 /* The loop closures pruned after an update, from the count before it: the new loops it pruned,
@@ -695,7 +702,8 @@ void bridge_graph_pass(bridge_t *bridge)
     const double now = bridge_now();
     if (state == BRIDGE_PASS_DONE) {
         adopt_pass(bridge);
-        bridge->pass_next = now + bridge->pass.took; /* at most half the time in passes */
+        bridge->pass_took = bridge->pass.took;
+        bridge->pass_next = now + bridge->pass_took; /* at most half the time in passes */
         bridge_pass_release(&bridge->pass);
     }
     /* The next one: when loop closures arrived since the last copy, the map is whole and up to
