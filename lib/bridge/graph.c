@@ -199,6 +199,14 @@ static void anchor(bridge_t *bridge, const pgem_item_t *item)
     }
 }
 
+/* The estimate was replaced other than by an update or a pass (a reset, a whole-graph solve):
+ * a pass of an older copy stops after its round and is dropped when it ends. */
+static void drop_pass(bridge_t *bridge)
+{
+    bridge->generation++;
+    bridge->pass.cancel = 1;
+}
+
 static void reset_graph(bridge_t *bridge)
 {
     pgem_init(&bridge->core, &bridge->core_config, bridge->core_block, bridge->core_block_size);
@@ -210,8 +218,7 @@ static void reset_graph(bridge_t *bridge)
     }
     bridge->solved_poses = 0;
     bridge->restart_pending = 0;
-    bridge->generation++;
-    bridge->pass.cancel = 1; /* a pass of the old graph stops after its round */
+    drop_pass(bridge);
     bridge->pass_loops = 0;
     bridge_components_reset(bridge);
     bridge->loop_count = 0;
@@ -409,9 +416,8 @@ static void update_options(const bridge_t *bridge, pgem_update_options_t *option
     options->pending = bridge->pass_on && bridge->pass_took <= PASS_PENDING_SECONDS ? 10.0 : 0.0;
 }
 
-/* The loop closures pruned after an update, from the count before it: the new loops it pruned,
- * less the pruned ones it took back (no other loop changes state in an update). O(new). */
-static void count_pruned(bridge_t *bridge, const pgem_update_summary_t *update)
+/* The pruned loop closures among the edges pruned_count has not seen yet, added to it. */
+static void count_new_pruned(bridge_t *bridge)
 {
     const uint32_t edges = pgem_edge_count(bridge->core);
     for (uint32_t k = bridge->counted_edges; k < edges; ++k) {
@@ -419,10 +425,17 @@ static void count_pruned(bridge_t *bridge, const pgem_update_summary_t *update)
         pgem_edge_at(bridge->core, k, &view);
         bridge->pruned_count += view.kind == PGEM_EDGE_LOOP && !view.active;
     }
+    bridge->counted_edges = edges;
+}
+
+/* The loop closures pruned after an update, from the count before it: the new loops it pruned,
+ * less the pruned ones it took back (no other loop changes state in an update). O(new). */
+static void count_pruned(bridge_t *bridge, const pgem_update_summary_t *update)
+{
+    count_new_pruned(bridge);
     bridge->pruned_count -= update->loops_readmitted < bridge->pruned_count
                                 ? update->loops_readmitted
                                 : bridge->pruned_count;
-    bridge->counted_edges = edges;
 }
 
 /* One incremental update and the pruned count after it. */
@@ -451,9 +464,17 @@ void bridge_graph_step(bridge_t *bridge)
     memset(bridge->anchored, 0, bridge->solved_poses);
 }
 
-/* The outcome a robust solve would give for the summary's loops and pruned counts. */
-static void summary_outcome(pgem_robust_summary_t *summary)
+/* What a robust solve's summary would say of the loops, from the bridge's counts (loops,
+ * pruned, the outcome a robust solve would give for them); chi2 not computed (NaN): that
+ * visits every edge, and an update's cost must not grow with the map. */
+static void counts_summary(const bridge_t *bridge, pgem_robust_summary_t *summary)
 {
+    summary->loops = bridge->loop_count;
+    summary->pruned = bridge->pruned_count;
+    summary->rejected = summary->pruned;
+    summary->final_chi2 = (double)NAN;
+    summary->final_chi2_all = (double)NAN;
+    summary->initial_chi2 = (double)NAN;
     summary->outcome = summary->loops == 0u                  ? PGEM_ROBUST_NO_LOOPS
                        : summary->pruned == summary->loops   ? PGEM_ROBUST_ALL_REJECTED
                        : 10u * summary->pruned > 9u * summary->loops ? PGEM_ROBUST_MOST_REJECTED
@@ -466,13 +487,7 @@ static void summary_outcome(pgem_robust_summary_t *summary)
 static int update_solve(bridge_t *bridge, pgem_robust_summary_t *summary)
 {
     const int status = update_run(bridge);
-    summary->loops = bridge->loop_count;
-    summary->pruned = bridge->pruned_count;
-    summary->final_chi2 = (double)NAN;
-    summary->final_chi2_all = (double)NAN;
-    summary->initial_chi2 = (double)NAN;
-    summary->rejected = summary->pruned;
-    summary_outcome(summary);
+    counts_summary(bridge, summary);
     summary->usable = status == PGEM_OK;
     summary->estimate_changed = status == PGEM_OK;
     return status;
@@ -524,9 +539,8 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     if (status != PGEM_OK || parts > 1) {
         bridge->restart_pending = 1;
     }
-    if (!incremental) { /* the estimate is the solve's: a pass of an older copy is dropped */
-        bridge->generation++;
-        bridge->pass.cancel = 1;
+    if (!incremental) { /* the estimate is the solve's */
+        drop_pass(bridge);
     }
     int64_t micros = (int64_t)((bridge_now() - start) * 1e6);
     double solved = bridge_now();
@@ -568,14 +582,9 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
  * anywhere): O(edges), once per pass. */
 static void recount_pruned(bridge_t *bridge)
 {
-    const uint32_t edges = pgem_edge_count(bridge->core);
     bridge->pruned_count = 0;
-    for (uint32_t k = 0; k < edges; ++k) {
-        pgem_edge_view_t view;
-        pgem_edge_at(bridge->core, k, &view);
-        bridge->pruned_count += view.kind == PGEM_EDGE_LOOP && !view.active;
-    }
-    bridge->counted_edges = edges;
+    bridge->counted_edges = 0;
+    count_new_pruned(bridge);
 }
 
 /* 1 when every loop closure the pass judged has the same verdict in the live map (accepted or
@@ -601,8 +610,9 @@ static int same_verdicts(const pgem_t *live, const pgem_t *pass)
 }
 
 /* A finished pass into the live map, when the graph it copied is still the live one's prefix:
- * its estimate and verdicts (pgem_update_adopt), then an update at them (a rebuild, with the
- * loops that arrived since gated again), published. */
+ * its estimate and verdicts (pgem_update_adopt), then an update at them (a rebuild; loops
+ * that arrived since keep the gate's verdicts), published; a pass that agrees with the live
+ * verdicts is only logged and its graph published again. */
 static void adopt_pass(bridge_t *bridge)
 {
     bridge_pass_t *pass = &bridge->pass;
@@ -624,12 +634,8 @@ static void adopt_pass(bridge_t *bridge)
         pass->passes++;
         pgem_robust_summary_t same;
         memset(&same, 0, sizeof same);
-        same.loops = bridge->loop_count;
-        same.pruned = bridge->pruned_count;
-        same.rejected = same.pruned;
+        counts_summary(bridge, &same);
         same.rounds = pass->summary.rounds;
-        same.final_chi2 = same.final_chi2_all = same.initial_chi2 = (double)NAN;
-        summary_outcome(&same);
         char why[256] = "";
         describe_outcome(&same, why, sizeof why);
         bridge_graph_publish(bridge, "em-pass", &same, 1, why, 0);
@@ -653,10 +659,8 @@ static void adopt_pass(bridge_t *bridge)
     status = update_solve(bridge, &summary);
     const double updated_at = bridge_now();
     recount_pruned(bridge);
-    summary.pruned = bridge->pruned_count;
-    summary.rejected = summary.pruned;
+    counts_summary(bridge, &summary);
     summary.rounds = pass->summary.rounds;
-    summary_outcome(&summary);
     char why[256] = "";
     solved_or_not(bridge, status, &summary, why, sizeof why);
     if (status != PGEM_OK) {

@@ -127,11 +127,6 @@ int bridge_pass_start(bridge_pass_t *pass, const pgem_t *live, const double *raw
     const uint32_t poses = pgem_pose_count(pass->core);
     const size_t size = (size_t)PGEM_POSE_SIZE(pgem_dimension(pass->core));
     uint32_t loops = 0;
-    for (uint32_t i = 0; i < poses; ++i) {
-        pgem_id_t id = 0;
-        pgem_pose_at(pass->core, i, &id, NULL, NULL);
-        pgem_set_pose(pass->core, id, raw + i * size);
-    }
     memset(pass->has_edge, 0, poses);
     for (uint32_t k = 0; k < pgem_edge_count(pass->core); ++k) {
         pgem_edge_view_t view;
@@ -143,9 +138,10 @@ int bridge_pass_start(bridge_pass_t *pass, const pgem_t *live, const double *raw
             pass->has_edge[from] = pass->has_edge[to] = 1;
         }
     }
-    for (uint32_t i = 0; i < poses; ++i) { /* a pose whose edges are still on their way */
+    for (uint32_t i = 0; i < poses; ++i) { /* batch EM's start; held: edges still on their way */
         pgem_id_t id = 0;
         pgem_pose_at(pass->core, i, &id, NULL, NULL);
+        pgem_set_pose(pass->core, id, raw + i * size);
         if (!pass->has_edge[i]) {
             pgem_fix_pose(pass->core, id, 1);
         }

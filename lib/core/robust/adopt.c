@@ -25,10 +25,11 @@ static int pgem_adopt_refused(pgem_t *graph, const char *what, uint64_t index, c
 static int pgem_adopt_check(pgem_t *graph, const pgem_t *pass)
 {
     const pgem_store_t *g = &graph->store, *s = &pass->store;
-    if (s->pose_count > g->pose_count || s->edge_count > g->edge_count) {
-        return pgem_adopt_refused(graph, "the pass holds ", s->pose_count > g->pose_count ? s->pose_count : s->edge_count,
-                                  s->pose_count > g->pose_count ? " poses, more than the graph"
-                                                                : " edges, more than the graph");
+    if (s->pose_count > g->pose_count) {
+        return pgem_adopt_refused(graph, "the pass holds ", s->pose_count, " poses, more than the graph");
+    }
+    if (s->edge_count > g->edge_count) {
+        return pgem_adopt_refused(graph, "the pass holds ", s->edge_count, " edges, more than the graph");
     }
     for (uint32_t p = 0; p < s->pose_count; p++) {
         if (s->pose_id[p] != g->pose_id[p]) {
