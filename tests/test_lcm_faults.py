@@ -42,6 +42,11 @@ Scenarios (all by default; --only picks some):
              byte in record 200 loses that record alone (no byte cut), the resend restores it;
              deleted, messages are refused and the copy from the /proc path the message names
              replays every acknowledged record.
+  split      a graph in parts (issue 31): every 50th odometry edge lost, sent at 5000 edges/s,
+             is taken by incremental updates alone (each part held at its own gauge; no
+             whole-graph solve per batch); a stray sender's island (two poses and an edge far
+             from the map) sent mid-stream leaves the updates incremental, and the settled map
+             without the island is the offline solve.
 
 Environment (CTest sets it): PGEM, BRIDGE, SEND, DUMP, COMPARE, MALFORMED, HOSTILE (paths of
 the built programs), DATASETS (the shared datasets folder; a simulated graph stands in without it), WORK
@@ -778,6 +783,86 @@ def hostile_scenario(graph: Path, edges: int) -> dict:
     return figures
 
 
+# ---- h: a graph in parts: lost odometry, an island from a stray sender --------------------
+
+
+def lossy_copy(graph: Path, out: Path, every: int) -> int:
+    """The graph without every `every`-th odometry edge (the first between ids i and i + 1), as
+    UDP loss leaves it: the graph falls into parts. Returns the edges left."""
+    kept = []
+    odometry = 0
+    for line in graph.read_text().splitlines():
+        words = line.split()
+        if words and words[0].startswith("EDGE") and int(words[2]) == int(words[1]) + 1:
+            odometry += 1
+            if odometry % every == 0:
+                continue
+        kept.append(line)
+    out.write_text("\n".join(kept) + "\n")
+    return sum(1 for line in kept if line.startswith("EDGE"))
+
+
+def solves_in(log: Path) -> tuple[int, list[str]]:
+    """(solves, the triggers of those that were not incremental updates nor settles)."""
+    found = re.findall(r"solve \d+ \(([^)]*)\)", log.read_text())
+    return len(found), [s for s in found if "incremental" not in s and not s.startswith("settle")]
+
+
+ISLAND = ("VERTEX_SE2 900000001 -5000 -5000 0\nVERTEX_SE2 900000002 -4999 -5000 0\n"
+          "EDGE_SE2 900000001 900000002 1 0 0 100 0 0 100 0 100\n")
+
+
+def split_scenario(graph: Path, edges: int) -> dict:
+    step("split: every 50th odometry edge lost (the graph in parts), sent at 5000 edges/s: "
+         "the bridge keeps up with incremental updates, each part held at its own gauge")
+    lossy = Path("lossy.g2o")
+    lossy_edges = lossy_copy(graph, lossy, 50)
+    bridge = Bridge(Path("split.log"), "--idle-solve", "60")
+    bridge.start()
+    started = time.monotonic()
+    finish(sender(lossy, "--rate", "5000", "--wait", "60"), "the lossy front-end")
+    drained = time.monotonic() - started
+    bridge.stop()
+    solves, whole = solves_in(Path("split.log"))
+    expect(solves > 0 and not whole, f"split: {len(whole)} of {solves} solves were whole-graph "
+           f"solves ({whole[:3]}), not incremental updates")
+    expect("several parts" in Path("split.log").read_text(),
+           "split: the log never said the graph was in several parts")
+    print(f"split: {edges - lossy_edges} odometry edges lost; {lossy_edges} edges taken in "
+          f"{drained:.1f} s (sent in {lossy_edges / 5000:.1f} s), {solves} incremental solves, "
+          "no whole-graph one")
+
+    step("island: a stray sender's two poses and edge, far from the map, while the front-end "
+         "streams: the updates stay incremental and the settled map is the offline one")
+    stray = Path("stray.g2o")
+    stray.write_text(ISLAND)
+    bridge = Bridge(Path("island.log"), "--idle-solve", "1")
+    bridge.start()
+    dump = settled_dump("island", edges + 1)
+    front = sender(graph, "--rate", "3000")
+    time.sleep(edges / 3000 / 4)
+    finish(sender(stray, "--source", "stray"), "the stray sender")
+    finish(front, "the front-end")
+    finish(dump, "island: waiting for the settled graph", timeout=300)
+    bridge.stop()
+    solves, whole = solves_in(Path("island.log"))
+    expect(not whole, f"island: {len(whole)} of {solves} solves were whole-graph solves "
+           f"({whole[:3]}) while the stream went on")
+    lines = Path("island.g2o").read_text().splitlines()
+    main = [line for line in lines if " 90000000" not in line]
+    expect(len(lines) - len(main) == 2, "island: the settled graph does not hold the island's "
+           "two poses")
+    Path("island.main.g2o").write_text("\n".join(main) + "\n")
+    result = subprocess.run([program("COMPARE"), "island.main.g2o", "offline.g2o", "1e-6",
+                             "island.weights", "offline.weights"], capture_output=True, text=True)
+    print(result.stdout.strip())
+    expect(result.returncode == 0, "island: the settled map (without the island) differs from "
+           "the offline solve")
+    print(f"island: {solves} solves, none whole-graph while streaming; the island held at its "
+          "own gauge; the settled map is the offline one")
+    return {"drained_s": drained, "lost": edges - lossy_edges, "solves": solves}
+
+
 # ---- f: the journal's disk fills ---------------------------------------------------------
 
 
@@ -999,7 +1084,8 @@ def journal_scenario(graph: Path) -> dict:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--only", default="kills,malformed,two,restart,hostile,full,journal")
+    parser.add_argument("--only",
+                        default="kills,malformed,two,restart,hostile,full,journal,split")
     parser.add_argument("--kills", type=int, default=int(os.environ.get("KILLS", "20")))
     parser.add_argument("--min-delay", type=float, default=0.05,
                         help="shortest time between a restart and the next kill (s)")
@@ -1040,6 +1126,8 @@ def main() -> int:
             figures["full"] = full_disk_scenario(graph, edges)
         if "journal" in only:
             figures["journal"] = journal_scenario(graph)
+        if "split" in only:
+            figures["split"] = split_scenario(graph, edges)
     except (Failure, subprocess.CalledProcessError, subprocess.TimeoutExpired) as error:
         print(f"FAIL: {error}")
         for log in sorted(Path(".").glob("*.log")):

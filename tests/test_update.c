@@ -693,6 +693,60 @@ static void test_pending_loop_waits_for_pass(void **state)
     pgem_destroy(b);
 }
 
+/* A part of the graph held at its own gauge (an island a front-end's lost odometry or a stray
+ * sender leaves) enters the factor without a rebuild, whether its pose came with its edge or an
+ * update before it; freeing or moving a held pose whose edges are in the factor rebuilds. */
+static void test_island_held_without_rebuild(void **state)
+{
+    (void)state;
+    static stream_t s;
+    pgem_t *graph = stream_to(&s, 2, 100);
+    pgem_update_summary_t summary;
+    assert_int_equal(pgem_fix_pose(graph, 0, 1), PGEM_OK); /* held in name as before: same factor */
+    assert_int_equal(pgem_update(graph, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.rebuilt, 1); /* the first held pose: pose 0 held in name now */
+    double information[9], z[3] = {1.0, 0.0, 0.1}, far[3] = {500.0, -300.0, 2.0};
+    double near[3] = {501.0, -300.0, 2.0}, got[3], want[3];
+    test_diagonal_information(3, 100.0, information);
+    /* island 1: its poses an update before its edge */
+    assert_int_equal(pgem_add_pose(graph, 1000, far), PGEM_OK);
+    assert_int_equal(pgem_add_pose(graph, 1001, near), PGEM_OK);
+    assert_int_equal(pgem_update(graph, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.rebuilt, 0);
+    assert_int_equal(pgem_add_edge(graph, 1000, 1001, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    assert_int_equal(pgem_fix_pose(graph, 1000, 1), PGEM_OK);
+    assert_int_equal(pgem_update(graph, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.rebuilt, 0);
+    assert_int_equal(summary.columns, 100); /* 99 of the walk, 1001 */
+    pgem_se2_compose(far, z, want);
+    assert_int_equal(pgem_get_pose(graph, 1001, got), PGEM_OK);
+    assert_true(fabs(got[0] - want[0]) < 1e-9 && fabs(got[1] - want[1]) < 1e-9);
+    /* island 2: poses, edge and hold in one go; the walk goes on beside it */
+    assert_int_equal(pgem_add_pose(graph, 2000, far), PGEM_OK);
+    assert_int_equal(pgem_add_pose(graph, 2001, near), PGEM_OK);
+    assert_int_equal(pgem_add_edge(graph, 2000, 2001, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    assert_int_equal(pgem_fix_pose(graph, 2000, 1), PGEM_OK);
+    stream_add(graph, &s, 100);
+    assert_int_equal(pgem_update(graph, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.rebuilt, 0);
+    assert_int_equal(summary.columns, 102);
+    /* a held pose moved while its edge is in the factor: rebuilt, and 1001 follows */
+    far[0] += 10.0;
+    assert_int_equal(pgem_set_pose(graph, 1000, far), PGEM_OK);
+    assert_int_equal(pgem_update(graph, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.rebuilt, 1);
+    pgem_se2_compose(far, z, want);
+    assert_int_equal(pgem_get_pose(graph, 1001, got), PGEM_OK);
+    assert_true(fabs(got[0] - want[0]) < 1e-6 && fabs(got[1] - want[1]) < 1e-6);
+    /* freed (joined by odometry to the walk): rebuilt with a column for it */
+    assert_int_equal(pgem_add_edge(graph, 100, 2000, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    assert_int_equal(pgem_fix_pose(graph, 2000, 0), PGEM_OK);
+    assert_int_equal(pgem_update(graph, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.rebuilt, 1);
+    assert_int_equal(summary.columns, 103);
+    pgem_destroy(graph);
+}
+
 static void test_errors(void **state)
 {
     (void)state;
@@ -726,6 +780,7 @@ int main(void)
         cmocka_unit_test(test_settle_undone),
         cmocka_unit_test(test_adopt_pass),
         cmocka_unit_test(test_pending_loop_waits_for_pass),
+        cmocka_unit_test(test_island_held_without_rebuild),
         cmocka_unit_test(test_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -176,6 +176,9 @@ void bridge_graph_snapshot(bridge_t *bridge, const char *path);
 uint32_t bridge_components_hold(bridge_t *bridge);
 void bridge_components_hold_lone(bridge_t *bridge);
 void bridge_components_reset(bridge_t *bridge);
+/* graph.c: the estimate was replaced other than by an update or a pass: a pass of an older
+ * copy is dropped when it ends */
+void bridge_graph_drop_pass(bridge_t *bridge);
 
 /* status.c (either thread). */
 void bridge_publish_status(bridge_t *bridge);

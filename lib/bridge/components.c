@@ -54,6 +54,40 @@ static int edge_ends(const bridge_t *bridge, uint32_t k, pgem_edge_view_t *view,
            pgem_pose_index(bridge->core, view->to, &ends[1]) == PGEM_OK;
 }
 
+/* The part rooted at root, solved at its own gauge, moved as one so that the odometry edge
+ * (view) joining it to another part holds exactly: every pose X of it becomes T X, where T
+ * takes its end of the edge to where the other end and the measurement put it. The next
+ * update rebuilds at the moved poses (pgem_set_pose marks them) and starts near the joined
+ * optimum, instead of from a part displaced by whatever its gauge was. O(poses); parts join
+ * rarely (odometry that arrived late, or was lost and sent again). */
+static void move_part(bridge_t *bridge, uint32_t root, const pgem_edge_view_t *view, int moving_to)
+{
+    const int three = bridge->options.dimension == 3;
+    double from[PGEM_POSE_SIZE_MAX], to[PGEM_POSE_SIZE_MAX], want[PGEM_POSE_SIZE_MAX];
+    double inverse[PGEM_POSE_SIZE_MAX], step[PGEM_POSE_SIZE_MAX], moved[PGEM_POSE_SIZE_MAX];
+    double pose[PGEM_POSE_SIZE_MAX];
+    pgem_get_pose(bridge->core, view->from, from);
+    pgem_get_pose(bridge->core, view->to, to);
+    if (moving_to) { /* want = from z; T = want to^-1 */
+        (three ? pgem_se3_compose : pgem_se2_compose)(from, view->measurement, want);
+        (three ? pgem_se3_inverse : pgem_se2_inverse)(to, inverse);
+    } else { /* want = to z^-1; T = want from^-1 */
+        (three ? pgem_se3_inverse : pgem_se2_inverse)(view->measurement, step);
+        (three ? pgem_se3_compose : pgem_se2_compose)(to, step, want);
+        (three ? pgem_se3_inverse : pgem_se2_inverse)(from, inverse);
+    }
+    (three ? pgem_se3_compose : pgem_se2_compose)(want, inverse, step);
+    for (uint32_t i = 0; i < bridge->parts_poses; ++i) {
+        if (pgem_part_root(bridge->component, i) != root) {
+            continue;
+        }
+        pgem_id_t id = 0;
+        pgem_pose_at(bridge->core, i, &id, pose, NULL);
+        (three ? pgem_se3_compose : pgem_se2_compose)(step, pose, moved);
+        pgem_set_pose(bridge->core, id, moved);
+    }
+}
+
 /* Edge k into the parts: both its parts have an edge; odometry joins them, and the joined
  * part keeps one gauge. */
 static void join_edge(bridge_t *bridge, uint32_t k)
@@ -75,6 +109,16 @@ static void join_edge(bridge_t *bridge, uint32_t k)
     }
     uint32_t *anchor_of = bridge->component_anchor;
     const uint32_t anchor = merged_anchor(bridge, anchor_of[root_a], anchor_of[root_b]);
+    for (int s = 0; s < 2; ++s) { /* a part held at its own gauge that loses it moves */
+        const uint32_t own = anchor_of[s == 0 ? root_a : root_b];
+        if (own != anchor && own != UINT32_MAX && bridge->gauge_fixed[own]) {
+            move_part(bridge, s == 0 ? root_a : root_b, &view, s == 1);
+            bridge_graph_drop_pass(bridge); /* a pass's copy holds it where it was */
+            bridge_log(bridge, "odometry %llu -> %llu joined a part held at its own gauge to "
+                               "another: the part moved as one onto it",
+                       (unsigned long long)view.from, (unsigned long long)view.to);
+        }
+    }
     const uint32_t root = pgem_part_join(parent, root_a, root_b);
     bridge->parts_with_edges--; /* two parts with edges became one */
     hold_gauge(bridge, anchor_of[root_a] == anchor ? UINT32_MAX : anchor_of[root_a], 0);

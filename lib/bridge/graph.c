@@ -201,7 +201,7 @@ static void anchor(bridge_t *bridge, const pgem_item_t *item)
 
 /* The estimate was replaced other than by an update or a pass (a reset, a whole-graph solve):
  * a pass of an older copy stops after its round and is dropped when it ends. */
-static void drop_pass(bridge_t *bridge)
+void bridge_graph_drop_pass(bridge_t *bridge)
 {
     bridge->generation++;
     bridge->pass.cancel = 1;
@@ -218,7 +218,7 @@ static void reset_graph(bridge_t *bridge)
     }
     bridge->solved_poses = 0;
     bridge->restart_pending = 0;
-    drop_pass(bridge);
+    bridge_graph_drop_pass(bridge);
     bridge->pass_loops = 0;
     bridge_components_reset(bridge);
     bridge->loop_count = 0;
@@ -353,17 +353,16 @@ static void settle_restore(bridge_t *bridge)
 
 int bridge_graph_settle(bridge_t *bridge)
 {
-    /* It can give way when the incremental state it leaves is sound: one part, no restart
-     * owed (else the next solve restarts anyway, and might as well be this one). */
-    bridge->settle_yields = bridge->settle_save != NULL && !bridge->restart_pending &&
-                            bridge_components_hold(bridge) == 1;
+    /* It can give way when the incremental state it leaves is sound: no restart owed (else
+     * the next solve restarts anyway, and might as well be this one). */
+    bridge->settle_yields = bridge->settle_save != NULL && !bridge->restart_pending;
     if (bridge->settle_yields) {
         settle_save(bridge);
     }
     bridge_log(bridge, "settle: EM on the whole graph (%u poses, %u edges) from the front-end's "
                        "estimates%s", pgem_pose_count(bridge->core), pgem_edge_count(bridge->core),
                bridge->settle_yields ? ", giving way to arriving items" : "");
-    bridge->restart_pending = 1; /* honoured when the graph is whole (see bridge_graph_solve) */
+    bridge->restart_pending = 1; /* the solve starts from the front-end's estimates */
     bridge->settle_gave_way = 0;
     bridge_graph_solve(bridge, "settle");
     bridge->settle_yields = 0;
@@ -453,9 +452,10 @@ static int update_run(bridge_t *bridge)
 
 void bridge_graph_step(bridge_t *bridge)
 {
-    if (bridge->restart_pending || bridge_components_hold(bridge) != 1) {
-        return; /* the next solve restarts or holds several parts: it decides */
+    if (bridge->restart_pending) {
+        return; /* the next solve restarts: it decides */
     }
+    (void)bridge_components_hold(bridge); /* each part held at its own gauge */
     if (update_run(bridge) != PGEM_OK) {
         bridge->restart_pending = 1; /* the next solve says why, from the front-end's estimates */
         return;
@@ -505,12 +505,12 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     memset(&summary, 0, sizeof summary);
     double start = bridge_now();
     uint32_t parts = bridge_components_hold(bridge);
-    int restarted = bridge->restart_pending && parts == 1;
+    int restarted = bridge->restart_pending;
     if (restarted) {
         restart_from_raw(bridge);
         bridge->restart_pending = 0;
     }
-    const int incremental = !bridge->options.full && !restarted && parts == 1 &&
+    const int incremental = !bridge->options.full && !restarted &&
                             strcmp(trigger, "settle") != 0 && strcmp(trigger, "command") != 0 &&
                             strcmp(trigger, "recovery") != 0;
     if (!incremental) {
@@ -536,11 +536,11 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
                    1e3 * (bridge_now() - start), summary.gn_iterations);
         return;
     }
-    if (status != PGEM_OK || parts > 1) {
+    if (status != PGEM_OK) {
         bridge->restart_pending = 1;
     }
     if (!incremental) { /* the estimate is the solve's */
-        drop_pass(bridge);
+        bridge_graph_drop_pass(bridge);
     }
     int64_t micros = (int64_t)((bridge_now() - start) * 1e6);
     double solved = bridge_now();
@@ -567,7 +567,7 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
                                  : "",
                    pgem_pose_count(bridge->core), summary.loops, summary.pruned,
                    summary.final_chi2, summary.rounds, 1e-3 * (double)micros,
-                   1e3 * (published - solved), parts > 1 ? " (graph in several parts: each held at its smallest id)" : "");
+                   1e3 * (published - solved), parts > 1 ? " (graph in several parts: each held at its own gauge)" : "");
         if (why[0] != '\0') {
             bridge_note(bridge, "solve %lld: %s", (long long)bridge->solve_id, why);
         }
@@ -618,13 +618,12 @@ static void adopt_pass(bridge_t *bridge)
     bridge_pass_t *pass = &bridge->pass;
     const double start = bridge_now();
     if (pass->status != PGEM_OK || pass->summary.termination == PGEM_ROBUST_STOPPED ||
-        pass->generation != bridge->generation || bridge->restart_pending ||
-        bridge_components_hold(bridge) != 1) {
+        pass->generation != bridge->generation || bridge->restart_pending) {
         bridge_log(bridge, "live EM pass dropped (%s)",
                    pass->status != PGEM_OK ? pgem_error_name(pass->status)
                    : pass->generation != bridge->generation ? "the graph was re-solved or reset since its copy"
                    : pass->summary.termination == PGEM_ROBUST_STOPPED ? "stopped"
-                                                                       : "the graph is in several parts");
+                                                                       : "a restart is owed");
         return;
     }
     if (same_verdicts(bridge->core, pass->core)) {
@@ -710,13 +709,13 @@ void bridge_graph_pass(bridge_t *bridge)
         bridge->pass_next = now + bridge->pass_took; /* at most half the time in passes */
         bridge_pass_release(&bridge->pass);
     }
-    /* The next one: when loop closures arrived since the last copy, the map is whole and up to
-     * date, and the last pass's time has passed since it ended. */
+    /* The next one: when loop closures arrived since the last copy, the map is up to date (no
+     * restart owed), and the last pass's time has passed since it ended. */
     if (now < bridge->pass_next || bridge->loop_count == bridge->pass_loops) {
         return;
     }
-    if (bridge->restart_pending || bridge->solved_poses != pgem_pose_count(bridge->core) ||
-        bridge_components_hold(bridge) != 1) {
+    (void)bridge_components_hold(bridge); /* the copy holds each part where the live map does */
+    if (bridge->restart_pending || bridge->solved_poses != pgem_pose_count(bridge->core)) {
         bridge->pass_next = now + 0.05; /* not now: look again a little later */
         return;
     }

@@ -19,6 +19,16 @@ loopback only, ttl=0), so no packet leaves the machine. Needs root (or CAP_SYS_A
    front-end resends the whole file (replays are recognised and ignored) and the dumped
    graph is compared with the offline ``pgem optimize --robust em`` solve.
 
+5. Split: the file with a share of its odometry edges gone (``--loss``, seeded), as UDP loss
+   leaves it: the graph falls into parts. It is sent twice to fresh bridges, paced at the
+   file's rate and as a burst (``--burst`` edges/s), and the time until the bridge's status
+   shows every edge taken and nothing queued is reported for both, with the whole-graph solves
+   the bridge ran meanwhile and the true loop closures pruned in the last graph published
+   before the stream went quiet (against the same stream without loss).
+6. Island: the latency run again, with a stray sender's island (two poses far from the map
+   and an edge between them, three datagrams) sent a quarter into the stream; the report
+   gives the loop-closure latency median with and without it.
+
 4. Pauses: the same stream with the sender silent --pauses times for --pause-seconds
    (``pgem-lcm-send --pause-every``; longer than the bridge's idle time, 0.5 s, so its settle
    solve of the whole graph starts), as a robot that stands still and drives on. The report
@@ -103,7 +113,7 @@ def count_edges(path: Path) -> int:
         return sum(1 for line in handle if line.startswith(("EDGE", "EDGE2", "EDGE3")))
 
 
-PHASES = ("latency", "ingest", "recovery", "pause")
+PHASES = ("latency", "ingest", "recovery", "pause", "split", "island")
 REPLAYED = re.compile(r"(\d+) records replayed \((\d+) poses, (\d+) edges\)")
 
 
@@ -254,6 +264,133 @@ def pause_run(work: Path, name: str, corrupted: Path, rate: float, pauses: int,
     }
 
 
+def lossy_copy(source: Path, out: Path, loss: float, seed: int) -> int:
+    """`source` without a share `loss` of its odometry edges (the first edge between ids i and
+    i + 1), chosen with `seed`: the parts UDP loss leaves. Returns the edges dropped."""
+    rng = random.Random(seed)
+    dropped = 0
+    with source.open() as handle, out.open("w") as written:
+        for line in handle:
+            fields = line.split()
+            if (fields and fields[0].startswith("EDGE") and len(fields) > 2 and
+                    fields[2].lstrip("-").isdigit() and int(fields[2]) == int(fields[1]) + 1 and
+                    rng.random() < loss):
+                dropped += 1
+                continue
+            written.write(line)
+    return dropped
+
+
+def loop_states(weights: Path, outliers: Path) -> tuple[int, int, int, int]:
+    """(true loops pruned, true loops, false loops accepted, false loops) in a weights file
+    ('from to weight state' lines) against the false loops `pgem corrupt` listed."""
+    false = set()
+    for line in outliers.read_text().splitlines():
+        fields = line.split()
+        if len(fields) >= 2:
+            false.add((int(fields[0]), int(fields[1])))
+            false.add((int(fields[1]), int(fields[0])))
+    counts = [0, 0, 0, 0]
+    for line in weights.read_text().splitlines():
+        fields = line.split()
+        if len(fields) < 4 or line.startswith("#"):
+            continue
+        accepted = fields[3] == "accepted"
+        if (int(fields[0]), int(fields[1])) in false:
+            counts[2] += accepted
+            counts[3] += 1
+        else:
+            counts[0] += not accepted
+            counts[1] += 1
+    return counts[0], counts[1], counts[2], counts[3]
+
+
+def drain_run(work: Path, tag: str, path: Path, rate: float, outliers: Path) -> dict:
+    """`path` sent at `rate` to a fresh bridge (no settle while it streams): seconds until the
+    status shows every edge taken and nothing queued, the whole-graph solves meanwhile, and
+    the loop verdicts of the last graph published then."""
+    bridge = Bridge(fresh_log(work / f"{tag}.bridge.log"), extra=["--idle-solve", "60"])
+    weights = work / f"{tag}.weights"
+    weights.unlink(missing_ok=True)
+    dump = subprocess.Popen([str(tool("pgem-lcm-dump")), "--weights", str(weights), "--quiet"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(0.3)
+    started = time.monotonic()
+    result = send(path, "--rate", str(rate), "--wait", "600",
+                  timeout=count_edges(path) / rate + 900)
+    drained = time.monotonic() - started
+    time.sleep(0.5)
+    dump.send_signal(2)
+    dump.wait(timeout=30)
+    bridge.stop()
+    if result.returncode != 0:
+        raise BenchError(f"{tag}: the bridge did not take the stream:\n{result.stdout}{result.stderr}")
+    log = bridge.log_path.read_text()
+    solves = re.findall(r"solve \d+ \(([^)]*)\)", log)
+    whole = [s for s in solves if "incremental" not in s]
+    pruned, true, accepted, false = loop_states(weights, outliers)
+    return {"rate": rate, "drained": drained, "whole_solves": len(whole), "solves": len(solves),
+            "true_pruned": pruned, "true_loops": true, "false_accepted": accepted,
+            "false_loops": false}
+
+
+def split_run(work: Path, name: str, corrupted: Path, rate: float, loss: float,
+              burst: float) -> dict:
+    """The lossy copy paced and as a burst, and the whole file paced (the verdicts without loss)."""
+    lossy = work / f"{name}.lossy.g2o"
+    dropped = lossy_copy(corrupted, lossy, loss, 1)
+    outliers = corrupted.with_name(corrupted.name + ".outliers")
+    return {"loss": loss, "dropped": dropped,
+            "whole": drain_run(work, f"{name}.split.whole", corrupted, rate, outliers),
+            "paced": drain_run(work, f"{name}.split.paced", lossy, rate, outliers),
+            "burst": drain_run(work, f"{name}.split.burst", lossy, burst, outliers)}
+
+
+def island_run(work: Path, name: str, corrupted: Path, rate: float, bridge_args: list[str]) -> dict:
+    """Loop-closure latency without and with a stray sender's island a quarter in."""
+    plain = latency_run(work, name, corrupted, rate, bridge_args)
+    island = work / f"{name}.island.g2o"
+    island.write_text("VERTEX_SE2 900000001 -5000 -5000 0\nVERTEX_SE2 900000002 -4999 -5000 0\n"
+                      "EDGE_SE2 900000001 900000002 1 0 0 100 0 0 100 0 100\n")
+    delay = count_edges(corrupted) / rate / 4.0
+    stray = subprocess.Popen(["sh", "-c", f"sleep {delay:.3f} && exec {tool('pgem-lcm-send')} "
+                              f"{island} --source stray --quiet"],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    samples, sent, _, _, bridge = streamed(work, name, "island", corrupted, rate, bridge_args, [])
+    stray.wait(timeout=60)
+    log = bridge.log_path.read_text()
+    solves = re.findall(r"solve \d+ \(([^)]*)\)", log)
+    values = [sample[0] for sample in samples]
+    return {"rate": rate, "plain_median": plain["median"], "plain_p99": plain["p99"],
+            "island_median": percentile(values, 50), "island_p99": percentile(values, 99),
+            "loops": len(samples), "sent": sent,
+            "whole_solves": len([s for s in solves if "incremental" not in s and "settle" not in s])}
+
+
+def split_lines(run: dict) -> list[str]:
+    rows = []
+    for key, what in (("whole", "whole file, paced"), ("paced", "lossy, paced"),
+                      ("burst", "lossy, burst")):
+        r = run[key]
+        rows.append(f"| {what} | {r['rate']:g} | {r['drained']:.1f} s | {r['whole_solves']} of "
+                    f"{r['solves']} | {r['true_pruned']} of {r['true_loops']} | "
+                    f"{r['false_accepted']} of {r['false_loops']} |")
+    ratio = run["burst"]["drained"] / run["paced"]["drained"]
+    return [f"Split: {run['dropped']} odometry edges dropped ({100 * run['loss']:g} %, seed 1); "
+            f"the burst drains in {ratio:.2f}x the paced send's time (target at most 1.5x).", "",
+            "| stream | edges/s | taken, nothing queued | whole-graph solves | true loops pruned "
+            "at the end | false loops accepted |", "|---|---|---|---|---|---|", *rows, ""]
+
+
+def island_lines(run: dict) -> list[str]:
+    change = run["island_median"] / run["plain_median"] - 1.0
+    return [f"Island: a stray sender's two poses and edge a quarter into the stream at "
+            f"{run['rate']:g} edges/s: loop-closure latency median {run['plain_median']:.1f} ms "
+            f"without, {run['island_median']:.1f} ms with ({100 * change:+.0f} %, target at most "
+            f"+10 %); p99 {run['plain_p99']:.1f} / {run['island_p99']:.1f} ms; whole-graph solves "
+            f"while streaming with it: {run['whole_solves']}.", ""]
+
+
 def accepted_edges(output: str) -> int:
     match = re.search(r"accepted \d+ poses, (\d+) edges", output)
     return int(match.group(1)) if match else -1
@@ -385,6 +522,10 @@ def main() -> int:
                         help="pause phase: silent spells in the stream (default 4)")
     parser.add_argument("--pause-seconds", type=float, default=1.0,
                         help="pause phase: length of each (default 1.0 s)")
+    parser.add_argument("--loss", type=float, default=0.01,
+                        help="split phase: share of odometry edges lost (default 0.01)")
+    parser.add_argument("--burst", type=float, default=20000.0,
+                        help="split phase: the burst's rate in edges/s (default 20000)")
     parser.add_argument("--quick", action="store_true",
                         help="M3500 only, streamed at 500 edges/s, 3 kills")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
@@ -436,6 +577,16 @@ def main() -> int:
                 found["pause"] = pause_run(work, name, corrupted, float(rate), args.pauses,
                                            args.pause_seconds, args.bridge_args.split())
                 lines += pause_lines(found["pause"])
+            if "split" in phases:
+                print(f"== {name}: split by lost odometry, paced and as a burst", flush=True)
+                found["split"] = split_run(work, name, corrupted, float(rate), args.loss,
+                                           args.burst)
+                lines += split_lines(found["split"])
+            if "island" in phases:
+                print(f"== {name}: a stray sender's island", flush=True)
+                found["island"] = island_run(work, name, corrupted, float(rate),
+                                             args.bridge_args.split())
+                lines += island_lines(found["island"])
             if "ingest" in phases:
                 print(f"== {name}: sustained ingest", flush=True)
                 found["ingest"] = ingest_run(work, name, corrupted,

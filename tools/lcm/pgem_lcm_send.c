@@ -519,7 +519,7 @@ static void send_progress_line(const send_args_t *args, const send_plan_t *plan,
 
 /* Waits until the clock reaches `deadline`. While subscribed, the messages that arrive
  * meanwhile are dispatched at once (LCM is polled in whole milliseconds that end before the
- * deadline, the rest is slept), so their arrival times are taken promptly. Returns 1 at the
+ * deadline, what is waiting taken before the rest is slept), so their arrival times are taken promptly. Returns 1 at the
  * deadline, 0 when a stop was requested, -1 when receiving failed (printed). */
 static int send_pause(send_context_t *context, double deadline)
 {
@@ -532,6 +532,11 @@ static int send_pause(send_context_t *context, double deadline)
             return 1;
         }
         if (!context->receiving || left <= SEND_POLL_STEP) {
+            /* what arrived is dispatched even when less than a poll step is left (above about
+             * 1000 edges/s every gap is), or graphs would wait for the end of the send */
+            if (context->receiving && pgem_lcm_drain(SEND_TOOL, context->lcm) < 0) {
+                return -1;
+            }
             return pgem_lcm_sleep_until(deadline);
         }
         /* pgem_lcm_handle rounds up to a millisecond: one less ends before the deadline. */

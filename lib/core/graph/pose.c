@@ -134,10 +134,15 @@ int pgem_fix_pose(pgem_t *graph, pgem_id_t id, int fixed)
     }
     uint8_t flag = fixed ? 1u : 0u;
     if (graph->store.pose_fixed[index] != flag) {
+        const uint32_t before = graph->store.fixed_count;
         graph->store.pose_fixed[index] = flag;
-        graph->store.fixed_count = flag ? graph->store.fixed_count + 1u : graph->store.fixed_count - 1u;
+        graph->store.fixed_count = flag ? before + 1u : before - 1u;
         graph->store.topology++;
-        graph->store.edited_low = 0u; /* a held pose changes every column's meaning */
+        /* While no pose is held, the first is held in its place: the first held or the last
+         * freed changes that pose too. Otherwise only this pose's column changes (none yet,
+         * for a pose the incremental factor has not seen: a new part held at its gauge). */
+        const uint32_t low = (before == 0u) != (graph->store.fixed_count == 0u) ? 0u : (uint32_t)index;
+        graph->store.edited_low = low < graph->store.edited_low ? low : graph->store.edited_low;
     }
     pgem_message_clear(graph);
     return PGEM_OK;

@@ -553,6 +553,22 @@ static int pgem_update_run(pgem_t *graph, const pgem_update_settings_t *settings
     return PGEM_OK;
 }
 
+/* 1 if pose p is in the factor: it has a column, or an edge in the factor holds it (a held
+ * pose: the edge was linearised at its value). */
+static int pgem_update_in_factor(const pgem_t *graph, uint32_t p)
+{
+    const pgem_online_t *online = &graph->online;
+    if (online->pose_column[p] >= 0) {
+        return 1;
+    }
+    for (int end = online->pose_edge[p]; end >= 0; end = online->edge_next[end]) {
+        if (online->edge_weight_in[(uint32_t)end / 2u] > 0.0) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
 int pgem_update(pgem_t *graph, const pgem_update_options_t *options,
                 pgem_update_summary_t *summary)
 {
@@ -573,8 +589,10 @@ int pgem_update(pgem_t *graph, const pgem_update_options_t *options,
         return status;
     }
     if (graph->store.edited_low != UINT32_MAX) { /* a pose set or held outside pgem_update */
-        if (graph->store.edited_low < online->poses_linked) {
-            online->ready = 0; /* conservative: that pose or a later one may be in the factor */
+        /* rebuild when a pose at or after the lowest edited one is in the factor (conservative:
+         * only some of them may have been edited); the others enter with what they hold */
+        for (uint32_t p = graph->store.edited_low; p < online->poses_linked && online->ready; p++) {
+            online->ready = !pgem_update_in_factor(graph, p);
         }
         graph->store.edited_low = UINT32_MAX;
     }
