@@ -747,6 +747,121 @@ static void test_island_held_without_rebuild(void **state)
     pgem_destroy(graph);
 }
 
+/* Two chains of a walk (poses 0-39 and 100-139: the odometry between them lost), each pose k
+ * of the second at truth k - 100 + 40 moved by (dx, 0, 0) as a drifting front-end would put
+ * it; `loops` (at most 6) loop closures from every fifth pose of the second chain 30 poses
+ * back, into the first. */
+static pgem_t *two_chains(stream_t *s, double dx, int loops)
+{
+    memset(s, 0, sizeof *s);
+    s->dimension = 2;
+    s->rng.state = 9u;
+    pgem_t *graph = stream_instance(2, 400);
+    double information[9], z[3], guess[3];
+    test_diagonal_information(3, 400.0, information);
+    for (int k = 0; k < 80; k++) {
+        walk_truth(2, k, s->truth + 3 * k);
+    }
+    for (int k = 0; k < 80; k++) {
+        const pgem_id_t id = k < 40 ? (pgem_id_t)k : (pgem_id_t)(k - 40 + 100);
+        memcpy(guess, s->truth + 3 * k, sizeof guess);
+        guess[0] += k < 40 ? 0.0 : dx;
+        assert_int_equal(pgem_add_pose(graph, id, guess), PGEM_OK);
+        if (k != 0 && k != 40) {
+            stream_measure(s, k - 1, k, 0.01, z);
+            assert_int_equal(pgem_add_edge(graph, id - 1, id, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+        }
+    }
+    for (int k = 40, made = 0; k < 70 && made < loops; k += 5, made++) {
+        stream_measure(s, k - 30, k, 0.01, z);
+        assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(k - 30), (pgem_id_t)(k - 40 + 100), z,
+                                       information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
+    }
+    return graph;
+}
+
+/* pgem_hold_gauge: an island with no edge to the rest is solved where it is (a fixed-pose-free
+ * part fails without it); joined by loop closures it is placed by them exactly as with no hold
+ * (the damping leaves the converged solution alone), where a fixed pose would have bent them;
+ * the incremental update takes such an island's columns, leaves a loop the map cannot predict
+ * for a whole-graph solve, and EM then accepts the true loops that place it. */
+static void test_gauge_hold(void **state)
+{
+    (void)state;
+    static stream_t s;
+    pgem_summary_t summary;
+    double got[3], want[3];
+    /* no loop: refused without a hold, solved in place with one */
+    pgem_t *graph = two_chains(&s, 3.0, 0);
+    assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_ERR_NOT_POSITIVE_DEFINITE);
+    assert_int_equal(pgem_get_pose(graph, 100, want), PGEM_OK);
+    assert_int_equal(pgem_hold_gauge(graph, 100, 1), PGEM_OK);
+    int fixed = -1;
+    assert_int_equal(pgem_pose_at(graph, 40, NULL, NULL, &fixed), PGEM_OK);
+    assert_int_equal(fixed, 0);
+    assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_OK);
+    assert_int_equal(pgem_get_pose(graph, 100, got), PGEM_OK);
+    assert_true(fabs(got[0] - want[0]) < 1e-6 && fabs(got[1] - want[1]) < 1e-6);
+    pgem_destroy(graph);
+    /* joined by loops: the same solution as without a hold; a fixed pose bends the loops */
+    pgem_t *free_graph = two_chains(&s, 3.0, 6);
+    pgem_t *gauge = two_chains(&s, 3.0, 6);
+    pgem_t *fixed_graph = two_chains(&s, 3.0, 6);
+    assert_int_equal(pgem_hold_gauge(gauge, 100, 1), PGEM_OK);
+    assert_int_equal(pgem_fix_pose(fixed_graph, 0, 1), PGEM_OK);
+    assert_int_equal(pgem_fix_pose(fixed_graph, 100, 1), PGEM_OK);
+    pgem_summary_t free_summary, fixed_summary;
+    assert_int_equal(pgem_optimize(free_graph, NULL, &free_summary), PGEM_OK);
+    assert_int_equal(pgem_optimize(gauge, NULL, &summary), PGEM_OK);
+    assert_int_equal(pgem_optimize(fixed_graph, NULL, &fixed_summary), PGEM_OK);
+    for (pgem_id_t id = 100; id < 140; id++) {
+        assert_int_equal(pgem_get_pose(free_graph, id, want), PGEM_OK);
+        assert_int_equal(pgem_get_pose(gauge, id, got), PGEM_OK);
+        assert_true(fabs(got[0] - want[0]) < 1e-6 && fabs(got[1] - want[1]) < 1e-6 &&
+                    fabs(got[2] - want[2]) < 1e-6);
+    }
+    assert_true(fabs(summary.final_chi2 - free_summary.final_chi2) <= 1e-6 * free_summary.final_chi2 + 1e-9);
+    assert_true(fixed_summary.final_chi2 > 100.0 * free_summary.final_chi2); /* 3 m bent in */
+    pgem_destroy(free_graph);
+    pgem_destroy(gauge);
+    pgem_destroy(fixed_graph);
+    /* incremental: the island's columns go in; its first loop waits (the map cannot predict
+     * it); EM accepts every loop and the island lands where the free solve puts it */
+    graph = two_chains(&s, 3.0, 0);
+    assert_int_equal(pgem_hold_gauge(graph, 100, 1), PGEM_OK);
+    pgem_update_options_t options;
+    memset(&options, 0, sizeof options);
+    options.robust = 1;
+    pgem_update_summary_t update;
+    assert_int_equal(pgem_update(graph, &options, &update), PGEM_OK);
+    assert_int_equal(update.columns, 79); /* every pose but 0; 100 damped, not held */
+    double information[9], z[3];
+    test_diagonal_information(3, 400.0, information);
+    for (int k = 40; k < 70; k += 5) {
+        stream_measure(&s, k - 30, k, 0.01, z);
+        assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(k - 30), (pgem_id_t)(k - 40 + 100), z,
+                                       information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
+    }
+    assert_int_equal(pgem_update(graph, &options, &update), PGEM_OK);
+    assert_int_equal(update.loops_rejected, 6);
+    assert_int_equal(update.loops_accepted, 0);
+    pgem_robust_options_t em;
+    memset(&em, 0, sizeof em);
+    em.kernel = PGEM_KERNEL_EM;
+    pgem_robust_summary_t settled;
+    assert_int_equal(pgem_update_settle(graph, &em, &settled), PGEM_OK);
+    assert_int_equal(settled.pruned, 0);
+    free_graph = two_chains(&s, 3.0, 6);
+    assert_int_equal(pgem_optimize(free_graph, NULL, &free_summary), PGEM_OK);
+    for (pgem_id_t id = 100; id < 140; id += 13) {
+        assert_int_equal(pgem_get_pose(free_graph, id, want), PGEM_OK);
+        assert_int_equal(pgem_get_pose(graph, id, got), PGEM_OK);
+        assert_true(fabs(got[0] - want[0]) < 1e-6 && fabs(got[1] - want[1]) < 1e-6);
+    }
+    pgem_destroy(free_graph);
+    pgem_destroy(graph);
+}
+
 static void test_errors(void **state)
 {
     (void)state;
@@ -781,6 +896,7 @@ int main(void)
         cmocka_unit_test(test_adopt_pass),
         cmocka_unit_test(test_pending_loop_waits_for_pass),
         cmocka_unit_test(test_island_held_without_rebuild),
+        cmocka_unit_test(test_gauge_hold),
         cmocka_unit_test(test_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

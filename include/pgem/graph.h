@@ -83,6 +83,21 @@ int pgem_pose_check(const double *pose, int dimension, int *field);
  * when optimising, the first pose added is held (the gauge). Errors: UNKNOWN_ID. */
 int pgem_fix_pose(pgem_t *graph, pgem_id_t id, int fixed);
 
+/** The damping (PGEM_GAUGE_DAMPING on the diagonal of its block of the normal equations)
+ * that a pose held by pgem_hold_gauge gets: information about nothing, small beside any
+ * measurement's, so the pose is free but the part of the graph it is in cannot float. */
+#define PGEM_GAUGE_DAMPING 1e-6
+
+/** Holds the gauge of the part of the graph a pose is in without fixing the pose (on != 0),
+ * or frees it (a pose fixed by pgem_fix_pose is freed too). The pose stays free: every
+ * Gauss-Newton step is damped on its block by PGEM_GAUGE_DAMPING, which leaves the solution
+ * where the measurements put it (a converged step is zero whatever the damping) but gives a
+ * part no fixed pose holds a definite step: an island of poses joined to the rest by loop
+ * closures alone (lost odometry, a second robot), which loop closures may then place, and
+ * which stays where it is when they are pruned. pgem_pose_at reports such a pose as free (0).
+ * Errors: UNKNOWN_ID. */
+int pgem_hold_gauge(pgem_t *graph, pgem_id_t id, int on);
+
 /** Reads or overwrites a pose estimate. Errors: UNKNOWN_ID (and for set: NOT_FINITE,
  * OUT_OF_RANGE, ROTATION). */
 int pgem_get_pose(const pgem_t *graph, pgem_id_t id, double *pose);
@@ -94,7 +109,7 @@ uint32_t pgem_pose_count(const pgem_t *graph);
 uint32_t pgem_edge_count(const pgem_t *graph);
 
 /** The pose at index (0 .. pose_count-1): its id, estimate (may be NULL) and fixed flag (may be
- * NULL). Errors: INVALID_ARGUMENT. */
+ * NULL; 1 when fixed by pgem_fix_pose). Errors: INVALID_ARGUMENT. */
 int pgem_pose_at(const pgem_t *graph, uint32_t index, pgem_id_t *id, double *pose, int *fixed);
 /** The index (insertion order) of the pose with this id. Errors: UNKNOWN_ID, INVALID_ARGUMENT. */
 int pgem_pose_index(const pgem_t *graph, pgem_id_t id, uint32_t *index);

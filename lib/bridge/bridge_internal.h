@@ -14,6 +14,10 @@
 #include "pgem/pgem.h"
 #include "pgem_graph_t.h"
 
+/* How the bridge holds a part's anchor (gauge_fixed). */
+#define BRIDGE_HOLD_FIXED 1u /* pgem_fix_pose: the main part's */
+#define BRIDGE_HOLD_GAUGE 2u /* pgem_hold_gauge: any other part's */
+
 typedef struct bridge {
     pgem_bridge_options_t options;
     lcm_t *lcm;
@@ -76,13 +80,16 @@ typedef struct bridge {
     int64_t *source_last;       /* per source: highest sequence in the graph, -1 none */
     uint8_t *anchored;          /* per core pose: initial estimate re-anchored */
     uint8_t *user_fixed;        /* per core pose: fixed by the front-end */
-    uint8_t *gauge_fixed;       /* per core pose: fixed by the bridge to hold its component */
+    uint8_t *gauge_fixed;       /* per core pose: held by the bridge for its component
+                                   (BRIDGE_HOLD_FIXED, BRIDGE_HOLD_GAUGE) or 0 */
     uint32_t *component;        /* per core pose: union-find parent over the odometry */
     uint32_t *component_anchor; /* per root: index of the part's smallest pose id, UINT32_MAX
                                    if the front-end fixed a pose in it */
     double *raw;                /* per core pose: the front-end's estimate, as received */
     uint8_t *part_edges;        /* per root: 1 if an edge touches the part */
     uint32_t parts_poses;       /* poses already in the parts (components.c) */
+    uint32_t main_anchor;       /* the held pose of the part with the smallest pose id: fixed
+                                   (the other parts hold their gauge), UINT32_MAX if none */
     uint32_t parts_edges;       /* edges already in the parts */
     uint32_t parts_with_edges;  /* parts that have an edge */
     int restart_pending;        /* the last solve saw a split graph or failed: the next one

@@ -9,9 +9,13 @@ void bridge_components_reset(bridge_t *bridge)
     bridge->parts_poses = 0;
     bridge->parts_edges = 0;
     bridge->parts_with_edges = 0;
+    bridge->main_anchor = UINT32_MAX;
 }
 
-/* Fixes (want 1) or frees pose index i as a part's gauge; UINT32_MAX: no pose. */
+/* Holds pose index i as a part's gauge: want BRIDGE_HOLD_FIXED fixes it (the part with the
+ * smallest pose id: the gauge the offline tools hold), BRIDGE_HOLD_GAUGE holds the gauge of
+ * another part (pgem_hold_gauge: the pose free, its block damped, so loop closures to the
+ * rest place the part), 0 frees it; UINT32_MAX: no pose. */
 static void hold_gauge(bridge_t *bridge, uint32_t i, uint8_t want)
 {
     if (i == UINT32_MAX || bridge->gauge_fixed[i] == want) {
@@ -19,8 +23,36 @@ static void hold_gauge(bridge_t *bridge, uint32_t i, uint8_t want)
     }
     pgem_id_t id = 0;
     pgem_pose_at(bridge->core, i, &id, NULL, NULL);
-    pgem_fix_pose(bridge->core, id, want);
+    if (want == BRIDGE_HOLD_GAUGE) {
+        pgem_hold_gauge(bridge->core, id, 1);
+    } else {
+        pgem_fix_pose(bridge->core, id, want == BRIDGE_HOLD_FIXED);
+    }
     bridge->gauge_fixed[i] = want;
+}
+
+/* The id of pose index i. */
+static pgem_id_t id_of(const bridge_t *bridge, uint32_t i)
+{
+    pgem_id_t id = 0;
+    pgem_pose_at(bridge->core, i, &id, NULL, NULL);
+    return id;
+}
+
+/* Holds a part's anchor: fixed when it is the main part's (the smallest id of all anchors),
+ * else its gauge; a new anchor with a smaller id than the main one's takes its place. */
+static void hold_part(bridge_t *bridge, uint32_t anchor)
+{
+    if (anchor == UINT32_MAX) {
+        return;
+    }
+    if (bridge->main_anchor == UINT32_MAX ||
+        (anchor != bridge->main_anchor && id_of(bridge, anchor) < id_of(bridge, bridge->main_anchor))) {
+        const uint32_t before = bridge->main_anchor;
+        bridge->main_anchor = anchor;
+        hold_gauge(bridge, before, BRIDGE_HOLD_GAUGE);
+    }
+    hold_gauge(bridge, anchor, anchor == bridge->main_anchor ? BRIDGE_HOLD_FIXED : BRIDGE_HOLD_GAUGE);
 }
 
 /* The anchor of two joined parts: none (UINT32_MAX) if the front-end fixed a pose in either,
@@ -121,9 +153,17 @@ static void join_edge(bridge_t *bridge, uint32_t k)
     }
     const uint32_t root = pgem_part_join(parent, root_a, root_b);
     bridge->parts_with_edges--; /* two parts with edges became one */
-    hold_gauge(bridge, anchor_of[root_a] == anchor ? UINT32_MAX : anchor_of[root_a], 0);
-    hold_gauge(bridge, anchor_of[root_b] == anchor ? UINT32_MAX : anchor_of[root_b], 0);
+    for (int s = 0; s < 2; ++s) {
+        const uint32_t own = anchor_of[s == 0 ? root_a : root_b];
+        if (own != anchor) {
+            hold_gauge(bridge, own, 0);
+            bridge->main_anchor = own == bridge->main_anchor ? anchor : bridge->main_anchor;
+        }
+    }
     anchor_of[root] = anchor;
+    if (anchor != UINT32_MAX && bridge->gauge_fixed[anchor] != 0) {
+        hold_part(bridge, anchor); /* the joined part keeps the main part's hold if it had it */
+    }
 }
 
 /* Holds every part of the graph joined by odometry that has an edge: a part without a pose the
@@ -159,9 +199,7 @@ uint32_t bridge_components_hold(bridge_t *bridge)
             continue;
         }
         for (int s = 0; s < 2; ++s) {
-            const uint32_t anchor = bridge->component_anchor[pgem_part_root(bridge->component,
-                                                                            ends[s])];
-            hold_gauge(bridge, anchor, 1);
+            hold_part(bridge, bridge->component_anchor[pgem_part_root(bridge->component, ends[s])]);
         }
     }
     return bridge->parts_with_edges;
@@ -174,7 +212,7 @@ void bridge_components_hold_lone(bridge_t *bridge)
     for (uint32_t i = 0; i < bridge->parts_poses; ++i) {
         const uint32_t root = pgem_part_root(bridge->component, i);
         if (!bridge->part_edges[root] && bridge->component_anchor[root] == i) {
-            hold_gauge(bridge, i, 1);
+            hold_gauge(bridge, i, BRIDGE_HOLD_FIXED); /* no edge: nothing to place it */
         }
     }
 }

@@ -70,6 +70,7 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
     for (size_t s = 0; s < sources; ++s) {
         bridge->source_last[s] = -1;
     }
+    bridge_components_reset(bridge);
     int status = pgem_init(&bridge->core, &bridge->core_config, bridge->core_block,
                            bridge->core_block_size);
     if (status != PGEM_OK) {
@@ -355,6 +356,8 @@ int bridge_graph_settle(bridge_t *bridge)
 {
     /* It can give way when the incremental state it leaves is sound: no restart owed (else
      * the next solve restarts anyway, and might as well be this one). */
+    (void)bridge_components_hold(bridge); /* held before the save: a settle that gives way
+                                           * puts back the holds with the estimate */
     bridge->settle_yields = bridge->settle_save != NULL && !bridge->restart_pending;
     if (bridge->settle_yields) {
         settle_save(bridge);

@@ -16,6 +16,14 @@ typedef enum pgem_edge_state {
     PGEM_EDGE_DORMANT = 2  /* in the problem; in the structure only if it already was */
 } pgem_edge_state_t;
 
+/* What pose_fixed holds for a pose. */
+#define PGEM_POSE_FIXED 1u /* held constant: no column in the normal equations */
+#define PGEM_POSE_GAUGE 2u /* free, its block damped by PGEM_GAUGE_DAMPING (a part's gauge) */
+
+/* 1 if pose p is held constant: fixed, or the first pose while none is (the gauge). */
+#define PGEM_POSE_HELD(store, p) \
+    ((store)->pose_fixed[p] == PGEM_POSE_FIXED || ((store)->fixed_count == 0u && (p) == 0u))
+
 /* The graph's poses and edges (graph->store). */
 typedef struct pgem_store {
     uint32_t pose_count;       /* poses added */
@@ -26,8 +34,9 @@ typedef struct pgem_store {
                                   UINT32_MAX); it rebuilds when that pose is in its factor */
     pgem_id_t *pose_id;        /* [max_poses] id of each pose, insertion order */
     double *pose;              /* [max_poses * pose_size] current estimate */
-    uint8_t *pose_fixed;       /* [max_poses] 1 if held constant by pgem_fix_pose */
-    uint32_t fixed_count;      /* poses with pose_fixed set */
+    uint8_t *pose_fixed;       /* [max_poses] PGEM_POSE_FIXED if held constant by pgem_fix_pose,
+                                  PGEM_POSE_GAUGE if free but damped (pgem_hold_gauge), else 0 */
+    uint32_t fixed_count;      /* poses with pose_fixed PGEM_POSE_FIXED */
     uint32_t map_mask;         /* id map slots - 1 (power of two) */
     uint32_t *map_slot;        /* [map_mask + 1] pose index + 1, 0 = empty */
 

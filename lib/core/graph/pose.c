@@ -123,7 +123,28 @@ int pgem_add_pose(pgem_t *graph, pgem_id_t id, const double *pose)
     return PGEM_OK;
 }
 
-int pgem_fix_pose(pgem_t *graph, pgem_id_t id, int fixed)
+/* Sets pose `index`'s hold (0, PGEM_POSE_FIXED or PGEM_POSE_GAUGE). */
+static void pgem_set_hold(pgem_t *graph, uint32_t index, uint8_t flag)
+{
+    pgem_store_t *store = &graph->store;
+    if (store->pose_fixed[index] == flag) {
+        return;
+    }
+    const uint32_t before = store->fixed_count;
+    const uint32_t after = before - (store->pose_fixed[index] == PGEM_POSE_FIXED) +
+                           (flag == PGEM_POSE_FIXED);
+    store->pose_fixed[index] = flag;
+    store->fixed_count = after;
+    store->topology++;
+    /* While no pose is held, the first is held in its place: the first held or the last
+     * freed changes that pose too. Otherwise only this pose's column changes (none yet, for a
+     * pose the incremental factor has not seen: a new part held at its gauge). */
+    const uint32_t low = (before == 0u) != (after == 0u) ? 0u : index;
+    store->edited_low = low < store->edited_low ? low : store->edited_low;
+}
+
+/* pgem_fix_pose and pgem_hold_gauge: the pose's index, or UNKNOWN_ID. */
+static int pgem_hold(pgem_t *graph, pgem_id_t id, uint8_t flag)
 {
     if (graph == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
@@ -132,20 +153,19 @@ int pgem_fix_pose(pgem_t *graph, pgem_id_t id, int fixed)
     if (index < 0) {
         return pgem_unknown_pose(graph, id);
     }
-    uint8_t flag = fixed ? 1u : 0u;
-    if (graph->store.pose_fixed[index] != flag) {
-        const uint32_t before = graph->store.fixed_count;
-        graph->store.pose_fixed[index] = flag;
-        graph->store.fixed_count = flag ? before + 1u : before - 1u;
-        graph->store.topology++;
-        /* While no pose is held, the first is held in its place: the first held or the last
-         * freed changes that pose too. Otherwise only this pose's column changes (none yet,
-         * for a pose the incremental factor has not seen: a new part held at its gauge). */
-        const uint32_t low = (before == 0u) != (graph->store.fixed_count == 0u) ? 0u : (uint32_t)index;
-        graph->store.edited_low = low < graph->store.edited_low ? low : graph->store.edited_low;
-    }
+    pgem_set_hold(graph, (uint32_t)index, flag);
     pgem_message_clear(graph);
     return PGEM_OK;
+}
+
+int pgem_fix_pose(pgem_t *graph, pgem_id_t id, int fixed)
+{
+    return pgem_hold(graph, id, fixed ? (uint8_t)PGEM_POSE_FIXED : 0u);
+}
+
+int pgem_hold_gauge(pgem_t *graph, pgem_id_t id, int on)
+{
+    return pgem_hold(graph, id, on ? (uint8_t)PGEM_POSE_GAUGE : 0u);
 }
 
 int pgem_pose_index(const pgem_t *graph, pgem_id_t id, uint32_t *index)
@@ -223,7 +243,7 @@ int pgem_pose_at(const pgem_t *graph, uint32_t index, pgem_id_t *id, double *pos
                (size_t)graph->pose_size * sizeof(double));
     }
     if (fixed != NULL) {
-        *fixed = graph->store.pose_fixed[index];
+        *fixed = graph->store.pose_fixed[index] == PGEM_POSE_FIXED;
     }
     return PGEM_OK;
 }

@@ -145,7 +145,7 @@ static int pgem_fill_exceeded(pgem_t *graph, int64_t nonzeros)
 }
 
 /* Every part of the graph (poses joined by edges in the problem: active or dormant, not
- * pruned) must hold a held pose, or its poses can move together at no cost. Gauss-Newton
+ * pruned) must hold a held pose (fixed, or holding the gauge: pgem_hold_gauge), or its poses can move together at no cost. Gauss-Newton
  * would meet a zero pivot, but Levenberg-Marquardt's damping hides it and solves a part that
  * floats anywhere; so the rule is checked on the graph before every solve (pruning may split
  * a graph without a new analysis: pruned loops keep their place in H for a while). O(poses +
@@ -166,7 +166,7 @@ int pgem_linear_check_parts(pgem_t *graph)
         }
     }
     for (uint32_t p = 0; p < graph->store.pose_count; p++) {
-        if (graph->linear->pose_block[p] < 0) {
+        if (graph->linear->pose_block[p] < 0 || graph->store.pose_fixed[p] == PGEM_POSE_GAUGE) {
             held[pgem_part_root(parent, p)] = 1;
         }
     }

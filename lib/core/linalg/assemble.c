@@ -92,6 +92,14 @@ double pgem_linear_assemble(pgem_t *graph)
     linear->left_out = 0;
     const double chi2 = linear->block == 6 ? pgem_assemble_edges(graph, 6)
                                            : pgem_assemble_edges(graph, 3);
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) { /* the gauges' damping */
+        const int block = linear->pose_block[p];
+        if (block >= 0 && graph->store.pose_fixed[p] == PGEM_POSE_GAUGE) {
+            for (int c = 0; c < linear->block; c++) {
+                linear->lower_values[pgem_lower_column(linear, block, c)] += PGEM_GAUGE_DAMPING;
+            }
+        }
+    }
     for (int block = 0; block < linear->block_count; block++) {
         for (int c = 0; c < linear->block; c++) {
             linear->diagonal[block * linear->block + c] =

@@ -64,7 +64,7 @@ static void pgem_online_sort(int *values, int count)
 /* 1 if pose p is solved for: free (held poses and, with none held, the first pose are not). */
 static int pgem_online_free(const pgem_t *graph, uint32_t p)
 {
-    return !graph->store.pose_fixed[p] && !(graph->store.fixed_count == 0u && p == 0u);
+    return !PGEM_POSE_HELD(&graph->store, p);
 }
 
 /* The other pose of edge end `end` (2 k + side). */
@@ -274,7 +274,21 @@ static void pgem_online_add_edge(pgem_t *graph, uint32_t k, int partial)
     }
 }
 
-/* Every edge of the system into the zeroed factor. */
+/* Column j's gauge damping (pgem_hold_gauge) onto its diagonal block. */
+static void pgem_online_damp(pgem_t *graph, int j)
+{
+    pgem_online_t *online = &graph->online;
+    const int b = online->block;
+    if (graph->store.pose_fixed[online->column_pose[j]] != PGEM_POSE_GAUGE) {
+        return;
+    }
+    double *diagonal = online->values + (size_t)online->start[j] * (size_t)b * (size_t)b;
+    for (int c = 0; c < b; c++) {
+        diagonal[c * b + c] += PGEM_GAUGE_DAMPING;
+    }
+}
+
+/* Every edge of the system into the zeroed factor, and the gauges' damping. */
 static void pgem_online_assemble(pgem_t *graph, int columns)
 {
     pgem_online_t *online = &graph->online;
@@ -283,6 +297,9 @@ static void pgem_online_assemble(pgem_t *graph, int columns)
     memset(online->forward, 0, (size_t)columns * (size_t)online->block * sizeof(double));
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         pgem_online_add_edge(graph, k, 0);
+    }
+    for (int j = 0; j < columns; j++) {
+        pgem_online_damp(graph, j);
     }
 }
 
@@ -298,6 +315,7 @@ static void pgem_online_assemble_touched(pgem_t *graph, const int *touched, int 
         memset(online->values + (size_t)online->start[j] * bb, 0,
                (size_t)(online->count[j] + 1) * bb * sizeof(double));
         memset(online->forward + (size_t)j * (size_t)b, 0, (size_t)b * sizeof(double));
+        pgem_online_damp(graph, j);
     }
     for (int t = 0; t < count; t++) {
         const int j = touched[t];

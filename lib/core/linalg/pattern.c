@@ -6,7 +6,7 @@ int pgem_pattern_number_free(pgem_t *graph)
 {
     int free_count = 0;
     for (uint32_t p = 0; p < graph->store.pose_count; p++) {
-        int held = graph->store.pose_fixed[p] || (graph->store.fixed_count == 0u && p == 0u);
+        int held = PGEM_POSE_HELD(&graph->store, p);
         graph->linear->pose_block[p] = held ? -1 : free_count++;
     }
     return free_count;

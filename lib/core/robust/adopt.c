@@ -74,7 +74,7 @@ static uint32_t pgem_adopt_carry_new(pgem_t *graph, const double *old, uint32_t 
     const pgem_store_t *store = &graph->store;
     uint32_t carried = 0;
     for (uint32_t p = placed_poses; p < store->pose_count; p++) {
-        placed[p] = store->pose_fixed[p] != 0u;
+        placed[p] = store->pose_fixed[p] == PGEM_POSE_FIXED;
     }
     for (int sweep = 0; sweep < 2; sweep++) {
         for (uint32_t k = first_edge; k < store->edge_count; k++) {

@@ -85,6 +85,12 @@ static void pgem_update_link(pgem_t *graph)
  * and fill it (long-range false loops), for no change in the estimate. */
 #define PGEM_UPDATE_WEIGHT_FLOOR 1e-4
 
+/* Pruned loops tested again in one update, at most: each test is a marginal along two
+ * elimination-tree paths, and thousands of pruned loops on the poses a relinearisation moved
+ * (a map in parts, most of its loops between them waiting for a pass) made one update take
+ * minutes. The rest are tested when their poses move again, or by the next pass. */
+#define PGEM_UPDATE_RETESTS 256
+
 /* The weight edge k should have in the factor: 0 when pruned, dormant or below the floor. */
 static double pgem_update_weight(const pgem_t *graph, uint32_t k)
 {
@@ -144,12 +150,14 @@ static int pgem_update_insert(pgem_t *graph, uint32_t k, double w, int *seeded, 
     const uint32_t ends[2] = {graph->store.edge_from[k], graph->store.edge_to[k]};
     for (int s = 0; s < 2; s++) {
         const uint32_t p = ends[s];
-        const int held = graph->store.pose_fixed[p] || (graph->store.fixed_count == 0u && p == 0u);
+        const int held = PGEM_POSE_HELD(&graph->store, p);
         if (!held && online->pose_column[p] < 0) {
             memcpy(online->lin + (size_t)p * (size_t)graph->pose_size,
                    graph->store.pose + (size_t)p * (size_t)graph->pose_size,
                    (size_t)graph->pose_size * sizeof(double));
-            const int status = pgem_online_append(graph, p, PGEM_ONLINE_SEED);
+            /* the seed goes once the column's edges are in; a gauge's damping stays */
+            const double damping = graph->store.pose_fixed[p] == PGEM_POSE_GAUGE ? PGEM_GAUGE_DAMPING : 0.0;
+            const int status = pgem_online_append(graph, p, PGEM_ONLINE_SEED + damping);
             if (status != PGEM_OK) {
                 return status;
             }
@@ -358,6 +366,15 @@ static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation
     pgem_edge_error(graph, k, e, jf, jt);
     pgem_online_marginal(graph, online->pose_column[graph->store.edge_from[k]],
                          online->pose_column[graph->store.edge_to[k]], jf, jt, n, s);
+    /* The map does not know one end's rotation from the other's to a radian (the SE(3)
+     * error's rotation part is half the angle): only a gauge's damping holds them together,
+     * the loop is not tested (it waits for a whole-graph pass, which sees it beside the other
+     * loops joining the same parts). */
+    const double rotation = n == 3 ? s[8] : s[21] + s[28] + s[35];
+    if (!(rotation <= (n == 3 ? 1.0 : 0.25))) {
+        *plain = (double)INFINITY;
+        return (double)INFINITY;
+    }
     /* invert Omega by Gauss-Jordan on a copy (n <= 6) */
     const double *o = graph->store.edge_information + (size_t)k * (size_t)(n * n);
     *plain = 0.0; /* e^T Omega e: the loop's chi2 with the map taken as certain */
@@ -407,7 +424,7 @@ static int pgem_update_gate(pgem_t *graph, uint32_t k, const pgem_update_setting
     pgem_online_t *online = &graph->online;
     const uint32_t ends[2] = {graph->store.edge_from[k], graph->store.edge_to[k]};
     for (int s = 0; s < 2; s++) {
-        const int held = graph->store.pose_fixed[ends[s]] || (graph->store.fixed_count == 0u && ends[s] == 0u);
+        const int held = PGEM_POSE_HELD(&graph->store, ends[s]);
         if (!held && online->pose_column[ends[s]] < 0) {
             graph->store.edge_active[k] = PGEM_EDGE_PRUNED; /* nothing predicts it yet */
             return 0;
@@ -453,13 +470,15 @@ static int pgem_update_edges(pgem_t *graph, const pgem_update_settings_t *settin
             online->last.loops_rejected += (uint32_t)!in;
         }
     }
-    for (int m = 0; settings->robust && m < moved && status == PGEM_OK; m++) {
+    int retests = 0;
+    for (int m = 0; settings->robust && m < moved && status == PGEM_OK && retests < PGEM_UPDATE_RETESTS; m++) {
         const uint32_t p = (uint32_t)online->head[m];
-        for (int end = online->pose_edge[p]; end >= 0 && status == PGEM_OK;
+        for (int end = online->pose_edge[p]; end >= 0 && status == PGEM_OK && retests < PGEM_UPDATE_RETESTS;
              end = online->edge_next[end]) {
             const uint32_t k = (uint32_t)end / 2u;
             if (k < online->edges_seen && graph->store.edge_kind[k] == PGEM_EDGE_LOOP &&
                 graph->store.edge_active[k] == PGEM_EDGE_PRUNED) {
+                retests++;
                 online->last.loops_readmitted +=
                     (uint32_t)pgem_update_gate(graph, k, settings, seeded, &seeded_count, &status);
             }
