@@ -30,6 +30,9 @@ Scenarios (all by default; --only picks some):
              while a front-end streams shuffled (the flood displaces only itself, the graph is
              the offline one, everything left expires); a rogue graph_t and status_t with
              names that are not UTF-8 and a NaN chi2 (pgem-lcm-dump writes valid JSON).
+             Issue 31: a new source's false ODOMETRY edge between poses 2 and 25 (`--only
+             wire`) enters as a loop closure and is pruned, every loop closure keeps the
+             offline verdict, also after a restart on the journal.
   full       the journal on a small tmpfs that fills while a front-end streams: no status
              acknowledges more than the journal holds, refusals are counted under `journal`
              and named, a SIGKILL and restart recover exactly what was acknowledged, and with
@@ -769,12 +772,63 @@ def rogue_graph() -> None:
           "escaped")
 
 
-def hostile_scenario(graph: Path, edges: int) -> dict:
-    journal_refusal(graph)
-    snapshot_checks()
-    sources_expire()
-    figures = pending_flood(graph, edges)
-    rogue_graph()
+def loop_states(path: Path) -> dict:
+    """(from, to) -> the states of the loop closures between them, from a weights file."""
+    states: dict = {}
+    for line in path.read_text().splitlines():
+        words = line.split()
+        if words and not words[0].startswith("#"):
+            states.setdefault((int(words[0]), int(words[1])), []).append(words[3])
+    return states
+
+
+def false_odometry(graph: Path, edges: int) -> dict:
+    step("hostile: a new source sends a false ODOMETRY edge between poses 2 and 25 (issue 31, "
+         "row 5): it enters as a loop closure and is pruned, the true loops keep their "
+         "verdicts, also after a restart")
+    Path("wire.journal").unlink(missing_ok=True)
+    bridge = Bridge(Path("wire.log"), "--journal", "wire.journal")
+    bridge.start()
+    finish(sender(graph, "--rate", "5000", "--wait", "60"), "the front-end")
+    dump = settled_dump("wire", edges + 1)
+    hostile("odometry", "intruder", "2", "25", "30", "-20", "1.5")
+    finish(dump, "wire: waiting for the settled graph", timeout=300)
+    offline = loop_states(Path("offline.weights"))
+    for attempt in ("live", "restarted"):
+        states = loop_states(Path("wire.weights"))
+        attack = states.pop((2, 25), [])
+        expect(attack == ["pruned"], f"wire ({attempt}): the false odometry 2 -> 25 is "
+               f"{attack or 'not a loop closure'}")
+        expect(states == offline, f"wire ({attempt}): the loop closures' verdicts differ from "
+               "the offline solve's")
+        expect("edge 2 -> 25 (source 'intruder', sequence 0) was sent as ODOMETRY but poses 2 "
+               "and 25 are not consecutive ids: it enters as a loop closure" in
+               bridge.log_text(), f"wire ({attempt}): the log does not name the edge")
+        if attempt == "live":
+            bridge.stop()
+            dump = settled_dump("wire", edges + 1)
+            bridge.start()
+            finish(dump, "wire: waiting for the settled graph after the restart", timeout=300)
+    bridge.stop()
+    pruned = sum(state.count("pruned") for state in offline.values())
+    print(f"wire: the false odometry entered as a loop closure and was pruned; the {pruned} "
+          "loop closures pruned offline are the bridge's, the others accepted, before and "
+          "after a restart")
+    return {"true_loops_kept": sum(state.count("accepted") for state in offline.values())}
+
+
+def hostile_scenario(graph: Path, edges: int, only: list[str]) -> dict:
+    """Every step for 'hostile'; a step's own name (wire) runs that one alone."""
+    figures: dict = {}
+    every = "hostile" in only
+    if every:
+        journal_refusal(graph)
+        snapshot_checks()
+        sources_expire()
+        figures = pending_flood(graph, edges)
+        rogue_graph()
+    if every or "wire" in only:
+        figures["wire"] = false_odometry(graph, edges)
     return figures
 
 
@@ -1034,8 +1088,8 @@ def main() -> int:
             two_scenario(graph, edges)
         if "restart" in only:
             restart_scenario(graph, edges)
-        if "hostile" in only:
-            figures["hostile"] = hostile_scenario(graph, edges)
+        if {"hostile", "wire"} & set(only):
+            figures["hostile"] = hostile_scenario(graph, edges, only)
         if "full" in only:
             figures["full"] = full_disk_scenario(graph, edges)
         if "journal" in only:

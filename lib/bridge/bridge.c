@@ -131,6 +131,23 @@ static void log_expiries(bridge_t *bridge, int64_t before, int64_t after, const 
     }
 }
 
+/* Edges sent as ODOMETRY that entered the graph as loop closures (not a step of the chain),
+ * from count `before` to `after`: noted (status and log) while fewer than 20 have, then once
+ * per thousand. */
+static void log_odometry_notes(bridge_t *bridge, int64_t before, int64_t after,
+                               const char *latest)
+{
+    if (after <= before) {
+        return;
+    }
+    int64_t first = bridge->odometry_notes_logged + 1;
+    bridge->odometry_notes_logged += after - before;
+    int64_t last = bridge->odometry_notes_logged;
+    if (first <= REJECTIONS_LOGGED || last / 1000 > (first - 1) / 1000) {
+        bridge_note(bridge, "%s (%lld so far)", latest, (long long)last);
+    }
+}
+
 /* Expires what has waited too long by now, for a bridge that receives nothing (the ingest
  * does it at every message otherwise). Takes L. */
 static void expire_quietly(bridge_t *bridge)
@@ -153,8 +170,10 @@ static void on_message(const lcm_recv_buf_t *buffer, const char *channel, void *
     pgem_ingest_result_t result;
     pgem_role_t role = role_of_channel(bridge, channel);
     char latest[sizeof bridge->last_message] = "";
+    char odometry_note[sizeof bridge->last_message] = "";
     pthread_mutex_lock(&bridge->lock);
     int64_t expired = bridge->counts.rejected[PGEM_REJECT_EXPIRED];
+    int64_t as_loops = bridge->counts.odometry_as_loops;
     bridge->channel = channel;
     bridge->utime = buffer->recv_utime;
     pgem_ingest_message(bridge->ingest, role, buffer->data, buffer->data_size,
@@ -166,6 +185,11 @@ static void on_message(const lcm_recv_buf_t *buffer, const char *channel, void *
     }
     if (bridge->counts.rejected[PGEM_REJECT_EXPIRED] > expired) {
         snprintf(latest, sizeof latest, "%s", pgem_ingest_last_expiry(bridge->ingest));
+    }
+    int64_t as_loops_now = bridge->counts.odometry_as_loops;
+    if (as_loops_now > as_loops) {
+        snprintf(odometry_note, sizeof odometry_note, "%s",
+                 pgem_ingest_last_odometry_note(bridge->ingest));
     }
     if (result.verdict == PGEM_VERDICT_REJECTED) {
         snprintf(bridge->last_message, sizeof bridge->last_message, "rejected (%s): %.340s",
@@ -183,6 +207,7 @@ static void on_message(const lcm_recv_buf_t *buffer, const char *channel, void *
     pthread_mutex_unlock(&bridge->lock);
 
     log_expiries(bridge, expired, expired_now, latest);
+    log_odometry_notes(bridge, as_loops, as_loops_now, odometry_note);
     if (result.verdict == PGEM_VERDICT_REJECTED) {
         log_rejection(bridge, &result);
     } else if (result.verdict == PGEM_VERDICT_COMMAND) {
@@ -424,6 +449,12 @@ static int journal_report(bridge_t *bridge, const pgem_journal_info_t *info, cha
                "checksum", o->journal, (long long)(info->records - total),
                (long long)counts.accepted_poses, (long long)counts.accepted_edges,
                (long long)info->checked);
+    if (counts.odometry_as_loops > 0) {
+        bridge_log(bridge, "journal %s: %lld edges sent as ODOMETRY entered as loop closures "
+                   "(not a step of the chain; the latest: %s)", o->journal,
+                   (long long)counts.odometry_as_loops,
+                   pgem_ingest_last_odometry_note(bridge->ingest));
+    }
     if (total > 0) {
         bridge_note(bridge, "journal %s: %lld more records refused on replay (%s)", o->journal,
                     (long long)total, reasons);

@@ -31,6 +31,7 @@ typedef struct bridge {
     int64_t replay_refused[PGEM_REJECT_COUNT]; /* journal records refused on replay, by reason */
     char replay_first[384];    /* the first of them, in words */
     int64_t expiries_logged;
+    int64_t odometry_notes_logged; /* edges sent as ODOMETRY that entered as loops */
     int snapshot_dir;          /* open folder for SNAPSHOT, -1 none */
     /* (L) The ingest's counters as of the last message handled to the end (journaled and
      * visible to the solver). The status reports these, never the live ones: the solver
