@@ -1154,6 +1154,27 @@ static void test_odometry_checked_against_the_chain(void **state)
     pgem_ingest_destroy(ingest);
 }
 
+/* Issue 31, row 9 (c): the conflict message after sequence INT64_MAX computed "number on from
+ * INT64_MAX + 1", a signed overflow. */
+static void test_conflict_at_the_highest_sequence(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 10, 10, 4, &sink);
+    feed(ingest, PGEM_ROLE_POSE, pose2(0, 0, 0, 0));
+    feed(ingest, PGEM_ROLE_POSE, pose2(1, 1, 0, 0));
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(INT64_MAX, 0, 1)).verdict,
+                     PGEM_VERDICT_ACCEPTED);
+    pgem_edge2_t other = edge2_msg(INT64_MAX, 0, 1);
+    other.measurement[0] = 2.0;
+    pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&other));
+    assert_int_equal(r.reason, PGEM_REJECT_CONFLICT);
+    assert_non_null(strstr(r.message, "its highest is 9223372036854775807, the largest there "
+                                      "is: a restarted front-end must use a new source name"));
+    assert_null(strstr(r.message, "number on from"));
+    pgem_ingest_destroy(ingest);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1184,6 +1205,7 @@ int main(void)
         cmocka_unit_test(test_any_role_ignores_other_types),
         cmocka_unit_test(test_robust_option_defaults),
         cmocka_unit_test(test_odometry_checked_against_the_chain),
+        cmocka_unit_test(test_conflict_at_the_highest_sequence),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -728,11 +728,18 @@ static void admit_pose(pgem_ingest_t *ingest, const pgem_item_t *item, const cha
 static void explain_conflict(const pgem_ingest_t *ingest, uint32_t source, const char *what,
                              pgem_ingest_result_t *result)
 {
-    long long last = (long long)ingest->sources[source].last;
+    int64_t last = ingest->sources[source].last;
+    if (last == INT64_MAX) { /* nothing is left above it */
+        snprintf(result->message, sizeof result->message,
+                 "%s: other content under a sequence number this source used (its highest is "
+                 "%lld, the largest there is: a restarted front-end must use a new source name)",
+                 what, (long long)last);
+        return;
+    }
     snprintf(result->message, sizeof result->message,
              "%s: other content under a sequence number this source used (its highest is %lld):"
              " a restarted front-end must number on from %lld or use a new source name", what,
-             last, last + 1);
+             (long long)last, (long long)(last + 1));
 }
 
 /* The checks of an edge's own values: 1, or 0 with the rejection filled. wire_kind is the
