@@ -710,6 +710,42 @@ static void test_errors(void **state)
     pgem_destroy(graph);
 }
 
+/* Issue 31, row 9 (a): an update that ran out of the incremental factor's room returned
+ * PGEM_ERR_FILL_BUDGET with pgem_last_error empty. Every failing update says what ran out and
+ * what to raise, whichever step ran out (the rebuild's packing, a rank update's growth, a new
+ * column), and the updates after it go on safely: a rebuild whose packing ran short after a
+ * column that did not fit took it for a fit, and the numeric factorisation wrote outside the
+ * factor (a crash at online_fill 1440 here). */
+static void test_out_of_room_says_so(void **state)
+{
+    (void)state;
+    static stream_t s;
+    int failures = 0;
+    for (uint32_t fill = 9u * 20u; fill <= 9u * 400u; fill += 9u * 20u) {
+        memset(&s, 0, sizeof s);
+        s.dimension = 2;
+        s.poses = 120;
+        s.rng.state = 5u;
+        pgem_config_t config = {2, 120u, 480u, 0, 0, fill};
+        pgem_t *graph = NULL;
+        assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
+        for (int k = 0; k < s.poses; k++) {
+            stream_add(graph, &s, k);
+            if (k == 0) {
+                continue;
+            }
+            const int status = pgem_update(graph, NULL, NULL);
+            if (status != PGEM_OK) {
+                failures++;
+                assert_int_equal(status, PGEM_ERR_FILL_BUDGET);
+                assert_non_null(strstr(pgem_last_error(graph), "config.online_fill"));
+            }
+        }
+        pgem_destroy(graph);
+    }
+    assert_true(failures > 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -727,6 +763,7 @@ int main(void)
         cmocka_unit_test(test_adopt_pass),
         cmocka_unit_test(test_pending_loop_waits_for_pass),
         cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_out_of_room_says_so),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
