@@ -1175,6 +1175,29 @@ static void test_conflict_at_the_highest_sequence(void **state)
     pgem_ingest_destroy(ingest);
 }
 
+/* Issue 31, row 9 (g): an information that is positive definite but beyond double
+ * precision's reach is named as such, not "not positive definite". */
+static void test_information_badly_conditioned(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 10, 10, 4, &sink);
+    pgem_edge2_t e = edge2_msg(0, 0, 1);
+    e.information[0] = 1e15;
+    e.information[3] = 1e15;
+    e.information[5] = 1e-3;
+    pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
+    assert_int_equal(r.reason, PGEM_REJECT_INFORMATION);
+    assert_string_equal(r.message, "edge 0 -> 1 (source 'fe', sequence 0): information is "
+                                   "positive definite but too badly conditioned to factor in "
+                                   "double precision (entry 2,2: a condition number beyond "
+                                   "about 1e15)");
+    e.information[5] = 0.0;
+    r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
+    assert_non_null(strstr(r.message, "information is not positive definite (entry 2,2)"));
+    pgem_ingest_destroy(ingest);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1206,6 +1229,7 @@ int main(void)
         cmocka_unit_test(test_robust_option_defaults),
         cmocka_unit_test(test_odometry_checked_against_the_chain),
         cmocka_unit_test(test_conflict_at_the_highest_sequence),
+        cmocka_unit_test(test_information_badly_conditioned),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -775,6 +775,14 @@ static int edge_values_ok(pgem_ingest_t *ingest, const pgem_item_t *item, int wi
         reject(ingest, result, PGEM_REJECT_RANGE);
         return 0;
     }
+    if (check == PGEM_ERR_INFORMATION && pgem_information_positive(full, n)) {
+        snprintf(result->message, sizeof result->message,
+                 "%s: information is positive definite but too badly conditioned to factor in "
+                 "double precision (entry %d,%d: a condition number beyond about 1e15)", what,
+                 entry / n, entry % n);
+        reject(ingest, result, PGEM_REJECT_INFORMATION);
+        return 0;
+    }
     if (check != PGEM_OK) {
         int not_finite = check == PGEM_ERR_NOT_FINITE;
         snprintf(result->message, sizeof result->message, "%s: information %s (entry %d,%d)",
