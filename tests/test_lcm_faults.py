@@ -32,7 +32,10 @@ Scenarios (all by default; --only picks some):
              names that are not UTF-8 and a NaN chi2 (pgem-lcm-dump writes valid JSON).
              Issue 31: a new source's false ODOMETRY edge between poses 2 and 25 (`--only
              wire`) enters as a loop closure and is pruned, every loop closure keeps the
-             offline verdict, also after a restart on the journal.
+             offline verdict, also after a restart on the journal. SNAPSHOT (`--only
+             snapshots`): a folder at NAME.weights leaves nothing written; 100 SNAPSHOTs with
+             new names at 50 Hz write at most --snapshot-limit (6) in the minute, the rest
+             refused and named; --snapshot-budget refuses past its bytes.
   full       the journal on a small tmpfs that fills while a front-end streams: no status
              acknowledges more than the journal holds, refusals are counted under `journal`
              and named, a SIGKILL and restart recover exactly what was acknowledged, and with
@@ -817,6 +820,78 @@ def false_odometry(graph: Path, edges: int) -> dict:
     return {"true_loops_kept": sum(state.count("accepted") for state in offline.values())}
 
 
+def snapshot_pairs(folder: Path) -> tuple[list[str], int]:
+    """The snapshot names in a folder (every NAME with its NAME.weights), checking that no
+    half and no temporary file is left; and the bytes of them all."""
+    names = sorted(p.name for p in folder.iterdir() if p.is_file())
+    graphs = [n for n in names if not n.endswith(".weights")]
+    expect(not any(n.startswith(".") for n in names), f"snapshots: temporary files left: {names}")
+    expect(sorted(graphs + [g + ".weights" for g in graphs]) == names,
+           f"snapshots: a half snapshot in {folder}: {names}")
+    return graphs, sum((folder / n).stat().st_size for n in names)
+
+
+def snapshot_flood() -> dict:
+    step("hostile: SNAPSHOT whole or absent (a folder at NAME.weights: nothing written), and a "
+         "flood of SNAPSHOTs with new names bounded by --snapshot-limit and --snapshot-budget "
+         "(issue 31, rows 7 and 9)")
+    folder = Path("flooded")
+    folder.mkdir()
+    (folder / "half.weights").mkdir()
+    small = Path("flood_input.g2o")
+    subprocess.run([program("PGEM"), "simulate", "--world", "manhattan", "--poses", "300",
+                    "--seed", "6", "-o", str(small)], check=True, stdout=subprocess.DEVNULL)
+    bridge = Bridge(Path("flooded.log"), "--snapshot-dir", str(folder), "--status-period", "0.1")
+    bridge.start()
+    monitor = Monitor("flooded")
+    finish(sender(small, "--rate", "5000", "--wait", "30"), "the snapshot front-end")
+    hostile("snapshot", "half")
+    deadline = time.monotonic() + 20
+    while "snapshot failed" not in bridge.log_text() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    expect("snapshot failed, nothing written" in bridge.log_text() and
+           "half.weights is a folder" in bridge.log_text(),
+           "snapshot: a folder at NAME.weights was not named")
+    expect(not (folder / "half").exists(), "snapshot: NAME written without its NAME.weights")
+    (folder / "half.weights").rmdir()
+    started = time.monotonic()
+    hostile("snapshots", "flood", "100", "50")
+    status = monitor.wait_status("with the flood refused", lambda s: s["rejected"]["command"] >= 95
+                                 and s["queued"] == 0, 20)
+    time.sleep(0.5)  # the last accepted one written
+    written, size = snapshot_pairs(folder)
+    refused = status["rejected"]["command"]
+    expect(refused == 95 and len(written) <= 5,
+           f"snapshot flood: {refused} refused, {len(written)} written: {written}")
+    expect("--snapshot-limit 6 per minute" in bridge.log_text(),
+           "snapshot flood: the refusal does not name --snapshot-limit")
+    monitor.stop()
+    bridge.stop()
+    print(f"snapshot flood: 100 SNAPSHOTs at 50 Hz: {len(written)} written ({size} bytes), "
+          f"{refused} refused (--snapshot-limit 6 per minute; the first slot went to the "
+          f"refused 'half') in {time.monotonic() - started:.1f} s")
+
+    for name in list(folder.iterdir()):
+        name.unlink()
+    bridge = Bridge(Path("budget.log"), "--snapshot-dir", str(folder), "--snapshot-limit", "100",
+                    "--snapshot-budget", "0.01")
+    bridge.start()
+    monitor = Monitor("budget")
+    finish(sender(small, "--rate", "5000", "--wait", "30"), "the snapshot front-end")
+    hostile("snapshots", "budget", "10", "10")
+    status = monitor.wait_status("with the budget's refusals",
+                                 lambda s: s["rejected"]["command"] >= 8, 20)
+    time.sleep(0.5)
+    kept, kept_size = snapshot_pairs(folder)
+    expect(len(kept) <= 2 and "--snapshot-budget 0.01 MiB per minute" in bridge.log_text(),
+           f"snapshot budget: {len(kept)} written, {status['rejected']['command']} refused")
+    monitor.stop()
+    bridge.stop()
+    print(f"snapshot budget: 10 SNAPSHOTs at 10 Hz with --snapshot-budget 0.01: {len(kept)} "
+          f"written ({kept_size} bytes), {status['rejected']['command']} refused")
+    return {"flood_written": len(written), "flood_bytes": size, "flood_refused": refused}
+
+
 def hostile_scenario(graph: Path, edges: int, only: list[str]) -> dict:
     """Every step for 'hostile'; a step's own name (wire) runs that one alone."""
     figures: dict = {}
@@ -829,6 +904,8 @@ def hostile_scenario(graph: Path, edges: int, only: list[str]) -> dict:
         rogue_graph()
     if every or "wire" in only:
         figures["wire"] = false_odometry(graph, edges)
+    if every or "snapshots" in only:
+        figures["snapshots"] = snapshot_flood()
     return figures
 
 
@@ -1088,7 +1165,7 @@ def main() -> int:
             two_scenario(graph, edges)
         if "restart" in only:
             restart_scenario(graph, edges)
-        if {"hostile", "wire"} & set(only):
+        if {"hostile", "wire", "snapshots"} & set(only):
             figures["hostile"] = hostile_scenario(graph, edges, only)
         if "full" in only:
             figures["full"] = full_disk_scenario(graph, edges)

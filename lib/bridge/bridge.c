@@ -56,6 +56,12 @@ void pgem_bridge_defaults(pgem_bridge_options_t *options)
     if (!(options->idle_solve > 0.0)) {
         options->idle_solve = 0.5;
     }
+    if (options->snapshot_limit == 0) {
+        options->snapshot_limit = BRIDGE_SNAPSHOT_LIMIT;
+    }
+    if (!(options->snapshot_budget > 0.0)) {
+        options->snapshot_budget = BRIDGE_SNAPSHOT_BUDGET;
+    }
 }
 
 /* ---- the queue (L held) ------------------------------------------------------------------- */
@@ -504,6 +510,12 @@ static int start(bridge_t *bridge, char *message, size_t message_size)
         return -1;
     }
     if (o->snapshot_dir != NULL) {
+        bridge->snapshots = calloc(o->snapshot_limit, sizeof *bridge->snapshots);
+        if (bridge->snapshots == NULL) {
+            snprintf(message, message_size, "out of memory for --snapshot-limit %u",
+                     (unsigned)o->snapshot_limit);
+            return -1;
+        }
         bridge->snapshot_dir = open(o->snapshot_dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
         if (bridge->snapshot_dir < 0) {
             snprintf(message, message_size, "--snapshot-dir %s: cannot open the folder: %s",
@@ -548,6 +560,7 @@ static void finish(bridge_t *bridge)
     bridge_graph_free(bridge);
     pgem_ingest_destroy(bridge->ingest);
     free(bridge->queue);
+    free(bridge->snapshots);
     pthread_cond_destroy(&bridge->wake);
     pthread_mutex_destroy(&bridge->lock);
 }
