@@ -35,7 +35,9 @@ Scenarios (all by default; --only picks some):
              offline verdict, also after a restart on the journal. SNAPSHOT (`--only
              snapshots`): a folder at NAME.weights leaves nothing written; 100 SNAPSHOTs with
              new names at 50 Hz write at most --snapshot-limit (6) in the minute, the rest
-             refused and named; --snapshot-budget refuses past its bytes.
+             refused and named; --snapshot-budget refuses past its bytes. 100 OPTIMIZE at
+             50 Hz (`--only optimize`) give at most one whole-graph solve a second, every
+             command accounted for in the log.
   full       the journal on a small tmpfs that fills while a front-end streams: no status
              acknowledges more than the journal holds, refusals are counted under `journal`
              and named, a SIGKILL and restart recover exactly what was acknowledged, and with
@@ -892,6 +894,36 @@ def snapshot_flood() -> dict:
     return {"flood_written": len(written), "flood_bytes": size, "flood_refused": refused}
 
 
+COMMAND_SOLVE = re.compile(r"solve \d+ \(command")
+
+
+def optimize_flood(graph: Path) -> dict:
+    step("hostile: 100 OPTIMIZE commands at 50 Hz (issue 31, row 9): coalesced, at most one "
+         "whole-graph solve a second, the merged ones counted")
+    bridge = Bridge(Path("optimize.log"), "--status-period", "0.1")
+    bridge.start()
+    monitor = Monitor("optimize")
+    finish(sender(graph, "--count", "2000", "--rate", "5000", "--wait", "60"), "the front-end")
+    monitor.wait_status("with the settle done", lambda s: s["queued"] == 0, 20)
+    time.sleep(1.5)  # the settle solve after --idle-solve
+    before = len(COMMAND_SOLVE.findall(bridge.log_text()))
+    started = time.monotonic()
+    hostile("optimize", "100", "50")
+    seconds = time.monotonic() - started
+    time.sleep(1.5)  # the last merged command's solve
+    text = bridge.log_text()
+    solves = len(COMMAND_SOLVE.findall(text)) - before
+    merged = sum(int(n) for n in re.findall(r"one whole-graph solve for (\d+) OPTIMIZE", text))
+    expect(1 <= solves <= seconds + 2, f"optimize flood: {solves} command solves for 100 "
+           f"OPTIMIZE in {seconds:.1f} s")
+    expect(merged == 100, f"optimize flood: the log accounts for {merged} of 100 OPTIMIZE")
+    monitor.stop()
+    bridge.stop()
+    print(f"optimize flood: 100 OPTIMIZE in {seconds:.1f} s gave {solves} whole-graph solves "
+          f"(every one counted in the log)")
+    return {"optimize_commands": 100, "command_solves": solves}
+
+
 def hostile_scenario(graph: Path, edges: int, only: list[str]) -> dict:
     """Every step for 'hostile'; a step's own name (wire) runs that one alone."""
     figures: dict = {}
@@ -906,6 +938,8 @@ def hostile_scenario(graph: Path, edges: int, only: list[str]) -> dict:
         figures["wire"] = false_odometry(graph, edges)
     if every or "snapshots" in only:
         figures["snapshots"] = snapshot_flood()
+    if every or "optimize" in only:
+        figures["optimize"] = optimize_flood(graph)
     return figures
 
 
@@ -1165,7 +1199,7 @@ def main() -> int:
             two_scenario(graph, edges)
         if "restart" in only:
             restart_scenario(graph, edges)
-        if {"hostile", "wire", "snapshots"} & set(only):
+        if {"hostile", "wire", "snapshots", "optimize"} & set(only):
             figures["hostile"] = hostile_scenario(graph, edges, only)
         if "full" in only:
             figures["full"] = full_disk_scenario(graph, edges)

@@ -18,6 +18,7 @@
 #define BATCH 256
 #define LCM_QUEUE_CAPACITY 100000 /* messages LCM may hold for a handler */
 #define REJECTIONS_LOGGED 20      /* then one line per 1000 */
+#define OPTIMIZE_INTERVAL 1.0     /* s from the end of a command solve to the next (issue 31) */
 
 void pgem_bridge_defaults(pgem_bridge_options_t *options)
 {
@@ -203,6 +204,7 @@ static void on_message(const lcm_recv_buf_t *buffer, const char *channel, void *
     } else if (result.verdict == PGEM_VERDICT_COMMAND) {
         if (result.command == PGEM_COMMAND_T_OPTIMIZE) {
             bridge->optimize_requested = 1;
+            bridge->optimize_commands++;
         } else if (result.command == PGEM_COMMAND_T_SNAPSHOT) {
             bridge->snapshot_requested = 1;
             memcpy(bridge->snapshot_path, result.path, sizeof bridge->snapshot_path);
@@ -263,6 +265,9 @@ typedef struct schedule {
     int unsettled;        /* the last solve was incremental: a settle solve is owed */
     int stepped;          /* incremental: edges applied since the last update */
     const char *trigger;
+    int command;          /* an OPTIMIZE waits for its whole-graph solve */
+    double command_at;    /* not before: OPTIMIZE_INTERVAL after the last command solve */
+    double command_end;   /* when the last command solve ended */
 } schedule_t;
 
 /* When the pending loop closures are to be solved: with full solves, after the debounce quiet
@@ -274,6 +279,9 @@ static double solve_due(const bridge_t *bridge, const schedule_t *s)
     if (!o->full && (s->dirty || s->unsolved)) {
         return 0.0; /* incremental updates: at once, for every batch of items */
     }
+    if (s->command && !(s->dirty || s->unsolved || s->unsettled)) {
+        return s->command_at; /* OPTIMIZE alone */
+    }
     double due = s->dirty      ? fmin(s->last_loop + o->debounce, s->first_loop + o->max_delay)
                  : s->unsolved ? s->last_item + o->idle_solve
                                : fmax(s->last_item, s->last_end) + o->idle_solve; /* settle */
@@ -282,7 +290,7 @@ static double solve_due(const bridge_t *bridge, const schedule_t *s)
 
 static int solve_owed(const schedule_t *s)
 {
-    return s->dirty || s->unsolved || s->unsettled;
+    return s->dirty || s->unsolved || s->unsettled || s->command;
 }
 
 static void wait_until(bridge_t *bridge, double when)
@@ -327,6 +335,7 @@ static void *solver_main(void *user)
     schedule_t s;
     memset(&s, 0, sizeof s);
     s.last_start = -1e300;
+    s.command_end = -1e300;
     pgem_item_t batch[BATCH];
     for (;;) {
         pthread_mutex_lock(&bridge->lock);
@@ -341,7 +350,7 @@ static void *solver_main(void *user)
             bridge->head++;
         }
         int drained = bridge->head == bridge->visible;
-        int optimize = bridge->optimize_requested;
+        int optimize = bridge->optimize_requested; /* taken below when due */
         int recovery = bridge->recovery_pending && drained;
         const int replaying = bridge->recovery_pending; /* one full solve follows: no steps */
         int snapshot = bridge->snapshot_requested && drained;
@@ -361,6 +370,15 @@ static void *solver_main(void *user)
             s.unsolved = 1;
             s.last_item = now;
         }
+        /* OPTIMIZE is one whole-graph solve on command, not one per message: while one waits,
+         * later ones merge into it, and it runs no sooner than OPTIMIZE_INTERVAL after the
+         * last command solve ended (issue 31: a 10 Hz flood had the solver re-solve the
+         * whole graph without pause). */
+        if (optimize && !s.command) {
+            s.command = 1;
+            s.command_at = fmax(now, s.command_end + OPTIMIZE_INTERVAL);
+        }
+        optimize = s.command && now >= s.command_at;
         for (int i = 0; i < count; ++i) {
             if (!bridge->options.full && !replaying && s.stepped &&
                 batch[i].type == PGEM_ITEM_POSE) {
@@ -393,6 +411,20 @@ static void *solver_main(void *user)
              * the front-end's estimates, which is what the offline tools compute. */
             int settle = !optimize && !recovery && !s.dirty && !s.unsolved;
             s.last_start = now;
+            if (optimize) {
+                pthread_mutex_lock(&bridge->lock);
+                const int64_t commands = bridge->optimize_commands;
+                bridge->optimize_commands = 0;
+                pthread_mutex_unlock(&bridge->lock);
+                if (commands > 1) {
+                    bridge_log(bridge, "OPTIMIZE: one whole-graph solve for %lld OPTIMIZE "
+                               "commands (merged while one waited, at most one solve per "
+                               "%.0f s)", (long long)commands, OPTIMIZE_INTERVAL);
+                } else {
+                    bridge_log(bridge, "OPTIMIZE: one whole-graph solve for %lld OPTIMIZE "
+                               "command", (long long)commands);
+                }
+            }
             if (settle) {
                 settle = bridge_graph_settle(bridge); /* 0: it gave way, and is still owed */
             } else {
@@ -402,6 +434,10 @@ static void *solver_main(void *user)
                                                       : "idle");
             }
             s.last_end = bridge_now();
+            if (optimize) {
+                s.command = 0;
+                s.command_end = s.last_end;
+            }
             s.unsettled = !settle; /* (after a recovery too: it may have been a split graph) */
             s.dirty = 0;
             s.unsolved = 0;
@@ -409,6 +445,7 @@ static void *solver_main(void *user)
         } else if (due) {
             s.unsolved = 0; /* poses without edges: nothing to solve */
             s.unsettled = 0;
+            s.command = 0;
         }
         if (snapshot) {
             bridge_graph_snapshot(bridge, path);

@@ -65,6 +65,7 @@ typedef struct bridge {
 
     /* Requests for the solver (L). */
     int optimize_requested;
+    int64_t optimize_commands; /* OPTIMIZE received since the last command solve began */
     int snapshot_requested;
     char snapshot_path[PGEM_PATH_MAX];
     /* (L) The SNAPSHOTs accepted in the last minute, oldest first (a ring of snapshot_limit
