@@ -64,18 +64,18 @@ typedef struct bridge {
     int64_t queue_overflows;
 
     /* Requests for the solver (L). */
-    int optimize_requested;
     int64_t optimize_commands; /* OPTIMIZE received since the last command solve began */
+    int optimize_requested;
     int snapshot_requested;
     char snapshot_path[PGEM_PATH_MAX];
     /* (L) The SNAPSHOTs accepted in the last minute, oldest first (a ring of snapshot_limit
      * entries from snapshot_first): when, and what the write they asked for wrote (0 until
      * written, and for one a later request replaced). */
     bridge_snapshot_t *snapshots;
+    uint64_t snapshot_last_size; /* bytes of the last snapshot written (both files) */
     uint32_t snapshot_first;
     uint32_t snapshot_count;
     uint32_t snapshot_latest;  /* the entry of the request the solver will write */
-    uint64_t snapshot_last_size; /* bytes of the last snapshot written (both files) */
     int recovery_pending;
 
     /* What the solver last did, for the status (L). */

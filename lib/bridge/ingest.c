@@ -739,7 +739,7 @@ static void explain_conflict(const pgem_ingest_t *ingest, uint32_t source, const
     snprintf(result->message, sizeof result->message,
              "%s: other content under a sequence number this source used (its highest is %lld):"
              " a restarted front-end must number on from %lld or use a new source name", what,
-             (long long)last, (long long)(last + 1));
+             (long long)last, (long long)last + 1);
 }
 
 /* The checks of an edge's own values: 1, or 0 with the rejection filled. wire_kind is the
