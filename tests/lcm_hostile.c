@@ -7,6 +7,14 @@
  *       fast as possible): each is accepted to wait, and must expire.
  *   lcm_hostile snapshot NAME
  *       one SNAPSHOT command with NAME as its path.
+ *   lcm_hostile snapshots PREFIX COUNT RATE
+ *       COUNT SNAPSHOT commands named PREFIX-0 .. PREFIX-(COUNT-1), at RATE per second.
+ *   lcm_hostile optimize COUNT RATE
+ *       COUNT OPTIMIZE commands at RATE per second.
+ *   lcm_hostile odometry SOURCE FROM TO X Y THETA
+ *       one edge of kind ODOMETRY from SOURCE (sequence 0) between poses FROM and TO with the
+ *       measurement X Y THETA and a confident information (1e4 on the diagonal): a front-end
+ *       vouching for a false step.
  *   lcm_hostile graph
  *       a graph_t on PGEM_GRAPH and a status_t on PGEM_STATUS as a rogue publisher could send
  *       them: names that are not UTF-8 or hold control bytes, a NaN and an infinite chi2 (what
@@ -75,6 +83,47 @@ static int snapshot(lcm_t *lcm, const pgem_channels_t *channels, char *path)
     return 0;
 }
 
+/* COUNT commands at RATE per second; SNAPSHOT names PREFIX-k. */
+static int commands(lcm_t *lcm, const pgem_channels_t *channels, int8_t what,
+                    char *prefix, long count, double rate)
+{
+    char name[160];
+    double start = now_seconds();
+    for (long k = 0; k < count; ++k) {
+        if (rate > 0.0) {
+            sleep_until(start + (double)k / rate);
+        }
+        snprintf(name, sizeof name, "%s-%ld", prefix, k);
+        pgem_command_t command = {1, what, what == PGEM_COMMAND_T_SNAPSHOT ? name : prefix};
+        if (pgem_command_t_publish(lcm, channels->command, &command) != 0) {
+            return 1;
+        }
+    }
+    printf("sent %ld commands\n", count);
+    return 0;
+}
+
+static int odometry(lcm_t *lcm, const pgem_channels_t *channels, char **argv)
+{
+    pgem_edge2_t edge;
+    memset(&edge, 0, sizeof edge);
+    edge.utime = 1;
+    edge.source = argv[2];
+    edge.sequence = 0;
+    edge.from = strtoll(argv[3], NULL, 10);
+    edge.to = strtoll(argv[4], NULL, 10);
+    for (int k = 0; k < 3; ++k) {
+        edge.measurement[k] = strtod(argv[5 + k], NULL);
+    }
+    edge.information[0] = edge.information[3] = edge.information[5] = 1e4;
+    edge.kind = PGEM_EDGE2_T_ODOMETRY;
+    if (pgem_edge2_t_publish(lcm, channels->edge, &edge) != 0) {
+        return 1;
+    }
+    printf("sent 1 ODOMETRY edge %lld -> %lld\n", (long long)edge.from, (long long)edge.to);
+    return 0;
+}
+
 static int rogue(lcm_t *lcm, const pgem_channels_t *channels)
 {
     static char bad_name[] = "fe\xff\x1b[2J";
@@ -126,9 +175,14 @@ int main(int argc, char **argv)
     int pending_mode = argc >= 5 && argc <= 6 && strcmp(argv[1], "pending") == 0;
     int snapshot_mode = argc == 3 && strcmp(argv[1], "snapshot") == 0;
     int graph_mode = argc == 2 && strcmp(argv[1], "graph") == 0;
-    if (!pending_mode && !snapshot_mode && !graph_mode) {
+    int snapshots_mode = argc == 5 && strcmp(argv[1], "snapshots") == 0;
+    int optimize_mode = argc == 4 && strcmp(argv[1], "optimize") == 0;
+    int odometry_mode = argc == 8 && strcmp(argv[1], "odometry") == 0;
+    if (!pending_mode && !snapshot_mode && !graph_mode && !snapshots_mode && !optimize_mode &&
+        !odometry_mode) {
         fprintf(stderr, "usage: lcm_hostile pending COUNT RATE SOURCE [SOURCES] | snapshot NAME | "
-                        "graph\n");
+                        "snapshots PREFIX COUNT RATE | optimize COUNT RATE | odometry SOURCE "
+                        "FROM TO X Y THETA | graph\n");
         return 2;
     }
     lcm_t *lcm = lcm_create(NULL);
@@ -136,7 +190,13 @@ int main(int argc, char **argv)
         fprintf(stderr, "lcm_hostile: cannot open LCM\n");
         return 1;
     }
-    int status = pending_mode    ? pending(lcm, &channels, strtol(argv[2], NULL, 10),
+    static char no_path[] = "";
+    int status = snapshots_mode  ? commands(lcm, &channels, PGEM_COMMAND_T_SNAPSHOT, argv[2],
+                                            strtol(argv[3], NULL, 10), strtod(argv[4], NULL))
+                 : optimize_mode ? commands(lcm, &channels, PGEM_COMMAND_T_OPTIMIZE, no_path,
+                                            strtol(argv[2], NULL, 10), strtod(argv[3], NULL))
+                 : odometry_mode ? odometry(lcm, &channels, argv)
+                 : pending_mode  ? pending(lcm, &channels, strtol(argv[2], NULL, 10),
                                            strtod(argv[3], NULL), argv[4],
                                            argc == 6 ? strtol(argv[5], NULL, 10) : 0)
                  : snapshot_mode ? snapshot(lcm, &channels, argv[2])

@@ -1057,6 +1057,147 @@ static void test_robust_option_defaults(void **state)
     assert_true(options.robust.dormant_threshold == -1.0);
 }
 
+/* Issue 31, row 5: the wire cannot vouch for itself. An edge sent as ODOMETRY is odometry for
+ * the robust layer (weight 1, never pruned) only when it is a step of its source's chain: its
+ * poses' ids differ by one, and no odometry edge joins those two poses yet. Otherwise it
+ * enters as a loop closure, accepted and named; a source's honest chain is unaffected,
+ * whatever the order of arrival. */
+static void test_odometry_checked_against_the_chain(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 40, 40, 8, &sink);
+    for (int id = 0; id <= 25; ++id) {
+        feed(ingest, PGEM_ROLE_POSE, pose2(id, id, 0, 0));
+    }
+    for (int k = 0; k < 25; ++k) {
+        assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(k, k, k + 1)).verdict,
+                         PGEM_VERDICT_ACCEPTED);
+        assert_int_equal(sink.items[sink.count - 1].kind, PGEM_EDGE_ODOMETRY);
+    }
+    assert_string_equal(pgem_ingest_last_odometry_note(ingest), "");
+    /* a new source claims odometry between poses 2 and 25, with a false measurement */
+    char intruder[] = "intruder";
+    pgem_edge2_t attack = edge2_msg(0, 2, 25);
+    attack.source = intruder;
+    attack.kind = PGEM_EDGE2_T_ODOMETRY;
+    attack.measurement[0] = 40.0;
+    pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&attack));
+    assert_int_equal(r.verdict, PGEM_VERDICT_ACCEPTED);
+    const pgem_item_t *item = &sink.items[sink.count - 1];
+    assert_true(item->from == 2 && item->to == 25);
+    assert_int_equal(item->kind, PGEM_EDGE_LOOP);
+    assert_string_equal(pgem_ingest_last_odometry_note(ingest),
+                        "edge 2 -> 25 (source 'intruder', sequence 0) was sent as ODOMETRY "
+                        "but poses 2 and 25 are not consecutive ids: it enters as a loop "
+                        "closure");
+    /* the same source again as a replay: still a replay (the kind sent is its content) */
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&attack)).verdict,
+                     PGEM_VERDICT_REPLAY);
+    /* a step another source already made: a second opinion, so a loop closure */
+    pgem_edge2_t step = edge2_msg(1, 3, 4);
+    step.source = intruder;
+    step.measurement[0] = -3.0;
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&step)).verdict,
+                     PGEM_VERDICT_ACCEPTED);
+    assert_int_equal(sink.items[sink.count - 1].kind, PGEM_EDGE_LOOP);
+    assert_non_null(strstr(pgem_ingest_last_odometry_note(ingest),
+                           "edge 3 -> 4 (source 'intruder', sequence 1) was sent as ODOMETRY "
+                           "but poses 3 and 4 are already joined by odometry of source 'fe'"));
+    /* the source's own step again, under another number, or reversed: the same */
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(100, 6, 5)).verdict,
+                     PGEM_VERDICT_ACCEPTED);
+    assert_int_equal(sink.items[sink.count - 1].kind, PGEM_EDGE_LOOP);
+    assert_non_null(strstr(pgem_ingest_last_odometry_note(ingest), "of source 'fe'"));
+    /* sent as LOOP: nothing to say */
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(101, 1, 20)).verdict,
+                     PGEM_VERDICT_ACCEPTED);
+    assert_int_equal(sink.items[sink.count - 1].kind, PGEM_EDGE_LOOP);
+    pgem_ingest_counts_t counts;
+    pgem_ingest_counts(ingest, &counts);
+    assert_int_equal(counts.odometry_as_loops, 3);
+    assert_int_equal(counts.accepted_edges, 29);
+    /* a second front-end's chain, arriving before its poses (and backwards), is odometry */
+    char second[] = "fe-2";
+    for (int k = 2; k >= 0; --k) {
+        pgem_edge2_t e = edge2_msg(k, 30 + k, 31 + k);
+        e.source = second;
+        assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e)).pending, 1);
+    }
+    pgem_edge2_t bridge_step = edge2_msg(3, 25, 30);
+    bridge_step.source = second;
+    bridge_step.kind = PGEM_EDGE2_T_ODOMETRY; /* not consecutive: waits, then a loop */
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&bridge_step)).pending, 1);
+    int before = sink.count;
+    for (int id = 33; id >= 30; --id) {
+        feed(ingest, PGEM_ROLE_POSE, pose2(id, id, 0, 0));
+    }
+    assert_int_equal(sink.count, before + 8);
+    int odometry = 0;
+    for (int i = before; i < sink.count; ++i) {
+        if (sink.items[i].type == PGEM_ITEM_EDGE) {
+            odometry += sink.items[i].kind == PGEM_EDGE_ODOMETRY;
+            assert_int_equal(sink.items[i].kind, sink.items[i].from == 25 ? PGEM_EDGE_LOOP
+                                                                          : PGEM_EDGE_ODOMETRY);
+        }
+    }
+    assert_int_equal(odometry, 3);
+    pgem_ingest_counts(ingest, &counts);
+    assert_int_equal(counts.odometry_as_loops, 4);
+    /* RESET forgets the steps: the intruder's step is odometry in a new graph */
+    feed(ingest, PGEM_ROLE_COMMAND, command(PGEM_COMMAND_T_RESET, ""));
+    feed(ingest, PGEM_ROLE_POSE, pose2(3, 3, 0, 0));
+    feed(ingest, PGEM_ROLE_POSE, pose2(4, 4, 0, 0));
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&step)).verdict,
+                     PGEM_VERDICT_ACCEPTED);
+    assert_int_equal(sink.items[sink.count - 1].kind, PGEM_EDGE_ODOMETRY);
+    pgem_ingest_destroy(ingest);
+}
+
+/* Issue 31, row 9 (c): the conflict message after sequence INT64_MAX computed "number on from
+ * INT64_MAX + 1", a signed overflow. */
+static void test_conflict_at_the_highest_sequence(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 10, 10, 4, &sink);
+    feed(ingest, PGEM_ROLE_POSE, pose2(0, 0, 0, 0));
+    feed(ingest, PGEM_ROLE_POSE, pose2(1, 1, 0, 0));
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(INT64_MAX, 0, 1)).verdict,
+                     PGEM_VERDICT_ACCEPTED);
+    pgem_edge2_t other = edge2_msg(INT64_MAX, 0, 1);
+    other.measurement[0] = 2.0;
+    pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&other));
+    assert_int_equal(r.reason, PGEM_REJECT_CONFLICT);
+    assert_non_null(strstr(r.message, "its highest is 9223372036854775807, the largest there "
+                                      "is: a restarted front-end must use a new source name"));
+    assert_null(strstr(r.message, "number on from"));
+    pgem_ingest_destroy(ingest);
+}
+
+/* Issue 31, row 9 (g): an information that is positive definite but beyond double
+ * precision's reach is named as such, not "not positive definite". */
+static void test_information_badly_conditioned(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 10, 10, 4, &sink);
+    pgem_edge2_t e = edge2_msg(0, 0, 1);
+    e.information[0] = 1e15;
+    e.information[3] = 1e15;
+    e.information[5] = 1e-3;
+    pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
+    assert_int_equal(r.reason, PGEM_REJECT_INFORMATION);
+    assert_string_equal(r.message, "edge 0 -> 1 (source 'fe', sequence 0): information is "
+                                   "positive definite but too badly conditioned to factor in "
+                                   "double precision (entry 2,2: a condition number beyond "
+                                   "about 1e15)");
+    e.information[5] = 0.0;
+    r = feed(ingest, PGEM_ROLE_EDGE, encode_edge2(&e));
+    assert_non_null(strstr(r.message, "information is not positive definite (entry 2,2)"));
+    pgem_ingest_destroy(ingest);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1086,6 +1227,9 @@ int main(void)
         cmocka_unit_test(test_order_and_replay_determinism),
         cmocka_unit_test(test_any_role_ignores_other_types),
         cmocka_unit_test(test_robust_option_defaults),
+        cmocka_unit_test(test_odometry_checked_against_the_chain),
+        cmocka_unit_test(test_conflict_at_the_highest_sequence),
+        cmocka_unit_test(test_information_badly_conditioned),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

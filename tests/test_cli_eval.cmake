@@ -226,6 +226,41 @@ pgem_fails(1 thrice
            eval square_moved.g2o --reference square.txt --outliers thrice.outliers
            --weights weights.txt)
 
+# Issue 31, row 9 (e): weights that are not the result graph's were scored (another graph's
+# weights against this result gave precision 1, recall 1). A result with edges vouches for
+# its loop closures: the weights must list exactly them (as a multiset of (from, to) pairs),
+# or eval refuses, naming the file, the line and the ids. (A vertex-only result cannot.)
+file(WRITE "${WORK}/square_loops.g2o"
+  "VERTEX_SE2 0 0 0 0\n"
+  "VERTEX_SE2 1 2 0 1.5707963267948966\n"
+  "VERTEX_SE2 2 2 2 3.141592653589793\n"
+  "VERTEX_SE2 3 -0.3 2.3 -1.4707963267948966\n"
+  "EDGE_SE2 0 1 2 0 1.5707963267948966 1 0 0 1 0 1\n"
+  "EDGE_SE2 1 2 2 0 1.5707963267948966 1 0 0 1 0 1\n"
+  "EDGE_SE2 2 3 2 0 1.5707963267948966 1 0 0 1 0 1\n"
+  "EDGE_SE2 3 1 0 2 0 1 0 0 1 0 1\n"
+  "EDGE_SE2 0 2 2 2 3.14 1 0 0 1 0 1\n")
+file(WRITE "${WORK}/square_loops.outliers" "3 1\n")
+file(WRITE "${WORK}/square_loops.weights" "# from to weight state\n3 1 0 pruned\n0 2 1 accepted\n")
+eval(0 own_weights square_loops.g2o --reference square.txt --outliers square_loops.outliers
+     --weights square_loops.weights --json)
+equals("${own_weights_out}" true_positives 1)
+equals("${own_weights_out}" recall 1)
+pgem_fails(1 foreign_weights
+           "pgem eval: square_loops.g2o:9: loop closure 0 -> 2 has no line in weights.txt (square_loops.g2o has 2 loop closures, weights.txt lists 10): the weights belong to another graph"
+           eval square_loops.g2o --reference square.txt --outliers empty.outliers
+           --weights weights.txt)
+file(WRITE "${WORK}/three.weights" "0 2 1 accepted\n3 1 0 pruned\n2 0 1 accepted\n")
+pgem_fails(1 extra_loop
+           "pgem eval: three.weights:3: loop closure 2 -> 0 is not a loop closure of square_loops.g2o (it has 2, three.weights lists 3): the weights belong to another graph"
+           eval square_loops.g2o --reference square.txt --outliers empty.outliers
+           --weights three.weights)
+file(WRITE "${WORK}/one_of_two.weights" "0 2 1 accepted\n")
+pgem_fails(1 missing_loop
+           "pgem eval: square_loops.g2o:8: loop closure 3 -> 1 has no line in one_of_two.weights (square_loops.g2o has 2 loop closures, one_of_two.weights lists 1): the weights belong to another graph"
+           eval square_loops.g2o --reference square.txt --outliers empty.outliers
+           --weights one_of_two.weights)
+
 pgem_fails(1 dimensions "dimensions differ: rotated3.g2o is 3D, square.txt is 2D" eval rotated3.g2o
            --reference square.txt)
 file(WRITE "${WORK}/other_ids.g2o" "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 50 1 1 1\nVERTEX_SE2 51 1 1 1\n")

@@ -429,6 +429,36 @@ static void test_memory_bound(void **state)
     }
 }
 
+/* Issue 31, row 9 (g): diag(1e15, 1e15, 1e-3) is positive definite, but its condition number
+ * (1e18) is beyond what double precision factors (pivots below n * DBL_EPSILON of the
+ * largest entry are rounding noise): refused, and the message says so rather than calling it
+ * "not positive definite". A pivot at or below zero is still "not positive definite". */
+static void test_information_badly_conditioned(void **state)
+{
+    (void)state;
+    double m[9] = {1e15, 0, 0, 0, 1e15, 0, 0, 0, 1e-3};
+    int entry = -1;
+    assert_int_equal(pgem_information_check(m, 3, &entry), PGEM_ERR_INFORMATION);
+    assert_int_equal(entry, 2 * 3 + 2);
+    assert_int_equal(pgem_information_positive(m, 3), 1);
+    pgem_t *graph = test_create(2, 4, 4);
+    const double pose[3] = {0, 0, 0}, z[3] = {1, 0, 0};
+    assert_int_equal(pgem_add_pose(graph, 0, pose), PGEM_OK);
+    assert_int_equal(pgem_add_pose(graph, 1, pose), PGEM_OK);
+    assert_int_equal(pgem_add_edge(graph, 0, 1, z, m, PGEM_EDGE_LOOP, NULL), PGEM_ERR_INFORMATION);
+    assert_string_equal(pgem_last_error(graph),
+                        "information is positive definite but too badly conditioned for "
+                        "double precision (pivot 2 below n * DBL_EPSILON of the largest "
+                        "entry: condition number beyond about 1e15) (edge 0 -> 1)");
+    m[8] = -1e-3;
+    assert_int_equal(pgem_information_positive(m, 3), 0);
+    assert_int_equal(pgem_add_edge(graph, 0, 1, z, m, PGEM_EDGE_LOOP, NULL), PGEM_ERR_INFORMATION);
+    assert_non_null(strstr(pgem_last_error(graph),
+                           "information is not positive definite (pivot 2 is not positive)"));
+    assert_int_equal(pgem_edge_count(graph), 0);
+    pgem_destroy(graph);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -447,6 +477,7 @@ int main(void)
         cmocka_unit_test(test_error_names),
         cmocka_unit_test(test_chi2_of_edges),
         cmocka_unit_test(test_information_check),
+        cmocka_unit_test(test_information_badly_conditioned),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -30,6 +30,14 @@ Scenarios (all by default; --only picks some):
              while a front-end streams shuffled (the flood displaces only itself, the graph is
              the offline one, everything left expires); a rogue graph_t and status_t with
              names that are not UTF-8 and a NaN chi2 (pgem-lcm-dump writes valid JSON).
+             Issue 31: a new source's false ODOMETRY edge between poses 2 and 25 (`--only
+             wire`) enters as a loop closure and is pruned, every loop closure keeps the
+             offline verdict, also after a restart on the journal. SNAPSHOT (`--only
+             snapshots`): a folder at NAME.weights leaves nothing written; 100 SNAPSHOTs with
+             new names at 50 Hz write at most --snapshot-limit (6) in the minute, the rest
+             refused and named; --snapshot-budget refuses past its bytes. 100 OPTIMIZE at
+             50 Hz (`--only optimize`) give at most one whole-graph solve a second, every
+             command accounted for in the log.
   full       the journal on a small tmpfs that fills while a front-end streams: no status
              acknowledges more than the journal holds, refusals are counted under `journal`
              and named, a SIGKILL and restart recover exactly what was acknowledged, and with
@@ -775,12 +783,169 @@ def rogue_graph() -> None:
           "escaped")
 
 
-def hostile_scenario(graph: Path, edges: int) -> dict:
-    journal_refusal(graph)
-    snapshot_checks()
-    sources_expire()
-    figures = pending_flood(graph, edges)
-    rogue_graph()
+def loop_states(path: Path) -> dict:
+    """(from, to) -> the states of the loop closures between them, from a weights file."""
+    states: dict = {}
+    for line in path.read_text().splitlines():
+        words = line.split()
+        if words and not words[0].startswith("#"):
+            states.setdefault((int(words[0]), int(words[1])), []).append(words[3])
+    return states
+
+
+def false_odometry(graph: Path, edges: int) -> dict:
+    step("hostile: a new source sends a false ODOMETRY edge between poses 2 and 25 (issue 31, "
+         "row 5): it enters as a loop closure and is pruned, the true loops keep their "
+         "verdicts, also after a restart")
+    Path("wire.journal").unlink(missing_ok=True)
+    bridge = Bridge(Path("wire.log"), "--journal", "wire.journal")
+    bridge.start()
+    finish(sender(graph, "--rate", "5000", "--wait", "60"), "the front-end")
+    dump = settled_dump("wire", edges + 1)
+    hostile("odometry", "intruder", "2", "25", "30", "-20", "1.5")
+    finish(dump, "wire: waiting for the settled graph", timeout=300)
+    offline = loop_states(Path("offline.weights"))
+    for attempt in ("live", "restarted"):
+        states = loop_states(Path("wire.weights"))
+        attack = states.pop((2, 25), [])
+        expect(attack == ["pruned"], f"wire ({attempt}): the false odometry 2 -> 25 is "
+               f"{attack or 'not a loop closure'}")
+        expect(states == offline, f"wire ({attempt}): the loop closures' verdicts differ from "
+               "the offline solve's")
+        expect("edge 2 -> 25 (source 'intruder', sequence 0) was sent as ODOMETRY but poses 2 "
+               "and 25 are not consecutive ids: it enters as a loop closure" in
+               bridge.log_text(), f"wire ({attempt}): the log does not name the edge")
+        if attempt == "live":
+            bridge.stop()
+            dump = settled_dump("wire", edges + 1)
+            bridge.start()
+            finish(dump, "wire: waiting for the settled graph after the restart", timeout=300)
+    bridge.stop()
+    pruned = sum(state.count("pruned") for state in offline.values())
+    print(f"wire: the false odometry entered as a loop closure and was pruned; the {pruned} "
+          "loop closures pruned offline are the bridge's, the others accepted, before and "
+          "after a restart")
+    return {"true_loops_kept": sum(state.count("accepted") for state in offline.values())}
+
+
+def snapshot_pairs(folder: Path) -> tuple[list[str], int]:
+    """The snapshot names in a folder (every NAME with its NAME.weights), checking that no
+    half and no temporary file is left; and the bytes of them all."""
+    names = sorted(p.name for p in folder.iterdir() if p.is_file())
+    graphs = [n for n in names if not n.endswith(".weights")]
+    expect(not any(n.startswith(".") for n in names), f"snapshots: temporary files left: {names}")
+    expect(sorted(graphs + [g + ".weights" for g in graphs]) == names,
+           f"snapshots: a half snapshot in {folder}: {names}")
+    return graphs, sum((folder / n).stat().st_size for n in names)
+
+
+def snapshot_flood() -> dict:
+    step("hostile: SNAPSHOT whole or absent (a folder at NAME.weights: nothing written), and a "
+         "flood of SNAPSHOTs with new names bounded by --snapshot-limit and --snapshot-budget "
+         "(issue 31, rows 7 and 9)")
+    folder = Path("flooded")
+    folder.mkdir()
+    (folder / "half.weights").mkdir()
+    small = Path("flood_input.g2o")
+    subprocess.run([program("PGEM"), "simulate", "--world", "manhattan", "--poses", "300",
+                    "--seed", "6", "-o", str(small)], check=True, stdout=subprocess.DEVNULL)
+    bridge = Bridge(Path("flooded.log"), "--snapshot-dir", str(folder), "--status-period", "0.1")
+    bridge.start()
+    monitor = Monitor("flooded")
+    finish(sender(small, "--rate", "5000", "--wait", "30"), "the snapshot front-end")
+    hostile("snapshot", "half")
+    deadline = time.monotonic() + 20
+    while "snapshot failed" not in bridge.log_text() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    expect("snapshot failed, nothing written" in bridge.log_text() and
+           "half.weights is a folder" in bridge.log_text(),
+           "snapshot: a folder at NAME.weights was not named")
+    expect(not (folder / "half").exists(), "snapshot: NAME written without its NAME.weights")
+    (folder / "half.weights").rmdir()
+    started = time.monotonic()
+    hostile("snapshots", "flood", "100", "50")
+    status = monitor.wait_status("with the flood refused", lambda s: s["rejected"]["command"] >= 95
+                                 and s["queued"] == 0, 20)
+    time.sleep(0.5)  # the last accepted one written
+    written, size = snapshot_pairs(folder)
+    refused = status["rejected"]["command"]
+    expect(refused == 95 and len(written) <= 5,
+           f"snapshot flood: {refused} refused, {len(written)} written: {written}")
+    expect("--snapshot-limit 6 per minute" in bridge.log_text(),
+           "snapshot flood: the refusal does not name --snapshot-limit")
+    monitor.stop()
+    bridge.stop()
+    print(f"snapshot flood: 100 SNAPSHOTs at 50 Hz: {len(written)} written ({size} bytes), "
+          f"{refused} refused (--snapshot-limit 6 per minute; the first slot went to the "
+          f"refused 'half') in {time.monotonic() - started:.1f} s")
+
+    for name in list(folder.iterdir()):
+        name.unlink()
+    bridge = Bridge(Path("budget.log"), "--snapshot-dir", str(folder), "--snapshot-limit", "100",
+                    "--snapshot-budget", "0.01")
+    bridge.start()
+    monitor = Monitor("budget")
+    finish(sender(small, "--rate", "5000", "--wait", "30"), "the snapshot front-end")
+    hostile("snapshots", "budget", "10", "10")
+    status = monitor.wait_status("with the budget's refusals",
+                                 lambda s: s["rejected"]["command"] >= 8, 20)
+    time.sleep(0.5)
+    kept, kept_size = snapshot_pairs(folder)
+    expect(len(kept) <= 2 and "--snapshot-budget 0.01 MiB per minute" in bridge.log_text(),
+           f"snapshot budget: {len(kept)} written, {status['rejected']['command']} refused")
+    monitor.stop()
+    bridge.stop()
+    print(f"snapshot budget: 10 SNAPSHOTs at 10 Hz with --snapshot-budget 0.01: {len(kept)} "
+          f"written ({kept_size} bytes), {status['rejected']['command']} refused")
+    return {"flood_written": len(written), "flood_bytes": size, "flood_refused": refused}
+
+
+COMMAND_SOLVE = re.compile(r"solve \d+ \(command")
+
+
+def optimize_flood(graph: Path) -> dict:
+    step("hostile: 100 OPTIMIZE commands at 50 Hz (issue 31, row 9): coalesced, at most one "
+         "whole-graph solve a second, the merged ones counted")
+    bridge = Bridge(Path("optimize.log"), "--status-period", "0.1")
+    bridge.start()
+    monitor = Monitor("optimize")
+    finish(sender(graph, "--count", "2000", "--rate", "5000", "--wait", "60"), "the front-end")
+    monitor.wait_status("with the settle done", lambda s: s["queued"] == 0, 20)
+    time.sleep(1.5)  # the settle solve after --idle-solve
+    before = len(COMMAND_SOLVE.findall(bridge.log_text()))
+    started = time.monotonic()
+    hostile("optimize", "100", "50")
+    seconds = time.monotonic() - started
+    time.sleep(1.5)  # the last merged command's solve
+    text = bridge.log_text()
+    solves = len(COMMAND_SOLVE.findall(text)) - before
+    merged = sum(int(n) for n in re.findall(r"one whole-graph solve for (\d+) OPTIMIZE", text))
+    expect(1 <= solves <= seconds + 2, f"optimize flood: {solves} command solves for 100 "
+           f"OPTIMIZE in {seconds:.1f} s")
+    expect(merged == 100, f"optimize flood: the log accounts for {merged} of 100 OPTIMIZE")
+    monitor.stop()
+    bridge.stop()
+    print(f"optimize flood: 100 OPTIMIZE in {seconds:.1f} s gave {solves} whole-graph solves "
+          f"(every one counted in the log)")
+    return {"optimize_commands": 100, "command_solves": solves}
+
+
+def hostile_scenario(graph: Path, edges: int, only: list[str]) -> dict:
+    """Every step for 'hostile'; a step's own name (wire) runs that one alone."""
+    figures: dict = {}
+    every = "hostile" in only
+    if every:
+        journal_refusal(graph)
+        snapshot_checks()
+        sources_expire()
+        figures = pending_flood(graph, edges)
+        rogue_graph()
+    if every or "wire" in only:
+        figures["wire"] = false_odometry(graph, edges)
+    if every or "snapshots" in only:
+        figures["snapshots"] = snapshot_flood()
+    if every or "optimize" in only:
+        figures["optimize"] = optimize_flood(graph)
     return figures
 
 
@@ -1154,8 +1319,8 @@ def main() -> int:
             two_scenario(graph, edges)
         if "restart" in only:
             restart_scenario(graph, edges)
-        if "hostile" in only:
-            figures["hostile"] = hostile_scenario(graph, edges)
+        if {"hostile", "wire", "snapshots", "optimize"} & set(only):
+            figures["hostile"] = hostile_scenario(graph, edges, only)
         if "full" in only:
             figures["full"] = full_disk_scenario(graph, edges)
         if "journal" in only:

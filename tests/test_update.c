@@ -879,6 +879,107 @@ static void test_errors(void **state)
     pgem_destroy(graph);
 }
 
+/* Issue 31, row 9 (a): an update that ran out of the incremental factor's room returned
+ * PGEM_ERR_FILL_BUDGET with pgem_last_error empty. Every failing update says what ran out and
+ * what to raise, whichever step ran out (the rebuild's packing, a rank update's growth, a new
+ * column), and the updates after it go on safely: a rebuild whose packing ran short after a
+ * column that did not fit took it for a fit, and the numeric factorisation wrote outside the
+ * factor (a crash at online_fill 1440 here). */
+static void test_out_of_room_says_so(void **state)
+{
+    (void)state;
+    static stream_t s;
+    int failures = 0;
+    for (uint32_t fill = 9u * 20u; fill <= 9u * 400u; fill += 9u * 20u) {
+        memset(&s, 0, sizeof s);
+        s.dimension = 2;
+        s.poses = 120;
+        s.rng.state = 5u;
+        pgem_config_t config = {2, 120u, 480u, 0, 0, fill};
+        pgem_t *graph = NULL;
+        assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
+        for (int k = 0; k < s.poses; k++) {
+            stream_add(graph, &s, k);
+            if (k == 0) {
+                continue;
+            }
+            const int status = pgem_update(graph, NULL, NULL);
+            if (status != PGEM_OK) {
+                failures++;
+                assert_int_equal(status, PGEM_ERR_FILL_BUDGET);
+                assert_non_null(strstr(pgem_last_error(graph), "config.online_fill"));
+            }
+        }
+        pgem_destroy(graph);
+    }
+    assert_true(failures > 0);
+}
+
+/* Issue 31, row 9 (b): pgem_update_restore copied whatever the buffer held (a pose at 1e214,
+ * a weight of 7, a state of 9). It checks everything it would put back first, and a save
+ * that is not one refuses with the field named and changes nothing. */
+static void test_restore_refuses_garbage(void **state)
+{
+    (void)state;
+    static stream_t sa, sb;
+    pgem_t *a = stream_to(&sa, 2, 60), *b = stream_to(&sb, 2, 60);
+    assert_int_equal(pgem_update(a, NULL, NULL), PGEM_OK);
+    assert_int_equal(pgem_update(b, NULL, NULL), PGEM_OK);
+    const size_t size = pgem_update_save_size(a);
+    unsigned char *saved = malloc(size), *bad = malloc(size);
+    assert_non_null(saved);
+    assert_non_null(bad);
+    assert_int_equal(pgem_update_save(a, saved, size), PGEM_OK);
+    const uint32_t poses = pgem_pose_count(a), edges = pgem_edge_count(a);
+    const size_t header = 24u, pose_at = header, held_at = pose_at + poses * 3u * sizeof(double);
+    const size_t weight_at = held_at + poses, state_at = weight_at + edges * sizeof(double);
+    const double huge = 1e214, nan = (double)NAN, seven = 7.0;
+    const uint32_t one = 1u, big = 1000u;
+    const uint8_t flag = 7u;
+    const int32_t two = 2;
+    const struct {
+        size_t at;
+        const void *value;
+        size_t bytes;
+        int code;
+        const char *says;
+    } cases[] = {
+        {pose_at + (17u * 3u + 1u) * sizeof(double), &huge, sizeof huge, PGEM_ERR_OUT_OF_RANGE,
+         "the save's pose 17 (id 17): field y is beyond the translation limit"},
+        {pose_at + 5u * 3u * sizeof(double), &nan, sizeof nan, PGEM_ERR_NOT_FINITE,
+         "the save's pose 5 (id 5): field x is not finite"},
+        {held_at + 9u, &flag, 1u, PGEM_ERR_INVALID_ARGUMENT,
+         "the save's held flag of pose 9 (id 9) is"},
+        {12u, &one, sizeof one, PGEM_ERR_INVALID_ARGUMENT, "held poses"},
+        {weight_at + 3u * sizeof(double), &seven, sizeof seven, PGEM_ERR_INVALID_ARGUMENT,
+         "the save's weight of edge 3 (3-4) is above 1"},
+        {weight_at + 4u * sizeof(double), &nan, sizeof nan, PGEM_ERR_INVALID_ARGUMENT,
+         "the save's weight of edge 4 (4-5) is NaN"},
+        {state_at + 6u, &big, 1u, PGEM_ERR_INVALID_ARGUMENT,
+         "the save's state of edge 6 (6-7) is 232"},
+        {16u, &big, sizeof big, PGEM_ERR_INVALID_ARGUMENT, "edited pose index 1000"},
+        {20u, &two, sizeof two, PGEM_ERR_INVALID_ARGUMENT, "factor-current flag"},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        memcpy(bad, saved, size);
+        memcpy(bad + cases[c].at, cases[c].value, cases[c].bytes);
+        double pose[3] = {0.5, 0.25, 0.125};
+        assert_int_equal(pgem_set_pose(a, 30, pose), PGEM_OK); /* changed since the save */
+        assert_int_equal(pgem_set_pose(b, 30, pose), PGEM_OK);
+        assert_int_equal(pgem_update_restore(a, bad, size), cases[c].code);
+        if (strstr(pgem_last_error(a), cases[c].says) == NULL ||
+            strstr(pgem_last_error(a), "nothing restored") == NULL) {
+            fail_msg("case %zu: '%s' does not say '%s'", c, pgem_last_error(a), cases[c].says);
+        }
+        assert_same_graph(a, b); /* nothing changed */
+    }
+    assert_int_equal(pgem_update_restore(a, saved, size), PGEM_OK);
+    free(saved);
+    free(bad);
+    pgem_destroy(a);
+    pgem_destroy(b);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -898,6 +999,8 @@ int main(void)
         cmocka_unit_test(test_island_held_without_rebuild),
         cmocka_unit_test(test_gauge_hold),
         cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_out_of_room_says_so),
+        cmocka_unit_test(test_restore_refuses_garbage),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

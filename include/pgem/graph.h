@@ -69,6 +69,15 @@ int pgem_add_edge(pgem_t *graph, pgem_id_t from, pgem_id_t to, const double *mea
 int pgem_information_check(const double *information, int n, int *entry);
 
 /**
+ * For a matrix pgem_information_check refused at a pivot (PGEM_ERR_INFORMATION on the
+ * diagonal): 1 if it is positive definite all the same, every pivot above zero, so what is
+ * wrong is its condition number (beyond about 1 / (n * DBL_EPSILON), some 1e15: a factor of
+ * it would be rounding noise, e.g. diag(1e15, 1e15, 1e-3)); 0 if a pivot is zero or negative
+ * (not positive definite), or for a NULL matrix or another n. For messages; allocates nothing.
+ */
+int pgem_information_positive(const double *information, int n);
+
+/**
  * The check pgem_add_pose and pgem_set_pose apply to a pose, and pgem_add_edge to a
  * measurement (same layout, dimension 2 or 3), for callers that validate before adding:
  * PGEM_OK, PGEM_ERR_NOT_FINITE (a value is NaN/Inf), PGEM_ERR_OUT_OF_RANGE (|x|, |y| or |z|

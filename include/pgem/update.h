@@ -158,7 +158,14 @@ int pgem_update_save(pgem_t *graph, void *buffer, size_t size);
  * then (else INVALID_ARGUMENT, naming both counts, and nothing changes): the estimate, held
  * flags, weights and states are the saved ones to the bit, and since a batch solve leaves the
  * incremental factor alone, the next pgem_update goes on from it without a rebuild if it was
- * current at the save. The next batch solve analyses anew. */
+ * current at the save. The next batch solve analyses anew. Everything is checked before
+ * anything is put back: a buffer that is not such a save (a pose NaN, beyond
+ * PGEM_TRANSLATION_LIMIT or with a quaternion off unit norm: NOT_FINITE, OUT_OF_RANGE,
+ * ROTATION; a held flag not 0 or 1, held flags not as many as the header counts, a weight
+ * outside [0, 1], an unknown state, an impossible header: INVALID_ARGUMENT) is refused, the
+ * message naming the pose (index and id) or edge (index and ids) and the field ("the save's
+ * pose 17 (id 17): field y is beyond the translation limit (1e8 m): not a save of this graph,
+ * nothing restored"), and nothing changes. */
 int pgem_update_restore(pgem_t *graph, const void *buffer, size_t size);
 
 /** Bytes config.online_fill scalar nonzeros add to pgem_memory_size (an upper bound) for

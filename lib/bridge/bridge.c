@@ -18,6 +18,7 @@
 #define BATCH 256
 #define LCM_QUEUE_CAPACITY 100000 /* messages LCM may hold for a handler */
 #define REJECTIONS_LOGGED 20      /* then one line per 1000 */
+#define OPTIMIZE_INTERVAL 1.0     /* s from the end of a command solve to the next (issue 31) */
 
 void pgem_bridge_defaults(pgem_bridge_options_t *options)
 {
@@ -55,6 +56,12 @@ void pgem_bridge_defaults(pgem_bridge_options_t *options)
     }
     if (!(options->idle_solve > 0.0)) {
         options->idle_solve = 0.5;
+    }
+    if (options->snapshot_limit == 0) {
+        options->snapshot_limit = BRIDGE_SNAPSHOT_LIMIT;
+    }
+    if (!(options->snapshot_budget > 0.0)) {
+        options->snapshot_budget = BRIDGE_SNAPSHOT_BUDGET;
     }
 }
 
@@ -131,6 +138,23 @@ static void log_expiries(bridge_t *bridge, int64_t before, int64_t after, const 
     }
 }
 
+/* Edges sent as ODOMETRY that entered the graph as loop closures (not a step of the chain),
+ * from count `before` to `after`: noted (status and log) while fewer than 20 have, then once
+ * per thousand. */
+static void log_odometry_notes(bridge_t *bridge, int64_t before, int64_t after,
+                               const char *latest)
+{
+    if (after <= before) {
+        return;
+    }
+    int64_t first = bridge->odometry_notes_logged + 1;
+    bridge->odometry_notes_logged += after - before;
+    int64_t last = bridge->odometry_notes_logged;
+    if (first <= REJECTIONS_LOGGED || last / 1000 > (first - 1) / 1000) {
+        bridge_note(bridge, "%s (%lld so far)", latest, (long long)last);
+    }
+}
+
 /* Expires what has waited too long by now, for a bridge that receives nothing (the ingest
  * does it at every message otherwise). Takes L. */
 static void expire_quietly(bridge_t *bridge)
@@ -153,8 +177,10 @@ static void on_message(const lcm_recv_buf_t *buffer, const char *channel, void *
     pgem_ingest_result_t result;
     pgem_role_t role = role_of_channel(bridge, channel);
     char latest[sizeof bridge->last_message] = "";
+    char odometry_note[sizeof bridge->last_message] = "";
     pthread_mutex_lock(&bridge->lock);
     int64_t expired = bridge->counts.rejected[PGEM_REJECT_EXPIRED];
+    int64_t as_loops = bridge->counts.odometry_as_loops;
     bridge->channel = channel;
     bridge->utime = buffer->recv_utime;
     pgem_ingest_message(bridge->ingest, role, buffer->data, buffer->data_size,
@@ -167,12 +193,18 @@ static void on_message(const lcm_recv_buf_t *buffer, const char *channel, void *
     if (bridge->counts.rejected[PGEM_REJECT_EXPIRED] > expired) {
         snprintf(latest, sizeof latest, "%s", pgem_ingest_last_expiry(bridge->ingest));
     }
+    int64_t as_loops_now = bridge->counts.odometry_as_loops;
+    if (as_loops_now > as_loops) {
+        snprintf(odometry_note, sizeof odometry_note, "%s",
+                 pgem_ingest_last_odometry_note(bridge->ingest));
+    }
     if (result.verdict == PGEM_VERDICT_REJECTED) {
         snprintf(bridge->last_message, sizeof bridge->last_message, "rejected (%s): %.340s",
                  pgem_reject_name(result.reason), result.message);
     } else if (result.verdict == PGEM_VERDICT_COMMAND) {
         if (result.command == PGEM_COMMAND_T_OPTIMIZE) {
             bridge->optimize_requested = 1;
+            bridge->optimize_commands++;
         } else if (result.command == PGEM_COMMAND_T_SNAPSHOT) {
             bridge->snapshot_requested = 1;
             memcpy(bridge->snapshot_path, result.path, sizeof bridge->snapshot_path);
@@ -183,6 +215,7 @@ static void on_message(const lcm_recv_buf_t *buffer, const char *channel, void *
     pthread_mutex_unlock(&bridge->lock);
 
     log_expiries(bridge, expired, expired_now, latest);
+    log_odometry_notes(bridge, as_loops, as_loops_now, odometry_note);
     if (result.verdict == PGEM_VERDICT_REJECTED) {
         log_rejection(bridge, &result);
     } else if (result.verdict == PGEM_VERDICT_COMMAND) {
@@ -232,6 +265,9 @@ typedef struct schedule {
     int unsettled;        /* the last solve was incremental: a settle solve is owed */
     int stepped;          /* incremental: edges applied since the last update */
     const char *trigger;
+    int command;          /* an OPTIMIZE waits for its whole-graph solve */
+    double command_at;    /* not before: OPTIMIZE_INTERVAL after the last command solve */
+    double command_end;   /* when the last command solve ended */
 } schedule_t;
 
 /* When the pending loop closures are to be solved: with full solves, after the debounce quiet
@@ -243,6 +279,9 @@ static double solve_due(const bridge_t *bridge, const schedule_t *s)
     if (!o->full && (s->dirty || s->unsolved)) {
         return 0.0; /* incremental updates: at once, for every batch of items */
     }
+    if (s->command && !(s->dirty || s->unsolved || s->unsettled)) {
+        return s->command_at; /* OPTIMIZE alone */
+    }
     double due = s->dirty      ? fmin(s->last_loop + o->debounce, s->first_loop + o->max_delay)
                  : s->unsolved ? s->last_item + o->idle_solve
                                : fmax(s->last_item, s->last_end) + o->idle_solve; /* settle */
@@ -251,7 +290,7 @@ static double solve_due(const bridge_t *bridge, const schedule_t *s)
 
 static int solve_owed(const schedule_t *s)
 {
-    return s->dirty || s->unsolved || s->unsettled;
+    return s->dirty || s->unsolved || s->unsettled || s->command;
 }
 
 static void wait_until(bridge_t *bridge, double when)
@@ -296,6 +335,7 @@ static void *solver_main(void *user)
     schedule_t s;
     memset(&s, 0, sizeof s);
     s.last_start = -1e300;
+    s.command_end = -1e300;
     pgem_item_t batch[BATCH];
     for (;;) {
         pthread_mutex_lock(&bridge->lock);
@@ -310,7 +350,7 @@ static void *solver_main(void *user)
             bridge->head++;
         }
         int drained = bridge->head == bridge->visible;
-        int optimize = bridge->optimize_requested;
+        int optimize = bridge->optimize_requested; /* taken below when due */
         int recovery = bridge->recovery_pending && drained;
         const int replaying = bridge->recovery_pending; /* one full solve follows: no steps */
         int snapshot = bridge->snapshot_requested && drained;
@@ -330,6 +370,15 @@ static void *solver_main(void *user)
             s.unsolved = 1;
             s.last_item = now;
         }
+        /* OPTIMIZE is one whole-graph solve on command, not one per message: while one waits,
+         * later ones merge into it, and it runs no sooner than OPTIMIZE_INTERVAL after the
+         * last command solve ended (issue 31: a 10 Hz flood had the solver re-solve the
+         * whole graph without pause). */
+        if (optimize && !s.command) {
+            s.command = 1;
+            s.command_at = fmax(now, s.command_end + OPTIMIZE_INTERVAL);
+        }
+        optimize = s.command && now >= s.command_at;
         for (int i = 0; i < count; ++i) {
             if (!bridge->options.full && !replaying && s.stepped &&
                 batch[i].type == PGEM_ITEM_POSE) {
@@ -362,6 +411,20 @@ static void *solver_main(void *user)
              * the front-end's estimates, which is what the offline tools compute. */
             int settle = !optimize && !recovery && !s.dirty && !s.unsolved;
             s.last_start = now;
+            if (optimize) {
+                pthread_mutex_lock(&bridge->lock);
+                const int64_t commands = bridge->optimize_commands;
+                bridge->optimize_commands = 0;
+                pthread_mutex_unlock(&bridge->lock);
+                if (commands > 1) {
+                    bridge_log(bridge, "OPTIMIZE: one whole-graph solve for %lld OPTIMIZE "
+                               "commands (merged while one waited, at most one solve per "
+                               "%.0f s)", (long long)commands, OPTIMIZE_INTERVAL);
+                } else {
+                    bridge_log(bridge, "OPTIMIZE: one whole-graph solve for %lld OPTIMIZE "
+                               "command", (long long)commands);
+                }
+            }
             if (settle) {
                 settle = bridge_graph_settle(bridge); /* 0: it gave way, and is still owed */
             } else {
@@ -371,6 +434,10 @@ static void *solver_main(void *user)
                                                       : "idle");
             }
             s.last_end = bridge_now();
+            if (optimize) {
+                s.command = 0;
+                s.command_end = s.last_end;
+            }
             s.unsettled = !settle; /* (after a recovery too: it may have been a split graph) */
             s.dirty = 0;
             s.unsolved = 0;
@@ -378,6 +445,7 @@ static void *solver_main(void *user)
         } else if (due) {
             s.unsolved = 0; /* poses without edges: nothing to solve */
             s.unsettled = 0;
+            s.command = 0;
         }
         if (snapshot) {
             bridge_graph_snapshot(bridge, path);
@@ -424,6 +492,12 @@ static int journal_report(bridge_t *bridge, const pgem_journal_info_t *info, cha
                "checksum", o->journal, (long long)(info->records - total),
                (long long)counts.accepted_poses, (long long)counts.accepted_edges,
                (long long)info->checked);
+    if (counts.odometry_as_loops > 0) {
+        bridge_log(bridge, "journal %s: %lld edges sent as ODOMETRY entered as loop closures "
+                   "(not a step of the chain; the latest: %s)", o->journal,
+                   (long long)counts.odometry_as_loops,
+                   pgem_ingest_last_odometry_note(bridge->ingest));
+    }
     if (total > 0) {
         bridge_note(bridge, "journal %s: %lld more records refused on replay (%s)", o->journal,
                     (long long)total, reasons);
@@ -473,6 +547,12 @@ static int start(bridge_t *bridge, char *message, size_t message_size)
         return -1;
     }
     if (o->snapshot_dir != NULL) {
+        bridge->snapshots = calloc(o->snapshot_limit, sizeof *bridge->snapshots);
+        if (bridge->snapshots == NULL) {
+            snprintf(message, message_size, "out of memory for --snapshot-limit %u",
+                     (unsigned)o->snapshot_limit);
+            return -1;
+        }
         bridge->snapshot_dir = open(o->snapshot_dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
         if (bridge->snapshot_dir < 0) {
             snprintf(message, message_size, "--snapshot-dir %s: cannot open the folder: %s",
@@ -517,6 +597,7 @@ static void finish(bridge_t *bridge)
     bridge_graph_free(bridge);
     pgem_ingest_destroy(bridge->ingest);
     free(bridge->queue);
+    free(bridge->snapshots);
     pthread_cond_destroy(&bridge->wake);
     pthread_mutex_destroy(&bridge->lock);
 }

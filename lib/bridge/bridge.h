@@ -45,6 +45,9 @@ typedef struct pgem_bridge_options {
     int journal_sync;          /* fdatasync every record */
     const char *snapshot_dir;  /* the folder SNAPSHOT commands write into; NULL: SNAPSHOT is
                                   refused (a message names a file in it, never a path) */
+    uint32_t snapshot_limit;   /* SNAPSHOTs accepted in any minute at most (default 6) */
+    double snapshot_budget;    /* MiB snapshots may write in any minute (default 64): one
+                                  that would pass it is refused */
     pgem_robust_options_t robust;  /* zeroed: EM with its defaults, as everywhere; kernel
                                       PGEM_KERNEL_NONE (--robust none): every loop at weight 1 */
     int full;                  /* 0 (default): every pose that got edges gets an incremental

@@ -18,6 +18,19 @@
 #define BRIDGE_HOLD_FIXED 1u /* pgem_fix_pose: the main part's */
 #define BRIDGE_HOLD_GAUGE 2u /* pgem_hold_gauge: any other part's */
 
+/* SNAPSHOT's bounds (issue 31), pgem_bridge_options_t's defaults: an operator saving the map
+ * by hand, or a periodic saver, makes a few a minute; 64 MiB a minute lets a 20000-pose map
+ * (some 10 MB in 2D, 20 MB in 3D) be saved several times a minute, while a flood of SNAPSHOTs
+ * writes at most 64 MiB a minute, not a disk's worth. */
+#define BRIDGE_SNAPSHOT_LIMIT 6u
+#define BRIDGE_SNAPSHOT_BUDGET 64.0   /* MiB */
+#define BRIDGE_SNAPSHOT_PERIOD 60.0   /* s: the window both bounds count */
+
+typedef struct bridge_snapshot {
+    double accepted;  /* bridge_now() when the SNAPSHOT was accepted */
+    uint64_t bytes;   /* what its write wrote (both files) */
+} bridge_snapshot_t;
+
 typedef struct bridge {
     pgem_bridge_options_t options;
     lcm_t *lcm;
@@ -35,6 +48,7 @@ typedef struct bridge {
     int64_t replay_refused[PGEM_REJECT_COUNT]; /* journal records refused on replay, by reason */
     char replay_first[384];    /* the first of them, in words */
     int64_t expiries_logged;
+    int64_t odometry_notes_logged; /* edges sent as ODOMETRY that entered as loops */
     int snapshot_dir;          /* open folder for SNAPSHOT, -1 none */
     /* (L) The ingest's counters as of the last message handled to the end (journaled and
      * visible to the solver). The status reports these, never the live ones: the solver
@@ -54,9 +68,18 @@ typedef struct bridge {
     int64_t queue_overflows;
 
     /* Requests for the solver (L). */
+    int64_t optimize_commands; /* OPTIMIZE received since the last command solve began */
     int optimize_requested;
     int snapshot_requested;
     char snapshot_path[PGEM_PATH_MAX];
+    /* (L) The SNAPSHOTs accepted in the last minute, oldest first (a ring of snapshot_limit
+     * entries from snapshot_first): when, and what the write they asked for wrote (0 until
+     * written, and for one a later request replaced). */
+    bridge_snapshot_t *snapshots;
+    uint64_t snapshot_last_size; /* bytes of the last snapshot written (both files) */
+    uint32_t snapshot_first;
+    uint32_t snapshot_count;
+    uint32_t snapshot_latest;  /* the entry of the request the solver will write */
     int recovery_pending;
 
     /* What the solver last did, for the status (L). */
@@ -210,5 +233,7 @@ void bridge_journal_watch(bridge_t *bridge, int *away);
 /* The ingest's SNAPSHOT hook: refuses a NAME whose NAME or NAME.weights in the snapshot
  * folder is the journal or the file the bridge's standard output or error goes to. */
 int bridge_snapshot_check(void *user, const char *name, char *message, size_t message_size);
+/* (L held) After a snapshot was written: the bytes it took, for the budget. */
+void bridge_snapshot_written(bridge_t *bridge, uint64_t bytes);
 
 #endif /* PGEM_BRIDGE_INTERNAL_H */

@@ -99,9 +99,73 @@ static const char *held(const bridge_t *bridge, const char *name)
     return "";
 }
 
+/* The SNAPSHOTs accepted in the last minute, and their bytes; older ones leave the ring. */
+static uint64_t snapshots_recent(bridge_t *bridge, double now)
+{
+    const uint32_t limit = bridge->options.snapshot_limit;
+    while (bridge->snapshot_count > 0 &&
+           now - bridge->snapshots[bridge->snapshot_first].accepted >= BRIDGE_SNAPSHOT_PERIOD) {
+        bridge->snapshot_first = (bridge->snapshot_first + 1) % limit;
+        bridge->snapshot_count--;
+    }
+    uint64_t bytes = 0;
+    for (uint32_t k = 0; k < bridge->snapshot_count; ++k) {
+        bytes += bridge->snapshots[(bridge->snapshot_first + k) % limit].bytes;
+    }
+    return bytes;
+}
+
+/* SNAPSHOT's bounds: at most --snapshot-limit accepted in any minute, and none that would take
+ * the bytes snapshots wrote in the last minute past --snapshot-budget (the next one is taken
+ * to be as large as the last). 0 and the request counted, or -1 with the reason. */
+static int snapshot_allowed(bridge_t *bridge, const char *name, char *message,
+                            size_t message_size)
+{
+    const pgem_bridge_options_t *o = &bridge->options;
+    const double now = bridge_now();
+    const uint64_t bytes = snapshots_recent(bridge, now);
+    const double budget = o->snapshot_budget * 1048576.0;
+    const double wait = bridge->snapshot_count > 0
+                            ? BRIDGE_SNAPSHOT_PERIOD -
+                                  (now - bridge->snapshots[bridge->snapshot_first].accepted)
+                            : 0.0;
+    if (bridge->snapshot_count >= o->snapshot_limit) {
+        snprintf(message, message_size,
+                 "SNAPSHOT %s refused: %u snapshots in the last minute (--snapshot-limit %u "
+                 "per minute); the next is allowed in %.1f s", name,
+                 (unsigned)bridge->snapshot_count, (unsigned)o->snapshot_limit, wait);
+        return -1;
+    }
+    if (bridge->snapshot_count > 0 && (double)(bytes + bridge->snapshot_last_size) > budget) {
+        snprintf(message, message_size,
+                 "SNAPSHOT %s refused: snapshots wrote %.1f MiB in the last minute and the "
+                 "last took %.1f MiB, past --snapshot-budget %g MiB per minute; the next is "
+                 "allowed in %.1f s at the latest", name, (double)bytes / 1048576.0,
+                 (double)bridge->snapshot_last_size / 1048576.0, o->snapshot_budget, wait);
+        return -1;
+    }
+    const uint32_t entry = (bridge->snapshot_first + bridge->snapshot_count) % o->snapshot_limit;
+    bridge->snapshots[entry].accepted = now;
+    bridge->snapshots[entry].bytes = 0;
+    bridge->snapshot_count++;
+    bridge->snapshot_latest = entry;
+    return 0;
+}
+
+void bridge_snapshot_written(bridge_t *bridge, uint64_t bytes)
+{
+    bridge->snapshot_last_size = bytes;
+    /* the entry of the request written, if it is still in the window */
+    const uint32_t limit = bridge->options.snapshot_limit;
+    const uint32_t from_first = (bridge->snapshot_latest + limit - bridge->snapshot_first) % limit;
+    if (from_first < bridge->snapshot_count) {
+        bridge->snapshots[bridge->snapshot_latest].bytes = bytes;
+    }
+}
+
 int bridge_snapshot_check(void *user, const char *name, char *message, size_t message_size)
 {
-    const bridge_t *bridge = user;
+    bridge_t *bridge = user;
     char weights[PGEM_SNAPSHOT_NAME_MAX + 16];
     snprintf(weights, sizeof weights, "%s.weights", name);
     const char *targets[2] = {name, weights};
@@ -115,5 +179,5 @@ int bridge_snapshot_check(void *user, const char *name, char *message, size_t me
             return -1;
         }
     }
-    return 0;
+    return snapshot_allowed(bridge, name, message, message_size);
 }

@@ -73,6 +73,8 @@ struct pgem_ingest {
     void *snapshot_user;
     table_t poses;            /* key (id, 0) */
     table_t edges;            /* key (source, sequence) */
+    table_t steps;            /* odometry in the graph: key (the smaller of two consecutive
+                                 pose ids, 0), content the source index that made the step */
     waiting_t *pending;       /* max_pending slots */
     uint32_t *free_slots;     /* stack of unused pending slots */
     uint32_t free_count;
@@ -87,6 +89,7 @@ struct pgem_ingest {
     size_t size;
     pgem_ingest_counts_t counts;
     char last_expiry[384];
+    char last_odometry[384];  /* pgem_ingest_last_odometry_note */
 };
 
 static int table_init(table_t *table, uint32_t capacity)
@@ -227,7 +230,8 @@ pgem_ingest_t *pgem_ingest_create(const pgem_ingest_config_t *config, pgem_emit_
     ingest->free_slots = calloc(ingest->config.max_pending, sizeof *ingest->free_slots);
     ingest->sources = calloc(ingest->config.max_sources, sizeof *ingest->sources);
     if (!table_init(&ingest->poses, config->max_poses) ||
-        !table_init(&ingest->edges, config->max_edges) || ingest->pending == NULL ||
+        !table_init(&ingest->edges, config->max_edges) ||
+        !table_init(&ingest->steps, config->max_poses) || ingest->pending == NULL ||
         ingest->free_slots == NULL || ingest->sources == NULL) {
         pgem_ingest_destroy(ingest);
         return NULL;
@@ -241,6 +245,7 @@ void pgem_ingest_destroy(pgem_ingest_t *ingest)
     if (ingest != NULL) {
         free(ingest->poses.slots);
         free(ingest->edges.slots);
+        free(ingest->steps.slots);
         free(ingest->pending);
         free(ingest->free_slots);
         free(ingest->sources);
@@ -280,6 +285,11 @@ const char *pgem_ingest_source_name(const pgem_ingest_t *ingest, uint32_t index)
 const char *pgem_ingest_last_expiry(const pgem_ingest_t *ingest)
 {
     return ingest->last_expiry;
+}
+
+const char *pgem_ingest_last_odometry_note(const pgem_ingest_t *ingest)
+{
+    return ingest->last_odometry;
 }
 
 void pgem_upper_to_full(const double *upper, int n, double *full)
@@ -625,16 +635,64 @@ static uint32_t pending_victim(const pgem_ingest_t *ingest, uint32_t source)
     return holder != NONE && most > own ? ingest->sources[holder].oldest : NONE;
 }
 
+/* Ids that differ by exactly one, without unsigned wrap-around (2^64 - 1 and 0 do not): the
+ * pgem I/O reader's rule for odometry, so a graph file streamed by pgem-lcm-send keeps the
+ * kinds the offline tools give it. */
+static int ids_consecutive(pgem_id_t a, pgem_id_t b)
+{
+    return (a > b ? a - b : b - a) == 1u;
+}
+
+/* An edge goes into the graph (its poses are known). The wire's kind is the front-end's claim;
+ * the robust layer trusts ODOMETRY (weight 1, never pruned), so the claim is checked against
+ * the chain it would extend: an ODOMETRY edge is odometry only when it is a step, its poses'
+ * ids one apart, and no odometry edge in the graph joins those two poses yet (the first to
+ * enter the graph holds the step, whatever its source; a source's own second edge between
+ * them is a second opinion too). Otherwise it enters as a loop closure, weighed and prunable
+ * like any, counted and named. The decision depends only on the order in which edges enter
+ * the graph, which the journal's replay reproduces. The item keeps the kind it was sent with
+ * in its key's content, so a resend of the same message is still a replay. */
+static void emit_edge(pgem_ingest_t *ingest, pgem_item_t *item)
+{
+    ingest->sources[item->source].emitted = 1;
+    if (item->kind == PGEM_EDGE_ODOMETRY) {
+        char why[160] = "";
+        unsigned long long from = (unsigned long long)item->from;
+        unsigned long long to = (unsigned long long)item->to;
+        if (!ids_consecutive(item->from, item->to)) {
+            snprintf(why, sizeof why, "poses %llu and %llu are not consecutive ids", from, to);
+        } else {
+            pgem_id_t low = item->from < item->to ? item->from : item->to;
+            slot_t *slot = table_find(&ingest->steps, low, 0);
+            if (slot->used) {
+                snprintf(why, sizeof why,
+                         "poses %llu and %llu are already joined by odometry of source '%s'",
+                         from, to, ingest->sources[slot->content].name);
+            } else {
+                take(slot, low, 0, item->source); /* at most max_poses - 1 steps */
+            }
+        }
+        if (why[0] != '\0') {
+            char what[200];
+            edge_what(what, sizeof what, item, ingest->sources[item->source].name);
+            snprintf(ingest->last_odometry, sizeof ingest->last_odometry,
+                     "%s was sent as ODOMETRY but %s: it enters as a loop closure", what, why);
+            item->kind = PGEM_EDGE_LOOP;
+            ingest->counts.odometry_as_loops++;
+        }
+    }
+    ingest->emit(ingest->user, item);
+}
+
 /* Edges in the pending list whose poses are all known now leave it, in arrival order. */
 static void release_pending(pgem_ingest_t *ingest)
 {
     uint32_t k = ingest->oldest;
     while (k != NONE) {
         uint32_t next = ingest->pending[k].next;
-        const pgem_item_t *item = &ingest->pending[k].item;
+        pgem_item_t *item = &ingest->pending[k].item;
         if (pose_known(ingest, item->from) && pose_known(ingest, item->to)) {
-            ingest->sources[item->source].emitted = 1;
-            ingest->emit(ingest->user, item);
+            emit_edge(ingest, item);
             pending_remove(ingest, k);
         }
         k = next;
@@ -670,11 +728,18 @@ static void admit_pose(pgem_ingest_t *ingest, const pgem_item_t *item, const cha
 static void explain_conflict(const pgem_ingest_t *ingest, uint32_t source, const char *what,
                              pgem_ingest_result_t *result)
 {
-    long long last = (long long)ingest->sources[source].last;
+    int64_t last = ingest->sources[source].last;
+    if (last == INT64_MAX) { /* nothing is left above it */
+        snprintf(result->message, sizeof result->message,
+                 "%s: other content under a sequence number this source used (its highest is "
+                 "%lld, the largest there is: a restarted front-end must use a new source name)",
+                 what, (long long)last);
+        return;
+    }
     snprintf(result->message, sizeof result->message,
              "%s: other content under a sequence number this source used (its highest is %lld):"
              " a restarted front-end must number on from %lld or use a new source name", what,
-             last, last + 1);
+             (long long)last, (long long)last + 1);
 }
 
 /* The checks of an edge's own values: 1, or 0 with the rejection filled. wire_kind is the
@@ -708,6 +773,14 @@ static int edge_values_ok(pgem_ingest_t *ingest, const pgem_item_t *item, int wi
                  "%s: information entry %d,%d is %s, beyond the information limit of 1e15", what,
                  entry / n, entry % n, value);
         reject(ingest, result, PGEM_REJECT_RANGE);
+        return 0;
+    }
+    if (check == PGEM_ERR_INFORMATION && pgem_information_positive(full, n)) {
+        snprintf(result->message, sizeof result->message,
+                 "%s: information is positive definite but too badly conditioned to factor in "
+                 "double precision (entry %d,%d: a condition number beyond about 1e15)", what,
+                 entry / n, entry % n);
+        reject(ingest, result, PGEM_REJECT_INFORMATION);
         return 0;
     }
     if (check != PGEM_OK) {
@@ -783,8 +856,7 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
     ingest->admitted_edges++;
     ingest->counts.accepted_edges++;
     if (ready) {
-        ingest->sources[item->source].emitted = 1;
-        ingest->emit(ingest->user, item);
+        emit_edge(ingest, item);
     } else {
         pending_add(ingest, item, utime);
         result->pending = 1;
@@ -842,6 +914,7 @@ static void reset(pgem_ingest_t *ingest)
 {
     table_clear(&ingest->poses);
     table_clear(&ingest->edges);
+    table_clear(&ingest->steps);
     pending_clear(ingest);
     ingest->admitted_poses = 0;
     ingest->admitted_edges = 0;

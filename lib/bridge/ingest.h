@@ -13,6 +13,10 @@
  * the source table when its last waiting edge expires. Capacity is reserved when a message is
  * admitted, so an admitted item always fits the core. A message that would change the state
  * is first offered to the admit hook (the bridge's journal): a refusal there changes nothing.
+ * An edge sent as ODOMETRY leaves as one only when it is a step of the chain (pose ids one
+ * apart, not yet joined by odometry in the graph); otherwise as a loop closure, counted and
+ * named (pgem_ingest_last_odometry_note): the wire's kind is a claim, the robust layer's is
+ * the bridge's decision (docs/BRIDGE.md, "What a front-end may claim").
  * Admitted items leave through the emit callback in the order the solver must add them;
  * feeding the same accepted messages in the same order with the same times (the journal)
  * rebuilds exactly the same sequence of items. All memory is allocated once, in
@@ -137,6 +141,9 @@ typedef struct pgem_ingest_counts {
     int64_t commands;
     int64_t rejected[PGEM_REJECT_COUNT];
     uint32_t pending;          /* edges waiting now */
+    int64_t odometry_as_loops; /* edges sent as ODOMETRY that are not a step of the chain
+                                  (pgem_ingest_last_odometry_note): they entered as loop
+                                  closures (counted among accepted_edges too) */
 } pgem_ingest_counts_t;
 
 typedef struct pgem_ingest pgem_ingest_t;
@@ -177,6 +184,11 @@ uint32_t pgem_ingest_expire(pgem_ingest_t *ingest, int64_t utime);
 const char *pgem_ingest_last_expiry(const pgem_ingest_t *ingest);
 
 void pgem_ingest_counts(const pgem_ingest_t *ingest, pgem_ingest_counts_t *counts);
+
+/* The latest edge sent as ODOMETRY that entered the graph as a loop closure, in words, naming
+ * the edge's poses, source and sequence and why ("" before the first). See emit_edge in
+ * ingest.c and docs/BRIDGE.md, "What a front-end may claim". */
+const char *pgem_ingest_last_odometry_note(const pgem_ingest_t *ingest);
 
 /* The source table (names in order of first appearance); index from pgem_item_t.source. A slot
  * freed by expiry names "" until a new source takes it. */

@@ -32,6 +32,10 @@ static void usage(FILE *out, const void *context)
             "  --journal-sync         fdatasync every journal record (survives power loss)\n"
             "  --snapshot-dir DIR     let SNAPSHOT commands write FILE and FILE.weights into\n"
             "                         DIR (FILE a plain name; default: SNAPSHOT is refused)\n"
+            "  --snapshot-limit N     SNAPSHOTs accepted in any minute at most; more are\n"
+            "                         refused, named (6)\n"
+            "  --snapshot-budget MIB  MiB snapshots may write in any minute; one that would\n"
+            "                         pass it is refused, named (64)\n"
             "  --pending-timeout S    an edge waits at most S seconds for its poses, then it\n"
             "                         expires (60)\n"
             "  --full                 re-solve the whole graph with EM for new loop closures\n"
@@ -117,6 +121,8 @@ static const valued_option_t valued_options[] = {
     {"--max-sources", COUNT, FIELD(max_sources)},
     {"--journal", PATH, FIELD(journal)},
     {"--snapshot-dir", PATH, FIELD(snapshot_dir)},
+    {"--snapshot-limit", COUNT, FIELD(snapshot_limit)},
+    {"--snapshot-budget", POSITIVE, FIELD(snapshot_budget)},
     {"--pending-timeout", POSITIVE, FIELD(pending_timeout)},
     {"--debounce", POSITIVE, FIELD(debounce)},
     {"--max-delay", POSITIVE, FIELD(max_delay)},

@@ -54,7 +54,9 @@ static void eval_help(FILE *out, const void *context)
             "Pairs are ordered (from, to) and matched as a multiset: when a pair occurs more\n"
             "often in the weights than in the outliers, its later lines are the false loops\n"
             "(corrupt appends them after the original edges). A false loop missing from the\n"
-            "weights is an error.\n"
+            "weights is an error, and so are weights that are not RESULT's: when RESULT has\n"
+            "edges, the weights must list exactly its loop closures (the same (from, to)\n"
+            "pairs, as often; a vertex-only RESULT is taken at its word).\n"
             "The headline score takes the rejected loops as positives: precision = TP /\n"
             "rejected, recall = TP / outliers (TP: false loops rejected, FP: true loops\n"
             "rejected, FN: false loops accepted). Precision is 1 when nothing is rejected\n"
@@ -249,6 +251,88 @@ static void eval_print_text(const eval_args_t *args, const eval_trajectory_t *t,
     }
 }
 
+/* A loop closure's pair and where it came from, for matching the weights to the result. */
+typedef struct eval_pair {
+    pgem_id_t from;
+    pgem_id_t to;
+    unsigned long line;
+} eval_pair_t;
+
+static int eval_pair_compare(const void *a, const void *b)
+{
+    const eval_pair_t *x = a, *y = b;
+    if (x->from != y->from) {
+        return x->from < y->from ? -1 : 1;
+    }
+    if (x->to != y->to) {
+        return x->to < y->to ? -1 : 1;
+    }
+    return (x->line > y->line) - (x->line < y->line);
+}
+
+/* The weights must be the result's: when the result has edges, its loop closures and the
+ * weights lines are the same multiset of (from, to) pairs (pgem optimize writes them from the
+ * same graph; the order may differ where the writer puts a pair's odometry first). A vertex-
+ * only result cannot vouch for them, and they are taken as given. Prints the first mismatch,
+ * naming the file, the line and the ids; returns a PGEM_EXIT_* code. */
+static int eval_weights_belong(const eval_args_t *args, const pgem_io_graph_t *result,
+                               const eval_loop_t *loops, size_t count)
+{
+    if (result->edge_count == 0) {
+        return PGEM_EXIT_OK;
+    }
+    size_t graph_loops = 0;
+    for (size_t e = 0; e < result->edge_count; e++) {
+        graph_loops += result->edges[e].kind == PGEM_EDGE_LOOP;
+    }
+    eval_pair_t *mine = malloc((graph_loops + count + 1) * sizeof *mine);
+    if (mine == NULL) {
+        fprintf(stderr, "pgem eval: out of memory\n");
+        return PGEM_EXIT_FAILURE;
+    }
+    eval_pair_t *theirs = mine + graph_loops;
+    size_t n = 0;
+    for (size_t e = 0; e < result->edge_count; e++) {
+        if (result->edges[e].kind == PGEM_EDGE_LOOP) {
+            mine[n++] = (eval_pair_t){result->edges[e].from, result->edges[e].to,
+                                      result->edges[e].line};
+        }
+    }
+    for (size_t k = 0; k < count; k++) {
+        theirs[k] = (eval_pair_t){loops[k].from, loops[k].to, loops[k].line};
+    }
+    qsort(mine, graph_loops, sizeof *mine, eval_pair_compare);
+    qsort(theirs, count, sizeof *theirs, eval_pair_compare);
+    size_t i = 0, j = 0;
+    while (i < graph_loops && j < count && mine[i].from == theirs[j].from &&
+           mine[i].to == theirs[j].to) {
+        i++;
+        j++;
+    }
+    int status = PGEM_EXIT_OK;
+    if (i < graph_loops || j < count) {
+        const int extra = j < count && (i == graph_loops || theirs[j].from < mine[i].from ||
+                                         (theirs[j].from == mine[i].from &&
+                                          theirs[j].to < mine[i].to));
+        if (extra) {
+            fprintf(stderr, "pgem eval: %s:%lu: loop closure %llu -> %llu is not a loop closure "
+                    "of %s (it has %zu, %s lists %zu): the weights belong to another graph\n",
+                    args->weights, theirs[j].line, (unsigned long long)theirs[j].from,
+                    (unsigned long long)theirs[j].to, args->result, graph_loops, args->weights,
+                    count);
+        } else {
+            fprintf(stderr, "pgem eval: %s:%lu: loop closure %llu -> %llu has no line in %s (%s "
+                    "has %zu loop closures, %s lists %zu): the weights belong to another "
+                    "graph\n", args->result, mine[i].line, (unsigned long long)mine[i].from,
+                    (unsigned long long)mine[i].to, args->weights, args->result, graph_loops,
+                    args->weights, count);
+        }
+        status = PGEM_EXIT_FAILURE;
+    }
+    free(mine);
+    return status;
+}
+
 static int eval_run(const eval_args_t *args)
 {
     pgem_io_graph_t result = {0}, reference = {0};
@@ -265,6 +349,9 @@ static int eval_run(const eval_args_t *args)
     if (status == PGEM_EXIT_OK && args->outliers != NULL) {
         status = pgem_eval_loops(args->outliers, args->weights, args->reject_below, &loops,
                                  &scores);
+        if (status == PGEM_EXIT_OK) {
+            status = eval_weights_belong(args, &result, loops, scores.loops);
+        }
     }
     if (status == PGEM_EXIT_OK) {
         const eval_scores_t *scored = args->outliers != NULL ? &scores : NULL;

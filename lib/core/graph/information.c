@@ -92,6 +92,14 @@ int pgem_information_check(const double *information, int n, int *entry)
     return bad >= 0 ? PGEM_ERR_INFORMATION : PGEM_OK;
 }
 
+int pgem_information_positive(const double *information, int n)
+{
+    if (information == NULL || (n != 3 && n != 6)) {
+        return 0;
+    }
+    return pgem_first_bad_pivot(information, n, 0.0) < 0;
+}
+
 int pgem_check_information(pgem_t *graph, const double *information)
 {
     const int n = graph->tangent;
@@ -114,6 +122,12 @@ int pgem_check_information(pgem_t *graph, const double *information)
         pgem_message_text(graph, " differs from ");
         pgem_message_entry(graph, (pgem_entry_ref_t){at.column, at.row});
         pgem_message_text(graph, ": information must be symmetric");
+    } else if (pgem_information_positive(information, n)) {
+        pgem_message_text(graph, "information is positive definite but too badly conditioned "
+                                 "for double precision (pivot ");
+        pgem_message_i64(graph, at.row);
+        pgem_message_text(graph, " below n * DBL_EPSILON of the largest entry: condition "
+                                 "number beyond about 1e15)");
     } else {
         pgem_message_text(graph, "information is not positive definite (pivot ");
         pgem_message_i64(graph, at.row);

@@ -203,6 +203,24 @@ static void pgem_online_clear_path(pgem_online_t *online, int j, int rank)
     }
 }
 
+/* The message of an update that found the incremental factor's room used up: what ran out,
+ * how much there is and what to raise. Returns PGEM_ERR_FILL_BUDGET. */
+static int pgem_online_out_of_room(pgem_t *graph, const char *what)
+{
+    const pgem_online_t *online = &graph->online;
+    pgem_message_clear(graph);
+    pgem_message_text(graph, "the incremental factor is out of room (");
+    pgem_message_text(graph, what);
+    pgem_message_text(graph, "): its ");
+    pgem_message_u64(graph, online->pool_blocks);
+    pgem_message_text(graph, " blocks of ");
+    pgem_message_u64(graph, (uint64_t)online->block * (uint64_t)online->block);
+    pgem_message_text(graph, " nonzeros are used up, config.online_fill is ");
+    pgem_message_u64(graph, graph->config.online_fill);
+    pgem_message_text(graph, " nonzeros: raise config.online_fill");
+    return PGEM_ERR_FILL_BUDGET;
+}
+
 int pgem_online_rank_update(pgem_t *graph, const int *columns, int column_count, double sign,
                             int rank)
 {
@@ -237,6 +255,17 @@ int pgem_online_rank_update(pgem_t *graph, const int *columns, int column_count,
     if (status != PGEM_OK) {
         pgem_online_clear_path(online, j, rank);
     }
+    if (status == PGEM_ERR_FILL_BUDGET) {
+        return pgem_online_out_of_room(graph, "a column grew");
+    }
+    if (status == PGEM_ERR_NOT_POSITIVE_DEFINITE) {
+        pgem_message_clear(graph);
+        pgem_message_text(graph, sign < 0.0 ? "removing an edge from" : "adding an edge to");
+        pgem_message_text(graph, " the incremental factor lost positive definiteness at pose "
+                                 "index ");
+        pgem_message_u64(graph, (uint64_t)online->column_pose[j]);
+        pgem_message_text(graph, " (the next update rebuilds it)");
+    }
     return status;
 }
 
@@ -248,7 +277,7 @@ int pgem_online_append(pgem_t *graph, uint32_t p, double seed)
     if (online->pool_used > online->pool_blocks ||
         (uint32_t)room + 1u > online->pool_blocks - online->pool_used) {
         online->full = 1;
-        return PGEM_ERR_FILL_BUDGET;
+        return pgem_online_out_of_room(graph, "a new pose's column");
     }
     online->start[j] = (int)online->pool_used;
     online->pool_used += (uint32_t)room + 1u;

@@ -160,6 +160,8 @@ static int pgem_online_symbolic(pgem_t *graph, int columns)
     pgem_online_t *online = &graph->online;
     int *children = online->head, *sibling = online->next, *gather = online->position;
     uint64_t used = 0, live = 0;
+    int short_of_room = 0; /* a column did not fit (used may still be within the pool: the
+                              columns after it were counted without their room) */
     for (int j = 0; j < columns; j++) {
         children[j] = -1;
         online->mark[j] = -1;
@@ -188,6 +190,7 @@ static int pgem_online_symbolic(pgem_t *graph, int columns)
         const int room = count + count / 4 + 2;
         if (used + (uint64_t)room + 1u > online->pool_blocks) {
             used += (uint64_t)count + 1u; /* count on without room, for the message */
+            short_of_room = 1;
             online->count[j] = 0;
             online->start[j] = 0;
             online->parent[j] = -1;
@@ -206,12 +209,13 @@ static int pgem_online_symbolic(pgem_t *graph, int columns)
             children[gather[0]] = j;
         }
     }
-    if (used > online->pool_blocks) {
+    if (short_of_room) {
         pgem_message_clear(graph);
         pgem_message_text(graph, "the online factor needs at least ");
         pgem_message_u64(graph, used * (uint64_t)online->block * (uint64_t)online->block);
-        pgem_message_text(graph, " nonzeros, config.online_fill is ");
+        pgem_message_text(graph, " nonzeros with its room to grow, config.online_fill is ");
         pgem_message_u64(graph, graph->config.online_fill);
+        pgem_message_text(graph, ": raise config.online_fill");
         return PGEM_ERR_FILL_BUDGET;
     }
     online->pool_used = (uint32_t)used;

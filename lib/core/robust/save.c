@@ -65,6 +65,121 @@ static void pgem_saved_copy(const pgem_t *graph, unsigned char *to_buffer, const
     }
 }
 
+/* "the save's " + what + " of pose i (id X)" or "... of edge k (F-T)" as the message start. */
+static void pgem_saved_name(pgem_t *graph, const char *what, int edge, uint32_t index)
+{
+    pgem_message_clear(graph);
+    pgem_message_text(graph, "the save's ");
+    pgem_message_text(graph, what);
+    pgem_message_text(graph, edge ? "edge " : "pose ");
+    pgem_message_u64(graph, index);
+    pgem_message_text(graph, " (");
+    if (edge) {
+        pgem_message_edge(graph, index);
+    } else {
+        pgem_message_text(graph, "id ");
+        pgem_message_u64(graph, graph->store.pose_id[index]);
+    }
+    pgem_message_text(graph, ")");
+}
+
+static int pgem_saved_refuse(pgem_t *graph, int code)
+{
+    pgem_message_text(graph, ": not a save of this graph, nothing restored");
+    return code;
+}
+
+/* Everything a restore would put back, checked before anything is: each pose as
+ * pgem_set_pose checks it, held flags 0 or 1 and as many as the header says, weights in
+ * [0, 1], states known, the header's edited index and factor flag possible. (The robust
+ * layer's last distances and checks are its own notes, rewritten before they are read.)
+ * PGEM_OK, or the error with the message naming the pose or edge and the field. */
+static int pgem_saved_check(pgem_t *graph, const unsigned char *buffer,
+                            const pgem_saved_header_t *header)
+{
+    unsigned char *fields[PGEM_SAVED_FIELDS];
+    size_t lengths[PGEM_SAVED_FIELDS];
+    (void)pgem_saved_layout(graph, header->pose_count, header->edge_count, fields, lengths);
+    const unsigned char *pose = buffer + sizeof(pgem_saved_header_t);
+    const unsigned char *held = pose + lengths[0];
+    const unsigned char *weight = held + lengths[1];
+    const unsigned char *state = weight + lengths[2];
+    const size_t size = (size_t)graph->pose_size;
+    uint32_t held_count = 0;
+    for (uint32_t i = 0; i < header->pose_count; i++) {
+        double value[PGEM_POSE_SIZE_MAX];
+        memcpy(value, pose + (size_t)i * size * sizeof(double), size * sizeof(double));
+        int field = -1;
+        const int status = pgem_pose_check(value, graph->config.dimension, &field);
+        if (status != PGEM_OK) {
+            static const char *const names[2][7] = {{"x", "y", "theta", "", "", "", ""},
+                                                    {"x", "y", "z", "qx", "qy", "qz", "qw"}};
+            pgem_saved_name(graph, "", 0, i);
+            pgem_message_text(graph, ": ");
+            if (status == PGEM_ERR_ROTATION) {
+                pgem_message_text(graph, "the quaternion is not of unit norm");
+            } else {
+                pgem_message_text(graph, "field ");
+                pgem_message_text(graph, names[size == 7u][field >= 0 ? field : 0]);
+                pgem_message_text(graph, status == PGEM_ERR_NOT_FINITE
+                                             ? " is not finite"
+                                             : " is beyond the translation limit (1e8 m)");
+            }
+            return pgem_saved_refuse(graph, status);
+        }
+        if (held[i] > 1u) {
+            pgem_saved_name(graph, "held flag of ", 0, i);
+            pgem_message_text(graph, " is ");
+            pgem_message_u64(graph, held[i]);
+            pgem_message_text(graph, ", not 0 or 1");
+            return pgem_saved_refuse(graph, PGEM_ERR_INVALID_ARGUMENT);
+        }
+        held_count += held[i];
+    }
+    if (held_count != header->fixed_count) {
+        pgem_message_clear(graph);
+        pgem_message_text(graph, "the save counts ");
+        pgem_message_u64(graph, header->fixed_count);
+        pgem_message_text(graph, " held poses and flags ");
+        pgem_message_u64(graph, held_count);
+        return pgem_saved_refuse(graph, PGEM_ERR_INVALID_ARGUMENT);
+    }
+    for (uint32_t k = 0; k < header->edge_count; k++) {
+        double w;
+        memcpy(&w, weight + (size_t)k * sizeof(double), sizeof w);
+        if (!(w >= 0.0 && w <= 1.0)) {
+            pgem_saved_name(graph, "weight of ", 1, k);
+            pgem_message_text(graph, " is ");
+            pgem_message_text(graph, w != w ? "NaN" : w > 1.0 ? "above 1" : "below 0");
+            return pgem_saved_refuse(graph, PGEM_ERR_INVALID_ARGUMENT);
+        }
+        if (state[k] > (unsigned char)PGEM_EDGE_DORMANT) {
+            pgem_saved_name(graph, "state of ", 1, k);
+            pgem_message_text(graph, " is ");
+            pgem_message_u64(graph, state[k]);
+            pgem_message_text(graph, " (pruned 0, active 1, dormant 2)");
+            return pgem_saved_refuse(graph, PGEM_ERR_INVALID_ARGUMENT);
+        }
+    }
+    if (header->edited_low != UINT32_MAX && header->edited_low >= header->pose_count) {
+        pgem_message_clear(graph);
+        pgem_message_text(graph, "the save's edited pose index ");
+        pgem_message_u64(graph, header->edited_low);
+        pgem_message_text(graph, " is past its ");
+        pgem_message_u64(graph, header->pose_count);
+        pgem_message_text(graph, " poses");
+        return pgem_saved_refuse(graph, PGEM_ERR_INVALID_ARGUMENT);
+    }
+    if (header->online_ready != 0 && header->online_ready != 1) {
+        pgem_message_clear(graph);
+        pgem_message_text(graph, "the save's factor-current flag is ");
+        pgem_message_i64(graph, header->online_ready);
+        pgem_message_text(graph, ", not 0 or 1");
+        return pgem_saved_refuse(graph, PGEM_ERR_INVALID_ARGUMENT);
+    }
+    return PGEM_OK;
+}
+
 size_t pgem_update_save_size(const pgem_t *graph)
 {
     return graph != NULL ? pgem_saved_bytes(graph, graph->config.max_poses, graph->config.max_edges)
@@ -117,6 +232,10 @@ int pgem_update_restore(pgem_t *graph, const void *buffer, size_t size)
         pgem_message_u64(graph, graph->store.edge_count);
         pgem_message_text(graph, " (or another dimension): nothing restored");
         return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    const int checked = pgem_saved_check(graph, buffer, &header);
+    if (checked != PGEM_OK) {
+        return checked;
     }
     pgem_saved_copy(graph, NULL, buffer);
     graph->store.fixed_count = header.fixed_count;

@@ -621,7 +621,12 @@ int pgem_update(pgem_t *graph, const pgem_update_options_t *options,
         memset(online->touched, 0, (size_t)graph->config.max_poses * sizeof(int));
         online->stamp = 1;
     }
+    pgem_message_clear(graph);
     status = pgem_update_run(graph, &settings);
+    if (status != PGEM_OK && graph->message[0] == '\0') { /* every failure says what it was */
+        pgem_message_text(graph, "the incremental update failed: ");
+        pgem_message_text(graph, pgem_error_description(status));
+    }
     online->last.columns = (uint32_t)online->columns;
     online->last.factor_blocks = online->pool_used;
     if (summary != NULL) {
