@@ -10,5 +10,6 @@
 #include "pgem/solver.h"
 #include "pgem/robust.h"
 #include "pgem/update.h"
+#include "pgem/compact.h"
 
 #endif /* PGEM_PGEM_H */

@@ -57,4 +57,12 @@ void pgem_message_i64(pgem_t *graph, int64_t value);
 /* Sets the message to text and returns code (for one-line error returns). */
 int pgem_fail(pgem_t *graph, int code, const char *text);
 
+/* Small dense matrices, n <= PGEM_SMALL_MAX, row-major (common/small.c). */
+#define PGEM_SMALL_MAX 6
+/* out = op(a) op(b), op the transpose where asked; out must not alias a or b. */
+void pgem_small_product(const double *a, int transpose_a, const double *b, int transpose_b,
+                        double *out, int n);
+/* out = a^-1 (Gauss-Jordan with partial pivoting); 0, out undefined, if a is singular. */
+int pgem_small_inverse(const double *a, double *out, int n);
+
 #endif /* PGEM_COMMON_LAYER_H */

@@ -56,6 +56,15 @@ void pgem_store_carve(pgem_t *graph, pgem_arena_t *arena);
  * (the checks are pgem_copy's). */
 void pgem_store_copy(pgem_t *to, const pgem_t *from);
 
+/* Edges ka and kb, which meet at pose index p, composed into one edge between their other
+ * ends (graph/compose.c): *from the other end of ka, *to that of kb, the measurement (exact)
+ * and the information (p marginalised out, linearised where both measurements hold), taking
+ * the shares share_a and share_b (in (0, 1]) of the two edges' information. Returns 0 when
+ * that information is not a usable one (singular, or refused by pgem_information_check). */
+int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t kb,
+                      double share_b, uint32_t p, uint32_t *from, uint32_t *to,
+                      double *measurement, double *information);
+
 /* Appends edge k's pose ids, "FROM-TO", to the message (graph/idmap.c). */
 void pgem_message_edge(pgem_t *graph, uint32_t k);
 
