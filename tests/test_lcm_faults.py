@@ -56,6 +56,9 @@ Scenarios (all by default; --only picks some):
              1 % of the true loops are pruned and 2 false ones accepted; a stray sender's island (two poses and an edge far
              from the map) sent mid-stream leaves the updates incremental, and the settled map
              without the island is the offline solve.
+  compact    a mission longer than the block (issue 32): the graph into --max-poses 1000
+             --compact: every pose and edge taken, none refused, the graph within the block
+             with its newest pose.
 
 Environment (CTest sets it): PGEM, BRIDGE, SEND, DUMP, COMPARE, MALFORMED, HOSTILE (paths of
 the built programs), DATASETS (the shared datasets folder; a simulated graph stands in without it), WORK
@@ -1062,6 +1065,43 @@ def split_scenario(graph: Path, edges: int) -> dict:
     return {"drained_s": drained, "lost": edges - lossy_edges, "solves": solves}
 
 
+# ---- i: a mission longer than the block ---------------------------------------------------
+
+
+def compact_scenario(graph: Path, edges: int) -> dict:
+    step("compact: the graph streamed into a bridge with --max-poses 1000 --compact at 2000 "
+         "edges/s: every pose and edge is taken (poses removed as the block fills, later edges "
+         "to them on their anchors), the graph stays within the block, the newest pose is in it")
+    bridge = Bridge(Path("compact.log"), "--max-poses", "1000", "--compact", "--idle-solve", "60")
+    bridge.start()
+    monitor = Monitor("compact")
+    dump = spawn([program("DUMP"), "-o", "compact.g2o", "--quiet"],
+                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(0.3)
+    finish(sender(graph, "--rate", "2000", "--wait", "120"), "the front-end")
+    status = monitor.wait_status("with everything taken",
+                                 lambda s: s["queued"] == 0 and s["accepted_edges"] >= edges, 30)
+    time.sleep(1.0)
+    dump.send_signal(signal.SIGINT)
+    dump.wait(timeout=30)
+    monitor.stop()
+    bridge.stop()
+    refused = {k: v for k, v in status["rejected"].items() if v}
+    poses = sum(1 for line in graph.read_text().splitlines() if line.startswith("VERTEX"))
+    expect(not refused and status["accepted_poses"] == poses and status["accepted_edges"] == edges,
+           f"compact: refused {refused}; accepted {status['accepted_poses']} poses, "
+           f"{status['accepted_edges']} edges of {poses}, {edges}")
+    expect(status["poses"] <= 1000, f"compact: {status['poses']} poses in a 1000-pose block")
+    compactions = len(re.findall(r"compaction \d+:", Path("compact.log").read_text()))
+    expect(compactions >= 3, f"compact: {compactions} compactions in the log")
+    ids = {int(line.split()[1]) for line in Path("compact.g2o").read_text().splitlines()
+           if line.startswith("VERTEX")}
+    expect(poses - 1 in ids, f"compact: the newest pose {poses - 1} is not in the graph")
+    print(f"compact: {poses} poses and {edges} edges taken into a 1000-pose block, none refused; "
+          f"{compactions} compactions; {status['poses']} poses in the graph, the newest among them")
+    return {"compactions": compactions, "poses": status["poses"]}
+
+
 # ---- f: the journal's disk fills ---------------------------------------------------------
 
 
@@ -1284,7 +1324,7 @@ def journal_scenario(graph: Path) -> dict:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--only",
-                        default="kills,malformed,two,restart,hostile,full,journal,split")
+                        default="kills,malformed,two,restart,hostile,full,journal,split,compact")
     parser.add_argument("--kills", type=int, default=int(os.environ.get("KILLS", "20")))
     parser.add_argument("--min-delay", type=float, default=0.05,
                         help="shortest time between a restart and the next kill (s)")
@@ -1327,6 +1367,8 @@ def main() -> int:
             figures["journal"] = journal_scenario(graph)
         if "split" in only:
             figures["split"] = split_scenario(graph, edges)
+        if "compact" in only:
+            figures["compact"] = compact_scenario(graph, edges)
     except (Failure, subprocess.CalledProcessError, subprocess.TimeoutExpired) as error:
         print(f"FAIL: {error}")
         for log in sorted(Path(".").glob("*.log")):

@@ -61,6 +61,10 @@ typedef struct pgem_bridge_options {
                                   own, on a thread of its own; each adopted into the live map
                                   when done, at most half the time busy): 1 turns them off,
                                   leaving the per-update gate alone until the settle */
+    int compact;               /* 1: a graph that reaches 90 % of max_poses (or of max_edges)
+                                  has poses removed down to 70 % (pgem_compact), so the map
+                                  keeps growing; 0 (default): poses at capacity are refused */
+    uint32_t compact_tail;     /* the newest poses compaction never removes (0: 64) */
     pgem_bridge_log_fn log;    /* progress lines (NULL: silent) */
     void *log_user;
 } pgem_bridge_options_t;

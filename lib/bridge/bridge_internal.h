@@ -111,6 +111,14 @@ typedef struct bridge {
     double *raw;                /* per core pose: the front-end's estimate, as received */
     uint8_t *part_edges;        /* per root: 1 if an edge touches the part */
     uint32_t parts_poses;       /* poses already in the parts (components.c) */
+    uint32_t *compact_pose_map; /* pgem_compact's maps of old to new indices */
+    uint32_t *compact_edge_map;
+    pgem_id_t *compact_ids;     /* the removed poses' ids, for the ingest */
+    pgem_id_t *compact_anchors; /* each one's anchor: the kept pose before it */
+    double *compact_relative;   /* the anchor in the removed pose's frame */
+    double *compact_before;     /* every pose's estimate before the compaction */
+    pgem_ingest_released_t *compact_edges; /* the removed edges' keys, for the ingest */
+    uint64_t compactions;
     uint32_t main_anchor;       /* the held pose of the part with the smallest pose id: fixed
                                    (the other parts hold their gauge), UINT32_MAX if none */
     uint32_t parts_edges;       /* edges already in the parts */
@@ -206,6 +214,8 @@ void bridge_graph_snapshot(bridge_t *bridge, const char *path);
 uint32_t bridge_components_hold(bridge_t *bridge);
 void bridge_components_hold_lone(bridge_t *bridge);
 void bridge_components_reset(bridge_t *bridge);
+/* graph.c: poses removed (pgem_compact) when the graph nears its capacities; 1 if it did */
+int bridge_graph_compact(bridge_t *bridge);
 /* graph.c: the estimate was replaced other than by an update or a pass: a pass of an older
  * copy is dropped when it ends */
 void bridge_graph_drop_pass(bridge_t *bridge);

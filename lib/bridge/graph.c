@@ -48,6 +48,13 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
     bridge->component_anchor = calloc(poses, sizeof *bridge->component_anchor);
     bridge->raw = calloc(poses * pose_size, sizeof *bridge->raw);
     bridge->part_edges = calloc(poses, 1);
+    bridge->compact_pose_map = calloc(poses, sizeof *bridge->compact_pose_map);
+    bridge->compact_edge_map = calloc(edges, sizeof *bridge->compact_edge_map);
+    bridge->compact_ids = calloc(poses, sizeof *bridge->compact_ids);
+    bridge->compact_anchors = calloc(poses, sizeof *bridge->compact_anchors);
+    bridge->compact_relative = calloc(poses * pose_size, sizeof *bridge->compact_relative);
+    bridge->compact_before = calloc(poses * pose_size, sizeof *bridge->compact_before);
+    bridge->compact_edges = calloc(edges, sizeof *bridge->compact_edges);
     bridge->out_ids = calloc(poses, sizeof *bridge->out_ids);
     bridge->out_values = calloc(poses * pose_size, sizeof *bridge->out_values);
     bridge->out_rows = calloc(poses, sizeof *bridge->out_rows);
@@ -60,7 +67,11 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
         bridge->component == NULL || bridge->component_anchor == NULL || bridge->raw == NULL || bridge->part_edges == NULL ||
         bridge->out_ids == NULL || bridge->out_values == NULL ||
         bridge->out_rows == NULL || bridge->out_loops == NULL || bridge->out_sources == NULL ||
-        bridge->out_last == NULL) {
+        bridge->out_last == NULL || bridge->compact_pose_map == NULL ||
+        bridge->compact_edge_map == NULL || bridge->compact_ids == NULL ||
+        bridge->compact_anchors == NULL || bridge->compact_relative == NULL ||
+        bridge->compact_before == NULL ||
+        bridge->compact_edges == NULL) {
         snprintf(message, message_size, "out of memory for %u poses and %u edges",
                  (unsigned)o->max_poses, (unsigned)o->max_edges);
         return -1;
@@ -115,6 +126,13 @@ void bridge_graph_free(bridge_t *bridge)
     free(bridge->component_anchor);
     free(bridge->raw);
     free(bridge->part_edges);
+    free(bridge->compact_pose_map);
+    free(bridge->compact_edge_map);
+    free(bridge->compact_ids);
+    free(bridge->compact_anchors);
+    free(bridge->compact_relative);
+    free(bridge->compact_before);
+    free(bridge->compact_edges);
     free(bridge->out_ids);
     free(bridge->out_values);
     free(bridge->out_rows);
@@ -252,6 +270,8 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
         if (status != PGEM_OK) {
             snprintf(what, sizeof what, "pose %llu", (unsigned long long)item->from);
             core_refused(bridge, what, status);
+        } else {
+            (void)bridge_graph_compact(bridge);
         }
         return 0;
     }
@@ -261,6 +281,19 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
     uint32_t index = 0;
     int status = pgem_add_edge(bridge->core, item->from, item->to, item->value, information,
                                (pgem_edge_kind_t)item->kind, &index);
+    pgem_item_t moved;
+    if (status == PGEM_ERR_UNKNOWN_ID && bridge->options.compact) {
+        /* a pose compaction removed while the edge waited in the queue: onto its anchor */
+        moved = *item;
+        pthread_mutex_lock(&bridge->lock);
+        const int anchored = pgem_ingest_reanchor(bridge->ingest, &moved);
+        pthread_mutex_unlock(&bridge->lock);
+        if (anchored) {
+            status = pgem_add_edge(bridge->core, moved.from, moved.to, moved.value, information,
+                                   (pgem_edge_kind_t)moved.kind, &index);
+            item = &moved;
+        }
+    }
     if (status != PGEM_OK) {
         snprintf(what, sizeof what, "edge %llu -> %llu (sequence %lld)",
                  (unsigned long long)item->from, (unsigned long long)item->to,
@@ -439,6 +472,118 @@ static void count_pruned(bridge_t *bridge, const pgem_update_summary_t *update)
     bridge->pruned_count -= update->loops_readmitted < bridge->pruned_count
                                 ? update->loops_readmitted
                                 : bridge->pruned_count;
+}
+
+static void recount_pruned(bridge_t *bridge);
+
+/* Compaction's water marks: at 90 % of the poses (or of the edges) the graph is compacted to
+ * 70 % of the poses. The 10 % above leaves room for what the reception thread admitted and
+ * queued meanwhile (2000 poses at the default capacity); 20 % removed at a time makes the
+ * factor's rebuild after it rare (once every 0.2 x max_poses poses). */
+#define COMPACT_HIGH 0.9
+#define COMPACT_LOW 0.7
+#define COMPACT_TAIL 64u
+
+/* Per-pose arrays of the bridge closed up as the core's were (map: old index -> new). */
+static void compact_pose_arrays(bridge_t *bridge, uint32_t before)
+{
+    const size_t pose_size = (size_t)PGEM_POSE_SIZE(bridge->options.dimension);
+    const uint32_t *map = bridge->compact_pose_map;
+    uint32_t solved = 0;
+    for (uint32_t i = 0; i < before; ++i) {
+        const uint32_t j = map[i];
+        if (j == UINT32_MAX) {
+            continue;
+        }
+        solved += i < bridge->solved_poses;
+        memmove(bridge->raw + j * pose_size, bridge->raw + i * pose_size, pose_size * sizeof(double));
+        bridge->anchored[j] = bridge->anchored[i];
+        bridge->user_fixed[j] = bridge->user_fixed[i];
+        bridge->gauge_fixed[j] = bridge->gauge_fixed[i];
+    }
+    bridge->solved_poses = solved;
+}
+
+int bridge_graph_compact(bridge_t *bridge)
+{
+    const pgem_bridge_options_t *o = &bridge->options;
+    pgem_t *core = bridge->core;
+    const uint32_t poses = pgem_pose_count(core), edges = pgem_edge_count(core);
+    if (!o->compact || ((double)poses < COMPACT_HIGH * o->max_poses &&
+                          (double)edges < COMPACT_HIGH * o->max_edges)) {
+        return 0;
+    }
+    const double start = bridge_now();
+    const size_t pose_size = (size_t)PGEM_POSE_SIZE(o->dimension);
+    for (uint32_t i = 0; i < poses; ++i) { /* ids and estimates before: the ingest's anchors */
+        pgem_pose_at(core, i, &bridge->compact_ids[i], bridge->compact_before + i * pose_size, NULL);
+    }
+    pgem_compact_options_t options;
+    memset(&options, 0, sizeof options);
+    options.tail = o->compact_tail != 0u ? o->compact_tail : COMPACT_TAIL;
+    options.pose_map = bridge->compact_pose_map;
+    options.edge_map = bridge->compact_edge_map;
+    pgem_compact_summary_t summary;
+    pgem_compact(core, (uint32_t)(COMPACT_LOW * o->max_poses), &options, &summary);
+    uint32_t removed_ids = 0, removed_edges = 0, kept = UINT32_MAX;
+    for (uint32_t i = 0; i < poses; ++i) { /* each removed pose's anchor: the kept one before */
+        if (bridge->compact_pose_map[i] != UINT32_MAX) {
+            kept = i;
+            continue;
+        }
+        uint32_t anchor = kept;
+        for (uint32_t j = i + 1; anchor == UINT32_MAX && j < poses; ++j) {
+            anchor = bridge->compact_pose_map[j] != UINT32_MAX ? j : UINT32_MAX;
+        }
+        bridge->compact_anchors[removed_ids] = bridge->compact_ids[anchor];
+        (o->dimension == 3 ? pgem_se3_between : pgem_se2_between)(
+            bridge->compact_before + i * pose_size, bridge->compact_before + anchor * pose_size,
+            bridge->compact_relative + removed_ids * pose_size);
+        bridge->compact_ids[removed_ids++] = bridge->compact_ids[i];
+    }
+    for (uint32_t k = 0; k < edges; ++k) {
+        const uint32_t j = bridge->compact_edge_map[k];
+        if (j == UINT32_MAX) {
+            bridge->compact_edges[removed_edges].source = bridge->edge_source[k];
+            bridge->compact_edges[removed_edges++].sequence = bridge->edge_sequence[k];
+            continue;
+        }
+        bridge->edge_source[j] = bridge->edge_source[k];
+        bridge->edge_sequence[j] = bridge->edge_sequence[k];
+    }
+    compact_pose_arrays(bridge, poses);
+    /* the parts again from the kept poses and edges (the holds stay where they were) */
+    bridge_components_reset(bridge);
+    (void)bridge_components_hold(bridge);
+    bridge_graph_drop_pass(bridge);
+    bridge->loop_count = 0;
+    for (uint32_t k = 0; k < pgem_edge_count(core); ++k) {
+        pgem_edge_view_t view;
+        pgem_edge_at(core, k, &view);
+        bridge->loop_count += view.kind == PGEM_EDGE_LOOP;
+    }
+    bridge->pass_loops = 0;
+    recount_pruned(bridge);
+    bridge_graph_counts(bridge);
+    pthread_mutex_lock(&bridge->lock);
+    pgem_ingest_release(bridge->ingest, bridge->compact_ids, bridge->compact_anchors,
+                        bridge->compact_relative, removed_ids, bridge->compact_edges,
+                        removed_edges);
+    pthread_mutex_unlock(&bridge->lock);
+    bridge->compactions++;
+    bridge_log(bridge,
+               "compaction %llu: %u -> %u poses, %u -> %u edges (%u odometry pairs composed, %u "
+               "loop closures carried, %u pruned ones dropped) in %.1f ms; later edges to a "
+               "removed pose enter on the kept pose before it",
+               (unsigned long long)bridge->compactions, summary.poses_before, summary.poses_after,
+               summary.edges_before, summary.edges_after, summary.edges_composed,
+               summary.loops_carried, summary.loops_dropped, 1e3 * (bridge_now() - start));
+    if (summary.poses_after == summary.poses_before) {
+        bridge_note(bridge, "compaction removed nothing (every pose is held, in the newest %u, "
+                            "or has other than two odometry edges): poses beyond the capacity "
+                            "will be refused", options.tail);
+    }
+    return 1;
 }
 
 /* One incremental update and the pruned count after it. */

@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pgem/geometry.h"
 #include "pgem/io.h"
 #include "pgem_command_t.h"
 #include "pgem_edge2_t.h"
@@ -17,11 +18,15 @@
 #define DEFAULT_MAX_PENDING 4096u
 #define DEFAULT_MAX_SOURCES 64u
 #define NONE UINT32_MAX /* end of a waiting list */
+/* Removed poses remembered with their anchors, per pose of capacity: a long mission's later
+ * edges to poses removed long ago still find their anchor (80 bytes each, 1.5 MiB per 1000
+ * poses of capacity in 3D). */
+#define REMOVED_PER_POSE 4u
 
 static const char *const reject_names[PGEM_REJECT_COUNT] = {
     "decode", "dimension", "not_finite", "information", "rotation", "self_loop", "kind",
     "source", "conflict", "capacity", "pending_full", "command", "core", "range", "journal",
-    "expired"};
+    "removed", "expired"};
 
 const char *pgem_reject_name(pgem_reject_t reason)
 {
@@ -73,6 +78,14 @@ struct pgem_ingest {
     void *snapshot_user;
     table_t poses;            /* key (id, 0) */
     table_t edges;            /* key (source, sequence) */
+    table_t removed;          /* ids compaction removed: key (id, 0) */
+    pgem_id_t *removed_ring;  /* the same ids in the order removed (max_poses), to forget the
+                                 oldest when full */
+    pgem_id_t *anchor_ring;   /* each one's anchor (a pose kept when it went) */
+    double *relative_ring;    /* the anchor in the removed pose's frame (pose_size each) */
+    int64_t reanchored;
+    uint32_t removed_head;    /* the oldest */
+    uint32_t removed_count;
     table_t steps;            /* odometry in the graph: key (the smaller of two consecutive
                                  pose ids, 0), content the source index that made the step */
     waiting_t *pending;       /* max_pending slots */
@@ -231,7 +244,15 @@ pgem_ingest_t *pgem_ingest_create(const pgem_ingest_config_t *config, pgem_emit_
     ingest->sources = calloc(ingest->config.max_sources, sizeof *ingest->sources);
     if (!table_init(&ingest->poses, config->max_poses) ||
         !table_init(&ingest->edges, config->max_edges) ||
-        !table_init(&ingest->steps, config->max_poses) || ingest->pending == NULL ||
+        !table_init(&ingest->steps, config->max_poses) ||
+        !table_init(&ingest->removed, REMOVED_PER_POSE * config->max_poses) ||
+        (ingest->removed_ring = calloc((size_t)REMOVED_PER_POSE * config->max_poses,
+                                       sizeof *ingest->removed_ring)) == NULL ||
+        (ingest->anchor_ring = calloc((size_t)REMOVED_PER_POSE * config->max_poses,
+                                      sizeof *ingest->anchor_ring)) == NULL ||
+        (ingest->relative_ring = calloc((size_t)REMOVED_PER_POSE * config->max_poses * PGEM_POSE_SIZE_MAX,
+                                        sizeof *ingest->relative_ring)) == NULL ||
+        ingest->pending == NULL ||
         ingest->free_slots == NULL || ingest->sources == NULL) {
         pgem_ingest_destroy(ingest);
         return NULL;
@@ -246,6 +267,10 @@ void pgem_ingest_destroy(pgem_ingest_t *ingest)
         free(ingest->poses.slots);
         free(ingest->edges.slots);
         free(ingest->steps.slots);
+        free(ingest->removed.slots);
+        free(ingest->removed_ring);
+        free(ingest->anchor_ring);
+        free(ingest->relative_ring);
         free(ingest->pending);
         free(ingest->free_slots);
         free(ingest->sources);
@@ -505,6 +530,109 @@ static int pose_known(const pgem_ingest_t *ingest, pgem_id_t id)
     return table_find(&ingest->poses, id, 0)->used;
 }
 
+/* 1 (the message refused, naming the pose) if a pose message's id is one compaction removed. */
+static int refuse_removed(pgem_ingest_t *ingest, pgem_id_t id, const char *what,
+                          pgem_ingest_result_t *result)
+{
+    if (!table_find(&ingest->removed, id, 0)->used) {
+        return 0;
+    }
+    snprintf(result->message, sizeof result->message,
+             "%s: pose %llu was removed from the map to keep it in its block (compaction: its "
+             "neighbours and loop closures were kept); a removed pose's id is not taken again",
+             what, (unsigned long long)id);
+    reject(ingest, result, PGEM_REJECT_REMOVED);
+    return 1;
+}
+
+/* An edge end on a removed pose moves to its anchor (following anchors removed since): the
+ * measurement composed with where the anchor lies in the removed pose's frame, on the side
+ * of that end. Returns 1 if it moved. */
+static int reanchor_end(pgem_ingest_t *ingest, pgem_item_t *item, int to_end)
+{
+    const int three = ingest->config.dimension == 3;
+    int moved = 0;
+    for (int hops = 0; hops < 64; ++hops) {
+        pgem_id_t *end = to_end ? &item->to : &item->from;
+        const slot_t *slot = table_find(&ingest->removed, *end, 0);
+        if (!slot->used) {
+            break;
+        }
+        const double *relative = ingest->relative_ring + slot->content * PGEM_POSE_SIZE_MAX;
+        double step[PGEM_POSE_SIZE_MAX], out[PGEM_POSE_SIZE_MAX];
+        if (to_end) { /* z' = z T */
+            (three ? pgem_se3_compose : pgem_se2_compose)(item->value, relative, out);
+        } else { /* z' = T^-1 z */
+            (three ? pgem_se3_inverse : pgem_se2_inverse)(relative, step);
+            (three ? pgem_se3_compose : pgem_se2_compose)(step, item->value, out);
+        }
+        memcpy(item->value, out, sizeof(double) * (size_t)PGEM_POSE_SIZE(ingest->config.dimension));
+        *end = ingest->anchor_ring[slot->content];
+        moved = 1;
+    }
+    return moved;
+}
+
+void pgem_ingest_release(pgem_ingest_t *ingest, const pgem_id_t *ids, const pgem_id_t *anchors,
+                         const double *relative, uint32_t id_count,
+                         const pgem_ingest_released_t *edges, uint32_t edge_count)
+{
+    const uint32_t capacity = REMOVED_PER_POSE * ingest->config.max_poses;
+    const size_t size = (size_t)PGEM_POSE_SIZE(ingest->config.dimension);
+    for (uint32_t i = 0; i < id_count; ++i) {
+        slot_t *slot = table_find(&ingest->poses, ids[i], 0);
+        if (slot->used) {
+            table_remove(&ingest->poses, slot);
+            ingest->admitted_poses -= ingest->admitted_poses > 0u;
+        }
+        for (int low = 0; low < 2; ++low) { /* its steps: (id - 1, id) and (id, id + 1) */
+            slot_t *step = table_find(&ingest->steps, ids[i] - (pgem_id_t)(1 - low), 0);
+            if (step->used) {
+                table_remove(&ingest->steps, step);
+            }
+        }
+        if (ingest->removed_count == capacity) { /* forget the oldest */
+            table_remove(&ingest->removed,
+                         table_find(&ingest->removed, ingest->removed_ring[ingest->removed_head], 0));
+            ingest->removed_head = (ingest->removed_head + 1u) % capacity;
+            ingest->removed_count--;
+        }
+        slot_t *removed = table_find(&ingest->removed, ids[i], 0);
+        if (!removed->used) {
+            const uint32_t at = (ingest->removed_head + ingest->removed_count) % capacity;
+            take(removed, ids[i], 0, at);
+            ingest->removed_ring[at] = ids[i];
+            ingest->anchor_ring[at] = anchors[i];
+            memcpy(ingest->relative_ring + (size_t)at * PGEM_POSE_SIZE_MAX, relative + i * size,
+                   size * sizeof(double));
+            ingest->removed_count++;
+        }
+    }
+    for (uint32_t k = 0; k < edge_count; ++k) {
+        slot_t *slot = table_find(&ingest->edges, edges[k].source, (uint64_t)edges[k].sequence);
+        if (slot->used) {
+            table_remove(&ingest->edges, slot);
+            ingest->admitted_edges -= ingest->admitted_edges > 0u;
+        }
+    }
+}
+
+int pgem_ingest_reanchor(pgem_ingest_t *ingest, pgem_item_t *item)
+{
+    const int moved = reanchor_end(ingest, item, 0) | reanchor_end(ingest, item, 1);
+    if (moved && item->from != item->to) {
+        ingest->reanchored++;
+        item->kind = PGEM_EDGE_LOOP;
+        return 1;
+    }
+    return 0;
+}
+
+int64_t pgem_ingest_reanchored(const pgem_ingest_t *ingest)
+{
+    return ingest->reanchored;
+}
+
 /* ---- the pending list ------------------------------------------------------------------- */
 
 /* Appends an edge to the waiting lists (a free slot exists: the caller checked). */
@@ -704,7 +832,8 @@ static void release_pending(pgem_ingest_t *ingest)
 static void admit_pose(pgem_ingest_t *ingest, const pgem_item_t *item, const char *what,
                        pgem_ingest_result_t *result)
 {
-    if (!values_ok(ingest, item->value, what, "estimate", result)) {
+    if (!values_ok(ingest, item->value, what, "estimate", result) ||
+        refuse_removed(ingest, item->from, what, result)) {
         return;
     }
     uint64_t content = item_content(item, ingest->config.dimension);
@@ -823,6 +952,16 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
         }
         return;
     }
+    /* an end on a pose compaction removed goes to its anchor (the key and its content stay
+     * the message's: a resend is still a replay) */
+    const int moved_from = reanchor_end(ingest, item, 0), moved_to = reanchor_end(ingest, item, 1);
+    if ((moved_from || moved_to) && item->from == item->to) {
+        snprintf(result->message, sizeof result->message,
+                 "%s: its poses were removed from the map and both lie on pose %llu now", what,
+                 (unsigned long long)item->from);
+        reject(ingest, result, PGEM_REJECT_REMOVED);
+        return;
+    }
     int ready = pose_known(ingest, item->from) && pose_known(ingest, item->to);
     uint32_t victim = NONE;
     if (!ready && ingest->pending_count >= ingest->config.max_pending) {
@@ -855,6 +994,12 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
     source_admit(ingest, item->source, source, item->sequence);
     ingest->admitted_edges++;
     ingest->counts.accepted_edges++;
+    if (moved_from || moved_to) {
+        ingest->reanchored++;
+        if (item->kind == PGEM_EDGE_ODOMETRY) { /* a step no more: the robust layer weighs it */
+            item->kind = PGEM_EDGE_LOOP;
+        }
+    }
     if (ready) {
         emit_edge(ingest, item);
     } else {
@@ -915,6 +1060,9 @@ static void reset(pgem_ingest_t *ingest)
     table_clear(&ingest->poses);
     table_clear(&ingest->edges);
     table_clear(&ingest->steps);
+    table_clear(&ingest->removed);
+    ingest->removed_head = 0;
+    ingest->removed_count = 0;
     pending_clear(ingest);
     ingest->admitted_poses = 0;
     ingest->admitted_edges = 0;

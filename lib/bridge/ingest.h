@@ -48,6 +48,8 @@ typedef enum pgem_reject {
     PGEM_REJECT_RANGE,         /* a translation or information entry beyond the core's limits
                                   (PGEM_TRANSLATION_LIMIT, PGEM_INFORMATION_LIMIT) */
     PGEM_REJECT_JOURNAL,       /* the admit hook refused it (the journal could not write it) */
+    PGEM_REJECT_REMOVED,       /* names a pose compaction removed from the map (a pose id is
+                                  never used again) */
     PGEM_REJECT_EXPIRED,       /* an accepted edge that waited past the pending timeout for
                                   its poses, or made room in a full pending list: it left the
                                   accepted count for this one */
@@ -178,6 +180,29 @@ void pgem_ingest_message(pgem_ingest_t *ingest, pgem_role_t role, const void *da
 
 /* Expires what has waited too long by `utime` without a message (a quiet bridge still lets
  * them go). Returns how many expired. */
+/* An edge the graph no longer holds (compaction removed or replaced it). */
+typedef struct pgem_ingest_released {
+    uint16_t source;
+    int64_t sequence;
+} pgem_ingest_released_t;
+
+/* After a compaction of the graph: the removed poses' ids and the removed edges' keys leave
+ * the tables, their capacity freed. Each removed id is remembered with its anchor: a pose
+ * that was kept (anchors[i]) and where it lies in the removed pose's frame (relative, pose_size
+ * values each). A later edge naming a removed pose enters on its anchor, the measurement
+ * composed with that relative pose (through anchors removed since, too); a pose message with
+ * a removed id is refused as `removed`. At most 4 x max_poses ids are remembered, the oldest
+ * forgotten first: an edge naming a forgotten one waits for its pose and expires. */
+void pgem_ingest_release(pgem_ingest_t *ingest, const pgem_id_t *ids, const pgem_id_t *anchors,
+                         const double *relative, uint32_t id_count,
+                         const pgem_ingest_released_t *edges, uint32_t edge_count);
+/* An admitted edge whose pose compaction removed after the ingest let it through (it was in
+ * the queue): its ends moved onto their anchors as pgem_ingest_release describes. Returns 1
+ * if an end moved. */
+int pgem_ingest_reanchor(pgem_ingest_t *ingest, pgem_item_t *item);
+/* Edges that entered on a removed pose's anchor since the start (a status counter). */
+int64_t pgem_ingest_reanchored(const pgem_ingest_t *ingest);
+
 uint32_t pgem_ingest_expire(pgem_ingest_t *ingest, int64_t utime);
 
 /* The latest expiry in words, naming the edge and why ("" before the first). */

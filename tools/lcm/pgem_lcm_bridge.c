@@ -42,6 +42,14 @@ static void usage(FILE *out, const void *context)
             "                         (debounced, rate-limited) instead of an incremental\n"
             "                         update per pose; the settle solve after idle is the same\n"
             "  --incremental          the default (kept for older command lines)\n"
+            "  --compact              keep mapping past the capacity: at 90%% of --max-poses\n"
+            "                         or --max-edges remove poses down to 70%% (chain poses\n"
+            "                         first, their odometry composed, loop closures carried\n"
+            "                         onto kept poses); a later edge to a removed pose enters\n"
+            "                         on the kept pose before it, a pose message with a\n"
+            "                         removed id is refused as 'removed' (default: poses\n"
+            "                         beyond the capacity are refused)\n"
+            "  --compact-tail N       the newest poses compaction never removes (64)\n"
             "  --no-live-em           incremental: no whole-graph EM passes while the stream\n"
             "                         goes on (by default one runs on a copy of the graph, on\n"
             "                         a thread of its own, and its verdicts and estimate are\n"
@@ -119,6 +127,7 @@ static const valued_option_t valued_options[] = {
     {"--fill-budget", COUNT, FIELD(fill_budget)},
     {"--max-pending", COUNT, FIELD(max_pending)},
     {"--max-sources", COUNT, FIELD(max_sources)},
+    {"--compact-tail", COUNT, FIELD(compact_tail)},
     {"--journal", PATH, FIELD(journal)},
     {"--snapshot-dir", PATH, FIELD(snapshot_dir)},
     {"--snapshot-limit", COUNT, FIELD(snapshot_limit)},
@@ -218,6 +227,8 @@ static int parse_flag(void *user, const char *name)
         p->options.full = 0;
     } else if (strcmp(name, "--no-live-em") == 0) {
         p->options.no_live_em = 1;
+    } else if (strcmp(name, "--compact") == 0) {
+        p->options.compact = 1;
     } else {
         return 0;
     }
