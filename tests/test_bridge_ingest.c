@@ -1154,6 +1154,42 @@ static void test_odometry_checked_against_the_chain(void **state)
     pgem_ingest_destroy(ingest);
 }
 
+/* Issue 32: after a compaction the ingest frees the removed poses' capacity and keys; a later
+ * edge naming a removed pose enters on its anchor (the measurement composed with where the
+ * anchor lies in the removed pose's frame, through an anchor removed since too), as a loop
+ * closure; a pose message with a removed id is refused as removed; a resend of a kept edge is
+ * still a replay. */
+static void test_release_and_anchors(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 4, 8, 4, &sink);
+    for (int64_t id = 0; id < 4; ++id) {
+        feed(ingest, PGEM_ROLE_POSE, pose2(id, (double)id, 0, 0));
+    }
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(0, 0, 1)).verdict, PGEM_VERDICT_ACCEPTED);
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(1, 1, 2)).verdict, PGEM_VERDICT_ACCEPTED);
+    expect_rejected(ingest, PGEM_ROLE_POSE, pose2(4, 4, 0, 0), PGEM_REJECT_CAPACITY);
+    /* poses 1 and 2 removed: 1 anchored on 0 (1 m behind it), 2 on 1 (1 m behind) */
+    const pgem_id_t ids[2] = {1, 2}, anchors[2] = {0, 1};
+    const double relative[6] = {-1.0, 0.0, 0.0, -1.0, 0.0, 0.0};
+    const pgem_ingest_released_t edges[1] = {{0, 1}};
+    pgem_ingest_release(ingest, ids, anchors, relative, 2, edges, 1);
+    assert_int_equal(feed(ingest, PGEM_ROLE_POSE, pose2(4, 4, 0, 0)).verdict, PGEM_VERDICT_ACCEPTED);
+    expect_rejected(ingest, PGEM_ROLE_POSE, pose2(2, 2, 0, 0), PGEM_REJECT_REMOVED);
+    const int before = sink.count;
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(7, 3, 2)).verdict, PGEM_VERDICT_ACCEPTED);
+    assert_int_equal(sink.count, before + 1);
+    const pgem_item_t *moved = &sink.items[sink.count - 1];
+    assert_int_equal(moved->from, 3);
+    assert_int_equal(moved->to, 0);   /* 2 -> 1 -> 0 */
+    assert_int_equal(moved->kind, PGEM_EDGE_LOOP);
+    assert_true(fabs(moved->value[0] - (1.0 - 2.0)) < 1e-12); /* 1 m, then 2 m back */
+    assert_int_equal(pgem_ingest_reanchored(ingest), 1);
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(7, 3, 2)).verdict, PGEM_VERDICT_REPLAY);
+    pgem_ingest_destroy(ingest);
+}
+
 /* Issue 31, row 9 (c): the conflict message after sequence INT64_MAX computed "number on from
  * INT64_MAX + 1", a signed overflow. */
 static void test_conflict_at_the_highest_sequence(void **state)
@@ -1229,6 +1265,7 @@ int main(void)
         cmocka_unit_test(test_robust_option_defaults),
         cmocka_unit_test(test_odometry_checked_against_the_chain),
         cmocka_unit_test(test_conflict_at_the_highest_sequence),
+        cmocka_unit_test(test_release_and_anchors),
         cmocka_unit_test(test_information_badly_conditioned),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
