@@ -531,12 +531,18 @@ static int open_journal(bridge_t *bridge, char *message, size_t message_size)
 static int start(bridge_t *bridge, char *message, size_t message_size)
 {
     const pgem_bridge_options_t *o = &bridge->options;
-    pgem_ingest_config_t ingest_config = {o->dimension, o->max_poses, o->max_edges,
+    /* With --compact the graph never holds more than 90 % of the capacities (the solver thread
+     * compacts as it adds), so what waits in the queue may go past them: the reception thread
+     * admits up to half as much again, room for a solver thread that falls behind a burst
+     * (a loaded or slow machine) without refusing poses for capacity. */
+    const uint32_t admit_poses = o->compact ? o->max_poses + o->max_poses / 2u : o->max_poses;
+    const uint32_t admit_edges = o->compact ? o->max_edges + o->max_edges / 2u : o->max_edges;
+    pgem_ingest_config_t ingest_config = {o->dimension, admit_poses, admit_edges,
                                           o->max_pending, o->max_sources,
                                           (int64_t)(o->pending_timeout * 1e6),
                                           o->snapshot_dir != NULL};
     bridge->ingest = pgem_ingest_create(&ingest_config, emit, bridge);
-    bridge->queue_capacity = (uint64_t)o->max_poses + o->max_edges + BATCH;
+    bridge->queue_capacity = (uint64_t)admit_poses + admit_edges + BATCH;
     bridge->queue = calloc((size_t)bridge->queue_capacity, sizeof *bridge->queue);
     if (bridge->ingest == NULL || bridge->queue == NULL) {
         snprintf(message, message_size, "out of memory for %u poses and %u edges",
