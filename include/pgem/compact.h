@@ -34,6 +34,8 @@ typedef struct pgem_compact_summary {
     uint32_t loops_carried;   /**< loop closures moved from a removed pose onto a neighbour (a
                                    loop moved again from there counts again) */
     uint32_t loops_dropped;   /**< pruned loop closures removed with their pose */
+    uint32_t loops_fused;     /**< loop closures joining the same two kept poses as another,
+                                   fused into it */
 } pgem_compact_summary_t;
 
 /**

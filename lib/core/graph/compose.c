@@ -116,3 +116,99 @@ int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t
     }
     return pgem_information_check(information, n, NULL) == PGEM_OK;
 }
+
+int pgem_edge_fuse(const pgem_t *graph, uint32_t ka, double weight_a, uint32_t kb,
+                   double weight_b, double *measurement, double *information)
+{
+    const pgem_store_t *store = &graph->store;
+    const int three = graph->config.dimension == 3, n = graph->tangent;
+    const size_t size = (size_t)graph->pose_size, nn = (size_t)n * (size_t)n;
+    const int reversed = store->edge_from[kb] != store->edge_from[ka]; /* kb: to -> from */
+    const double *za = store->edge_measurement + (size_t)ka * size;
+    const double *zb = store->edge_measurement + (size_t)kb * size;
+    double x1[PGEM_POSE_SIZE_MAX] = {0.0}, x2[PGEM_POSE_SIZE_MAX];
+    x1[three ? 6 : 2] = three ? 1.0 : 0.0;
+    memcpy(x2, za, size * sizeof(double));
+    double h[PGEM_SMALL_MAX * PGEM_SMALL_MAX], t[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
+    double u[PGEM_SMALL_MAX * PGEM_SMALL_MAX], inverse[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
+    double oa[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0}, ob[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
+    for (size_t q = 0; q < nn; q++) {
+        oa[q] = weight_a * store->edge_information[(size_t)ka * nn + q];
+        ob[q] = weight_b * store->edge_information[(size_t)kb * nn + q];
+    }
+    /* the second pose where both measurements agree best: Gauss-Newton from ka's, the first
+     * pose at the identity (a few steps: the two are accepted loops, close to each other) */
+    for (int iteration = 0; iteration < 4; iteration++) {
+        double ea[PGEM_TANGENT_SIZE_MAX], eb[PGEM_TANGENT_SIZE_MAX], g[PGEM_SMALL_MAX] = {0.0};
+        double ja[PGEM_SMALL_MAX * PGEM_SMALL_MAX], jb[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
+        double unused[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
+        if (three) {
+            pgem_se3_error(x1, x2, za, ea, unused, ja);
+        } else {
+            pgem_se2_error(x1, x2, za, ea, unused, ja);
+        }
+        if (three) {
+            if (reversed) {
+                pgem_se3_error(x2, x1, zb, eb, jb, unused);
+            } else {
+                pgem_se3_error(x1, x2, zb, eb, unused, jb);
+            }
+        } else if (reversed) {
+            pgem_se2_error(x2, x1, zb, eb, jb, unused);
+        } else {
+            pgem_se2_error(x1, x2, zb, eb, unused, jb);
+        }
+        pgem_small_product(oa, 0, ja, 0, t, n); /* H = Ja' Oa Ja + Jb' Ob Jb */
+        pgem_small_product(ja, 1, t, 0, h, n);
+        pgem_small_product(ob, 0, jb, 0, t, n);
+        pgem_small_product(jb, 1, t, 0, u, n);
+        for (size_t q = 0; q < nn; q++) {
+            h[q] += u[q];
+        }
+        for (int r = 0; r < n; r++) { /* g = Ja' Oa ea + Jb' Ob eb */
+            for (int m = 0; m < n; m++) {
+                double oe_a = 0.0, oe_b = 0.0;
+                for (int c = 0; c < n; c++) {
+                    oe_a += oa[m * n + c] * ea[c];
+                    oe_b += ob[m * n + c] * eb[c];
+                }
+                g[r] += ja[m * n + r] * oe_a + jb[m * n + r] * oe_b;
+            }
+        }
+        if (!pgem_small_inverse(h, inverse, n)) {
+            return 0;
+        }
+        double step[PGEM_SMALL_MAX];
+        for (int r = 0; r < n; r++) {
+            step[r] = 0.0;
+            for (int c = 0; c < n; c++) {
+                step[r] -= inverse[r * n + c] * g[c];
+            }
+        }
+        if (three) {
+            pgem_se3_boxplus(x2, step, x2);
+        } else {
+            pgem_se2_boxplus(x2, step, x2);
+        }
+    }
+    /* the fused edge from the first pose to x2: O = B^-T H B^-1 for its Jacobian B on x2 */
+    memcpy(measurement, x2, size * sizeof(double));
+    double b[PGEM_SMALL_MAX * PGEM_SMALL_MAX], b_inverse[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
+    double unused[PGEM_SMALL_MAX * PGEM_SMALL_MAX], e[PGEM_TANGENT_SIZE_MAX];
+    if (three) {
+        pgem_se3_error(x1, x2, measurement, e, unused, b);
+    } else {
+        pgem_se2_error(x1, x2, measurement, e, unused, b);
+    }
+    if (!pgem_small_inverse(b, b_inverse, n)) {
+        return 0;
+    }
+    pgem_small_product(h, 0, b_inverse, 0, t, n);
+    pgem_small_product(b_inverse, 1, t, 0, u, n);
+    for (int r = 0; r < n; r++) {
+        for (int c = 0; c < n; c++) {
+            information[r * n + c] = 0.5 * (u[r * n + c] + u[c * n + r]);
+        }
+    }
+    return pgem_information_check(information, n, NULL) == PGEM_OK;
+}

@@ -65,6 +65,13 @@ int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t
                       double share_b, uint32_t p, uint32_t *from, uint32_t *to,
                       double *measurement, double *information);
 
+/* Edges ka and kb, which join the same two poses (either way round), fused into one edge
+ * from ka's first pose to its second (graph/compose.c): the measurement where the two,
+ * weighted by weight_a and weight_b, agree best, and their information together. Returns 0
+ * when that information is not a usable one. */
+int pgem_edge_fuse(const pgem_t *graph, uint32_t ka, double weight_a, uint32_t kb,
+                   double weight_b, double *measurement, double *information);
+
 /* Appends edge k's pose ids, "FROM-TO", to the message (graph/idmap.c). */
 void pgem_message_edge(pgem_t *graph, uint32_t k);
 

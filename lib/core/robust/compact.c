@@ -4,9 +4,10 @@
  * the loop is carried or dropped, and the incremental factor must be told. Scratch: the robust
  * layer's copies for a failed solve (pose_initial, edge_weight_saved) and the loop distances
  * (edge_distance), none of which outlives a call: per pose its new index, its first edge end
- * and the sweep that last changed it (12 bytes of the 24 or more pose_initial holds); per edge
+ * and the sweep that last changed it (of the 24 bytes or more pose_initial holds); per edge
  * its new index (4 of edge_weight_saved's 8 bytes) and, per edge end, the next end of the
- * same pose (edge_distance's 8 bytes). */
+ * same pose (edge_distance's 8 bytes); fusing, per pose, the pose and loop that last reached
+ * it (20 bytes a pose in all). */
 #include <string.h>
 
 #include "instance.h"
@@ -22,6 +23,8 @@ typedef struct pgem_compactor {
     uint32_t *pose_new; /* PGEM_COMPACT_GONE once removed */
     int32_t *first;     /* a pose's first edge end (2 k + side), -1 none */
     uint32_t *touched;  /* the sweep in which a pose's edges last changed */
+    uint32_t *seen;     /* fusing: the pose whose loops last reached this one (+ 1) */
+    uint32_t *seen_by;  /* fusing: the loop that did */
     uint32_t *edge_new; /* PGEM_COMPACT_GONE once removed */
     int32_t *next;      /* the next edge end of the same pose */
     uint32_t alive;
@@ -211,6 +214,55 @@ static void pgem_compact_sweeps(pgem_compactor_t *c, uint32_t target, uint32_t l
     }
 }
 
+/* Loop closures in the problem (accepted or dormant) that join the same two kept poses, most
+ * often loops carried onto the same pair, fused into the first of them: their measurements
+ * where they agree best, their weighted information together, weight 1. A block holds a
+ * long mission's loop closures only so: carried, they pile up between the poses kept. */
+static void pgem_compact_fuse(pgem_compactor_t *c)
+{
+    pgem_t *graph = c->graph;
+    pgem_store_t *store = &graph->store;
+    const int n = graph->tangent;
+    for (uint32_t a = 0; a < store->pose_count; a++) {
+        c->seen[a] = 0u;
+    }
+    for (uint32_t a = 0; a < store->pose_count; a++) {
+        if (c->pose_new[a] == PGEM_COMPACT_GONE) {
+            continue;
+        }
+        for (int32_t end = c->first[a]; end >= 0; end = c->next[end]) {
+            const uint32_t k = (uint32_t)end >> 1;
+            if (c->edge_new[k] == PGEM_COMPACT_GONE || pgem_end_pose(store, end) != a ||
+                store->edge_kind[k] != PGEM_EDGE_LOOP || store->edge_active[k] == PGEM_EDGE_PRUNED) {
+                continue;
+            }
+            const uint32_t b = pgem_other(store, k, a);
+            if (b < a) {
+                continue; /* the pair is met from its first pose */
+            }
+            if (c->seen[b] != a + 1u) {
+                c->seen[b] = a + 1u;
+                c->seen_by[b] = k;
+                continue;
+            }
+            const uint32_t keep = c->seen_by[b];
+            double z[PGEM_POSE_SIZE_MAX], information[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+            if (!pgem_edge_fuse(graph, keep, store->edge_weight[keep], k, store->edge_weight[k], z,
+                                information)) {
+                continue;
+            }
+            memcpy(store->edge_measurement + (size_t)keep * (size_t)graph->pose_size, z,
+                   (size_t)graph->pose_size * sizeof(double));
+            memcpy(store->edge_information + (size_t)keep * (size_t)n * (size_t)n, information,
+                   (size_t)n * (size_t)n * sizeof(double));
+            store->edge_weight[keep] = 1.0;
+            store->edge_active[keep] = PGEM_EDGE_ACTIVE;
+            c->edge_new[k] = PGEM_COMPACT_GONE;
+            c->summary->loops_fused++;
+        }
+    }
+}
+
 /* Closes up the arrays in order and rebuilds the id map; the maps out when asked. */
 static void pgem_compact_close(pgem_compactor_t *c, const pgem_compact_options_t *options)
 {
@@ -294,6 +346,8 @@ int pgem_compact(pgem_t *graph, uint32_t target_poses, const pgem_compact_option
     c.pose_new = (uint32_t *)(void *)graph->robust.pose_initial;
     c.first = (int32_t *)(void *)(c.pose_new + max_poses);
     c.touched = (uint32_t *)(void *)(c.first + max_poses);
+    c.seen = c.touched + max_poses;
+    c.seen_by = c.seen + max_poses;
     c.edge_new = (uint32_t *)(void *)graph->robust.edge_weight_saved;
     c.next = (int32_t *)(void *)graph->robust.edge_distance;
     c.alive = store->pose_count;
@@ -314,6 +368,7 @@ int pgem_compact(pgem_t *graph, uint32_t target_poses, const pgem_compact_option
     pgem_compact_sweeps(&c, target_poses, limit, 0); /* chain poses first */
     if (options == NULL || !options->chain_only) {
         pgem_compact_sweeps(&c, target_poses, limit, 1);
+        pgem_compact_fuse(&c);
     }
     pgem_compact_close(&c, options);
     out->poses_after = store->pose_count;
