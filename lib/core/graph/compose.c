@@ -41,6 +41,44 @@ static void pgem_compose_step(int three, const double *base, const double *z, in
     }
 }
 
+/* out = A' Oa A + B' Ob B (n x n): the information two edges give the pose they share. */
+static void pgem_compose_sum(const double *oa, const double *a, const double *ob, const double *b,
+                             double *out, int n)
+{
+    double t[PGEM_SMALL_MAX * PGEM_SMALL_MAX], u[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
+    pgem_small_product(oa, 0, a, 0, t, n);
+    pgem_small_product(a, 1, t, 0, out, n);
+    pgem_small_product(ob, 0, b, 0, t, n);
+    pgem_small_product(b, 1, t, 0, u, n);
+    for (int q = 0; q < n * n; q++) {
+        out[q] += u[q];
+    }
+}
+
+/* The edge from x1 to x2 whose information on x2 is h: measurement x2 (relative to x1, the
+ * identity), information O with B' O B = h for its Jacobian B on x2, O = B^-T h B^-1. Returns
+ * 0 when that information is not a usable one. */
+static int pgem_compose_edge(int three, const double *x1, const double *x2, const double *h,
+                             int n, size_t size, double *measurement, double *information)
+{
+    memcpy(measurement, x2, size * sizeof(double));
+    double b[PGEM_SMALL_MAX * PGEM_SMALL_MAX], b_inverse[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
+    double unused[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
+    double t[PGEM_SMALL_MAX * PGEM_SMALL_MAX], u[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
+    pgem_compose_error(three, x1, x2, measurement, unused, b);
+    if (!pgem_small_inverse(b, b_inverse, n)) {
+        return 0;
+    }
+    pgem_small_product(h, 0, b_inverse, 0, t, n);
+    pgem_small_product(b_inverse, 1, t, 0, u, n);
+    for (int r = 0; r < n; r++) { /* symmetric to the last bit */
+        for (int c = 0; c < n; c++) {
+            information[r * n + c] = 0.5 * (u[r * n + c] + u[c * n + r]);
+        }
+    }
+    return pgem_information_check(information, n, NULL) == PGEM_OK;
+}
+
 int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t kb,
                       double share_b, uint32_t p, uint32_t *from, uint32_t *to,
                       double *measurement, double *information)
@@ -80,13 +118,7 @@ int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t
     double t[PGEM_SMALL_MAX * PGEM_SMALL_MAX], u[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
     double hpp[PGEM_SMALL_MAX * PGEM_SMALL_MAX], hp2[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
     double h22[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
-    pgem_small_product(oa, 0, ja, 0, t, n);   /* Hpp = Ja' Oa Ja + Jbp' Ob Jbp */
-    pgem_small_product(ja, 1, t, 0, hpp, n);
-    pgem_small_product(ob, 0, jb_p, 0, t, n);
-    pgem_small_product(jb_p, 1, t, 0, u, n);
-    for (size_t q = 0; q < nn; q++) {
-        hpp[q] += u[q];
-    }
+    pgem_compose_sum(oa, ja, ob, jb_p, hpp, n); /* Hpp = Ja' Oa Ja + Jbp' Ob Jbp */
     pgem_small_product(ob, 0, jb_2, 0, t, n); /* Hp2 = Jbp' Ob Jb2, H22 = Jb2' Ob Jb2 */
     pgem_small_product(jb_p, 1, t, 0, hp2, n);
     pgem_small_product(jb_2, 1, t, 0, h22, n);
@@ -100,21 +132,8 @@ int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t
         h22[q] -= u[q];
     }
     /* the composed edge from x1 to x2: its measurement x2, its Jacobian B on x2; the
-     * information O with B' O B = L, O = B^-T L B^-1 */
-    memcpy(measurement, x2, size * sizeof(double));
-    double b[PGEM_SMALL_MAX * PGEM_SMALL_MAX], b_inverse[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
-    pgem_compose_error(three, x1, x2, measurement, unused, b);
-    if (!pgem_small_inverse(b, b_inverse, n)) {
-        return 0;
-    }
-    pgem_small_product(h22, 0, b_inverse, 0, t, n);
-    pgem_small_product(b_inverse, 1, t, 0, u, n);
-    for (int r = 0; r < n; r++) { /* symmetric to the last bit */
-        for (int c = 0; c < n; c++) {
-            information[r * n + c] = 0.5 * (u[r * n + c] + u[c * n + r]);
-        }
-    }
-    return pgem_information_check(information, n, NULL) == PGEM_OK;
+     * information O with B' O B = L */
+    return pgem_compose_edge(three, x1, x2, h22, n, size, measurement, information);
 }
 
 int pgem_edge_fuse(const pgem_t *graph, uint32_t ka, double weight_a, uint32_t kb,
@@ -129,8 +148,7 @@ int pgem_edge_fuse(const pgem_t *graph, uint32_t ka, double weight_a, uint32_t k
     double x1[PGEM_POSE_SIZE_MAX] = {0.0}, x2[PGEM_POSE_SIZE_MAX];
     x1[three ? 6 : 2] = three ? 1.0 : 0.0;
     memcpy(x2, za, size * sizeof(double));
-    double h[PGEM_SMALL_MAX * PGEM_SMALL_MAX], t[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
-    double u[PGEM_SMALL_MAX * PGEM_SMALL_MAX], inverse[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
+    double h[PGEM_SMALL_MAX * PGEM_SMALL_MAX], inverse[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
     double oa[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0}, ob[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
     for (size_t q = 0; q < nn; q++) {
         oa[q] = weight_a * store->edge_information[(size_t)ka * nn + q];
@@ -158,13 +176,7 @@ int pgem_edge_fuse(const pgem_t *graph, uint32_t ka, double weight_a, uint32_t k
         } else {
             pgem_se2_error(x1, x2, zb, eb, unused, jb);
         }
-        pgem_small_product(oa, 0, ja, 0, t, n); /* H = Ja' Oa Ja + Jb' Ob Jb */
-        pgem_small_product(ja, 1, t, 0, h, n);
-        pgem_small_product(ob, 0, jb, 0, t, n);
-        pgem_small_product(jb, 1, t, 0, u, n);
-        for (size_t q = 0; q < nn; q++) {
-            h[q] += u[q];
-        }
+        pgem_compose_sum(oa, ja, ob, jb, h, n); /* H = Ja' Oa Ja + Jb' Ob Jb */
         for (int r = 0; r < n; r++) { /* g = Ja' Oa ea + Jb' Ob eb */
             for (int m = 0; m < n; m++) {
                 double oe_a = 0.0, oe_b = 0.0;
@@ -191,24 +203,6 @@ int pgem_edge_fuse(const pgem_t *graph, uint32_t ka, double weight_a, uint32_t k
             pgem_se2_boxplus(x2, step, x2);
         }
     }
-    /* the fused edge from the first pose to x2: O = B^-T H B^-1 for its Jacobian B on x2 */
-    memcpy(measurement, x2, size * sizeof(double));
-    double b[PGEM_SMALL_MAX * PGEM_SMALL_MAX], b_inverse[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
-    double unused[PGEM_SMALL_MAX * PGEM_SMALL_MAX], e[PGEM_TANGENT_SIZE_MAX];
-    if (three) {
-        pgem_se3_error(x1, x2, measurement, e, unused, b);
-    } else {
-        pgem_se2_error(x1, x2, measurement, e, unused, b);
-    }
-    if (!pgem_small_inverse(b, b_inverse, n)) {
-        return 0;
-    }
-    pgem_small_product(h, 0, b_inverse, 0, t, n);
-    pgem_small_product(b_inverse, 1, t, 0, u, n);
-    for (int r = 0; r < n; r++) {
-        for (int c = 0; c < n; c++) {
-            information[r * n + c] = 0.5 * (u[r * n + c] + u[c * n + r]);
-        }
-    }
-    return pgem_information_check(information, n, NULL) == PGEM_OK;
+    /* the fused edge from the first pose to x2, its information on x2 the two's together */
+    return pgem_compose_edge(three, x1, x2, h, n, size, measurement, information);
 }
