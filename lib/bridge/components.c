@@ -12,6 +12,14 @@ void bridge_components_reset(bridge_t *bridge)
     bridge->main_anchor = UINT32_MAX;
 }
 
+/* The id of pose index i. */
+static pgem_id_t id_of(const bridge_t *bridge, uint32_t i)
+{
+    pgem_id_t id = 0;
+    pgem_pose_at(bridge->core, i, &id, NULL, NULL);
+    return id;
+}
+
 /* Holds pose index i as a part's gauge: want BRIDGE_HOLD_FIXED fixes it (the part with the
  * smallest pose id: the gauge the offline tools hold), BRIDGE_HOLD_GAUGE holds the gauge of
  * another part (pgem_hold_gauge: the pose free, its block damped, so loop closures to the
@@ -21,22 +29,13 @@ static void hold_gauge(bridge_t *bridge, uint32_t i, uint8_t want)
     if (i == UINT32_MAX || bridge->gauge_fixed[i] == want) {
         return;
     }
-    pgem_id_t id = 0;
-    pgem_pose_at(bridge->core, i, &id, NULL, NULL);
+    const pgem_id_t id = id_of(bridge, i);
     if (want == BRIDGE_HOLD_GAUGE) {
         pgem_hold_gauge(bridge->core, id, 1);
     } else {
         pgem_fix_pose(bridge->core, id, want == BRIDGE_HOLD_FIXED);
     }
     bridge->gauge_fixed[i] = want;
-}
-
-/* The id of pose index i. */
-static pgem_id_t id_of(const bridge_t *bridge, uint32_t i)
-{
-    pgem_id_t id = 0;
-    pgem_pose_at(bridge->core, i, &id, NULL, NULL);
-    return id;
 }
 
 /* Holds a part's anchor: fixed when it is the main part's (the smallest id of all anchors),
@@ -62,11 +61,7 @@ static uint32_t merged_anchor(const bridge_t *bridge, uint32_t a, uint32_t b)
     if (a == UINT32_MAX || b == UINT32_MAX) {
         return UINT32_MAX;
     }
-    pgem_id_t id_a = 0;
-    pgem_id_t id_b = 0;
-    pgem_pose_at(bridge->core, a, &id_a, NULL, NULL);
-    pgem_pose_at(bridge->core, b, &id_b, NULL, NULL);
-    return id_a < id_b ? a : b;
+    return id_of(bridge, a) < id_of(bridge, b) ? a : b;
 }
 
 /* Marks the part rooted at root as having an edge (counted once). */

@@ -617,15 +617,28 @@ void pgem_ingest_release(pgem_ingest_t *ingest, const pgem_id_t *ids, const pgem
     }
 }
 
+/* Both ends of an edge onto their anchors; 1 if either moved. */
+static int reanchor(pgem_ingest_t *ingest, pgem_item_t *item)
+{
+    const int moved_from = reanchor_end(ingest, item, 0);
+    return reanchor_end(ingest, item, 1) | moved_from;
+}
+
+/* A re-anchored edge that goes in: counted, and a loop closure (a step of the chain no more:
+ * the robust layer weighs it). */
+static void reanchored_goes_in(pgem_ingest_t *ingest, pgem_item_t *item)
+{
+    ingest->reanchored++;
+    item->kind = PGEM_EDGE_LOOP;
+}
+
 int pgem_ingest_reanchor(pgem_ingest_t *ingest, pgem_item_t *item)
 {
-    const int moved = reanchor_end(ingest, item, 0) | reanchor_end(ingest, item, 1);
-    if (moved && item->from != item->to) {
-        ingest->reanchored++;
-        item->kind = PGEM_EDGE_LOOP;
-        return 1;
+    if (!reanchor(ingest, item) || item->from == item->to) {
+        return 0;
     }
-    return 0;
+    reanchored_goes_in(ingest, item);
+    return 1;
 }
 
 int64_t pgem_ingest_reanchored(const pgem_ingest_t *ingest)
@@ -954,8 +967,8 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
     }
     /* an end on a pose compaction removed goes to its anchor (the key and its content stay
      * the message's: a resend is still a replay) */
-    const int moved_from = reanchor_end(ingest, item, 0), moved_to = reanchor_end(ingest, item, 1);
-    if ((moved_from || moved_to) && item->from == item->to) {
+    const int moved = reanchor(ingest, item);
+    if (moved && item->from == item->to) {
         snprintf(result->message, sizeof result->message,
                  "%s: its poses were removed from the map and both lie on pose %llu now", what,
                  (unsigned long long)item->from);
@@ -994,11 +1007,8 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
     source_admit(ingest, item->source, source, item->sequence);
     ingest->admitted_edges++;
     ingest->counts.accepted_edges++;
-    if (moved_from || moved_to) {
-        ingest->reanchored++;
-        if (item->kind == PGEM_EDGE_ODOMETRY) { /* a step no more: the robust layer weighs it */
-            item->kind = PGEM_EDGE_LOOP;
-        }
+    if (moved) {
+        reanchored_goes_in(ingest, item);
     }
     if (ready) {
         emit_edge(ingest, item);

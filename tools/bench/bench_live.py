@@ -840,19 +840,12 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
         parser.error("--seeds, --city-seeds and --counts take comma-separated integers")
     if args.timeout <= 0 or args.live_em < 1 or args.checkpoints < 1 or any(c < 1 for c in args.counts):
         parser.error("--timeout, --live-em, --checkpoints and --counts must be positive")
-    args.pgem, args.out, args.work, args.datasets = (p.resolve() for p in (args.pgem, args.out, args.work,
-                                                                           args.datasets))
-    args.driver = (args.driver or args.pgem.parent.parent / "bench" / "pgem-online-driver").resolve()
+    bench_online.resolve_paths(args)
     return args
 
 
 def main(argv: Sequence[str]) -> int:
-    args = parse_args(argv)
-    try:
-        return run_benchmark(args)
-    except bench_gn.BenchError as error:
-        print(f"bench_live: error: {error}", file=sys.stderr)
-        return 1
+    return bench_online.run_main("bench_live", parse_args, run_benchmark, argv)
 
 
 if __name__ == "__main__":

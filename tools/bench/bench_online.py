@@ -1155,19 +1155,30 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
     del args.every
     if args.timeout <= 0 or args.runs < 1 or any(c < 1 for c in args.counts):
         parser.error("--timeout, --runs and --counts must be positive")
-    args.pgem, args.out, args.work, args.datasets = (p.resolve() for p in (args.pgem, args.out, args.work,
-                                                                           args.datasets))
-    args.driver = (args.driver or args.pgem.parent.parent / "bench" / "pgem-online-driver").resolve()
+    resolve_paths(args)
     return args
 
 
-def main(argv: Sequence[str]) -> int:
-    args = parse_args(argv)
+def resolve_paths(args: argparse.Namespace) -> None:
+    """The tools, outputs and datasets as absolute paths; the driver beside the build's tools
+    unless --driver names one (bench_online.py and bench_live.py)."""
+    args.pgem, args.out, args.work, args.datasets = (p.resolve() for p in (args.pgem, args.out, args.work,
+                                                                           args.datasets))
+    args.driver = (args.driver or args.pgem.parent.parent / "bench" / "pgem-online-driver").resolve()
+
+
+def run_main(name: str, parse, run, argv: Sequence[str]) -> int:
+    """Parses, runs, and turns a BenchError into a line on stderr and exit code 1."""
+    args = parse(argv)
     try:
-        return run_benchmark(args)
+        return run(args)
     except bench_gn.BenchError as error:
-        print(f"bench_online: error: {error}", file=sys.stderr)
+        print(f"{name}: error: {error}", file=sys.stderr)
         return 1
+
+
+def main(argv: Sequence[str]) -> int:
+    return run_main("bench_online", parse_args, run_benchmark, argv)
 
 
 if __name__ == "__main__":
