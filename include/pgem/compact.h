@@ -18,6 +18,9 @@ typedef struct pgem_compact_options {
     uint32_t tail;        /**< the newest poses (insertion order) never removed: a front-end
                                is still linking them (0: 32) */
     int chain_only;       /**< 1: only poses no accepted or dormant loop closure touches */
+    uint32_t target_edges; /**< 0, or: after target_poses, more poses go (a tenth of those
+                               left at a time) until at most this many edges remain or none
+                               more can go; for a block whose edges fill before its poses */
     uint32_t *pose_map;   /**< optional: receives, for each pose index before the call, its
                                index after (UINT32_MAX: removed); room for the poses before */
     uint32_t *edge_map;   /**< optional: the same for edge indices (a composed edge keeps the
@@ -44,15 +47,17 @@ typedef struct pgem_compact_summary {
  * (a trajectory's chain) and it is neither held (pgem_fix_pose, pgem_hold_gauge, the first
  * pose while none is) nor among the newest `tail`; its two odometry edges become one, their
  * composition, with the information of the pair once the pose is marginalised out
- * (linearised where both measurements hold: the measurement is exact). Poses without loop
+ * about the current estimate, and the measurement moved so that the new edge has the pair's
+ * gradient there too (on a solved map the kept poses' optimum does not move; on a dead-reckoned
+ * one the measurement is the plain composition). Poses without loop
  * closures go first, spread along the chain; then, unless chain_only, poses with loop
  * closures: each accepted or dormant loop moves onto the neighbour on the chain, composed
  * with the odometry edge to it, keeping its robust weight and state (nothing is decided
  * again); a pruned loop goes with its pose and is counted. The kept poses keep their ids and
  * estimates; indices close up in order (options->pose_map and edge_map say where each went).
  * The next pgem_update rebuilds its factor; a later solve analyses the smaller graph. Errors:
- * INVALID_ARGUMENT (a NULL graph); PGEM_OK with poses_after above target_poses when no more
- * poses can go.
+ * INVALID_ARGUMENT (a NULL graph); PGEM_OK with poses_after above target_poses (or edges_after
+ * above options->target_edges) when no more poses can go.
  */
 int pgem_compact(pgem_t *graph, uint32_t target_poses, const pgem_compact_options_t *options,
                  pgem_compact_summary_t *summary);

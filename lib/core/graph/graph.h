@@ -57,8 +57,8 @@ void pgem_store_carve(pgem_t *graph, pgem_arena_t *arena);
 void pgem_store_copy(pgem_t *to, const pgem_t *from);
 
 /* Edges ka and kb, which meet at pose index p, composed into one edge between their other
- * ends (graph/compose.c): *from the other end of ka, *to that of kb, the measurement (exact)
- * and the information (p marginalised out, linearised where both measurements hold), taking
+ * ends (graph/compose.c): *from the other end of ka, *to that of kb, the measurement and
+ * information that keep the pair's quadratic form about the estimate (p marginalised out), taking
  * the shares share_a and share_b (in (0, 1]) of the two edges' information. Returns 0 when
  * that information is not a usable one (singular, or refused by pgem_information_check). */
 int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t kb,

@@ -263,6 +263,25 @@ static void pgem_compact_fuse(pgem_compactor_t *c)
     }
 }
 
+/* Chain poses first, then (loops) poses with loop closures, whose carried loops are fused. */
+static void pgem_compact_stage(pgem_compactor_t *c, uint32_t target, uint32_t limit, int loops)
+{
+    pgem_compact_sweeps(c, target, limit, 0);
+    if (loops) {
+        pgem_compact_sweeps(c, target, limit, 1);
+        pgem_compact_fuse(c);
+    }
+}
+
+static uint32_t pgem_compact_edges_alive(const pgem_compactor_t *c)
+{
+    uint32_t alive = 0u;
+    for (uint32_t k = 0; k < c->graph->store.edge_count; k++) {
+        alive += c->edge_new[k] != PGEM_COMPACT_GONE;
+    }
+    return alive;
+}
+
 /* Closes up the arrays in order and rebuilds the id map; the maps out when asked. */
 static void pgem_compact_close(pgem_compactor_t *c, const pgem_compact_options_t *options)
 {
@@ -337,7 +356,8 @@ int pgem_compact(pgem_t *graph, uint32_t target_poses, const pgem_compact_option
     out->poses_before = out->poses_after = store->pose_count;
     out->edges_before = out->edges_after = store->edge_count;
     pgem_message_clear(graph);
-    if (store->pose_count <= target_poses) {
+    if (store->pose_count <= target_poses &&
+        (options == NULL || options->target_edges == 0u || store->edge_count <= options->target_edges)) {
         return PGEM_OK;
     }
     const uint32_t max_poses = graph->config.max_poses;
@@ -365,10 +385,18 @@ int pgem_compact(pgem_t *graph, uint32_t target_poses, const pgem_compact_option
     }
     const uint32_t tail = options != NULL && options->tail != 0u ? options->tail : PGEM_COMPACT_TAIL;
     const uint32_t limit = store->pose_count > tail ? store->pose_count - tail : 0u;
-    pgem_compact_sweeps(&c, target_poses, limit, 0); /* chain poses first */
-    if (options == NULL || !options->chain_only) {
-        pgem_compact_sweeps(&c, target_poses, limit, 1);
-        pgem_compact_fuse(&c);
+    const int loops = options == NULL || !options->chain_only;
+    pgem_compact_stage(&c, target_poses, limit, loops);
+    /* the edge target: a tenth more of the poses at a time until the edges fit or none can go
+     * (a pose removed takes one odometry edge with it; its loops fuse once carried) */
+    const uint32_t target_edges = options != NULL ? options->target_edges : 0u;
+    while (target_edges != 0u && pgem_compact_edges_alive(&c) > target_edges) {
+        const uint32_t before = c.alive;
+        const uint32_t step = c.alive / 10u > 0u ? c.alive / 10u : 1u;
+        pgem_compact_stage(&c, c.alive > step ? c.alive - step : 0u, limit, loops);
+        if (c.alive == before) {
+            break;
+        }
     }
     pgem_compact_close(&c, options);
     out->poses_after = store->pose_count;
