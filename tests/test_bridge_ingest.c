@@ -44,7 +44,7 @@ static pgem_ingest_t *make_ingest(int dimension, uint32_t poses, uint32_t edges,
 {
     memset(sink, 0, sizeof *sink);
     test_clock = 0;
-    pgem_ingest_config_t config = {dimension, poses, edges, pending, 4, 0, 1};
+    pgem_ingest_config_t config = {dimension, poses, edges, pending, 4, 0, 1, 0};
     pgem_ingest_t *ingest = pgem_ingest_create(&config, record, sink);
     assert_non_null(ingest);
     return ingest;
@@ -511,6 +511,29 @@ static void test_ids_at_the_ends_of_the_range(void **state)
     pgem_ingest_destroy(ingest);
 }
 
+/* A compacting bridge whose compaction can free nothing says so: poses and edges beyond the
+ * block are refused as "full" with the reason, replays still recognised; once a compaction
+ * frees room the configured capacity holds again. */
+static void test_full_block(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 6, 6, 4, &sink);
+    feed(ingest, PGEM_ROLE_POSE, pose2(0, 0, 0, 0));
+    feed(ingest, PGEM_ROLE_POSE, pose2(1, 0, 0, 0));
+    pgem_ingest_set_full(ingest, 2, 1, "every pose is held");
+    expect_rejected(ingest, PGEM_ROLE_POSE, pose2(2, 0, 0, 0), PGEM_REJECT_FULL);
+    pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_POSE, pose2(3, 0, 0, 0));
+    assert_non_null(strstr(r.message, "compaction can free nothing (every pose is held)"));
+    assert_int_equal(feed(ingest, PGEM_ROLE_POSE, pose2(1, 0, 0, 0)).verdict, PGEM_VERDICT_REPLAY);
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(0, 0, 1)).verdict, PGEM_VERDICT_ACCEPTED);
+    expect_rejected(ingest, PGEM_ROLE_EDGE, edge2(1, 1, 0), PGEM_REJECT_FULL);
+    pgem_ingest_set_full(ingest, 0, 0, NULL);
+    assert_int_equal(feed(ingest, PGEM_ROLE_POSE, pose2(2, 0, 0, 0)).verdict, PGEM_VERDICT_ACCEPTED);
+    assert_string_equal(pgem_reject_name(PGEM_REJECT_FULL), "full");
+    pgem_ingest_destroy(ingest);
+}
+
 static void test_capacity(void **state)
 {
     (void)state;
@@ -702,7 +725,7 @@ static void test_snapshot_takes_a_plain_name(void **state)
     (void)state;
     sink_t sink;
     memset(&sink, 0, sizeof sink);
-    pgem_ingest_config_t off = {2, 4, 4, 4, 4, 0, 0};
+    pgem_ingest_config_t off = {2, 4, 4, 4, 4, 0, 0, 0};
     pgem_ingest_t *ingest = pgem_ingest_create(&off, record, &sink);
     pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_COMMAND, command(PGEM_COMMAND_T_SNAPSHOT, "map.g2o"));
     assert_int_equal(r.reason, PGEM_REJECT_COMMAND);
@@ -1248,6 +1271,7 @@ int main(void)
         cmocka_unit_test(test_garbage_and_truncation),
         cmocka_unit_test(test_wrong_dimension),
         cmocka_unit_test(test_capacity),
+        cmocka_unit_test(test_full_block),
         cmocka_unit_test(test_ids_at_the_ends_of_the_range),
         cmocka_unit_test(test_commands),
         cmocka_unit_test(test_magnitudes_beyond_the_limits),

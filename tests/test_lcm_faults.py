@@ -1075,8 +1075,8 @@ def compact_scenario(graph: Path, edges: int) -> dict:
     bridge = Bridge(Path("compact.log"), "--max-poses", "1000", "--compact", "--idle-solve", "60")
     bridge.start()
     monitor = Monitor("compact")
-    dump = spawn([program("DUMP"), "-o", "compact.g2o", "--quiet"],
-                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    dump = spawn([program("DUMP"), "-o", "compact.g2o", "--compactions", "compact.removed",
+                  "--quiet"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     time.sleep(0.3)
     finish(sender(graph, "--rate", "2000", "--wait", "120"), "the front-end")
     status = monitor.wait_status("with everything taken",
@@ -1097,8 +1097,24 @@ def compact_scenario(graph: Path, edges: int) -> dict:
     ids = {int(line.split()[1]) for line in Path("compact.g2o").read_text().splitlines()
            if line.startswith("VERTEX")}
     expect(poses - 1 in ids, f"compact: the newest pose {poses - 1} is not in the graph")
+    # the published compactions: every pose is in the graph or was removed (none twice), every
+    # compaction arrived, and each anchor is a pose kept then (in the graph or removed later)
+    removed = [line.split() for line in Path("compact.removed").read_text().splitlines()]
+    removed_ids = [int(row[2]) for row in removed]
+    numbers = sorted({int(row[1]) for row in removed})
+    expect(numbers == list(range(1, compactions + 1)),
+           f"compact: compaction messages {numbers[:3]}...{numbers[-3:]} of {compactions}")
+    expect(len(removed_ids) == len(set(removed_ids)) and not set(removed_ids) & ids and
+           len(removed_ids) + len(ids) == poses,
+           f"compact: {len(removed_ids)} removed and {len(ids)} kept of {poses} poses")
+    order = {pose: int(row[1]) for row, pose in zip(removed, removed_ids)}
+    for row in removed:
+        anchor = int(row[3])
+        expect(anchor in ids or order.get(anchor, 0) > int(row[1]),
+               f"compact: pose {row[2]}'s anchor {anchor} was removed before it")
     print(f"compact: {poses} poses and {edges} edges taken into a 1000-pose block, none refused; "
-          f"{compactions} compactions; {status['poses']} poses in the graph, the newest among them")
+          f"{compactions} compactions, each published; {status['poses']} poses in the graph, "
+          f"the newest among them, and {len(removed_ids)} removed with their anchors")
     return {"compactions": compactions, "poses": status["poses"]}
 
 

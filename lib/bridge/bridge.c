@@ -35,7 +35,7 @@ void pgem_bridge_defaults(pgem_bridge_options_t *options)
         options->max_edges = DEFAULT_EDGES_PER_POSE * options->max_poses;
     }
     pgem_ingest_config_t ingest = {options->dimension, options->max_poses, options->max_edges,
-                                   options->max_pending, options->max_sources, 0, 0};
+                                   options->max_pending, options->max_sources, 0, 0, 0};
     pgem_ingest_config_resolve(&ingest);
     options->max_pending = ingest.max_pending;
     options->max_sources = ingest.max_sources;
@@ -540,7 +540,7 @@ static int start(bridge_t *bridge, char *message, size_t message_size)
     pgem_ingest_config_t ingest_config = {o->dimension, admit_poses, admit_edges,
                                           o->max_pending, o->max_sources,
                                           (int64_t)(o->pending_timeout * 1e6),
-                                          o->snapshot_dir != NULL};
+                                          o->snapshot_dir != NULL, o->compact};
     bridge->ingest = pgem_ingest_create(&ingest_config, emit, bridge);
     bridge->queue_capacity = (uint64_t)admit_poses + admit_edges + BATCH;
     bridge->queue = calloc((size_t)bridge->queue_capacity, sizeof *bridge->queue);

@@ -12,6 +12,7 @@
 #include "journal.h"
 #include "pass.h"
 #include "pgem/pgem.h"
+#include "pgem_compaction_t.h"
 #include "pgem_graph_t.h"
 
 /* How the bridge holds a part's anchor (gauge_fixed). */
@@ -90,6 +91,7 @@ typedef struct bridge {
     int64_t solves;
     int solving;
     int64_t core_rejections;
+    int64_t full_rejections;    /* admitted items the full block could not take (--compact) */
     char last_message[384];
     int64_t rejections_logged;
 
@@ -119,6 +121,7 @@ typedef struct bridge {
     double *compact_before;     /* every pose's estimate before the compaction */
     pgem_ingest_released_t *compact_edges; /* the removed edges' keys, for the ingest */
     uint64_t compactions;
+    int compaction_full;        /* the last compaction left the graph above its high mark */
     uint32_t main_anchor;       /* the held pose of the part with the smallest pose id: fixed
                                    (the other parts hold their gauge), UINT32_MAX if none */
     uint32_t parts_edges;       /* edges already in the parts */
@@ -157,6 +160,7 @@ typedef struct bridge {
     pgem_loop_t *out_loops;
     char **out_sources;
     int64_t *out_last;
+    int64_t *out_last_anchor;   /* a compaction's anchors, for pgem.compaction_t */
     unsigned char *out_buffer;
     size_t out_buffer_size;
 } bridge_t;

@@ -37,5 +37,6 @@ int pgem_channels_init(pgem_channels_t *channels, const char *prefix, int dimens
     status |= join(channels->graph, prefix, "GRAPH");
     status |= join(channels->status, prefix, "STATUS");
     status |= join(channels->command, prefix, "COMMAND");
+    status |= join(channels->compaction, prefix, "COMPACTION");
     return status == 0 ? 0 : -1;
 }

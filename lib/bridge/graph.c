@@ -56,6 +56,7 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
     bridge->compact_before = calloc(poses * pose_size, sizeof *bridge->compact_before);
     bridge->compact_edges = calloc(edges, sizeof *bridge->compact_edges);
     bridge->out_ids = calloc(poses, sizeof *bridge->out_ids);
+    bridge->out_last_anchor = calloc(poses, sizeof *bridge->out_last_anchor);
     bridge->out_values = calloc(poses * pose_size, sizeof *bridge->out_values);
     bridge->out_rows = calloc(poses, sizeof *bridge->out_rows);
     bridge->out_loops = calloc(edges, sizeof *bridge->out_loops);
@@ -65,7 +66,7 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
         bridge->edge_sequence == NULL || bridge->source_last == NULL ||
         bridge->anchored == NULL || bridge->user_fixed == NULL || bridge->gauge_fixed == NULL ||
         bridge->component == NULL || bridge->component_anchor == NULL || bridge->raw == NULL || bridge->part_edges == NULL ||
-        bridge->out_ids == NULL || bridge->out_values == NULL ||
+        bridge->out_ids == NULL || bridge->out_last_anchor == NULL || bridge->out_values == NULL ||
         bridge->out_rows == NULL || bridge->out_loops == NULL || bridge->out_sources == NULL ||
         bridge->out_last == NULL || bridge->compact_pose_map == NULL ||
         bridge->compact_edge_map == NULL || bridge->compact_ids == NULL ||
@@ -140,6 +141,7 @@ void bridge_graph_free(bridge_t *bridge)
     free(bridge->out_sources);
     free(bridge->out_last);
     free(bridge->out_buffer);
+    free(bridge->out_last_anchor);
     free(bridge->settle_save);
     free(bridge->settle_anchored);
     free(bridge->settle_gauge);
@@ -157,6 +159,15 @@ void bridge_graph_counts(bridge_t *bridge)
 
 static void core_refused(bridge_t *bridge, const char *what, int status)
 {
+    if (status == PGEM_ERR_CAPACITY && bridge->options.compact) {
+        /* admitted beyond the block while compaction could free nothing */
+        pthread_mutex_lock(&bridge->lock);
+        bridge->full_rejections++;
+        pthread_mutex_unlock(&bridge->lock);
+        bridge_note(bridge, "rejected (full): %s: the block is full and compaction can free "
+                            "nothing (%s)", what, pgem_last_error(bridge->core));
+        return;
+    }
     pthread_mutex_lock(&bridge->lock);
     bridge->core_rejections++;
     pthread_mutex_unlock(&bridge->lock);
@@ -504,6 +515,54 @@ static void compact_pose_arrays(bridge_t *bridge, uint32_t before)
     bridge->solved_poses = solved;
 }
 
+static int ensure_buffer(bridge_t *bridge, size_t size);
+
+/* pgem.compaction_t: the poses one compaction removed, each with its anchor and where it lies
+ * in the anchor's frame (compact_relative holds the reverse, for the ingest). */
+static void publish_compaction(bridge_t *bridge, const pgem_compact_summary_t *summary,
+                               uint32_t removed, int full)
+{
+    const int dimension = bridge->options.dimension;
+    const size_t pose_size = (size_t)PGEM_POSE_SIZE(dimension);
+    for (uint32_t i = 0; i < removed; ++i) {
+        const double *anchor_in_removed = bridge->compact_relative + i * pose_size;
+        (dimension == 3 ? pgem_se3_inverse : pgem_se2_inverse)(anchor_in_removed,
+                                                                bridge->out_rows[i]);
+        bridge->out_ids[i] = (int64_t)bridge->compact_ids[i];
+        bridge->out_last_anchor[i] = (int64_t)bridge->compact_anchors[i];
+    }
+    pgem_compaction_t msg;
+    memset(&msg, 0, sizeof msg);
+    msg.utime = bridge_utime();
+    msg.compaction = (int64_t)bridge->compactions;
+    msg.dimension = (int8_t)dimension;
+    msg.pose_size = (int32_t)pose_size;
+    msg.num_removed = (int32_t)removed;
+    msg.ids = bridge->out_ids;
+    msg.anchors = bridge->out_last_anchor;
+    msg.relative = bridge->out_rows;
+    msg.poses_before = (int32_t)summary->poses_before;
+    msg.poses_after = (int32_t)summary->poses_after;
+    msg.edges_before = (int32_t)summary->edges_before;
+    msg.edges_after = (int32_t)summary->edges_after;
+    msg.edges_composed = (int32_t)summary->edges_composed;
+    msg.loops_carried = (int32_t)summary->loops_carried;
+    msg.loops_dropped = (int32_t)summary->loops_dropped;
+    msg.loops_fused = (int32_t)summary->loops_fused;
+    msg.full = (int8_t)full;
+    const int size = pgem_compaction_t_encoded_size(&msg);
+    if (size <= 0 || ensure_buffer(bridge, (size_t)size) != 0 ||
+        pgem_compaction_t_encode(bridge->out_buffer, 0, size, &msg) != size) {
+        bridge_note(bridge, "cannot encode the compaction (%d bytes)", size);
+        return;
+    }
+    if (lcm_publish(bridge->lcm, bridge->options.channels.compaction, bridge->out_buffer,
+                    (unsigned)size) != 0) {
+        bridge_note(bridge, "LCM refused to publish the compaction (%d bytes) on %s", size,
+                    bridge->options.channels.compaction);
+    }
+}
+
 int bridge_graph_compact(bridge_t *bridge)
 {
     const pgem_bridge_options_t *o = &bridge->options;
@@ -524,6 +583,7 @@ int bridge_graph_compact(bridge_t *bridge)
     options.pose_map = bridge->compact_pose_map;
     options.edge_map = bridge->compact_edge_map;
     pgem_compact_summary_t summary;
+    options.target_edges = (uint32_t)(COMPACT_LOW * o->max_edges);
     pgem_compact(core, (uint32_t)(COMPACT_LOW * o->max_poses), &options, &summary);
     uint32_t removed_ids = 0, removed_edges = 0, kept = UINT32_MAX;
     for (uint32_t i = 0; i < poses; ++i) { /* each removed pose's anchor: the kept one before */
@@ -565,12 +625,25 @@ int bridge_graph_compact(bridge_t *bridge)
     bridge->pass_loops = 0;
     recount_pruned(bridge);
     bridge_graph_counts(bridge);
+    /* above the high mark still: nothing more can go, so the block is what the graph has */
+    const int full = (double)summary.poses_after >= COMPACT_HIGH * o->max_poses ||
+                     (double)summary.edges_after >= COMPACT_HIGH * o->max_edges;
+    char why[160];
+    snprintf(why, sizeof why, "every pose is held, among the newest %u, or joined by other than "
+             "two odometry edges; %u poses and %u edges in the graph", options.tail,
+             summary.poses_after, summary.edges_after);
     pthread_mutex_lock(&bridge->lock);
     pgem_ingest_release(bridge->ingest, bridge->compact_ids, bridge->compact_anchors,
                         bridge->compact_relative, removed_ids, bridge->compact_edges,
                         removed_edges);
+    if (full) {
+        pgem_ingest_set_full(bridge->ingest, o->max_poses, o->max_edges, why);
+    } else {
+        pgem_ingest_set_full(bridge->ingest, 0u, 0u, NULL);
+    }
     pthread_mutex_unlock(&bridge->lock);
     bridge->compactions++;
+    publish_compaction(bridge, &summary, removed_ids, full);
     bridge_log(bridge,
                "compaction %llu: %u -> %u poses, %u -> %u edges (%u odometry pairs composed, %u "
                "loop closures carried, %u pruned ones dropped) in %.1f ms; later edges to a "
@@ -578,11 +651,11 @@ int bridge_graph_compact(bridge_t *bridge)
                (unsigned long long)bridge->compactions, summary.poses_before, summary.poses_after,
                summary.edges_before, summary.edges_after, summary.edges_composed,
                summary.loops_carried, summary.loops_dropped, 1e3 * (bridge_now() - start));
-    if (summary.poses_after == summary.poses_before) {
-        bridge_note(bridge, "compaction removed nothing (every pose is held, in the newest %u, "
-                            "or has other than two odometry edges): poses beyond the capacity "
-                            "will be refused", options.tail);
+    if (full && !bridge->compaction_full) {
+        bridge_note(bridge, "compaction cannot bring the graph under 90 %% of its capacities (%s): "
+                            "poses and edges beyond the block will be refused as full", why);
     }
+    bridge->compaction_full = full;
     return 1;
 }
 

@@ -26,7 +26,7 @@
 static const char *const reject_names[PGEM_REJECT_COUNT] = {
     "decode", "dimension", "not_finite", "information", "rotation", "self_loop", "kind",
     "source", "conflict", "capacity", "pending_full", "command", "core", "range", "journal",
-    "removed", "expired"};
+    "removed", "expired", "full"};
 
 const char *pgem_reject_name(pgem_reject_t reason)
 {
@@ -94,6 +94,10 @@ struct pgem_ingest {
     uint32_t oldest;          /* first waiting edge in arrival order, NONE */
     uint32_t newest;          /* last, NONE */
     uint32_t pending_count;
+    uint32_t full_poses;      /* nonzero: compaction can free nothing, poses beyond this many
+                                 are refused as full (pgem_ingest_set_full) */
+    uint32_t full_edges;
+    char full_why[160];
     uint32_t admitted_poses;  /* capacity reserved since the last reset */
     uint32_t admitted_edges;  /* includes pending edges */
     source_t *sources;
@@ -507,10 +511,21 @@ static slot_t *claim(pgem_ingest_t *ingest, table_t *table, uint64_t a, uint64_t
         reject(ingest, result, PGEM_REJECT_CONFLICT);
         return NULL;
     }
+    const uint32_t full = table == &ingest->poses ? ingest->full_poses : ingest->full_edges;
+    if (full != 0u && admitted_count >= full) {
+        snprintf(result->message, sizeof result->message,
+                 "%s: the block's %u %s are full and compaction can free nothing (%s)", what,
+                 (unsigned)full, items, ingest->full_why);
+        reject(ingest, result, PGEM_REJECT_FULL);
+        return NULL;
+    }
     if (admitted_count >= limit) {
         snprintf(result->message, sizeof result->message,
-                 "%s: the bridge holds its maximum of %u %s (--max-%s)", what, (unsigned)limit,
-                 items, items);
+                 "%s: the bridge holds its maximum of %u %s (--max-%s%s)", what, (unsigned)limit,
+                 items, items, ingest->config.compact
+                                   ? " and half as many again waiting for the solver, which "
+                                     "compacts as it takes them"
+                                   : "");
         reject(ingest, result, PGEM_REJECT_CAPACITY);
         return NULL;
     }
@@ -639,6 +654,13 @@ int pgem_ingest_reanchor(pgem_ingest_t *ingest, pgem_item_t *item)
     }
     reanchored_goes_in(ingest, item);
     return 1;
+}
+
+void pgem_ingest_set_full(pgem_ingest_t *ingest, uint32_t poses, uint32_t edges, const char *why)
+{
+    ingest->full_poses = poses;
+    ingest->full_edges = edges;
+    snprintf(ingest->full_why, sizeof ingest->full_why, "%s", why != NULL ? why : "");
 }
 
 int64_t pgem_ingest_reanchored(const pgem_ingest_t *ingest)
@@ -1076,6 +1098,8 @@ static void reset(pgem_ingest_t *ingest)
     pending_clear(ingest);
     ingest->admitted_poses = 0;
     ingest->admitted_edges = 0;
+    ingest->full_poses = 0;
+    ingest->full_edges = 0;
     for (uint32_t i = ingest->source_count; i-- > 0;) {
         ingest->sources[i].last = -1;
         source_release(ingest, i); /* one that only ever had waiting edges */

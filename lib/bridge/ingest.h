@@ -53,6 +53,9 @@ typedef enum pgem_reject {
     PGEM_REJECT_EXPIRED,       /* an accepted edge that waited past the pending timeout for
                                   its poses, or made room in a full pending list: it left the
                                   accepted count for this one */
+    PGEM_REJECT_FULL,          /* with compaction: the block is full and compaction can free
+                                  nothing (every pose held, among the newest, or joined by
+                                  other than two odometry edges) */
     PGEM_REJECT_COUNT
 } pgem_reject_t;
 
@@ -131,6 +134,8 @@ typedef struct pgem_ingest_config {
     int64_t pending_timeout; /* microseconds an edge may wait for its poses; 0 means
                                 PGEM_PENDING_TIMEOUT_DEFAULT */
     int snapshots;           /* SNAPSHOT commands allowed (the bridge has a snapshot folder) */
+    int compact;             /* the graph is compacted: max_poses and max_edges include what
+                                waits for the solver beyond the block (messages say so) */
 } pgem_ingest_config_t;
 
 /* Counters (status_t's fields). */
@@ -200,6 +205,10 @@ void pgem_ingest_release(pgem_ingest_t *ingest, const pgem_id_t *ids, const pgem
  * the queue): its ends moved onto their anchors as pgem_ingest_release describes. Returns 1
  * if an end moved. */
 int pgem_ingest_reanchor(pgem_ingest_t *ingest, pgem_item_t *item);
+/* After a compaction that left the graph above its high-water mark: poses beyond `poses` and
+ * edges beyond `edges` admitted are refused as `full`, the message ending with `why`; 0, 0
+ * (after a compaction that freed room) admits up to the configured capacities again. */
+void pgem_ingest_set_full(pgem_ingest_t *ingest, uint32_t poses, uint32_t edges, const char *why);
 /* Edges that entered on a removed pose's anchor since the start (a status counter). */
 int64_t pgem_ingest_reanchored(const pgem_ingest_t *ingest);
 

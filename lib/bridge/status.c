@@ -74,6 +74,7 @@ void bridge_publish_status(bridge_t *bridge)
     status.recovered = bridge->recovered;
     status.journal_records = bridge->journal_records;
     counts.rejected[PGEM_REJECT_CORE] += bridge->core_rejections + bridge->queue_overflows;
+    counts.rejected[PGEM_REJECT_FULL] += bridge->full_rejections;
     memcpy(message, bridge->last_message, sizeof message);
     pthread_mutex_unlock(&bridge->lock);
 

@@ -33,6 +33,8 @@ static const pgem_lcm_channel_option_t pgem_lcm_channel_options[] = {
     {"--status-channel", PGEM_LCM_STATUS_CHANNEL, "status channel (default: PREFIX + STATUS)"},
     {"--command-channel", PGEM_LCM_COMMAND_CHANNEL,
      "command channel (default: PREFIX + COMMAND)"},
+    {"--compaction-channel", PGEM_LCM_COMPACTION_CHANNEL,
+     "compaction channel (default: PREFIX + COMPACTION)"},
 };
 
 #define PGEM_LCM_CHANNEL_OPTIONS \
@@ -50,6 +52,8 @@ static const char **pgem_lcm_channel_member(pgem_lcm_options_t *options, unsigne
         return &options->graph;
     case PGEM_LCM_STATUS_CHANNEL:
         return &options->status;
+    case PGEM_LCM_COMPACTION_CHANNEL:
+        return &options->compaction;
     default:
         return &options->command;
     }
@@ -122,6 +126,7 @@ int pgem_lcm_channels(const pgem_lcm_options_t *options, int dimension,
         {options->graph, channels->graph, "--graph-channel"},
         {options->status, channels->status, "--status-channel"},
         {options->command, channels->command, "--command-channel"},
+        {options->compaction, channels->compaction, "--compaction-channel"},
     };
     for (size_t c = 0; c < sizeof alone / sizeof alone[0]; c++) {
         if (alone[c].value != NULL && pgem_channel_set(alone[c].name, alone[c].value) != 0) {

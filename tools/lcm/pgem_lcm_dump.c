@@ -10,6 +10,7 @@
 
 #include "cli.h"
 #include "lcm_tool.h"
+#include "pgem_compaction_t.h"
 #include "pgem_graph_t.h"
 #include "pgem_status_t.h"
 
@@ -24,6 +25,7 @@ typedef struct dump_args {
     const char *weights;      /* --weights W */
     const char *json;         /* --json J */
     const char *status;       /* --status S */
+    const char *compactions;  /* --compactions C */
     uint64_t count;           /* --count N: stop after N graphs */
     uint64_t edges;           /* --edges N: stop at a graph with edges_included >= N */
     int has_edges;
@@ -43,16 +45,18 @@ typedef struct dump_state {
     int graph_new;            /* a graph arrived since the main loop last looked */
     int status_new;           /* a status arrived since the main loop last looked */
     double last_graph;        /* clock when the latest graph arrived */
+    FILE *compactions;        /* --compactions: appended as compactions arrive */
+    int compaction_error;     /* a write to it failed */
 } dump_state_t;
 
 static void dump_usage(FILE *out)
 {
     fprintf(out,
             "usage: pgem-lcm-dump [-o OUT.g2o] [--weights W] [--json J] [--status S]\n"
-            "                     [--count N] [--edges N] [--idle SECONDS] [--settled]\n"
-            "                     [--timeout SECONDS]\n"
+            "                     [--compactions C] [--count N] [--edges N]\n"
+            "                     [--idle SECONDS] [--settled] [--timeout SECONDS]\n"
             "                     [--quiet] [--url URL] [--channel-prefix P] [--graph-channel C]\n"
-            "                     [--status-channel C]\n");
+            "                     [--status-channel C] [--compaction-channel C]\n");
 }
 
 static void dump_help(FILE *out, const void *context)
@@ -75,6 +79,10 @@ static void dump_help(FILE *out, const void *context)
             "                         sequence numbers as one JSON object\n"
             "  --status S             the bridge's latest status (pgem.status_t) as one JSON\n"
             "                         object\n"
+            "  --compactions C        every compaction (pgem.compaction_t, bridge --compact) as\n"
+            "                         it arrives, one line per removed pose: 'REMOVED N ID\n"
+            "                         ANCHOR' and the pose in the anchor's frame (x y theta, or\n"
+            "                         x y z qx qy qz qw); a gap in N is a lost message\n"
             "\n"
             "When to stop and write (the first condition met ends the run, exit 0):\n"
             "  --count N              after N graphs\n"
@@ -126,6 +134,9 @@ static int dump_parse_value(void *user, const char *arg, const char *value)
     if (strcmp(arg, "--status") == 0) {
         return dump_parse_file(arg, value, &args->status);
     }
+    if (strcmp(arg, "--compactions") == 0) {
+        return dump_parse_file(arg, value, &args->compactions);
+    }
     if (strcmp(arg, "--count") == 0) {
         if (!pgem_lcm_parse_u64(DUMP_TOOL, arg, value, &args->count)) {
             return 0;
@@ -161,12 +172,13 @@ static int dump_flag(void *user, const char *name)
 static int dump_parse(int argc, char **argv, dump_args_t *args)
 {
     static const char *const valued[] = {"-o", "--output", "--weights", "--json", "--status",
-                                         "--count", "--edges", "--idle", "--timeout"};
+                                         "--compactions", "--count", "--edges", "--idle", "--timeout"};
     static const pgem_cli_parser_t parser = {
         NULL, valued, sizeof valued / sizeof valued[0], dump_parse_value, dump_flag, NULL,
         dump_help, NULL, NULL};
     memset(args, 0, sizeof *args);
-    pgem_lcm_options_init(&args->lcm, DUMP_TOOL, PGEM_LCM_GRAPH_CHANNEL | PGEM_LCM_STATUS_CHANNEL);
+    pgem_lcm_options_init(&args->lcm, DUMP_TOOL, PGEM_LCM_GRAPH_CHANNEL | PGEM_LCM_STATUS_CHANNEL |
+                                                     PGEM_LCM_COMPACTION_CHANNEL);
     args->idle = -1.0;
     args->timeout = -1.0;
     int status = pgem_lcm_parse_args(&args->lcm, &parser, args, argc, argv);
@@ -252,6 +264,32 @@ static void dump_on_status(const lcm_recv_buf_t *buffer, const char *channel,
     state->status = copy;
     state->statuses++;
     state->status_new = 1;
+}
+
+static void dump_on_compaction(const lcm_recv_buf_t *buffer, const char *channel,
+                               const pgem_compaction_t *compaction, void *user)
+{
+    dump_state_t *state = user;
+    (void)buffer;
+    (void)channel;
+    for (int32_t i = 0; i < compaction->num_removed && !state->compaction_error; i++) {
+        if (fprintf(state->compactions, "REMOVED %lld %llu %llu", (long long)compaction->compaction,
+                    (unsigned long long)compaction->ids[i],
+                    (unsigned long long)compaction->anchors[i]) < 0) {
+            state->compaction_error = 1;
+        }
+        for (int32_t v = 0; v < compaction->pose_size; v++) {
+            if (fprintf(state->compactions, " %.17g", compaction->relative[i][v]) < 0) {
+                state->compaction_error = 1;
+            }
+        }
+        if (fputc('\n', state->compactions) == EOF) {
+            state->compaction_error = 1;
+        }
+    }
+    if (fflush(state->compactions) != 0) {
+        state->compaction_error = 1;
+    }
 }
 
 /* Loops in the PRUNED state. */
@@ -547,7 +585,28 @@ static int dump_run(const dump_args_t *args, const pgem_channels_t *channels, lc
         args->status != NULL
             ? pgem_status_t_subscribe(lcm, channels->status, dump_on_status, &state)
             : NULL;
-    if (graphs == NULL || (args->status != NULL && statuses == NULL)) {
+    pgem_compaction_t_subscription_t *compactions = NULL;
+    if (args->compactions != NULL) {
+        state.compactions = fopen(args->compactions, "w");
+        if (state.compactions == NULL) {
+            fprintf(stderr, "%s: cannot write %s\n", DUMP_TOOL, args->compactions);
+            pgem_graph_t_unsubscribe(lcm, graphs);
+            if (statuses != NULL) {
+                pgem_status_t_unsubscribe(lcm, statuses);
+            }
+            return PGEM_EXIT_IO;
+        }
+        compactions = pgem_compaction_t_subscribe(lcm, channels->compaction, dump_on_compaction,
+                                                  &state);
+        if (compactions != NULL) {
+            pgem_compaction_t_subscription_set_queue_capacity(compactions, DUMP_QUEUE);
+        }
+    }
+    if (graphs == NULL || (args->status != NULL && statuses == NULL) ||
+        (args->compactions != NULL && compactions == NULL)) {
+        if (state.compactions != NULL) {
+            fclose(state.compactions);
+        }
         fprintf(stderr, "%s: cannot subscribe to %s\n", DUMP_TOOL,
                 graphs == NULL ? channels->graph : channels->status);
         return PGEM_EXIT_FAILURE;
@@ -561,6 +620,13 @@ static int dump_run(const dump_args_t *args, const pgem_channels_t *channels, lc
                     ? PGEM_EXIT_OK
                     : dump_finish_files(args, &state);
     int status = dump_exit_code(args, &state, end, files);
+    if (state.compactions != NULL) {
+        if (fclose(state.compactions) != 0 || state.compaction_error) {
+            fprintf(stderr, "%s: could not write %s\n", DUMP_TOOL, args->compactions);
+            status = PGEM_EXIT_IO;
+        }
+        pgem_compaction_t_unsubscribe(lcm, compactions);
+    }
     pgem_graph_t_unsubscribe(lcm, graphs);
     if (statuses != NULL) {
         pgem_status_t_unsubscribe(lcm, statuses);
