@@ -350,6 +350,10 @@ static void *solver_main(void *user)
             bridge->head++;
         }
         int drained = bridge->head == bridge->visible;
+        /* Behind: more than a batch waits. Then the batch's poses are stepped once, at its
+         * end, not one by one: a solver thread that falls behind a burst (a dense graph, a
+         * loaded machine) catches up instead of the queue outgrowing its room. */
+        const int behind = bridge->visible - bridge->head > BATCH;
         int optimize = bridge->optimize_requested; /* taken below when due */
         int recovery = bridge->recovery_pending && drained;
         const int replaying = bridge->recovery_pending; /* one full solve follows: no steps */
@@ -380,7 +384,7 @@ static void *solver_main(void *user)
         }
         optimize = s.command && now >= s.command_at;
         for (int i = 0; i < count; ++i) {
-            if (!bridge->options.full && !replaying && s.stepped &&
+            if (!bridge->options.full && !replaying && !behind && s.stepped &&
                 batch[i].type == PGEM_ITEM_POSE) {
                 bridge_graph_step(bridge); /* the edges of the poses before this one */
                 s.stepped = 0;
@@ -400,6 +404,10 @@ static void *solver_main(void *user)
                 s.dirty = 1;
                 s.last_loop = now;
             }
+        }
+        if (behind && !bridge->options.full && !replaying && s.stepped) {
+            bridge_graph_step(bridge);
+            s.stepped = 0;
         }
         if (count > 0) {
             bridge_graph_counts(bridge);

@@ -563,15 +563,25 @@ static void publish_compaction(bridge_t *bridge, const pgem_compact_summary_t *s
     }
 }
 
+/* Compacts to target_poses and the low mark of the edges (see bridge_graph_compact). */
+static int compact_to(bridge_t *bridge, uint32_t target_poses);
+
 int bridge_graph_compact(bridge_t *bridge)
 {
     const pgem_bridge_options_t *o = &bridge->options;
-    pgem_t *core = bridge->core;
-    const uint32_t poses = pgem_pose_count(core), edges = pgem_edge_count(core);
+    const uint32_t poses = pgem_pose_count(bridge->core), edges = pgem_edge_count(bridge->core);
     if (!o->compact || ((double)poses < COMPACT_HIGH * o->max_poses &&
                           (double)edges < COMPACT_HIGH * o->max_edges)) {
         return 0;
     }
+    return compact_to(bridge, (uint32_t)(COMPACT_LOW * o->max_poses));
+}
+
+static int compact_to(bridge_t *bridge, uint32_t target_poses)
+{
+    const pgem_bridge_options_t *o = &bridge->options;
+    pgem_t *core = bridge->core;
+    const uint32_t poses = pgem_pose_count(core), edges = pgem_edge_count(core);
     const double start = bridge_now();
     const size_t pose_size = (size_t)PGEM_POSE_SIZE(o->dimension);
     for (uint32_t i = 0; i < poses; ++i) { /* ids and estimates before: the ingest's anchors */
@@ -584,7 +594,7 @@ int bridge_graph_compact(bridge_t *bridge)
     options.edge_map = bridge->compact_edge_map;
     pgem_compact_summary_t summary;
     options.target_edges = (uint32_t)(COMPACT_LOW * o->max_edges);
-    pgem_compact(core, (uint32_t)(COMPACT_LOW * o->max_poses), &options, &summary);
+    pgem_compact(core, target_poses, &options, &summary);
     uint32_t removed_ids = 0, removed_edges = 0, kept = UINT32_MAX;
     for (uint32_t i = 0; i < poses; ++i) { /* each removed pose's anchor: the kept one before */
         if (bridge->compact_pose_map[i] != UINT32_MAX) {
@@ -678,8 +688,21 @@ void bridge_graph_step(bridge_t *bridge)
         return; /* the next solve restarts: it decides */
     }
     (void)bridge_components_hold(bridge); /* each part held at its own gauge */
-    if (update_run(bridge) != PGEM_OK) {
-        bridge->restart_pending = 1; /* the next solve says why, from the front-end's estimates */
+    int status = update_run(bridge);
+    if (status == PGEM_ERR_FILL_BUDGET && bridge->options.compact &&
+        compact_to(bridge, (uint32_t)(COMPACT_LOW * pgem_pose_count(bridge->core)))) {
+        /* the graph fits its poses and edges but its factor has outgrown the fill budget
+         * (carried loops concentrate on the poses kept): a smaller graph, then the update */
+        bridge_log(bridge, "the incremental factor outgrew its fill budget: compacted to %u poses",
+                   pgem_pose_count(bridge->core));
+        (void)bridge_components_hold(bridge);
+        status = update_run(bridge);
+    }
+    if (status != PGEM_OK) {
+        bridge->restart_pending = 1; /* the next solve restarts from the front-end's estimates */
+        bridge_log(bridge, "incremental update failed: %s (%s); the next solve restarts from the "
+                           "front-end's estimates", pgem_error_name(status),
+                   pgem_last_error(bridge->core));
         return;
     }
     bridge->solved_poses = pgem_pose_count(bridge->core);

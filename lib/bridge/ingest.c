@@ -523,8 +523,8 @@ static slot_t *claim(pgem_ingest_t *ingest, table_t *table, uint64_t a, uint64_t
         snprintf(result->message, sizeof result->message,
                  "%s: the bridge holds its maximum of %u %s (--max-%s%s)", what, (unsigned)limit,
                  items, items, ingest->config.compact
-                                   ? " and half as many again waiting for the solver, which "
-                                     "compacts as it takes them"
+                                   ? ", and half as many again waiting for a solver thread "
+                                     "that is behind"
                                    : "");
         reject(ingest, result, PGEM_REJECT_CAPACITY);
         return NULL;
