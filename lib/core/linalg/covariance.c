@@ -89,9 +89,9 @@ int pgem_linear_joint_covariance(pgem_t *graph, uint32_t p, uint32_t q, double *
         }
         pgem_linear_covariance_mark(graph, PGEM_COVARIANCE_FACTOR);
     }
-    double own_p[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    double own_q[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    double cross[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    double own_p[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double own_q[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double cross[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     pgem_linear_pose_covariance(graph, p, own_p);
     pgem_linear_pose_covariance(graph, q, own_q);
     if (p == q) {
