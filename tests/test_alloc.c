@@ -1,5 +1,6 @@
 /* Proves the core allocates nothing while optimizing: malloc, calloc, realloc and free are
- * interposed and counted; after the symbolic analysis an optimize call must count zero. With
+ * interposed and counted; after the symbolic analysis an optimize call (and the covariance
+ * calls) must count zero. With
  * the system CSparse the analysis itself frees everything CSparse took; with CSparse built
  * from source (PGEM_CSPARSE_SOURCE_DIR) the analysis too counts zero, its workspace coming
  * from the block. */
@@ -88,6 +89,16 @@ static void check_no_allocation(int dimension, pgem_method_t method)
     assert_int_equal(pgem_robust_optimize(graph, &robust, &options, &robust_summary), PGEM_OK);
     assert_true(robust_summary.em_iterations >= 1);
     assert_int_equal(robust_summary.pruned, 0);
+    assert_int_equal(allocations, solve_allocations);
+    assert_int_equal(releases, solve_releases);
+    /* the covariance calls: the factor, one pose, two poses, every pose (pgem/covariance.h) */
+    static double covariances[200 * 36];
+    double joint[144];
+    assert_int_equal(pgem_covariance_prepare(graph), PGEM_OK);
+    assert_int_equal(pgem_covariance(graph, 7, joint), PGEM_OK);
+    assert_int_equal(pgem_joint_covariance(graph, 7, 30, joint), PGEM_OK);
+    assert_int_equal(pgem_covariances(graph, covariances), PGEM_OK);
+    assert_int_equal(pgem_joint_covariance(graph, 7, 30, joint), PGEM_OK);
     assert_int_equal(allocations, solve_allocations);
     assert_int_equal(releases, solve_releases);
 

@@ -291,7 +291,7 @@ static void test_error_names(void **state)
     (void)state;
     assert_string_equal(pgem_error_name(PGEM_ERR_CAPACITY), "PGEM_ERR_CAPACITY");
     assert_string_equal(pgem_error_name(12345), "PGEM_ERR_UNKNOWN_CODE");
-    for (int code = 0; code >= PGEM_ERR_OUT_OF_RANGE; code--) {
+    for (int code = 0; code >= PGEM_ERR_NO_FACTOR; code--) {
         assert_string_not_equal(pgem_error_name(code), "PGEM_ERR_UNKNOWN_CODE");
         assert_true(strlen(pgem_error_description(code)) > 3);
     }

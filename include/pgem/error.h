@@ -30,8 +30,10 @@ typedef enum pgem_error {
     PGEM_ERR_IO = -17,               /**< a file could not be opened, read or written */
     PGEM_ERR_PARSE = -18,            /**< a line of a graph file is malformed */
     PGEM_ERR_DIMENSION = -19,        /**< 2D and 3D mixed, or the wrong dimension for the call */
-    PGEM_ERR_OUT_OF_RANGE = -20      /**< a translation or information entry beyond the limits
+    PGEM_ERR_OUT_OF_RANGE = -20,     /**< a translation or information entry beyond the limits
                                           of graph.h (PGEM_TRANSLATION_LIMIT, ...) */
+    PGEM_ERR_NO_FACTOR = -21         /**< no factor is current for the covariance calls
+                                          (pgem/covariance.h: pgem_covariance_prepare first) */
 } pgem_error_t;
 
 /** A short constant name for an error code ("PGEM_ERR_CAPACITY"); never NULL. */

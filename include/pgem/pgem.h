@@ -11,5 +11,6 @@
 #include "pgem/robust.h"
 #include "pgem/update.h"
 #include "pgem/compact.h"
+#include "pgem/covariance.h"
 
 #endif /* PGEM_PGEM_H */

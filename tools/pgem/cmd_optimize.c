@@ -1,9 +1,11 @@
 /* pgem optimize: read a graph, run Gauss-Newton or Levenberg-Marquardt, print progress and a
  * summary, write the result. */
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "cli.h"
+#include "covariances.h"
 #include "write_ahead.h"
 
 /* Command-line choices of one optimize run. */
@@ -16,6 +18,8 @@ typedef struct pgem_optimize_args {
     int json;                    /* summary as one JSON object on stdout */
     pgem_robust_options_t robust; /* --robust and its parameters */
     const char *weights;         /* per-loop weights file (NULL: none) */
+    const char *covariances;     /* per-pose covariances file (NULL: none) */
+    double covariance_seconds;   /* the factor and the sparse inverse of --covariances */
     uint32_t threads;            /* factorisation workers (0: the machine's, up to 8) */
     double analysis_seconds;     /* the symbolic analysis run while loading (not in the solve) */
 } pgem_optimize_args_t;
@@ -42,7 +46,8 @@ static void pgem_optimize_help(FILE *out, const void *context)
             "                        [--max-em-iterations N] [--gate X] [--literal]\n"
             "                        [--dormant-threshold D|off] [--distance innovation|point]\n"
             "                        [--odometry-inflation K] [--predictable-rotation R]\n"
-            "                        [--weights FILE] [--threads N] [--ordering O] [--quiet]\n"
+            "                        [--weights FILE] [--covariances FILE] [--threads N]\n"
+            "                        [--ordering O] [--quiet]\n"
             "                        [--json]\n"
             "\n"
             "Reads a g2o (VERTEX_SE2/EDGE_SE2, VERTEX_SE3:QUAT/EDGE_SE3:QUAT, FIX) or TORO 2D\n"
@@ -79,6 +84,9 @@ static void pgem_optimize_help(FILE *out, const void *context)
             "  --literal           EM exactly as published: keep the EM weights at the end\n"
             "                      (default: re-solve with accepted loops at weight 1)\n"
             "  --weights FILE      write one line per loop closure: from to weight state\n"
+            "  --covariances FILE  write one line per pose: id, then the upper triangle of its\n"
+            "                      marginal covariance at the result, row by row (6 numbers\n"
+            "                      in 2D: x y theta; 21 in 3D: x y z rx ry rz; body frame)\n"
             "  --threads N         factorisation threads (default: the machine's, at most 8;\n"
             "                      the result is the same for any N)\n"
             "  --ordering O        auto (default: AMD, and on large graphs the fewest flops of\n"
@@ -158,6 +166,10 @@ static int pgem_optimize_value(void *user, const char *name, const char *value)
     if (strcmp(name, "--weights") == 0) {
         return pgem_cli_text_value("pgem optimize", name, value, "a file name", &args->weights);
     }
+    if (strcmp(name, "--covariances") == 0) {
+        return pgem_cli_text_value("pgem optimize", name, value, "a file name",
+                                   &args->covariances);
+    }
     if (strcmp(name, "--max-iterations") == 0) {
         return pgem_cli_parse_u32("pgem", name, value, &args->max_iterations);
     }
@@ -197,7 +209,7 @@ static int pgem_optimize_positional(void *user, const char *argument)
 static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args)
 {
     static const char *const valued[] = {
-        "-o", "--output", "--weights", "--max-iterations", "--threads", "--ordering", "--solver",
+        "-o", "--output", "--weights", "--covariances", "--max-iterations", "--threads", "--ordering", "--solver",
         "--distance",
         "--robust", "--m-step-iterations", "--max-em-iterations", "--dormant-threshold",
         "--robust-scale", "--prune-threshold", "--gate", "--odometry-inflation",
@@ -349,6 +361,19 @@ static void pgem_print_json_timing(double initial, double final, double seconds,
     pgem_print_json_seconds(seconds, analysis_seconds);
 }
 
+/* With --covariances: "covariances":FILE,"covariance_seconds":.., (the factor and the
+ * inverse, to the microsecond). */
+static void pgem_print_json_covariances(const pgem_optimize_args_t *args)
+{
+    if (args->covariances != NULL) {
+        printf("\"covariances\":");
+        pgem_json_string(stdout, args->covariances);
+        printf(",\"covariance_seconds\":");
+        pgem_json_fixed(stdout, args->covariance_seconds, 6);
+        printf(",");
+    }
+}
+
 /* "block_bytes":..,"block_bytes_per_pose":..,"block_bytes_per_edge":..,"block_bytes_factor":..}
  * and the line end: the end of both summaries. */
 static void pgem_print_json_block(const pgem_memory_stats_t *stats, const pgem_block_parts_t *parts,
@@ -380,6 +405,7 @@ static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, cons
                summary->usable ? "true" : "false", summary->estimate_changed ? "true" : "false",
                pgem_pose_count(graph), pgem_edge_count(graph), summary->variables,
                stats.factor_nonzeros);
+        pgem_print_json_covariances(args);
         pgem_print_json_block(&stats, &parts, args->threads);
         return;
     }
@@ -469,6 +495,7 @@ static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *arg
                "\"factor_nonzeros\":%u,",
                summary->usable ? "true" : "false", pgem_pose_count(graph),
                pgem_edge_count(graph), stats.analyses, stats.factor_nonzeros);
+        pgem_print_json_covariances(args);
         pgem_print_json_block(&stats, &parts, args->threads);
     } else if (status == PGEM_OK) {
         char initial[PGEM_CLI_NUMBER_MAX];
@@ -497,7 +524,7 @@ static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *arg
 /* Runs the robust solve (one line per round) or the plain one (one line per iteration), prints
  * the summary and writes the files asked for. Returns a PGEM_EXIT_* code. */
 /* The solve, then the outputs; file is the graph read (overwritten by the result's). */
-static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph,
+static int pgem_optimize_run(pgem_optimize_args_t *args, pgem_t *graph,
                              pgem_io_graph_t *file)
 {
     const int robust = args->robust.kernel != PGEM_KERNEL_NONE;
@@ -529,22 +556,35 @@ static int pgem_optimize_run(const pgem_optimize_args_t *args, pgem_t *graph,
                         : pgem_optimize(graph, &solve, &summary);
     double seconds = pgem_cli_now() - progress.start;
     pgem_write_ahead_finish(&ahead);
+    double *covariances = NULL; /* every pose's, at the result (--covariances) */
+    if (status == PGEM_OK && args->covariances != NULL) {
+        covariances = pgem_cli_covariances(graph, &args->covariance_seconds);
+    }
     if (robust) {
         pgem_print_robust_summary(progress.out, args, graph, &robust_summary, seconds, status);
     } else {
         pgem_print_summary(progress.out, args, graph, &summary, seconds, status);
     }
+    if (covariances != NULL && !args->json) {
+        fprintf(progress.out, "  covariances of %u poses in %.4f s\n", pgem_pose_count(graph),
+                args->covariance_seconds);
+    }
     int exit_code = PGEM_EXIT_OK;
-    if (status != PGEM_OK) {
+    if (status != PGEM_OK || (args->covariances != NULL && covariances == NULL)) {
         exit_code = PGEM_EXIT_FAILURE;
     } else if (args->weights != NULL && pgem_cli_write_weights(graph, args->weights) != 0) {
         exit_code = PGEM_EXIT_IO;
+    } else if (covariances != NULL &&
+               (exit_code = pgem_cli_write_covariances(graph, covariances, args->covariances)) !=
+                   PGEM_EXIT_OK) {
+        /* the message is printed */
     } else if (args->output != NULL) {
         const int ahead_usable = ahead.text != NULL && pgem_write_ahead_matches(graph, file);
         exit_code = pgem_cli_write(graph, file, args->output, ahead_usable ? ahead.text : NULL,
                                    ahead.size);
     }
     pgem_write_ahead_free(&ahead);
+    free(covariances);
     return exit_code;
 }
 

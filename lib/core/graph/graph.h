@@ -29,6 +29,9 @@ typedef struct pgem_store {
     uint32_t pose_count;       /* poses added */
     uint32_t topology;         /* +1 on every pose or edge added and every pose fixed or
                                   freed: linalg keeps the version its structure describes */
+    uint32_t revision;         /* +1 when estimates or loop weights change outside a solve
+                                  (pgem_set_pose, pgem_update, pgem_robust_reset): with
+                                  topology, what the covariance calls' factor was made for */
     uint32_t edited_low;       /* the lowest pose index pgem_set_pose moved or whose fixed flag
                                   changed since the incremental update last looked (it sets
                                   UINT32_MAX); it rebuilds when that pose is in its factor */

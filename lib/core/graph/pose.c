@@ -216,6 +216,7 @@ int pgem_set_pose(pgem_t *graph, pgem_id_t id, const double *pose)
            (size_t)graph->pose_size * sizeof(double));
     graph->store.edited_low = (uint32_t)index < graph->store.edited_low ? (uint32_t)index
                                                                        : graph->store.edited_low;
+    graph->store.revision++;
     pgem_message_clear(graph);
     return PGEM_OK;
 }

@@ -228,6 +228,7 @@ static int pgem_linear_analyze_once(pgem_t *graph)
 int pgem_linear_analyze(pgem_t *graph)
 {
     pgem_linear_follow(graph);
+    graph->linear->covariance = PGEM_COVARIANCE_NONE;
     graph->linear->all_edges = 0; /* a handed-over ordering (pgem_copy) is never the fallback's */
     int status = pgem_linear_analyze_once(graph);
     if (status == PGEM_ERR_FILL_BUDGET) {

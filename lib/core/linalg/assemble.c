@@ -87,6 +87,7 @@ static inline double pgem_assemble_edges(pgem_t *graph, int n)
 double pgem_linear_assemble(pgem_t *graph)
 {
     pgem_linear_t *linear = graph->linear;
+    linear->covariance = PGEM_COVARIANCE_NONE;
     memset(linear->lower_values, 0, (size_t)linear->lower_start[linear->block_count] * sizeof(double));
     memset(linear->rhs, 0, (size_t)linear->scalar_count * sizeof(double));
     linear->left_out = 0;

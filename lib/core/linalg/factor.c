@@ -120,6 +120,7 @@ int pgem_linear_factor(pgem_t *graph)
     workers = workers < factor->worker_count ? workers : factor->worker_count;
     int failed = 0;
     int status = PGEM_OK;
+    linear->covariance = PGEM_COVARIANCE_NONE;
     pgem_numeric_begin(linear);
     if (workers > 1 && factor->task_count > 1) {
         status = pgem_factor_parallel(graph, workers, &failed);

@@ -155,6 +155,7 @@ static inline void pgem_invert_column(pgem_linear_t *linear, int b, int column)
 void pgem_linear_invert(pgem_t *graph)
 {
     pgem_linear_t *linear = graph->linear;
+    linear->covariance = PGEM_COVARIANCE_NONE;
     for (int column = linear->block_count - 1; column >= 0; column--) {
         if (linear->block == 6) {
             pgem_invert_column(linear, 6, column);

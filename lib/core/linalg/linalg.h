@@ -91,4 +91,24 @@ int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, cons
 void pgem_linear_marginal_diagonal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
                                    const double *a_to, double *out);
 
+/* The covariance calls (pgem/covariance.h) over the factor (linalg/covariance.c). What the
+ * factor holds for them: nothing current (any assembly, factorisation, inverse or analysis
+ * since, or a change of the graph's topology or revision), L of H, or H^-1 on L's pattern. */
+#define PGEM_COVARIANCE_NONE 0
+#define PGEM_COVARIANCE_FACTOR 1
+#define PGEM_COVARIANCE_INVERSE 2
+/* The state, PGEM_COVARIANCE_NONE unless the factor is still the graph's; and setting it
+ * (after pgem_linear_assemble and pgem_linear_factor at the current estimate). */
+int pgem_linear_covariance_state(const pgem_t *graph);
+void pgem_linear_covariance_mark(pgem_t *graph, int state);
+/* Pose p's marginal covariance (b x b, row-major) in the system's tangent (additive in 2D,
+ * right in 3D): a solve along p's path (FACTOR) or the inverse's diagonal block (INVERSE). */
+void pgem_linear_pose_covariance(pgem_t *graph, uint32_t p, double *out);
+/* The joint marginal of poses p and q (2b x 2b, row-major, p's rows first); from the
+ * INVERSE state it factors again first (H's values are kept). */
+int pgem_linear_joint_covariance(pgem_t *graph, uint32_t p, uint32_t q, double *out);
+/* Every pose's marginal (pose_count blocks of b x b, insertion order; zero for held poses)
+ * from one sparse inverse over L (FACTOR becomes INVERSE). */
+void pgem_linear_all_covariances(pgem_t *graph, double *out);
+
 #endif /* PGEM_LINALG_LAYER_H */

@@ -64,6 +64,13 @@ struct pgem_linear {
     uint32_t topology;         /* the graph's topology version valid and ordered refer to */
     pgem_orderer_t orderer;    /* an ordering to weigh against AMD's (order NULL: none) */
     pgem_order_choice_t ordering_choice; /* which orderings the analysis uses */
+    int covariance;            /* what the factor holds for the covariance calls
+                                  (linalg/covariance.c): PGEM_COVARIANCE_NONE (every assembly,
+                                  factorisation, inverse and analysis sets it), _FACTOR (L of H
+                                  at the estimate pgem_covariance_prepare saw) or _INVERSE (H^-1
+                                  on L's pattern, written over L) */
+    uint32_t covariance_topology; /* the graph's topology version when it was set */
+    uint32_t covariance_revision; /* the graph's revision (estimate and weights) then */
 };
 
 /* Forgets the structure and the ordering if the graph's topology changed since they were

@@ -17,6 +17,7 @@ void pgem_linear_invalidate(pgem_t *graph)
 {
     graph->linear->valid = 0;
     graph->linear->ordered = 0;
+    graph->linear->covariance = PGEM_COVARIANCE_NONE;
 }
 
 int pgem_linear_prepare(pgem_t *graph)

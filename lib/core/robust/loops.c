@@ -11,6 +11,7 @@ void pgem_robust_reset(pgem_t *graph)
     if (graph == NULL) {
         return;
     }
+    graph->store.revision++; /* the weights change: the covariance calls' factor is old */
     uint32_t returned = 0;
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         returned += graph->store.edge_active[k] != PGEM_EDGE_ACTIVE;

@@ -615,6 +615,7 @@ int pgem_update(pgem_t *graph, const pgem_update_options_t *options,
         }
         graph->store.edited_low = UINT32_MAX;
     }
+    graph->store.revision++; /* the estimate moves: the covariance calls' factor is old */
     memset(&online->last, 0, sizeof online->last);
     online->stamp++;
     if (online->stamp <= 0) { /* wrapped: restart the stamps */
