@@ -330,14 +330,18 @@ def ms(value: float) -> str:
 
 
 def table(rows: list[dict]) -> list[str]:
-    lines = ["| graph | block | kept / poses | refused (capacity) | compactions | ATE kept (ref) | "
+    lines = ["| graph | block | kept / poses | refused (capacity); other rejections | compactions | ATE kept (ref) | "
              "unbounded, same poses | ratio | vs batch optimum | fixed-lag, same poses | loops vs "
              "batch EM agree / disagree (of) | true pruned / false accepted | update ms median / "
              "p99 / max | with compaction p99 / max | compaction ms median / max | block MiB "
              "(+ pass copy) |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        refused = sum(r["refused"].values()) if r["refused"] else 0
+        refused = str(sum(r["refused"].values()) if r["refused"] else 0)
+        # the sender's last status line: edges the bridge did not take, e.g. expired waiting
+        found = re.search(r"rejected (\d+)(?: \(([^)]*)\))?", " ".join(r["sender"]))
+        if found and int(found.group(1)) > 0:
+            refused += f"; not taken: {found.group(2) or found.group(1)}"
         ratio = r.get("unbounded_ate", math.nan)  # only against a truth (the batch optimum is
         ratio = r["ate"] / ratio if r["reference"] == "truth" and ratio > 0 else math.nan  # ~0)
         loops = r["loops"]
@@ -438,7 +442,7 @@ def main() -> int:
                 rows.append(row(graph, f"{100 * share:g} % ({poses})", share, bounded, unbounded,
                                 fixed))
                 report(args, rows, header, False)
-            print(table(rows)[-1], flush=True)
+                print(table(rows)[-1], flush=True)
         print(report(args, rows, header, True))
         return 0
     except (bench_lcm.BenchError, subprocess.CalledProcessError, subprocess.TimeoutExpired) as error:
