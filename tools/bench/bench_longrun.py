@@ -194,26 +194,37 @@ def stream(args, work: Path, graph: Graph, tag: str, bridge_args: list[str]) -> 
     log_path = bench_lcm.fresh_log(work / f"{tag}.bridge.log")
     dumped, weights, status = (work / f"{tag}.dump.g2o", work / f"{tag}.dump.weights",
                                work / f"{tag}.status.json")
-    for stale in (dumped, weights, status):
+    live, live_weights = work / f"{tag}.live.g2o", work / f"{tag}.live.weights"
+    for stale in (dumped, weights, status, live, live_weights):
         stale.unlink(missing_ok=True)
+    timeout = str(graph.edges / args.rate + 900)
     with log_path.open("w") as log:
+        # the settle comes --settle-after seconds after the stream: one dump leaves before it
+        # with the live map, the other after it with the settled graph
         bridge = subprocess.Popen([str(bench_lcm.tool("pgem-lcm-bridge")),
-                                   "--dimension", "3" if graph.is_3d else "2", *bridge_args],
+                                   "--dimension", "3" if graph.is_3d else "2", "--idle-solve",
+                                   str(args.settle_after), *bridge_args],
                                   stdout=log, stderr=log)
         time.sleep(0.5)
         dump = subprocess.Popen([str(bench_lcm.tool("pgem-lcm-dump")), "-o", str(dumped),
                                  "--weights", str(weights), "--status", str(status), "--idle",
-                                 str(args.idle), "--timeout", str(graph.edges / args.rate + 900),
+                                 str(args.settle_after + args.idle), "--timeout", timeout,
                                  "--quiet"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        live_dump = subprocess.Popen([str(bench_lcm.tool("pgem-lcm-dump")), "-o", str(live),
+                                      "--weights", str(live_weights), "--idle",
+                                      str(args.settle_after / 3.0), "--timeout", timeout,
+                                      "--quiet"], stdout=subprocess.DEVNULL,
+                                     stderr=subprocess.DEVNULL)
         time.sleep(0.3)
         started = time.monotonic()
         sent = bench_lcm.send(graph.path, "--rate", str(args.rate), "--wait", "120",
                               timeout=graph.edges / args.rate + 600)
         streamed = time.monotonic() - started
-        try:
-            dump.wait(timeout=graph.edges / args.rate + 900)
-        except subprocess.TimeoutExpired:
-            dump.kill()
+        for process in (live_dump, dump):
+            try:
+                process.wait(timeout=graph.edges / args.rate + 900)
+            except subprocess.TimeoutExpired:
+                process.kill()
         bridge.send_signal(signal.SIGINT)
         try:
             bridge.wait(timeout=60)
@@ -243,9 +254,12 @@ def stream(args, work: Path, graph: Graph, tag: str, bridge_args: list[str]) -> 
     block = BLOCK.search(text)
     pass_block = PASS_BLOCK.search(text)
     poses = read_vertices(dumped) if dumped.exists() else {}
+    settled = len(re.findall(r"solve \d+ \(settle", text))
     return {"tag": tag, "sent_ok": sent.returncode == 0, "sender": sent.stdout.strip().splitlines()[-1:]
             if sent.stdout.strip() else [], "seconds": streamed, "poses": poses,
-            "weights": read_weights(weights), "updates": updates, "included": included,
+            "weights": read_weights(weights), "settles": settled,
+            "live": read_vertices(live) if live.exists() else {},
+            "live_weights": read_weights(live_weights), "updates": updates, "included": included,
             "compactions": compactions, "refused": refused,
             "refused_logged": len(re.findall(r"rejected \([^)]*capacity", text)),
             "block_mib": float(block.group(1)) if block else math.nan,
@@ -303,12 +317,16 @@ def row(graph: Graph, label: str, share: float | None, result: dict, unbounded: 
                "reference": "truth" if graph.truth is not None else "batch optimum",
                "ate": ate(result["poses"], reference, kept),
                "ate_optimum": ate(result["poses"], graph.optimum, kept),
+               "settles": result["settles"], "live_kept": len(result["live"]),
+               "ate_live": ate(result["live"], reference, sorted(result["live"])),
+               "live_loops": decisions(graph, result["live_weights"]),
                "update": stats(result["updates"]), "included": stats(result["included"]),
                "compaction": stats(result["compactions"]), "updates": len(result["updates"]),
                "block_mib": result["block_mib"], "pass_mib": result["pass_mib"],
                "loops": decisions(graph, result["weights"])}
     if unbounded is not None:
         figures["unbounded_ate"] = ate(unbounded["poses"], reference, kept)
+        figures["unbounded_ate_live"] = ate(unbounded["live"], reference, sorted(result["live"]))
     if fixed is not None and "error" not in fixed:
         figures["fixedlag_ate"] = ate(fixed["poses"], reference, kept)
         figures["fixedlag_ate_all"] = ate(fixed["poses"], reference, list(fixed["poses"]))
@@ -331,11 +349,12 @@ def ms(value: float) -> str:
 
 def table(rows: list[dict]) -> list[str]:
     lines = ["| graph | block | kept / poses | refused (capacity); other rejections | compactions | ATE kept (ref) | "
-             "unbounded, same poses | ratio | vs batch optimum | fixed-lag, same poses | loops vs "
+             "unbounded, same poses | ratio | vs batch optimum | live map before the settle: ATE, "
+             "unbounded's | fixed-lag, same poses | loops vs "
              "batch EM agree / disagree (of) | true pruned / false accepted | update ms median / "
              "p99 / max | with compaction p99 / max | compaction ms median / max | block MiB "
              "(+ pass copy) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         refused = str(sum(r["refused"].values()) if r["refused"] else 0)
         # the sender's last status line: edges the bridge did not take, e.g. expired waiting
@@ -355,7 +374,8 @@ def table(rows: list[dict]) -> list[str]:
             f"| {r['graph']} | {r['block']} | {r['kept']} / {r['poses']} | {refused}"
             f"{'' if r['sent_ok'] else ' (send failed)'} | {r['compactions']} | {cell(r['ate'])} "
             f"({r['reference']}) | {cell(r.get('unbounded_ate'))} | {cell(ratio, 2)} | "
-            f"{cell(r['ate_optimum'])} | {fixed} | {loops['agree']} / {loops['disagree']} "
+            f"{cell(r['ate_optimum'])} | {cell(r.get('ate_live'))}, "
+            f"{cell(r.get('unbounded_ate_live'))} | {fixed} | {loops['agree']} / {loops['disagree']} "
             f"({loops['loops']}) | {loops['true_pruned']} / {loops['false_accepted']} | "
             f"{ms(u[0])} / {ms(u[1])} / {ms(u[2])} | {ms(i[1])} / "
             f"{ms(i[2])} | {ms(c[0])} / {ms(c[2])} | {cell(r['block_mib'], 1)} "
@@ -387,7 +407,10 @@ def main() -> int:
     parser.add_argument("--edge-slack", type=float, default=1.5,
                         help="--max-edges is the graph's edges per pose times this times --max-poses")
     parser.add_argument("--idle", type=float, default=10.0,
-                        help="seconds without a new graph after which the dump takes the last one")
+                        help="seconds after the settle's graph the dump takes it as the last")
+    parser.add_argument("--settle-after", type=float, default=15.0,
+                        help="the bridges' --idle-solve: the settle solve starts this long after "
+                             "the stream; the live map is taken a third of it after the last graph")
     parser.add_argument("--bridge-args", default="",
                         help="more pgem-lcm-bridge options for every bridge (space-separated)")
     parser.add_argument("--no-peer", action="store_true", help="no fixed-lag smoother")
