@@ -189,7 +189,26 @@ def is_false(graph: Graph, pair: tuple[int, int]) -> bool:
     return (pair in pairs) == (kind == "false")
 
 
+FILL = re.compile(r"needs (\d+) nonzeros but config.fill_budget is (\d+)")
+
+
 def stream(args, work: Path, graph: Graph, tag: str, bridge_args: list[str]) -> dict:
+    """stream_once, and once more with --fill-budget 1.5 times what a solve found it needed
+    when one failed for want of it (the bridge's default budget is 32 b^2 per pose)."""
+    result = stream_once(args, work, graph, tag, bridge_args)
+    needed = [int(m.group(1)) for m in FILL.finditer(result["log"])]
+    result["fill_budget"] = None
+    if needed and "--fill-budget" not in bridge_args:
+        budget = math.ceil(1.5 * max(needed))
+        print(f"   a solve needed {max(needed)} factor nonzeros: again with --fill-budget {budget}",
+              flush=True)
+        result = stream_once(args, work, graph, tag, [*bridge_args, "--fill-budget", str(budget)])
+        result["fill_budget"] = budget
+        result["fill_failures"] = len(FILL.findall(result["log"]))
+    return result
+
+
+def stream_once(args, work: Path, graph: Graph, tag: str, bridge_args: list[str]) -> dict:
     """The graph streamed into one bridge; the last graph published, the log's figures."""
     log_path = bench_lcm.fresh_log(work / f"{tag}.bridge.log")
     dumped, weights, status = (work / f"{tag}.dump.g2o", work / f"{tag}.dump.weights",
@@ -262,7 +281,7 @@ def stream(args, work: Path, graph: Graph, tag: str, bridge_args: list[str]) -> 
             "live_weights": read_weights(live_weights), "updates": updates, "included": included,
             "compactions": compactions, "refused": refused,
             "refused_logged": len(re.findall(r"rejected \([^)]*capacity", text)),
-            "block_mib": float(block.group(1)) if block else math.nan,
+            "log": text, "block_mib": float(block.group(1)) if block else math.nan,
             "pass_mib": float(pass_block.group(1)) if pass_block else math.nan}
 
 
@@ -323,6 +342,7 @@ def row(graph: Graph, label: str, share: float | None, result: dict, unbounded: 
                "update": stats(result["updates"]), "included": stats(result["included"]),
                "compaction": stats(result["compactions"]), "updates": len(result["updates"]),
                "block_mib": result["block_mib"], "pass_mib": result["pass_mib"],
+               "fill_budget": result["fill_budget"],
                "loops": decisions(graph, result["weights"])}
     if unbounded is not None:
         figures["unbounded_ate"] = ate(unbounded["poses"], reference, kept)
@@ -370,6 +390,7 @@ def table(rows: list[dict]) -> list[str]:
         elif r.get("fixedlag_stopped"):
             fixed += " (stopped early)"
         u, i, c = r["update"], r["included"], r["compaction"]
+        fill = f", fill budget {r['fill_budget']}" if r.get("fill_budget") else ""
         lines.append(
             f"| {r['graph']} | {r['block']} | {r['kept']} / {r['poses']} | {refused}"
             f"{'' if r['sent_ok'] else ' (send failed)'} | {r['compactions']} | {cell(r['ate'])} "
@@ -379,7 +400,7 @@ def table(rows: list[dict]) -> list[str]:
             f"({loops['loops']}) | {loops['true_pruned']} / {loops['false_accepted']} | "
             f"{ms(u[0])} / {ms(u[1])} / {ms(u[2])} | {ms(i[1])} / "
             f"{ms(i[2])} | {ms(c[0])} / {ms(c[2])} | {cell(r['block_mib'], 1)} "
-            f"(+ {cell(r['pass_mib'], 1)}) |")
+            f"(+ {cell(r['pass_mib'], 1)}){fill} |")
     return lines
 
 
