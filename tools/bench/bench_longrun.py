@@ -208,6 +208,29 @@ def stream(args, work: Path, graph: Graph, tag: str, bridge_args: list[str]) -> 
     return result
 
 
+def parse_log(text: str) -> tuple[list[float], list[float], list[float], int]:
+    """From a bridge's log: the solves the stream caused (every one but the settle; most are
+    incremental updates, some restart from the front-end's estimates after an update failed),
+    the same with each compaction's time added to the solve after it, the compactions' times,
+    and how many of the solves were not incremental."""
+    updates, included, compactions = [], [], []
+    waiting = 0.0
+    whole = 0
+    for line in text.splitlines():
+        found = COMPACTION.search(line)
+        if found:
+            compactions.append(float(found.group(4)))
+            waiting += float(found.group(4))
+            continue
+        found = SOLVE.search(line)
+        if found and not found.group(2).startswith("settle"):
+            updates.append(float(found.group(3)))
+            included.append(float(found.group(3)) + waiting)
+            whole += "incremental" not in found.group(2)
+            waiting = 0.0
+    return updates, included, compactions, whole
+
+
 def stream_once(args, work: Path, graph: Graph, tag: str, bridge_args: list[str]) -> dict:
     """The graph streamed into one bridge; the last graph published, the log's figures."""
     log_path = bench_lcm.fresh_log(work / f"{tag}.bridge.log")
@@ -250,19 +273,7 @@ def stream_once(args, work: Path, graph: Graph, tag: str, bridge_args: list[str]
         except subprocess.TimeoutExpired:
             bridge.kill()
     text = log_path.read_text()
-    updates, included, compactions = [], [], []
-    waiting = 0.0
-    for line in text.splitlines():
-        found = COMPACTION.search(line)
-        if found:
-            compactions.append(float(found.group(4)))
-            waiting += float(found.group(4))
-            continue
-        found = SOLVE.search(line)
-        if found and "incremental" in found.group(2):
-            updates.append(float(found.group(3)))
-            included.append(float(found.group(3)) + waiting)
-            waiting = 0.0
+    updates, included, compactions, whole = parse_log(text)
     refused = {}
     if status.exists():
         try:
@@ -278,7 +289,7 @@ def stream_once(args, work: Path, graph: Graph, tag: str, bridge_args: list[str]
             if sent.stdout.strip() else [], "seconds": streamed, "poses": poses,
             "weights": read_weights(weights), "settles": settled,
             "live": read_vertices(live) if live.exists() else {},
-            "live_weights": read_weights(live_weights), "updates": updates, "included": included,
+            "live_weights": read_weights(live_weights), "updates": updates, "whole": whole, "included": included,
             "compactions": compactions, "refused": refused,
             "refused_logged": len(re.findall(r"rejected \([^)]*capacity", text)),
             "log": text, "block_mib": float(block.group(1)) if block else math.nan,
@@ -341,9 +352,12 @@ def row(graph: Graph, label: str, share: float | None, result: dict, unbounded: 
                "live_loops": decisions(graph, result["live_weights"]),
                "update": stats(result["updates"]), "included": stats(result["included"]),
                "compaction": stats(result["compactions"]), "updates": len(result["updates"]),
+               "whole_solves": result["whole"],
                "block_mib": result["block_mib"], "pass_mib": result["pass_mib"],
                "fill_budget": result["fill_budget"],
                "loops": decisions(graph, result["weights"])}
+    if graph.truth is not None:  # the batch optimum's own error over the same poses
+        figures["batch_ate"] = ate(graph.optimum, reference, kept)
     if unbounded is not None:
         figures["unbounded_ate"] = ate(unbounded["poses"], reference, kept)
         figures["unbounded_ate_live"] = ate(unbounded["live"], reference, sorted(result["live"]))
@@ -369,12 +383,12 @@ def ms(value: float) -> str:
 
 def table(rows: list[dict]) -> list[str]:
     lines = ["| graph | block | kept / poses | refused (capacity); other rejections | compactions | ATE kept (ref) | "
-             "unbounded, same poses | ratio | vs batch optimum | live map before the settle: ATE, "
+             "unbounded stream, same poses | ratio | batch optimum, same poses | ratio | vs batch optimum | live map before the settle: ATE, "
              "unbounded's | fixed-lag, same poses | loops vs "
              "batch EM agree / disagree (of) | true pruned / false accepted | update ms median / "
              "p99 / max | with compaction p99 / max | compaction ms median / max | block MiB "
              "(+ pass copy) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         refused = str(sum(r["refused"].values()) if r["refused"] else 0)
         # the sender's last status line: edges the bridge did not take, e.g. expired waiting
@@ -383,6 +397,8 @@ def table(rows: list[dict]) -> list[str]:
             refused += f"; not taken: {found.group(2) or found.group(1)}"
         ratio = r.get("unbounded_ate", math.nan)  # only against a truth (the batch optimum is
         ratio = r["ate"] / ratio if r["reference"] == "truth" and ratio > 0 else math.nan  # ~0)
+        batch = r.get("batch_ate", math.nan)
+        batch_ratio = r["ate"] / batch if r["reference"] == "truth" and batch > 0 else math.nan
         loops = r["loops"]
         fixed = cell(r.get("fixedlag_ate"))
         if "fixedlag_error" in r:
@@ -391,14 +407,16 @@ def table(rows: list[dict]) -> list[str]:
             fixed += " (stopped early)"
         u, i, c = r["update"], r["included"], r["compaction"]
         fill = f", fill budget {r['fill_budget']}" if r.get("fill_budget") else ""
+        whole = f" ({r['whole_solves']} of {r['updates']} whole-graph)" if r.get("whole_solves") else ""
         lines.append(
             f"| {r['graph']} | {r['block']} | {r['kept']} / {r['poses']} | {refused}"
             f"{'' if r['sent_ok'] else ' (send failed)'} | {r['compactions']} | {cell(r['ate'])} "
             f"({r['reference']}) | {cell(r.get('unbounded_ate'))} | {cell(ratio, 2)} | "
+            f"{cell(r.get('batch_ate'))} | {cell(batch_ratio, 2)} | "
             f"{cell(r['ate_optimum'])} | {cell(r.get('ate_live'))}, "
             f"{cell(r.get('unbounded_ate_live'))} | {fixed} | {loops['agree']} / {loops['disagree']} "
             f"({loops['loops']}) | {loops['true_pruned']} / {loops['false_accepted']} | "
-            f"{ms(u[0])} / {ms(u[1])} / {ms(u[2])} | {ms(i[1])} / "
+            f"{ms(u[0])} / {ms(u[1])} / {ms(u[2])}{whole} | {ms(i[1])} / "
             f"{ms(i[2])} | {ms(c[0])} / {ms(c[2])} | {cell(r['block_mib'], 1)} "
             f"(+ {cell(r['pass_mib'], 1)}){fill} |")
     return lines
@@ -414,6 +432,35 @@ def report(args, rows: list[dict], header: list[str], done: bool) -> str:
     if args.json is not None:
         args.json.write_text(json.dumps(rows, indent=1, default=str) + "\n")
     return text
+
+
+def render(args) -> int:
+    """The table again from --render's JSON, the batch optimum's error over the kept poses
+    added from the work files where there is a truth (rows of runs before that column)."""
+    rows = json.loads(args.render.read_text())
+    work = args.out.parent / "longrun_work"
+    for r in rows:
+        name = r["graph"]
+        found = re.search(r"\((\d+)\)", r["block"])
+        tag = f"{name}.{found.group(1) if found else 'unbounded'}"
+        log = work / f"{tag}.bridge.log"
+        if "whole_solves" not in r and log.exists():
+            updates, included, compactions, whole = parse_log(log.read_text())
+            r.update(update=stats(updates), included=stats(included),
+                     compaction=stats(compactions), updates=len(updates), whole_solves=whole)
+        if "batch_ate" in r or r["reference"] != "truth":
+            continue
+        if name.startswith("sim"):
+            truth = read_vertices(work / f"{name}.truth.g2o")
+        else:
+            sequence = name[len("kitti"):]
+            truth = compose_chain(args.datasets / "real" / "kitti" / f"kitti_{sequence}_GT.g2o")
+        dump = work / f"{tag}.dump.g2o"
+        if dump.exists():
+            kept = sorted(read_vertices(dump))
+            r["batch_ate"] = ate(read_vertices(work / f"{name}.optimum.g2o"), truth, kept)
+    print("\n".join(table(rows)))
+    return 0
 
 
 def main() -> int:
@@ -442,7 +489,12 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
     parser.add_argument("--json", type=Path)
     parser.add_argument("--build", type=Path, default=bench_lcm.DEFAULT_BUILD)
+    parser.add_argument("--render", type=Path,
+                        help="print the table of an earlier run's --json (and the batch "
+                             "optimum's error from its work files) without running anything")
     args = parser.parse_args()
+    if args.render is not None:
+        return render(args)
     bench_lcm.BUILD = bench_lcm.build_dir(args.build)
     if args.quick:
         args.graphs, args.shares, args.sim_poses = "M3500,sim2000", "0.25", 2000
