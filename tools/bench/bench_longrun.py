@@ -482,6 +482,8 @@ def main() -> int:
     parser.add_argument("--bridge-args", default="",
                         help="more pgem-lcm-bridge options for every bridge (space-separated)")
     parser.add_argument("--no-peer", action="store_true", help="no fixed-lag smoother")
+    parser.add_argument("--peer-shares", help="run the fixed-lag smoother at these of --shares "
+                        "only (default: every one)")
     parser.add_argument("--peer-time-limit", type=float, default=1800.0,
                         help="seconds a fixed-lag run may stream (then it stops, marked)")
     parser.add_argument("--quick", action="store_true",
@@ -534,7 +536,9 @@ def main() -> int:
                 bounded = stream(args, work, graph, f"{name}.{poses}",
                                  ["--max-poses", str(poses), "--max-edges", str(edges),
                                   "--compact", *extra])
-                fixed = None if args.no_peer else peer(args, work, graph, poses)
+                with_peer = not args.no_peer and (args.peer_shares is None or any(
+                    abs(share - float(x)) < 1e-9 for x in args.peer_shares.split(",")))
+                fixed = peer(args, work, graph, poses) if with_peer else None
                 rows.append(row(graph, f"{100 * share:g} % ({poses})", share, bounded, unbounded,
                                 fixed))
                 report(args, rows, header, False)
