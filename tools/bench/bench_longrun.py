@@ -317,11 +317,12 @@ def decisions(graph: Graph, weights: dict) -> dict:
     agree = disagree = 0
     true_pruned = false_accepted = 0
     for pair, accepted in weights.items():
-        if pair in graph.weights:
-            if graph.weights[pair] == accepted:
-                agree += 1
-            else:
-                disagree += 1
+        if pair not in graph.weights:
+            continue  # carried onto another pose by compaction: not the file's loop any more
+        if graph.weights[pair] == accepted:
+            agree += 1
+        else:
+            disagree += 1
         if graph.labels is not None:
             bad = is_false(graph, pair)
             false_accepted += bad and accepted
@@ -434,11 +435,41 @@ def report(args, rows: list[dict], header: list[str], done: bool) -> str:
     return text
 
 
+def rerender_graph(args, work: Path, name: str, cache: dict) -> Graph:
+    """A graph's batch EM weights and labels from an earlier run's work files."""
+    if name not in cache:
+        graph = Graph.__new__(Graph)
+        graph.weights = read_weights(work / f"{name}.optimum.weights")
+        graph.labels = None
+        if name.startswith("kitti"):
+            sequence = name[len("kitti"):]
+            true = set()
+            listed = args.datasets / "real" / "kitti" / f"kitti_{sequence}_alpha_{args.kitti_alpha}_GT_LC.txt"
+            for line in listed.read_text().splitlines():
+                fields = line.split()
+                if len(fields) >= 2:
+                    true |= {(int(fields[0]), int(fields[1])), (int(fields[1]), int(fields[0]))}
+            graph.labels = ("true", true)
+        else:
+            false = set()
+            listed = work / f"{name}.g2o.outliers"
+            for line in listed.read_text().splitlines() if listed.exists() else []:
+                fields = line.split()
+                if len(fields) >= 2:
+                    false |= {(int(fields[0]), int(fields[1])), (int(fields[1]), int(fields[0]))}
+            graph.labels = ("false", false)
+        cache[name] = graph
+    return cache[name]
+
+
 def render(args) -> int:
     """The table again from --render's JSON, the batch optimum's error over the kept poses
     added from the work files where there is a truth (rows of runs before that column)."""
-    rows = json.loads(args.render.read_text())
+    rows = []
+    for path in args.render:
+        rows += json.loads(path.read_text())
     work = args.out.parent / "longrun_work"
+    cache: dict = {}
     for r in rows:
         name = r["graph"]
         found = re.search(r"\((\d+)\)", r["block"])
@@ -448,6 +479,11 @@ def render(args) -> int:
             updates, included, compactions, whole = parse_log(log.read_text())
             r.update(update=stats(updates), included=stats(included),
                      compaction=stats(compactions), updates=len(updates), whole_solves=whole)
+        labelled = rerender_graph(args, work, name, cache)
+        for key, suffix in (("loops", "dump"), ("live_loops", "live")):
+            weights = work / f"{tag}.{suffix}.weights"
+            if weights.exists():
+                r[key] = decisions(labelled, read_weights(weights))
         if "batch_ate" in r or r["reference"] != "truth":
             continue
         if name.startswith("sim"):
@@ -491,7 +527,7 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
     parser.add_argument("--json", type=Path)
     parser.add_argument("--build", type=Path, default=bench_lcm.DEFAULT_BUILD)
-    parser.add_argument("--render", type=Path,
+    parser.add_argument("--render", type=Path, nargs="+",
                         help="print the table of an earlier run's --json (and the batch "
                              "optimum's error from its work files) without running anything")
     args = parser.parse_args()
