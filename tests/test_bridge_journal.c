@@ -1066,8 +1066,12 @@ static void test_status_counts_only_journaled(void **state)
     bridge_stop_flag = 0;
     pthread_t thread;
     assert_int_equal(pthread_create(&thread, NULL, bridge_thread, &run), 0);
-    struct timespec pause = {0, 50000000L}; /* the bridge subscribes, then publishes */
-    nanosleep(&pause, NULL);
+    /* the bridge subscribes, then handles messages: its first status says so (a fixed pause
+     * lost the whole chain when valgrind slowed the start past it) */
+    for (int wait = 0; wait < 6000 && watch.statuses == 0; ++wait) {
+        struct timespec tick = {0, 10000000L};
+        nanosleep(&tick, NULL);
+    }
     publish_chain(lcm);
     /* until everything is counted (the status is published every millisecond); the bound is
      * generous for a slow run (valgrind on a busy machine needed more than 30 s) */

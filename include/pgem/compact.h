@@ -18,6 +18,9 @@ typedef struct pgem_compact_options {
     uint32_t tail;        /**< the newest poses (insertion order) never removed: a front-end
                                is still linking them (0: 32) */
     int chain_only;       /**< 1: only poses no accepted or dormant loop closure touches */
+    int keep_pruned;      /**< 1: pruned loop closures are carried too, still pruned (a live
+                               stream's verdicts are provisional: a later EM pass may admit
+                               them again); 0: they go with their pose */
     uint32_t target_edges; /**< 0, or: after target_poses, more poses go (a tenth of those
                                left at a time) until at most this many edges remain or none
                                more can go; for a block whose edges fill before its poses */

@@ -327,11 +327,13 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
 }
 
 /* Every pose back to the front-end's estimate and every loop closure back in: the solve that
- * follows is the one an offline tool would run on the same graph. */
+ * follows is the one an offline tool would run on the same graph. A compacted graph keeps its
+ * estimate: its composed edges are the removed poses' quadratic form about the estimate at
+ * each compaction, and the front-end's dead-reckoned poses are far from there. */
 static void restart_from_raw(bridge_t *bridge)
 {
     size_t pose_size = (size_t)PGEM_POSE_SIZE(bridge->options.dimension);
-    for (uint32_t i = 0; i < pgem_pose_count(bridge->core); ++i) {
+    for (uint32_t i = 0; bridge->compactions == 0u && i < pgem_pose_count(bridge->core); ++i) {
         pgem_id_t id = 0;
         pgem_pose_at(bridge->core, i, &id, NULL, NULL);
         pgem_set_pose(bridge->core, id, bridge->raw + i * pose_size);
@@ -407,8 +409,10 @@ int bridge_graph_settle(bridge_t *bridge)
     if (bridge->settle_yields) {
         settle_save(bridge);
     }
-    bridge_log(bridge, "settle: EM on the whole graph (%u poses, %u edges) from the front-end's "
-                       "estimates%s", pgem_pose_count(bridge->core), pgem_edge_count(bridge->core),
+    bridge_log(bridge, "settle: EM on the whole graph (%u poses, %u edges) from %s%s",
+               pgem_pose_count(bridge->core), pgem_edge_count(bridge->core),
+               bridge->compactions == 0u ? "the front-end's estimates"
+                                         : "the live estimate (the graph is compacted)",
                bridge->settle_yields ? ", giving way to arriving items" : "");
     bridge->restart_pending = 1; /* the solve starts from the front-end's estimates */
     bridge->settle_gave_way = 0;
@@ -594,6 +598,7 @@ static int compact_to(bridge_t *bridge, uint32_t target_poses)
     options.edge_map = bridge->compact_edge_map;
     pgem_compact_summary_t summary;
     options.target_edges = (uint32_t)(COMPACT_LOW * o->max_edges);
+    options.keep_pruned = 1; /* the gate's verdicts are provisional: a live EM pass decides */
     pgem_compact(core, target_poses, &options, &summary);
     uint32_t removed_ids = 0, removed_edges = 0, kept = UINT32_MAX;
     for (uint32_t i = 0; i < poses; ++i) { /* each removed pose's anchor: the kept one before */
@@ -807,7 +812,9 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
                    "solve %lld (%s%s): %u poses, %u loops, %u pruned, chi2 %.6g, %u rounds, "
                    "%.1f ms (publishing %.1f ms)%s",
                    (long long)bridge->solve_id, trigger,
-                   restarted   ? ", restarted from the front-end's estimates"
+                   restarted   ? (bridge->compactions == 0u
+                                      ? ", restarted from the front-end's estimates"
+                                      : ", restarted from the live estimate, every loop back in")
                    : incremental ? ", incremental"
                                  : "",
                    pgem_pose_count(bridge->core), summary.loops, summary.pruned,
@@ -964,7 +971,8 @@ void bridge_graph_pass(bridge_t *bridge)
         bridge->pass_next = now + 0.05; /* not now: look again a little later */
         return;
     }
-    if (bridge_pass_start(&bridge->pass, bridge->core, bridge->raw, bridge->generation, now) != 0) {
+    if (bridge_pass_start(&bridge->pass, bridge->core,
+                          bridge->compactions == 0u ? bridge->raw : NULL, bridge->generation, now) != 0) {
         bridge_note(bridge, "live EM pass: cannot copy the graph: %s",
                     pgem_last_error(bridge->pass.core));
         bridge->pass_on = 0;

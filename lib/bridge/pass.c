@@ -141,7 +141,9 @@ int bridge_pass_start(bridge_pass_t *pass, const pgem_t *live, const double *raw
     for (uint32_t i = 0; i < poses; ++i) { /* batch EM's start; held: edges still on their way */
         pgem_id_t id = 0;
         pgem_pose_at(pass->core, i, &id, NULL, NULL);
-        pgem_set_pose(pass->core, id, raw + i * size);
+        if (raw != NULL) {
+            pgem_set_pose(pass->core, id, raw + i * size);
+        }
         if (!pass->has_edge[i]) {
             pgem_fix_pose(pass->core, id, 1);
         }

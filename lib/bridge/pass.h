@@ -53,7 +53,8 @@ int bridge_pass_init(bridge_pass_t *pass, const pgem_config_t *live, const pgem_
 void bridge_pass_free(bridge_pass_t *pass);
 /* Solver thread, lock held or not: the state (takes the lock). */
 int bridge_pass_state(bridge_pass_t *pass);
-/* Solver thread, IDLE: copies `live` (the front-end's estimates `raw`, pose_size doubles per
+/* Solver thread, IDLE: copies `live` (the front-end's estimates `raw`, or the live estimate
+ * when raw is NULL, pose_size doubles per
  * pose, as the starting point, what batch EM starts from) and hands it to the pass thread.
  * 0, or -1 if the copy failed (the message is the core's). */
 int bridge_pass_start(bridge_pass_t *pass, const pgem_t *live, const double *raw,

@@ -29,6 +29,7 @@ typedef struct pgem_compactor {
     int32_t *next;      /* the next edge end of the same pose */
     uint32_t alive;
     uint32_t sweep;
+    int keep_pruned;    /* pruned loops are carried too (options->keep_pruned) */
     pgem_compact_summary_t *summary;
 } pgem_compactor_t;
 
@@ -85,7 +86,7 @@ static int pgem_compact_candidate(const pgem_compactor_t *c, uint32_t p, int loo
                 return 0;
             }
             odo[odometry++] = k;
-        } else if (store->edge_active[k] == PGEM_EDGE_PRUNED) {
+        } else if (store->edge_active[k] == PGEM_EDGE_PRUNED && !c->keep_pruned) {
             r->pruned[r->pruned_count++] = k;
         } else if (!loops) {
             return 0;
@@ -105,6 +106,9 @@ static int pgem_compact_candidate(const pgem_compactor_t *c, uint32_t p, int loo
     r->v = pgem_other(store, r->k2, p);
     r->carried_u = r->carried_v = 0;
     for (int q = 0; q < r->loop_count; q++) { /* a loop to u goes to v, any other to u */
+        if (store->edge_active[r->loops[q]] == PGEM_EDGE_PRUNED) {
+            continue; /* out of the problem: it takes no share of the odometry */
+        }
         const int to_v = pgem_other(store, r->loops[q], p) == r->u;
         r->carried_v += to_v;
         r->carried_u += !to_v;
@@ -125,7 +129,9 @@ static int pgem_compact_carry(pgem_compactor_t *c, const pgem_removal_t *r, uint
     const int p_first = store->edge_from[kl] == r->p;
     uint32_t from = 0, to = 0;
     double z[PGEM_POSE_SIZE_MAX], information[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    const double share = 1.0 / (double)(1 + (target == r->u ? r->carried_u : r->carried_v));
+    const double share = store->edge_active[kl] == PGEM_EDGE_PRUNED
+                             ? 1.0
+                             : 1.0 / (double)(1 + (target == r->u ? r->carried_u : r->carried_v));
     if (!(p_first ? pgem_edge_compose(c->graph, kt, share, kl, 1.0, r->p, &from, &to, z, information)
                   : pgem_edge_compose(c->graph, kl, 1.0, kt, share, r->p, &from, &to, z, information))) {
         return 0;
@@ -372,6 +378,7 @@ int pgem_compact(pgem_t *graph, uint32_t target_poses, const pgem_compact_option
     c.next = (int32_t *)(void *)graph->robust.edge_distance;
     c.alive = store->pose_count;
     c.sweep = 0u;
+    c.keep_pruned = options != NULL && options->keep_pruned;
     c.summary = out;
     for (uint32_t p = 0; p < store->pose_count; p++) {
         c.pose_new[p] = 0u;
