@@ -202,6 +202,44 @@ static void test_arguments(void **state)
     pgem_destroy(graph);
 }
 
+/* Pruned loops carried, still pruned, when asked (a live stream's verdicts are provisional):
+ * nothing is dropped, and EM can take them up again after. */
+static uint32_t pruned_loops(const pgem_t *graph)
+{
+    uint32_t pruned = 0;
+    for (uint32_t k = 0; k < pgem_edge_count(graph); k++) {
+        pgem_edge_view_t view;
+        assert_int_equal(pgem_edge_at(graph, k, &view), PGEM_OK);
+        pruned += view.kind == PGEM_EDGE_LOOP && !view.active;
+    }
+    return pruned;
+}
+
+static void test_keep_pruned(void **state)
+{
+    (void)state;
+    pgem_t *graph = walk(400, 0.01, 12, 500);
+    pgem_robust_options_t em;
+    memset(&em, 0, sizeof em);
+    em.kernel = PGEM_KERNEL_EM;
+    assert_int_equal(pgem_robust_optimize(graph, &em, NULL, NULL), PGEM_OK);
+    const uint32_t before = pruned_loops(graph);
+    assert_true(before >= 10u);
+    pgem_compact_options_t options;
+    memset(&options, 0, sizeof options);
+    options.keep_pruned = 1;
+    pgem_compact_summary_t summary;
+    assert_int_equal(pgem_compact(graph, 150, &options, &summary), PGEM_OK);
+    assert_true(summary.poses_after < 300u);
+    assert_int_equal(summary.loops_dropped, 0);
+    assert_int_equal(pruned_loops(graph), before);
+    assert_int_equal(pgem_robust_optimize(graph, &em, NULL, NULL), PGEM_OK);
+    print_message("pruned loops kept: %u before, %u after compaction and EM again\n", before,
+                  pruned_loops(graph));
+    assert_true(pruned_loops(graph) >= before - 2u);
+    pgem_destroy(graph);
+}
+
 /* A block whose edges fill first: past the pose target, poses keep going until the edges fit,
  * and the carried loops fuse; a target no removal can meet ends with what could go. */
 static void test_edge_target(void **state)
@@ -296,6 +334,7 @@ int main(void)
         cmocka_unit_test(test_verdicts_ids_and_update),
         cmocka_unit_test(test_arguments),
         cmocka_unit_test(test_edge_target),
+        cmocka_unit_test(test_keep_pruned),
         cmocka_unit_test(test_m3500),
         cmocka_unit_test(test_city10000),
         cmocka_unit_test(test_sphere2500),
