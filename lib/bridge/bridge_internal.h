@@ -90,6 +90,7 @@ typedef struct bridge {
     int32_t graph_pruned;
     int64_t solves;
     int solving;
+    int compaction_full;        /* the last compaction left the graph above its high mark */
     int64_t core_rejections;
     int64_t full_rejections;    /* admitted items the full block could not take (--compact) */
     char last_message[384];
@@ -121,7 +122,6 @@ typedef struct bridge {
     double *compact_before;     /* every pose's estimate before the compaction */
     pgem_ingest_released_t *compact_edges; /* the removed edges' keys, for the ingest */
     uint64_t compactions;
-    int compaction_full;        /* the last compaction left the graph above its high mark */
     uint32_t main_anchor;       /* the held pose of the part with the smallest pose id: fixed
                                    (the other parts hold their gauge), UINT32_MAX if none */
     uint32_t parts_edges;       /* edges already in the parts */

@@ -149,7 +149,7 @@ int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t
     /* the composed measurement: where the two measurements put the far pose, the first at
      * the identity */
     double x1[PGEM_POSE_SIZE_MAX] = {0.0}, xp[PGEM_POSE_SIZE_MAX], x2[PGEM_POSE_SIZE_MAX];
-    double z[PGEM_POSE_SIZE_MAX];
+    double z[PGEM_POSE_SIZE_MAX] = {0.0};
     x1[three ? 6 : 2] = three ? 1.0 : 0.0;
     pgem_compose_step(three, x1, za, a_ends_at_p, xp);
     pgem_compose_step(three, xp, zb, b_starts_at_p, z);
@@ -167,8 +167,8 @@ int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t
         }
     }
     /* their Jacobians on p and on the second pose (the first stays: it holds the gauge) */
-    double ja[PGEM_SMALL_MAX * PGEM_SMALL_MAX], jb_p[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
-    double jb_2[PGEM_SMALL_MAX * PGEM_SMALL_MAX], unused[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
+    double ja[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0}, jb_p[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
+    double jb_2[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0}, unused[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
     if (a_ends_at_p) {
         pgem_compose_error(three, x1, xp, za, unused, ja);
     } else {
@@ -179,19 +179,19 @@ int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t
     } else {
         pgem_compose_error(three, x2, xp, zb, jb_2, jb_p);
     }
-    double oa[PGEM_SMALL_MAX * PGEM_SMALL_MAX], ob[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
+    double oa[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0}, ob[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
     for (size_t q = 0; q < nn; q++) { /* the share of each edge's information this edge takes */
         oa[q] = share_a * store->edge_information[(size_t)ka * nn + q];
         ob[q] = share_b * store->edge_information[(size_t)kb * nn + q];
     }
-    double t[PGEM_SMALL_MAX * PGEM_SMALL_MAX], u[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
-    double hpp[PGEM_SMALL_MAX * PGEM_SMALL_MAX], hp2[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
-    double h22[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
+    double t[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0}, u[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
+    double hpp[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0}, hp2[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
+    double h22[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
     pgem_compose_sum(oa, ja, ob, jb_p, hpp, n); /* Hpp = Ja' Oa Ja + Jbp' Ob Jbp */
     pgem_small_product(ob, 0, jb_2, 0, t, n); /* Hp2 = Jbp' Ob Jb2, H22 = Jb2' Ob Jb2 */
     pgem_small_product(jb_p, 1, t, 0, hp2, n);
     pgem_small_product(jb_2, 1, t, 0, h22, n);
-    double hpp_inverse[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
+    double hpp_inverse[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
     if (!pgem_small_inverse(hpp, hpp_inverse, n)) {
         return 0;
     }
@@ -202,8 +202,9 @@ int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t
     }
     /* the gradient the pair gives the second pose once p is marginalised out,
      * g = g2 - Hp2' Hpp^-1 gp, from the two errors at the estimate */
-    double ea[PGEM_TANGENT_SIZE_MAX], eb[PGEM_TANGENT_SIZE_MAX], oe_a[PGEM_SMALL_MAX];
-    double oe_b[PGEM_SMALL_MAX], gp[PGEM_SMALL_MAX], g[PGEM_SMALL_MAX], w[PGEM_SMALL_MAX];
+    double ea[PGEM_TANGENT_SIZE_MAX] = {0.0}, eb[PGEM_TANGENT_SIZE_MAX] = {0.0};
+    double oe_a[PGEM_SMALL_MAX] = {0.0}, oe_b[PGEM_SMALL_MAX] = {0.0}, gp[PGEM_SMALL_MAX] = {0.0};
+    double g[PGEM_SMALL_MAX] = {0.0}, w[PGEM_SMALL_MAX] = {0.0};
     pgem_compose_residual(three, a_ends_at_p ? x1 : xp, a_ends_at_p ? xp : x1, za, ea);
     pgem_compose_residual(three, b_starts_at_p ? xp : x2, b_starts_at_p ? x2 : xp, zb, eb);
     pgem_small_apply(oa, 0, ea, oe_a, n);
@@ -224,8 +225,8 @@ int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t
      * gradient B' O e0 = g: the pair's quadratic form about the estimate, kept whole (at a
      * solved map g is the pull the pair's residual exerts; at a dead-reckoned one it is 0
      * and the measurement is the composition itself) */
-    double l_inverse[PGEM_SMALL_MAX * PGEM_SMALL_MAX], b[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
-    double zg[PGEM_POSE_SIZE_MAX];
+    double l_inverse[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
+    double b[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0}, zg[PGEM_POSE_SIZE_MAX] = {0.0};
     if (pgem_small_inverse(h22, l_inverse, n)) {
         pgem_compose_error(three, x1, x2, z, unused, b);
         pgem_small_apply(l_inverse, 0, g, w, n);
