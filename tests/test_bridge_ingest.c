@@ -1213,6 +1213,39 @@ static void test_release_and_anchors(void **state)
     pgem_ingest_destroy(ingest);
 }
 
+/* Issue 32: the ingest remembers 4 x max_poses removed ids; an edge naming one it has forgotten
+ * is refused as forgotten, naming the pose, instead of waiting for a pose that never comes; an
+ * edge to an id beyond every forgotten range still waits for its pose. */
+static void test_forgotten_anchor(void **state)
+{
+    (void)state;
+    sink_t sink;
+    pgem_ingest_t *ingest = make_ingest(2, 2, 8, 4, &sink); /* remembers 8 removed ids */
+    feed(ingest, PGEM_ROLE_POSE, pose2(100, 0, 0, 0));
+    feed(ingest, PGEM_ROLE_POSE, pose2(50, 0, 0, 0));
+    pgem_id_t ids[12], anchors[12];
+    double relative[36] = {0.0};
+    for (int i = 0; i < 12; ++i) {
+        ids[i] = (pgem_id_t)i;
+        anchors[i] = 50;
+        feed(ingest, PGEM_ROLE_POSE, pose2(i, (double)i, 0, 0));
+        pgem_ingest_release(ingest, ids + i, anchors + i, relative + 3 * i, 1, NULL, 0);
+    }
+    /* 0..3 forgotten, 4..11 remembered */
+    pgem_ingest_result_t r = feed(ingest, PGEM_ROLE_EDGE, edge2(1, 100, 2));
+    assert_int_equal(r.verdict, PGEM_VERDICT_REJECTED);
+    assert_int_equal(r.reason, PGEM_REJECT_FORGOTTEN);
+    assert_non_null(strstr(r.message, "pose 2 was removed from the map long ago"));
+    assert_string_equal(pgem_reject_name(PGEM_REJECT_FORGOTTEN), "forgotten");
+    const int before = sink.count;
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(2, 100, 9)).verdict, PGEM_VERDICT_ACCEPTED);
+    assert_int_equal(sink.count, before + 1); /* on its anchor, 50 */
+    assert_int_equal(feed(ingest, PGEM_ROLE_EDGE, edge2(3, 100, 500)).verdict,
+                     PGEM_VERDICT_ACCEPTED); /* waits for pose 500 */
+    assert_int_equal(sink.count, before + 1);
+    pgem_ingest_destroy(ingest);
+}
+
 /* Issue 31, row 9 (c): the conflict message after sequence INT64_MAX computed "number on from
  * INT64_MAX + 1", a signed overflow. */
 static void test_conflict_at_the_highest_sequence(void **state)
@@ -1272,6 +1305,7 @@ int main(void)
         cmocka_unit_test(test_wrong_dimension),
         cmocka_unit_test(test_capacity),
         cmocka_unit_test(test_full_block),
+        cmocka_unit_test(test_forgotten_anchor),
         cmocka_unit_test(test_ids_at_the_ends_of_the_range),
         cmocka_unit_test(test_commands),
         cmocka_unit_test(test_magnitudes_beyond_the_limits),

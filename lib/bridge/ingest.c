@@ -22,11 +22,16 @@
  * edges to poses removed long ago still find their anchor (80 bytes each, 1.5 MiB per 1000
  * poses of capacity in 3D). */
 #define REMOVED_PER_POSE 4u
+/* Removed ids the ring has forgotten, kept as id ranges: an edge naming an unknown id inside one
+ * is refused as forgotten rather than left to wait for a pose that will never come. Ids closer
+ * than the pose capacity join one range (the kept poses between them are known); past 64
+ * ranges the two closest merge. */
+#define FORGOTTEN_RANGES 64u
 
 static const char *const reject_names[PGEM_REJECT_COUNT] = {
     "decode", "dimension", "not_finite", "information", "rotation", "self_loop", "kind",
     "source", "conflict", "capacity", "pending_full", "command", "core", "range", "journal",
-    "removed", "expired", "full"};
+    "removed", "expired", "full", "forgotten"};
 
 const char *pgem_reject_name(pgem_reject_t reason)
 {
@@ -86,6 +91,9 @@ struct pgem_ingest {
     int64_t reanchored;
     uint32_t removed_head;    /* the oldest */
     uint32_t removed_count;
+    pgem_id_t forgotten_low[FORGOTTEN_RANGES]; /* ranges of ids the ring forgot */
+    pgem_id_t forgotten_high[FORGOTTEN_RANGES];
+    uint32_t forgotten_count;
     table_t steps;            /* odometry in the graph: key (the smaller of two consecutive
                                  pose ids, 0), content the source index that made the step */
     waiting_t *pending;       /* max_pending slots */
@@ -588,6 +596,67 @@ static int reanchor_end(pgem_ingest_t *ingest, pgem_item_t *item, int to_end)
     return moved;
 }
 
+/* Whether id lies within gap of [low, high] (no overflow at either end of the id space). */
+static int id_near(pgem_id_t id, pgem_id_t low, pgem_id_t high, pgem_id_t gap)
+{
+    return (id >= low || low - id <= gap) && (id <= high || id - high <= gap);
+}
+
+/* A removed id the ring no longer remembers joins the forgotten ranges. */
+static void forget(pgem_ingest_t *ingest, pgem_id_t id)
+{
+    const pgem_id_t gap = ingest->config.max_poses;
+    for (uint32_t r = 0; r < ingest->forgotten_count; ++r) {
+        if (id_near(id, ingest->forgotten_low[r], ingest->forgotten_high[r], gap)) {
+            ingest->forgotten_low[r] = id < ingest->forgotten_low[r] ? id : ingest->forgotten_low[r];
+            ingest->forgotten_high[r] =
+                id > ingest->forgotten_high[r] ? id : ingest->forgotten_high[r];
+            return;
+        }
+    }
+    if (ingest->forgotten_count == FORGOTTEN_RANGES) { /* the two closest ranges become one */
+        uint32_t a = 0, b = 1;
+        pgem_id_t best = UINT64_MAX;
+        for (uint32_t i = 0; i < FORGOTTEN_RANGES; ++i) {
+            for (uint32_t j = i + 1; j < FORGOTTEN_RANGES; ++j) {
+                const pgem_id_t li = ingest->forgotten_low[i], hi = ingest->forgotten_high[i];
+                const pgem_id_t lj = ingest->forgotten_low[j], hj = ingest->forgotten_high[j];
+                const pgem_id_t distance = lj > hi ? lj - hi : li > hj ? li - hj : 0u;
+                if (distance < best) {
+                    best = distance;
+                    a = i;
+                    b = j;
+                }
+            }
+        }
+        if (ingest->forgotten_low[b] < ingest->forgotten_low[a]) {
+            ingest->forgotten_low[a] = ingest->forgotten_low[b];
+        }
+        if (ingest->forgotten_high[b] > ingest->forgotten_high[a]) {
+            ingest->forgotten_high[a] = ingest->forgotten_high[b];
+        }
+        ingest->forgotten_count--;
+        ingest->forgotten_low[b] = ingest->forgotten_low[ingest->forgotten_count];
+        ingest->forgotten_high[b] = ingest->forgotten_high[ingest->forgotten_count];
+    }
+    ingest->forgotten_low[ingest->forgotten_count] = id;
+    ingest->forgotten_high[ingest->forgotten_count++] = id;
+}
+
+/* An id in a forgotten range that is no pose the ingest knows: removed long ago. */
+static int forgotten(const pgem_ingest_t *ingest, pgem_id_t id)
+{
+    if (pose_known(ingest, id)) {
+        return 0;
+    }
+    for (uint32_t r = 0; r < ingest->forgotten_count; ++r) {
+        if (id >= ingest->forgotten_low[r] && id <= ingest->forgotten_high[r]) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
 void pgem_ingest_release(pgem_ingest_t *ingest, const pgem_id_t *ids, const pgem_id_t *anchors,
                          const double *relative, uint32_t id_count,
                          const pgem_ingest_released_t *edges, uint32_t edge_count)
@@ -607,6 +676,7 @@ void pgem_ingest_release(pgem_ingest_t *ingest, const pgem_id_t *ids, const pgem
             }
         }
         if (ingest->removed_count == capacity) { /* forget the oldest */
+            forget(ingest, ingest->removed_ring[ingest->removed_head]);
             table_remove(&ingest->removed,
                          table_find(&ingest->removed, ingest->removed_ring[ingest->removed_head], 0));
             ingest->removed_head = (ingest->removed_head + 1u) % capacity;
@@ -997,6 +1067,16 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
         reject(ingest, result, PGEM_REJECT_REMOVED);
         return;
     }
+    const int from_lost = forgotten(ingest, item->from);
+    if (from_lost || forgotten(ingest, item->to)) {
+        snprintf(result->message, sizeof result->message,
+                 "%s: pose %llu was removed from the map long ago and the bridge no longer "
+                 "remembers its anchor (it remembers the last %u removed poses)", what,
+                 (unsigned long long)(from_lost ? item->from : item->to),
+                 (unsigned)(REMOVED_PER_POSE * ingest->config.max_poses));
+        reject(ingest, result, PGEM_REJECT_FORGOTTEN);
+        return;
+    }
     int ready = pose_known(ingest, item->from) && pose_known(ingest, item->to);
     uint32_t victim = NONE;
     if (!ready && ingest->pending_count >= ingest->config.max_pending) {
@@ -1095,6 +1175,7 @@ static void reset(pgem_ingest_t *ingest)
     table_clear(&ingest->removed);
     ingest->removed_head = 0;
     ingest->removed_count = 0;
+    ingest->forgotten_count = 0;
     pending_clear(ingest);
     ingest->admitted_poses = 0;
     ingest->admitted_edges = 0;

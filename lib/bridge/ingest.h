@@ -56,6 +56,8 @@ typedef enum pgem_reject {
     PGEM_REJECT_FULL,          /* with compaction: the block is full and compaction can free
                                   nothing (every pose held, among the newest, or joined by
                                   other than two odometry edges) */
+    PGEM_REJECT_FORGOTTEN,     /* names a pose compaction removed so long ago that its anchor
+                                  is forgotten (beyond 4 x max_poses removed poses) */
     PGEM_REJECT_COUNT
 } pgem_reject_t;
 
@@ -197,7 +199,8 @@ typedef struct pgem_ingest_released {
  * values each). A later edge naming a removed pose enters on its anchor, the measurement
  * composed with that relative pose (through anchors removed since, too); a pose message with
  * a removed id is refused as `removed`. At most 4 x max_poses ids are remembered, the oldest
- * forgotten first: an edge naming a forgotten one waits for its pose and expires. */
+ * forgotten first: an edge naming a forgotten one (an unknown id within the ranges of ids
+ * forgotten) is refused as `forgotten`, naming the pose. */
 void pgem_ingest_release(pgem_ingest_t *ingest, const pgem_id_t *ids, const pgem_id_t *anchors,
                          const double *relative, uint32_t id_count,
                          const pgem_ingest_released_t *edges, uint32_t edge_count);
