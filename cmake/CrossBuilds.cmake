@@ -53,6 +53,13 @@ if(PGEM_BUILD_TESTS AND TARGET example_firmware_host)
             "-DACTUAL=${PGEM_TOOL_qemu_system_arm};-machine;mps2-an500;-cpu;cortex-m7;-nographic;-monitor;none;-serial;none;-semihosting-config;enable=on,target=native;-icount;shift=0;-kernel;${PGEM_M7_ELF}"
             -DNAME=Cortex-M7 -P ${compare})
   set_tests_properties(firmware_qemu_matches_host PROPERTIES TIMEOUT 600)
+  # The stream longer than the block, on the Cortex-M7: nothing refused, no false loop kept.
+  add_test(NAME firmware_qemu_stream
+    COMMAND ${PGEM_TOOL_qemu_system_arm} -machine mps2-an500 -cpu cortex-m7 -nographic -monitor
+            none -serial none -semihosting-config enable=on,target=native -icount shift=0
+            -kernel ${PGEM_M7_ELF})
+  set_tests_properties(firmware_qemu_stream PROPERTIES TIMEOUT 600 PASS_REGULAR_EXPRESSION
+    "held, 0 refused for capacity\n.*[0-9]+ true and 0 false accepted")
   add_test(NAME firmware_no_heap_symbols
     COMMAND ${CMAKE_COMMAND} -DNM=${PGEM_TOOL_arm_none_eabi_nm} -DELF=${PGEM_M7_ELF}
             -P ${PROJECT_SOURCE_DIR}/cmake/CheckFirmwareSymbols.cmake)

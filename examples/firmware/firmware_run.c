@@ -9,10 +9,15 @@ typedef struct report {
     const firmware_io_t *io;
     char line[160];
     size_t length;
+    int notes; /* lines start with '#': printed, not compared between targets */
 } report_t;
 
 static void put_text(report_t *r, const char *text)
 {
+    if (r->notes && r->length == 0u && text[0] != '#') {
+        memcpy(r->line, "# ", 2);
+        r->length = 2;
+    }
     size_t n = strlen(text);
     if (n > sizeof r->line - 1u - r->length) {
         n = sizeof r->line - 1u - r->length;
@@ -558,6 +563,11 @@ static int stream_run(report_t *r, void *block, size_t size)
                                       STREAM_BLOCK_POSES, STREAM_BLOCK_EDGES,
                                       STREAM_POSES / STREAM_BLOCK_POSES};
     put_series(r, stream_texts, stream_values, 6);
+    /* What follows hangs on every estimate the stream went through, and a compaction's edges
+     * are quadratic forms about the estimate: the last bits newlib's and glibc's sin and cos
+     * round differently grow into other compaction and gate decisions. So the stream's figures
+     * are notes; each target checks its own (firmware_qemu_stream, example_firmware_stream). */
+    r->notes = 1;
     const char *const compact_texts[] = {"compactions: ", " at ", " poses to ", ", ",
                                          " poses removed, ", " odometry pairs composed, ",
                                          " loop closures carried, ", " fused, ",
@@ -615,7 +625,7 @@ static int stream_run(report_t *r, void *block, size_t size)
 
 int firmware_run(const firmware_io_t *io, void *block, size_t size)
 {
-    report_t report = {io, {0}, 0};
+    report_t report = {io, {0}, 0, 0};
     if (batch_run(&report, block, size) != 0) {
         return 1;
     }
