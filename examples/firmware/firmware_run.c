@@ -458,7 +458,7 @@ static void stream_loops(report_t *r, const stream_t *s, const pgem_t *graph)
                                false_pruned - s->false_dropped};
     put_series(r, texts, values, 4);
     const char *const gone_texts[] = {"loop closures gone with their poses: pruned ", " true, ",
-                                      " false; fused into another ", " true, ", " false", ""};
+                                      " false, fused into another ", " true, ", " false", ""};
     const uint64_t gone_values[] = {s->true_dropped, s->false_dropped, s->true_fused,
                                     s->false_fused};
     put_series(r, gone_texts, gone_values, 4);
@@ -563,7 +563,8 @@ static int stream_run(report_t *r, void *block, size_t size)
                                       STREAM_BLOCK_POSES, STREAM_BLOCK_EDGES,
                                       STREAM_POSES / STREAM_BLOCK_POSES};
     put_series(r, stream_texts, stream_values, 6);
-    /* What follows hangs on every estimate the stream went through, and a compaction's edges
+    /* (No ';' in these lines: the comparison reads a report as a CMake list.)
+     * What follows hangs on every estimate the stream went through, and a compaction's edges
      * are quadratic forms about the estimate: the last bits newlib's and glibc's sin and cos
      * round differently grow into other compaction and gate decisions. So the stream's figures
      * are notes; each target checks its own (firmware_qemu_stream, example_firmware_stream). */
@@ -577,7 +578,7 @@ static int stream_run(report_t *r, void *block, size_t size)
     put_series(r, compact_texts, compact_values, 8);
     const char *const anchor_texts[] = {"edges to removed poses: ", " re-anchored, ",
                                         " dropped (both ends on one kept pose), ",
-                                        " refused (forgotten); anchors forgotten: ", ""};
+                                        " refused (forgotten), anchors forgotten: ", ""};
     const uint64_t anchor_values[] = {s->reanchored, s->reanchor_dropped, s->refused_forgotten,
                                       s->forgotten};
     put_series(r, anchor_texts, anchor_values, 4);
