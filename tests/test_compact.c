@@ -98,6 +98,15 @@ static void test_chain_poses_exact(void **state)
     pgem_destroy(whole);
 }
 
+/* EM on the graph (default options); its summary into *robust. */
+static void em_decides(pgem_t *graph, pgem_robust_summary_t *robust)
+{
+    pgem_robust_options_t em;
+    memset(&em, 0, sizeof em);
+    em.kernel = PGEM_KERNEL_EM;
+    assert_int_equal(pgem_robust_optimize(graph, &em, NULL, robust), PGEM_OK);
+}
+
 /* A robust stream's verdicts survive: EM decides, then half the poses go; every carried loop
  * keeps its state and weight, the pruned ones at removed poses are dropped and counted, ids
  * stay (removed ones are unknown), the maps say where each went, the incremental update goes
@@ -106,11 +115,8 @@ static void test_verdicts_ids_and_update(void **state)
 {
     (void)state;
     pgem_t *graph = walk(400, 0.01, 12, 500);
-    pgem_robust_options_t em;
-    memset(&em, 0, sizeof em);
-    em.kernel = PGEM_KERNEL_EM;
     pgem_robust_summary_t robust;
-    assert_int_equal(pgem_robust_optimize(graph, &em, NULL, &robust), PGEM_OK);
+    em_decides(graph, &robust);
     assert_true(robust.pruned >= 10u);
     const uint32_t edges = pgem_edge_count(graph);
     static uint32_t pose_map[400], edge_map[2000];
@@ -219,10 +225,7 @@ static void test_keep_pruned(void **state)
 {
     (void)state;
     pgem_t *graph = walk(400, 0.01, 12, 500);
-    pgem_robust_options_t em;
-    memset(&em, 0, sizeof em);
-    em.kernel = PGEM_KERNEL_EM;
-    assert_int_equal(pgem_robust_optimize(graph, &em, NULL, NULL), PGEM_OK);
+    em_decides(graph, NULL);
     const uint32_t before = pruned_loops(graph);
     assert_true(before >= 10u);
     pgem_compact_options_t options;
@@ -233,7 +236,7 @@ static void test_keep_pruned(void **state)
     assert_true(summary.poses_after < 300u);
     assert_int_equal(summary.loops_dropped, 0);
     assert_int_equal(pruned_loops(graph), before);
-    assert_int_equal(pgem_robust_optimize(graph, &em, NULL, NULL), PGEM_OK);
+    em_decides(graph, NULL);
     print_message("pruned loops kept: %u before, %u after compaction and EM again\n", before,
                   pruned_loops(graph));
     assert_true(pruned_loops(graph) >= before - 2u);

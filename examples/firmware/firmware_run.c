@@ -80,6 +80,21 @@ static void end_line(report_t *r)
     r->length = 0;
 }
 
+/* One line: "LABEL: x X  y Y  theta T", pose id's estimate to 6 decimals. */
+static void put_pose_line(report_t *r, const char *label, const pgem_t *graph, pgem_id_t id)
+{
+    double pose[3];
+    (void)pgem_get_pose(graph, id, pose);
+    put_text(r, label);
+    put_text(r, ": x ");
+    put_fixed(r, pose[0], 6);
+    put_text(r, "  y ");
+    put_fixed(r, pose[1], 6);
+    put_text(r, "  theta ");
+    put_fixed(r, pose[2], 6);
+    end_line(r);
+}
+
 /* One line: texts[0] values[0] texts[1] ... values[count - 1] texts[count]. */
 static void put_series(report_t *r, const char *const *texts, const uint64_t *values, int count)
 {
@@ -226,15 +241,7 @@ static int batch_run(report_t *r, void *block, size_t size)
     put_text(r, " -> ");
     put_fixed(r, summary.final_chi2, 6);
     end_line(r);
-    double last[3];
-    (void)pgem_get_pose(graph, FIRMWARE_POSES - 1u, last);
-    put_text(r, "last pose: x ");
-    put_fixed(r, last[0], 6);
-    put_text(r, "  y ");
-    put_fixed(r, last[1], 6);
-    put_text(r, "  theta ");
-    put_fixed(r, last[2], 6);
-    end_line(r);
+    put_pose_line(r, "last pose", graph, FIRMWARE_POSES - 1u);
     return 0;
 }
 
@@ -612,15 +619,7 @@ static int stream_run(report_t *r, void *block, size_t size)
     const uint64_t memory_values[] = {stats.factor_nonzeros, stats.factor_budget,
                                       stats.used_bytes};
     put_series(r, memory_texts, memory_values, 3);
-    double last[3];
-    (void)pgem_get_pose(graph, STREAM_POSES - 1u, last);
-    put_text(r, "stream last pose: x ");
-    put_fixed(r, last[0], 6);
-    put_text(r, "  y ");
-    put_fixed(r, last[1], 6);
-    put_text(r, "  theta ");
-    put_fixed(r, last[2], 6);
-    end_line(r);
+    put_pose_line(r, "stream last pose", graph, STREAM_POSES - 1u);
     return 0;
 }
 

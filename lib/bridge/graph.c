@@ -333,7 +333,8 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
 static void restart_from_raw(bridge_t *bridge)
 {
     size_t pose_size = (size_t)PGEM_POSE_SIZE(bridge->options.dimension);
-    for (uint32_t i = 0; bridge->compactions == 0u && i < pgem_pose_count(bridge->core); ++i) {
+    const uint32_t poses = bridge->compactions == 0u ? pgem_pose_count(bridge->core) : 0u;
+    for (uint32_t i = 0; i < poses; ++i) {
         pgem_id_t id = 0;
         pgem_pose_at(bridge->core, i, &id, NULL, NULL);
         pgem_set_pose(bridge->core, id, bridge->raw + i * pose_size);
@@ -519,7 +520,9 @@ static void compact_pose_arrays(bridge_t *bridge, uint32_t before)
     bridge->solved_poses = solved;
 }
 
-static int ensure_buffer(bridge_t *bridge, size_t size);
+static int out_ready(bridge_t *bridge, int size, const char *what);
+static void out_publish(bridge_t *bridge, const char *channel, const char *what, int size,
+                        int encoded);
 
 /* pgem.compaction_t: the poses one compaction removed, each with its anchor and where it lies
  * in the anchor's frame (compact_relative holds the reverse, for the ingest). */
@@ -555,15 +558,9 @@ static void publish_compaction(bridge_t *bridge, const pgem_compact_summary_t *s
     msg.loops_fused = (int32_t)summary->loops_fused;
     msg.full = (int8_t)full;
     const int size = pgem_compaction_t_encoded_size(&msg);
-    if (size <= 0 || ensure_buffer(bridge, (size_t)size) != 0 ||
-        pgem_compaction_t_encode(bridge->out_buffer, 0, size, &msg) != size) {
-        bridge_note(bridge, "cannot encode the compaction (%d bytes)", size);
-        return;
-    }
-    if (lcm_publish(bridge->lcm, bridge->options.channels.compaction, bridge->out_buffer,
-                    (unsigned)size) != 0) {
-        bridge_note(bridge, "LCM refused to publish the compaction (%d bytes) on %s", size,
-                    bridge->options.channels.compaction);
+    if (out_ready(bridge, size, "the compaction")) {
+        out_publish(bridge, bridge->options.channels.compaction, "the compaction", size,
+                    pgem_compaction_t_encode(bridge->out_buffer, 0, size, &msg));
     }
 }
 
@@ -981,18 +978,35 @@ void bridge_graph_pass(bridge_t *bridge)
     bridge->pass_loops = bridge->loop_count;
 }
 
-static int ensure_buffer(bridge_t *bridge, size_t size)
+/* 1 when the out buffer has room for an encoded message of `size` bytes (grown if need be);
+ * else 0, noted, naming `what`. */
+static int out_ready(bridge_t *bridge, int size, const char *what)
 {
-    if (size <= bridge->out_buffer_size) {
+    if (size > 0 && (size_t)size <= bridge->out_buffer_size) {
+        return 1;
+    }
+    unsigned char *grown = size > 0 ? realloc(bridge->out_buffer, (size_t)size) : NULL;
+    if (grown == NULL) {
+        bridge_note(bridge, "cannot encode %s (%d bytes)", what, size);
         return 0;
     }
-    unsigned char *grown = realloc(bridge->out_buffer, size);
-    if (grown == NULL) {
-        return -1;
-    }
     bridge->out_buffer = grown;
-    bridge->out_buffer_size = size;
-    return 0;
+    bridge->out_buffer_size = (size_t)size;
+    return 1;
+}
+
+/* The out buffer's message (`encoded`: what its encoder returned) published on channel; a
+ * failed encoding or a refusal noted, naming `what`. */
+static void out_publish(bridge_t *bridge, const char *channel, const char *what, int size,
+                        int encoded)
+{
+    if (encoded != size) {
+        bridge_note(bridge, "cannot encode %s (%d bytes)", what, size);
+        return;
+    }
+    if (lcm_publish(bridge->lcm, channel, bridge->out_buffer, (unsigned)size) != 0) {
+        bridge_note(bridge, "LCM refused to publish %s (%d bytes) on %s", what, size, channel);
+    }
 }
 
 void bridge_graph_publish(bridge_t *bridge, const char *trigger,
@@ -1064,16 +1078,10 @@ void bridge_graph_publish(bridge_t *bridge, const char *trigger,
     msg.stats.poses = msg.num_poses;
     msg.stats.edges = (int32_t)msg.edges_included;
     msg.stats.loops = msg.num_loops;
-    int size = pgem_graph_t_encoded_size(&msg);
-    if (size <= 0 || ensure_buffer(bridge, (size_t)size) != 0 ||
-        pgem_graph_t_encode(bridge->out_buffer, 0, size, &msg) != size) {
-        bridge_note(bridge, "cannot encode the graph (%d bytes)", size);
-        return;
-    }
-    if (lcm_publish(bridge->lcm, bridge->options.channels.graph, bridge->out_buffer,
-                    (unsigned)size) != 0) {
-        bridge_note(bridge, "LCM refused to publish the graph (%d bytes) on %s", size,
-                    bridge->options.channels.graph);
+    const int size = pgem_graph_t_encoded_size(&msg);
+    if (out_ready(bridge, size, "the graph")) {
+        out_publish(bridge, bridge->options.channels.graph, "the graph", size,
+                    pgem_graph_t_encode(bridge->out_buffer, 0, size, &msg));
     }
 }
 

@@ -62,6 +62,8 @@ int pgem_fail(pgem_t *graph, int code, const char *text);
 /* out = op(a) op(b), op the transpose where asked; out must not alias a or b. */
 void pgem_small_product(const double *a, int transpose_a, const double *b, int transpose_b,
                         double *out, int n);
+/* out = a v, or a' v when transpose (a n x n, v and out n). */
+void pgem_small_apply(const double *a, int transpose, const double *v, double *out, int n);
 /* out = a^-1 (Gauss-Jordan with partial pivoting); 0, out undefined, if a is singular. */
 int pgem_small_inverse(const double *a, double *out, int n);
 

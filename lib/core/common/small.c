@@ -1,5 +1,5 @@
-/* Small dense matrices (n <= 6, row-major): the products and the inverse the composition of
- * two edges needs. */
+/* Small dense matrices (n <= 6, row-major): the products, matrix times vector and the inverse
+ * the composition of two edges needs. */
 #include <math.h>
 
 #include "common/common.h"
@@ -16,6 +16,17 @@ void pgem_small_product(const double *a, int transpose_a, const double *b, int t
             }
             out[r * n + c] = sum;
         }
+    }
+}
+
+void pgem_small_apply(const double *a, int transpose, const double *v, double *out, int n)
+{
+    for (int r = 0; r < n; r++) {
+        double sum = 0.0;
+        for (int c = 0; c < n; c++) {
+            sum += (transpose ? a[c * n + r] : a[r * n + c]) * v[c];
+        }
+        out[r] = sum;
     }
 }
 

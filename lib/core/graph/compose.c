@@ -11,38 +11,17 @@
 #include "graph/graph.h"
 #include "instance.h"
 
-/* The error of an edge from xi to xj with measurement z, and its Jacobians. */
+/* The error of an edge from xi to xj with measurement z (into error unless NULL), and its
+ * Jacobians. */
 static void pgem_compose_error(int three, const double *xi, const double *xj, const double *z,
-                               double *jacobian_i, double *jacobian_j)
+                               double *error, double *jacobian_i, double *jacobian_j)
 {
-    double error[PGEM_TANGENT_SIZE_MAX];
+    double unused[PGEM_TANGENT_SIZE_MAX];
+    double *e = error != NULL ? error : unused;
     if (three) {
-        pgem_se3_error(xi, xj, z, error, jacobian_i, jacobian_j);
+        pgem_se3_error(xi, xj, z, e, jacobian_i, jacobian_j);
     } else {
-        pgem_se2_error(xi, xj, z, error, jacobian_i, jacobian_j);
-    }
-}
-
-/* The error of an edge from xi to xj with measurement z. */
-static void pgem_compose_residual(int three, const double *xi, const double *xj, const double *z,
-                                  double *error)
-{
-    if (three) {
-        pgem_se3_error(xi, xj, z, error, NULL, NULL);
-    } else {
-        pgem_se2_error(xi, xj, z, error, NULL, NULL);
-    }
-}
-
-/* out = a v or a' v (n x n, n). */
-static void pgem_small_apply(const double *a, int transpose, const double *v, double *out, int n)
-{
-    for (int r = 0; r < n; r++) {
-        double sum = 0.0;
-        for (int c = 0; c < n; c++) {
-            sum += (transpose ? a[c * n + r] : a[r * n + c]) * v[c];
-        }
-        out[r] = sum;
+        pgem_se2_error(xi, xj, z, e, jacobian_i, jacobian_j);
     }
 }
 
@@ -119,7 +98,7 @@ static int pgem_compose_edge(int three, const double *x1, const double *x2, cons
     double b[PGEM_SMALL_MAX * PGEM_SMALL_MAX], b_inverse[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
     double unused[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
     double t[PGEM_SMALL_MAX * PGEM_SMALL_MAX], u[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
-    pgem_compose_error(three, x1, x2, measurement, unused, b);
+    pgem_compose_error(three, x1, x2, measurement, NULL, unused, b);
     if (!pgem_small_inverse(b, b_inverse, n)) {
         return 0;
     }
@@ -166,18 +145,20 @@ int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t
             pgem_se2_between(e1, e2, x2);
         }
     }
-    /* their Jacobians on p and on the second pose (the first stays: it holds the gauge) */
+    /* their errors at the estimate, and their Jacobians on p and on the second pose (the first
+     * stays: it holds the gauge) */
+    double ea[PGEM_TANGENT_SIZE_MAX] = {0.0}, eb[PGEM_TANGENT_SIZE_MAX] = {0.0};
     double ja[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0}, jb_p[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
     double jb_2[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0}, unused[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
     if (a_ends_at_p) {
-        pgem_compose_error(three, x1, xp, za, unused, ja);
+        pgem_compose_error(three, x1, xp, za, ea, unused, ja);
     } else {
-        pgem_compose_error(three, xp, x1, za, ja, unused);
+        pgem_compose_error(three, xp, x1, za, ea, ja, unused);
     }
     if (b_starts_at_p) {
-        pgem_compose_error(three, xp, x2, zb, jb_p, jb_2);
+        pgem_compose_error(three, xp, x2, zb, eb, jb_p, jb_2);
     } else {
-        pgem_compose_error(three, x2, xp, zb, jb_2, jb_p);
+        pgem_compose_error(three, x2, xp, zb, eb, jb_2, jb_p);
     }
     double oa[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0}, ob[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
     for (size_t q = 0; q < nn; q++) { /* the share of each edge's information this edge takes */
@@ -202,11 +183,8 @@ int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t
     }
     /* the gradient the pair gives the second pose once p is marginalised out,
      * g = g2 - Hp2' Hpp^-1 gp, from the two errors at the estimate */
-    double ea[PGEM_TANGENT_SIZE_MAX] = {0.0}, eb[PGEM_TANGENT_SIZE_MAX] = {0.0};
     double oe_a[PGEM_SMALL_MAX] = {0.0}, oe_b[PGEM_SMALL_MAX] = {0.0}, gp[PGEM_SMALL_MAX] = {0.0};
     double g[PGEM_SMALL_MAX] = {0.0}, w[PGEM_SMALL_MAX] = {0.0};
-    pgem_compose_residual(three, a_ends_at_p ? x1 : xp, a_ends_at_p ? xp : x1, za, ea);
-    pgem_compose_residual(three, b_starts_at_p ? xp : x2, b_starts_at_p ? x2 : xp, zb, eb);
     pgem_small_apply(oa, 0, ea, oe_a, n);
     pgem_small_apply(ob, 0, eb, oe_b, n);
     pgem_small_apply(ja, 1, oe_a, gp, n);
@@ -228,7 +206,7 @@ int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t
     double l_inverse[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
     double b[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0}, zg[PGEM_POSE_SIZE_MAX] = {0.0};
     if (pgem_small_inverse(h22, l_inverse, n)) {
-        pgem_compose_error(three, x1, x2, z, unused, b);
+        pgem_compose_error(three, x1, x2, z, NULL, unused, b);
         pgem_small_apply(l_inverse, 0, g, w, n);
         pgem_small_apply(b, 0, w, oe_b, n);
         if (pgem_compose_shifted(three, x2, oe_b, zg)) {
