@@ -79,10 +79,25 @@ pgem_fails(1 duplicate "pgem: duplicate.g2o:3: duplicate VERTEX id 0 (first on l
 file(WRITE "${WORK}/unknown.g2o" "${PAIR}EDGE_SE2 0 1 1 0 0 ${I2}\nEDGE_SE2 1 7 1 0 0 ${I2}\n")
 pgem_fails(1 unknown "pgem: unknown.g2o:4: edge 1 -> 7 names id 7, which has no VERTEX line"
            optimize unknown.g2o)
+# A self-loop constrains nothing: read with a warning naming its line, left out, and the file
+# solves (as peers read such files); the output holds the other edge alone.
 file(WRITE "${WORK}/self.g2o" "${PAIR}EDGE_SE2 0 1 1 0 0 ${I2}\nEDGE_SE2 1 1 0 0 0 ${I2}\n")
-# the edge is named once (issue 17: "edge 1 -> 1: ... (edge 1 -> 1)")
-pgem_fails(1 self "pgem: self.g2o:4: an edge must join two different poses (edge 1 -> 1)\n"
-           optimize self.g2o)
+pgem_ok(self optimize self.g2o -o self_out.g2o)
+contains(self "${self_err}" "pgem: warning: self.g2o:4: edge 1 -> 1 joins a pose to itself and constrains nothing: left out of the graph\n")
+file(STRINGS "${WORK}/self_out.g2o" self_edges REGEX "^EDGE_SE2")
+list(LENGTH self_edges self_edge_count)
+if(NOT self_edge_count EQUAL 1)
+  fail("self: ${self_edge_count} edges written, expected 1")
+endif()
+# eleven of them: ten named, then a count
+set(many "${PAIR}EDGE_SE2 0 1 1 0 0 ${I2}\n")
+foreach(k RANGE 1 11)
+  string(APPEND many "EDGE_SE2 0 0 0 0 0 ${I2}\n")
+endforeach()
+file(WRITE "${WORK}/self_many.g2o" "${many}")
+pgem_ok(self_many optimize self_many.g2o -o self_many_out.g2o)
+contains(self_many "${self_many_err}" "self_many.g2o:13: edge 0 -> 0")
+contains(self_many "${self_many_err}" "pgem: warning: self_many.g2o: 1 more self-loop edges left out (11 in all)")
 file(WRITE "${WORK}/not_pd.g2o" "${PAIR}EDGE_SE2 0 1 1 0 0 100 0 0 100 0 -400\n")
 pgem_fails(1 not_pd "pgem: not_pd.g2o:3: information is not positive definite (pivot 2 is not positive) (edge 0 -> 1)\n"
            optimize not_pd.g2o)

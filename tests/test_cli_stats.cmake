@@ -90,12 +90,20 @@ file(WRITE "${WORK}/bad.g2o"
   "EDGE_SE2 2 0 -2 0 0 100 0 0 100 0 0\n"
   "EDGE_SE2 2 2 0 0 0 ${I2}\n")
 stats(1 bad bad.g2o --json)
-expect("${bad_out}" verdict problems edges 4 information_ok 2 information_not_pd 2
+expect("${bad_out}" verdict problems edges 3 information_ok 1 information_not_pd 2
        information_asymmetric 0 self_loops 1 components 1 degree_min 2)
 nested("${bad_out}" 5 information_not_pd_first 0 line)
 nested("${bad_out}" 6 information_not_pd_first 1 line)
 nested("${bad_out}" 7 self_loops_first 0 line)
 nested("${bad_out}" 2 self_loops_first 0 from)
+# a self-loop alone is a warning: the reader leaves it out and the graph solves
+file(WRITE "${WORK}/self.g2o"
+  "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 ${I2}\nEDGE_SE2 1 1 0 0 0 ${I2}\n")
+stats(0 self self.g2o --json)
+expect("${self_out}" verdict warnings edges 1 self_loops 1)
+nested("${self_out}" 4 self_loops_first 0 line)
+stats(0 self_text self.g2o)
+contains(self_text "${self_text_out}" "1 self-loop edge skipped")
 
 # ---- 3D: quaternions slightly off (a note), off by 0.2% (a warning), off by 5% (a problem) ----
 set(I3 "1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 4 0 0 4 0 4")

@@ -60,6 +60,12 @@ typedef struct pgem_io_graph {
                                             edge_count too; 0 for g2o edges) */
     char source[256];                    /**< path or stream name read ("" if not from a file);
                                             pgem_io_load prefixes its messages with it */
+    pgem_io_edge_t *self_loops;          /**< edges joining a pose to itself (FROM == TO),
+                                            self_loop_count entries in file order: they
+                                            constrain nothing, so they are left out of edges
+                                            (a caller warns with their lines) */
+    size_t self_loop_count;
+    size_t self_loop_capacity;
 } pgem_io_graph_t;
 
 /** Reads a graph file. Blank lines and lines starting with '#' are ignored. Poses without a
@@ -74,6 +80,8 @@ typedef struct pgem_io_graph {
  * - With PGEM_FORMAT_AUTO every tag below is accepted; with PGEM_FORMAT_G2O only the g2o tags
  *   (incl. FIX), with PGEM_FORMAT_TORO only VERTEX2 / EDGE2 / EQUIV. Any other tag is counted
  *   in unknown_lines, not an error. FIX takes one or more ids (as g2o writes it).
+ * - An edge joining a pose to itself (EDGE_SE2 1 1 ...) is kept in self_loops, not edges: it
+ *   constrains nothing, and peers read such files (the core refuses one through its API).
  * - A file with edge lines but no VERTEX line gets one pose per referenced id, ordered by id;
  *   if some ids have VERTEX lines, an edge naming an id without one is PGEM_ERR_UNKNOWN_ID.
  * - Lines are limited to 65536 bytes; a NUL byte in a line is PGEM_ERR_PARSE. Either stops

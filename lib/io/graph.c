@@ -43,6 +43,15 @@ pgem_io_edge_t *io_graph_new_edge(pgem_io_graph_t *graph)
     return (pgem_io_edge_t *)edge;
 }
 
+pgem_io_edge_t *io_graph_new_self_loop(pgem_io_graph_t *graph)
+{
+    void *edges = graph->self_loops;
+    void *edge = io_append(&edges, &graph->self_loop_count, &graph->self_loop_capacity,
+                           sizeof *graph->self_loops);
+    graph->self_loops = (pgem_io_edge_t *)edges;
+    return (pgem_io_edge_t *)edge;
+}
+
 int io_graph_add_fixed(pgem_io_graph_t *graph, pgem_id_t id)
 {
     void *fixed = graph->fixed;
@@ -64,5 +73,6 @@ void pgem_io_graph_free(pgem_io_graph_t *graph)
     free(graph->poses);
     free(graph->edges);
     free(graph->fixed);
+    free(graph->self_loops);
     memset(graph, 0, sizeof *graph);
 }

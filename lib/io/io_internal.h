@@ -113,6 +113,7 @@ void *io_append(void **array, size_t *count, size_t *capacity, size_t element_si
 /* graph.c: io_append on a graph's arrays (NULL / PGEM_ERR_OUT_OF_MEMORY when out of memory). */
 pgem_io_pose_t *io_graph_new_pose(pgem_io_graph_t *graph);
 pgem_io_edge_t *io_graph_new_edge(pgem_io_graph_t *graph);
+pgem_io_edge_t *io_graph_new_self_loop(pgem_io_graph_t *graph);
 int io_graph_add_fixed(pgem_io_graph_t *graph, pgem_id_t id);
 
 /* parse.c: handles one line of text (modified in place). */

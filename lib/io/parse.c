@@ -235,7 +235,9 @@ static void io_expand_information(const io_tag_t *tag, const double *values, dou
 static int io_store_edge(io_reader_t *reader, const io_tag_t *tag, const io_values_t *values)
 {
     size_t pose_size = (size_t)PGEM_POSE_SIZE(tag->dimension);
-    pgem_io_edge_t *edge = io_graph_new_edge(reader->graph);
+    pgem_io_edge_t *edge = values->ids[0] == values->ids[1]
+                               ? io_graph_new_self_loop(reader->graph)
+                               : io_graph_new_edge(reader->graph);
     if (edge == NULL) {
         return io_out_of_memory(reader);
     }

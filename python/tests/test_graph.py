@@ -36,6 +36,16 @@ def test_round_trip_g2o(scratch):
     assert (scratch / "again.g2o").read_text() == path.read_text()
 
 
+def test_self_loops_left_out_with_a_warning(scratch):
+    path = scratch / "self.g2o"
+    path.write_text("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\n"
+                    "EDGE_SE2 1 1 0 0 0 1 0 0 1 0 1\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n")
+    with pytest.warns(UserWarning, match=r"self-loop edges .* line\(s\) 3$"):
+        graph = pgem.read_g2o(path)
+    assert graph.edge_count == 1
+    assert graph.optimize().final_chi2 < 1e-12
+
+
 def test_round_trip_dataset(scratch):
     graph = pgem.read_g2o(dataset("3d/sphere2500.g2o"))
     assert graph.dimension == 3 and len(graph) == 2500

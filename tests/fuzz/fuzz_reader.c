@@ -108,10 +108,16 @@ static void check_poses(const pgem_io_graph_t *graph)
 static void check_edges(const pgem_io_graph_t *graph)
 {
     const size_t n = (size_t)PGEM_TANGENT_SIZE(graph->dimension);
+    for (size_t e = 0; e < graph->self_loop_count; ++e) {
+        FUZZ_CHECK(graph->self_loops[e].from == graph->self_loops[e].to);
+        FUZZ_CHECK(graph->self_loops[e].line > 0);
+        FUZZ_CHECK(e == 0 || graph->self_loops[e].line > graph->self_loops[e - 1].line);
+    }
     for (size_t e = 0; e < graph->edge_count; ++e) {
         const pgem_io_edge_t *edge = &graph->edges[e];
         pgem_id_t gap = edge->from > edge->to ? edge->from - edge->to : edge->to - edge->from;
         FUZZ_CHECK(edge->line > 0);
+        FUZZ_CHECK(edge->from != edge->to); /* self-loops are kept apart */
         FUZZ_CHECK(has_pose(graph, edge->from) && has_pose(graph, edge->to));
         /* the first edge between i and i + 1 is odometry, a later one between them a loop */
         FUZZ_CHECK(gap == 1 || edge->kind == PGEM_EDGE_LOOP);

@@ -89,6 +89,24 @@ static void pgem_cli_read_progress(uint64_t bytes, unsigned long lines, void *us
     }
 }
 
+/* One warning line per self-loop edge the reader left out (the first ten, then a count): the
+ * file still solves, and the user learns which lines were not used. */
+static void pgem_cli_warn_self_loops(const char *prefix, const char *path,
+                                     const pgem_io_graph_t *graph)
+{
+    enum { SHOWN = 10 };
+    for (size_t k = 0; k < graph->self_loop_count && k < SHOWN; k++) {
+        const pgem_io_edge_t *edge = &graph->self_loops[k];
+        fprintf(stderr, "%s: warning: %s:%lu: edge %llu -> %llu joins a pose to itself and "
+                        "constrains nothing: left out of the graph\n", prefix, path, edge->line,
+                (unsigned long long)edge->from, (unsigned long long)edge->to);
+    }
+    if (graph->self_loop_count > SHOWN) {
+        fprintf(stderr, "%s: warning: %s: %zu more self-loop edges left out (%zu in all)\n",
+                prefix, path, graph->self_loop_count - SHOWN, graph->self_loop_count);
+    }
+}
+
 int pgem_cli_read_graph(const char *prefix, const char *path, unsigned flags,
                         pgem_io_graph_t *graph)
 {
@@ -108,6 +126,9 @@ int pgem_cli_read_graph(const char *prefix, const char *path, unsigned flags,
     if ((flags & PGEM_CLI_NEED_POSES) != 0u && graph->pose_count == 0) {
         fprintf(stderr, "%s: %s has no poses\n", prefix, path);
         return PGEM_EXIT_FAILURE;
+    }
+    if ((flags & PGEM_CLI_LIST_SELF_LOOPS) == 0u) {
+        pgem_cli_warn_self_loops(prefix, path, graph);
     }
     if ((flags & PGEM_CLI_WARN_CHAINED) != 0u && graph->chained_poses > 0) {
         fprintf(stderr, "%s: warning: %s has no VERTEX lines; its poses are guesses composed "

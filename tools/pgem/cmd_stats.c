@@ -287,6 +287,9 @@ static void stats_edges(stats_t *s, const pgem_io_pose_index_t *ids, uint32_t *p
                         size_t *incident)
 {
     const pgem_io_graph_t *g = s->graph;
+    for (size_t k = 0; k < g->self_loop_count; k++) { /* left out of the graph by the reader */
+        stats_list_add(&s->self_loops, stats_edge_item(&g->self_loops[k]));
+    }
     for (size_t k = 0; k < g->edge_count; k++) {
         const pgem_io_edge_t *edge = &g->edges[k];
         size_t from = pgem_io_find_pose(ids, g->pose_count, edge->from);
@@ -297,10 +300,6 @@ static void stats_edges(stats_t *s, const pgem_io_pose_index_t *ids, uint32_t *p
             s->loops++;
         }
         stats_edge_values(s, edge);
-        if (from == to) {
-            stats_list_add(&s->self_loops, stats_edge_item(edge));
-            continue;
-        }
         degree[from]++;
         degree[to]++;
         incident[from] = incident[to] = k;
@@ -444,10 +443,6 @@ static void stats_problems(stats_t *s)
         stats_reason(s, STATS_PROBLEM, "%zu of %zu components without a fixed pose", s->unheld,
                      s->components);
     }
-    if (s->self_loops.count > 0) {
-        stats_reason(s, STATS_PROBLEM, "%zu self-loop%s", s->self_loops.count,
-                     pgem_cli_plural(s->self_loops.count));
-    }
     if (s->non_finite.count > 0) {
         stats_reason(s, STATS_PROBLEM, "%zu line%s with NaN or Inf", s->non_finite.count,
                      pgem_cli_plural(s->non_finite.count));
@@ -476,6 +471,10 @@ static void stats_warnings(stats_t *s)
     if (s->bad_quaternions.count == 0 && s->quaternion_error > STATS_QUAT_WARN) {
         stats_reason(s, STATS_WARNING, "quaternions off unit norm by up to %.2g",
                      s->quaternion_error);
+    }
+    if (s->self_loops.count > 0) {
+        stats_reason(s, STATS_WARNING, "%zu self-loop edge%s skipped", s->self_loops.count,
+                     pgem_cli_plural(s->self_loops.count));
     }
     if (g->unknown_lines > 0) {
         stats_reason(s, STATS_WARNING, "%zu line%s with unknown tags skipped", g->unknown_lines,
@@ -666,7 +665,8 @@ static void stats_print_defects(const stats_t *s)
                  pgem_cli_plural(s->duplicate_edges), s->duplicate_exact);
         stats_print_list("duplicates", what, &s->duplicates);
     }
-    stats_print_list("self-loops", "(an edge must join two different poses):", &s->self_loops);
+    stats_print_list("self-loops", "(edges joining a pose to itself, left out):",
+                     &s->self_loops);
     stats_print_list("non-finite", "lines with NaN or Inf:", &s->non_finite);
     if (s->graph->edge_count > 0) {
         printf("%-13s%zu of %zu symmetric positive definite\n", "information", s->information_ok,
@@ -852,7 +852,7 @@ int pgem_cmd_stats(int argc, char **argv)
         return status < 0 ? PGEM_EXIT_OK : status;
     }
     pgem_io_graph_t graph = {0};
-    status = pgem_cli_read_graph("pgem stats", path, 0u, &graph);
+    status = pgem_cli_read_graph("pgem stats", path, PGEM_CLI_LIST_SELF_LOOPS, &graph);
     if (status != PGEM_EXIT_OK) {
         pgem_io_graph_free(&graph);
         return status;

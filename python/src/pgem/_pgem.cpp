@@ -90,6 +90,10 @@ public:
             raise_error(PGEM_ERR_EMPTY, path + ": the file holds no graph lines");
         }
         pgem_config_t config;
+        std::string skipped; // self-loops the reader left out: a warning naming their lines
+        for (size_t k = 0; k < file.self_loop_count; k++) {
+            skipped += (k > 0 ? ", " : "") + std::to_string(file.self_loops[k].line);
+        }
         pgem_io_config(&file, &config);
         config.fill_budget = fill_budget;
         Graph *graph = nullptr;
@@ -104,6 +108,16 @@ public:
         if (status != PGEM_OK) {
             delete graph;
             raise_error(status, message);
+        }
+        if (!skipped.empty()) {
+            try {
+                nb::module_::import_("warnings").attr("warn")(
+                    path + ": self-loop edges (a pose joined to itself constrains nothing) left "
+                           "out of the graph, line(s) " + skipped);
+            } catch (...) { // warnings as errors: the exception, and no graph
+                delete graph;
+                throw;
+            }
         }
         return graph;
     }
