@@ -128,6 +128,8 @@ typedef struct bridge {
     uint32_t parts_with_edges;  /* parts that have an edge */
     int restart_pending;        /* the last solve saw a split graph or failed: the next one
                                    on a whole graph starts afresh from the raw estimates */
+    int live_failed;            /* a compacted graph's restart from the live estimate failed:
+                                   the next restart starts from the front-end's estimates */
     uint32_t solved_poses;      /* poses that took part in the last successful solve */
     uint32_t loop_count;        /* loop closures in the core */
     uint32_t pruned_count;      /* of them pruned after the last solve or update */

@@ -326,6 +326,13 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
     return 1;
 }
 
+/* 1 when a restart starts from the live estimate: on a compacted graph, unless a restart
+ * from it failed (a live estimate the solve cannot use: the front-end's is the way back). */
+static int restart_from_live(const bridge_t *bridge)
+{
+    return bridge->compactions > 0u && !bridge->live_failed;
+}
+
 /* Every pose back to the front-end's estimate and every loop closure back in: the solve that
  * follows is the one an offline tool would run on the same graph. A compacted graph keeps its
  * estimate: its composed edges are the removed poses' quadratic form about the estimate at
@@ -333,7 +340,7 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
 static void restart_from_raw(bridge_t *bridge)
 {
     size_t pose_size = (size_t)PGEM_POSE_SIZE(bridge->options.dimension);
-    const uint32_t poses = bridge->compactions == 0u ? pgem_pose_count(bridge->core) : 0u;
+    const uint32_t poses = restart_from_live(bridge) ? 0u : pgem_pose_count(bridge->core);
     for (uint32_t i = 0; i < poses; ++i) {
         pgem_id_t id = 0;
         pgem_pose_at(bridge->core, i, &id, NULL, NULL);
@@ -412,8 +419,8 @@ int bridge_graph_settle(bridge_t *bridge)
     }
     bridge_log(bridge, "settle: EM on the whole graph (%u poses, %u edges) from %s%s",
                pgem_pose_count(bridge->core), pgem_edge_count(bridge->core),
-               bridge->compactions == 0u ? "the front-end's estimates"
-                                         : "the live estimate (the graph is compacted)",
+               restart_from_live(bridge) ? "the live estimate (the graph is compacted)"
+                                         : "the front-end's estimates",
                bridge->settle_yields ? ", giving way to arriving items" : "");
     bridge->restart_pending = 1; /* the solve starts from the front-end's estimates */
     bridge->settle_gave_way = 0;
@@ -783,6 +790,10 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
                    1e3 * (bridge_now() - start), summary.gn_iterations);
         return;
     }
+    const int from_live = restarted && restart_from_live(bridge);
+    if (restarted) { /* a failed restart from the live estimate: the next from the front-end's */
+        bridge->live_failed = status != PGEM_OK && from_live;
+    }
     if (status != PGEM_OK) {
         bridge->restart_pending = 1;
     }
@@ -809,9 +820,9 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
                    "solve %lld (%s%s): %u poses, %u loops, %u pruned, chi2 %.6g, %u rounds, "
                    "%.1f ms (publishing %.1f ms)%s",
                    (long long)bridge->solve_id, trigger,
-                   restarted   ? (bridge->compactions == 0u
-                                      ? ", restarted from the front-end's estimates"
-                                      : ", restarted from the live estimate, every loop back in")
+                   restarted   ? (from_live
+                                      ? ", restarted from the live estimate, every loop back in"
+                                      : ", restarted from the front-end's estimates")
                    : incremental ? ", incremental"
                                  : "",
                    pgem_pose_count(bridge->core), summary.loops, summary.pruned,
@@ -821,8 +832,9 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
             bridge_note(bridge, "solve %lld: %s", (long long)bridge->solve_id, why);
         }
     } else {
-        bridge_note(bridge, "solve %lld (%s) failed: %s", (long long)bridge->solve_id, trigger,
-                    why);
+        bridge_note(bridge, "solve %lld (%s) failed: %s%s", (long long)bridge->solve_id, trigger,
+                    why, bridge->live_failed ? "; the next solve restarts from the front-end's "
+                                               "estimates" : "");
     }
     bridge_publish_status(bridge);
 }
