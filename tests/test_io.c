@@ -1359,6 +1359,42 @@ static void test_self_loops_left_out(void **state)
     pgem_destroy(instance);
 }
 
+/* One robot's file of a team: with foreign_ids an edge naming another robot's pose is kept and
+ * counted (a sender streams it); loading such a graph is refused with nothing added. */
+static void test_foreign_ids(void **state)
+{
+    const char *text = HEAD2 "EDGE_SE2 0 1 1 0 0" INFO2 "\nEDGE_SE2 1 1000005 0 0 0" INFO2
+                             "\nEDGE_SE2 2000007 0 0 0 0" INFO2 "\n";
+    pgem_io_graph_t graph;
+    pgem_config_t config;
+    pgem_t *instance = NULL;
+    char message[512], path[512];
+    pgem_io_read_options_t options;
+    (void)state;
+    temp_path(path, sizeof path, "robot.g2o");
+    write_bytes(path, text, strlen(text));
+    /* without the option: refused, naming the id */
+    assert_int_equal(pgem_io_read_with(path, NULL, &graph, message, sizeof message),
+                     PGEM_ERR_UNKNOWN_ID);
+    assert_non_null(strstr(message, "names id 1000005, which has no VERTEX line"));
+    memset(&options, 0, sizeof options);
+    options.foreign_ids = 1;
+    assert_int_equal(pgem_io_read_with(path, &options, &graph, message, sizeof message), PGEM_OK);
+    assert_int_equal(graph.pose_count, 2);
+    assert_int_equal(graph.edge_count, 3);
+    assert_int_equal(graph.foreign_edges, 2);
+    assert_int_equal(graph.first_foreign_line, 4);
+    assert_int_equal(graph.edges[1].to, 1000005u);
+    pgem_io_config(&graph, &config);
+    assert_int_equal(pgem_create(&instance, &config), PGEM_OK);
+    assert_int_equal(pgem_io_load(&graph, instance, message, sizeof message), PGEM_ERR_UNKNOWN_ID);
+    assert_non_null(strstr(message, "robot.g2o:4: 2 edges name an id with no pose"));
+    assert_int_equal(pgem_pose_count(instance), 0);
+    assert_int_equal(pgem_edge_count(instance), 0);
+    pgem_destroy(instance);
+    pgem_io_graph_free(&graph);
+}
+
 static void test_load_errors(void **state)
 {
     pgem_io_graph_t graph;
@@ -1460,6 +1496,7 @@ int main(void)
         cmocka_unit_test(test_load_small_with_fix),
         cmocka_unit_test(test_load_errors),
         cmocka_unit_test(test_self_loops_left_out),
+        cmocka_unit_test(test_foreign_ids),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -566,6 +566,71 @@ def two_scenario(graph: Path, edges: int) -> None:
     print(f"two: both halves landed; last sequence per source {last}")
 
 
+def team_files(graph: Path, robots: int) -> list[tuple[Path, int]]:
+    """The graph as `robots` robots' own files: robot r owns the poses of the r-th slice of ids
+    and the edges among them; an edge between two robots' poses (an inter-robot odometry step
+    or loop closure) goes to one of its two robots, alternately, so every file names poses it
+    has no VERTEX line for. Returns each file and its edge count."""
+    lines = graph.read_text().splitlines()
+    ids = sorted(int(line.split()[1]) for line in lines if line.startswith("VERTEX"))
+    bound = [ids[len(ids) * r // robots] for r in range(1, robots)]
+    owner = lambda pose: sum(pose >= b for b in bound)  # noqa: E731
+    own: list[list[str]] = [[] for _ in range(robots)]
+    edges = [0] * robots
+    crossing = 0
+    for line in lines:
+        words = line.split()
+        if not words:
+            continue
+        if words[0].startswith("VERTEX"):
+            own[owner(int(words[1]))].append(line)
+            continue
+        a, b = owner(int(words[1])), owner(int(words[2]))
+        if a != b:
+            a = a if crossing % 2 == 0 else b
+            crossing += 1
+        own[a].append(line)
+        edges[a] += 1
+    files = []
+    for r in range(robots):
+        path = Path(f"robot{r}.g2o")
+        path.write_text("\n".join(own[r]) + "\n")
+        files.append((path, edges[r]))
+    return files
+
+
+def team_scenario(graph: Path, edges: int) -> None:
+    step("team: the graph as three robots' own files, each streamed by its own sender with "
+         "--foreign-ids (inter-robot edges name other robots' poses): the settled map is the "
+         "offline EM's")
+    files = team_files(graph, 3)
+    refused = finish_refused(files[1][0])
+    expect("--foreign-ids sends such edges" in refused,
+           f"team: a robot's file without --foreign-ids: {refused.strip()}")
+    bridge = Bridge(Path("team.log"))
+    bridge.start()
+    dump = settled_dump("team", edges)
+    senders = [sender(path, "--source", f"robot-{r}", "--rate", "1500", "--foreign-ids")
+               for r, (path, _) in enumerate(files)]
+    for r, process in enumerate(senders):
+        finish(process, f"robot-{r}")
+    agree("team", dump)
+    last = read_json(Path("team.json"))["last_sequence"]
+    expect(last == {f"robot-{r}": count - 1 for r, (_, count) in enumerate(files)},
+           f"team: per-robot last sequence {last}")
+    bridge.stop()
+    print(f"team: three robots' files ({', '.join(str(c) for _, c in files)} edges) streamed "
+          f"at once; the settled map is the offline one; last sequence per robot {last}")
+
+
+def finish_refused(path: Path) -> str:
+    """A sender's output for a file it must refuse (exit 1, nothing sent)."""
+    process = subprocess.run([program("SEND"), str(path)], capture_output=True, text=True,
+                             timeout=60)
+    expect(process.returncode == 1, f"{path}: exit {process.returncode}, expected 1")
+    return process.stderr
+
+
 # ---- d: a front-end that restarts its numbering -----------------------------------------
 
 
@@ -1350,7 +1415,8 @@ def journal_scenario(graph: Path) -> dict:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--only",
-                        default="kills,malformed,two,restart,hostile,full,journal,split,compact")
+                        default="kills,malformed,two,team,restart,hostile,full,journal,split,"
+                        "compact")
     parser.add_argument("--kills", type=int, default=int(os.environ.get("KILLS", "20")))
     parser.add_argument("--min-delay", type=float, default=0.05,
                         help="shortest time between a restart and the next kill (s)")
@@ -1383,6 +1449,8 @@ def main() -> int:
             figures["malformed"] = malformed_scenario(args, graph, edges)
         if "two" in only:
             two_scenario(graph, edges)
+        if "team" in only:
+            team_scenario(graph, edges)
         if "restart" in only:
             restart_scenario(graph, edges)
         if {"hostile", "wire", "snapshots", "optimize"} & set(only):

@@ -60,6 +60,10 @@ typedef struct pgem_io_graph {
                                             edge_count too; 0 for g2o edges) */
     char source[256];                    /**< path or stream name read ("" if not from a file);
                                             pgem_io_load prefixes its messages with it */
+    size_t foreign_edges;                /**< edges naming an id with no VERTEX line, read
+                                            with pgem_io_read_options_t.foreign_ids (0
+                                            otherwise: such a file is refused) */
+    unsigned long first_foreign_line;    /**< the first such edge's line */
     pgem_io_edge_t *self_loops;          /**< edges joining a pose to itself (FROM == TO),
                                             self_loop_count entries in file order: they
                                             constrain nothing, so they are left out of edges
@@ -108,6 +112,24 @@ int pgem_io_read_progress(const char *path, pgem_format_t format, pgem_io_graph_
                           char *message, size_t message_size, pgem_io_progress_fn progress,
                           void *user);
 
+/** How pgem_io_read_with reads; zero-initialise for pgem_io_read's behaviour. */
+typedef struct pgem_io_read_options {
+    pgem_format_t format;        /**< which tags are accepted (PGEM_FORMAT_AUTO: all) */
+    int foreign_ids;             /**< 1: in a file with VERTEX lines, an edge may name an id
+                                      that has none, another source's pose (one robot's file of
+                                      a team, whose loop closures name other robots' poses): it
+                                      is kept and counted in foreign_edges. pgem_io_load refuses
+                                      such a graph (the core has no pose for it); pgem-lcm-send
+                                      streams it, and the bridge holds the edge until the pose
+                                      arrives from its own sender */
+    pgem_io_progress_fn progress; /**< NULL, or called as for pgem_io_read_progress */
+    void *progress_user;
+} pgem_io_read_options_t;
+
+/** pgem_io_read with options (NULL: the defaults, exactly pgem_io_read). */
+int pgem_io_read_with(const char *path, const pgem_io_read_options_t *options,
+                      pgem_io_graph_t *graph, char *message, size_t message_size);
+
 /** As pgem_io_read, from an open stream; name is used in messages. */
 int pgem_io_read_stream(FILE *stream, const char *name, pgem_format_t format,
                         pgem_io_graph_t *graph, char *message, size_t message_size);
@@ -137,6 +159,7 @@ void pgem_io_config(const pgem_io_graph_t *graph, pgem_config_t *config);
 
 /** Adds every pose, edge and FIX of the file graph to an empty instance. On error the message
  * names the file line of the offending pose or edge and the instance's message is appended.
+ * A graph read with foreign ids that has foreign edges is PGEM_ERR_UNKNOWN_ID with nothing added.
  * A graph larger than the instance's free capacity is PGEM_ERR_CAPACITY with nothing added;
  * after any other error the instance holds the poses and edges added before the offending
  * one: discard it (the core cannot take them back). */

@@ -149,7 +149,7 @@ static int io_sorted_vertex_ids(const io_reader_t *reader, pgem_id_t **ids)
 
 static int io_check_edge_ids(const io_reader_t *reader, const pgem_id_t *ids, size_t count)
 {
-    const pgem_io_graph_t *graph = reader->graph;
+    pgem_io_graph_t *graph = reader->graph;
     size_t e;
     for (e = 0; e < graph->edge_count; ++e) {
         const pgem_io_edge_t *edge = &graph->edges[e];
@@ -159,6 +159,12 @@ static int io_check_edge_ids(const io_reader_t *reader, const pgem_id_t *ids, si
             if (io_find_id(ids, count, edge->to, NULL)) {
                 continue;
             }
+        }
+        if (reader->foreign_ids) { /* another source's pose: kept, counted */
+            if (graph->foreign_edges++ == 0) {
+                graph->first_foreign_line = edge->line;
+            }
+            continue;
         }
         return io_fail(reader, edge->line, PGEM_ERR_UNKNOWN_ID,
                        "edge %llu -> %llu names id %llu, which has no VERTEX line",

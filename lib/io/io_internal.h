@@ -40,6 +40,7 @@ typedef struct io_line {
 typedef struct io_reader {
     const char *name;              /* file name used in messages */
     pgem_format_t format;          /* which tags are accepted */
+    int foreign_ids;               /* edges may name ids without a VERTEX line (counted) */
     pgem_io_graph_t *graph;        /* the graph being filled */
     unsigned long line;            /* current line number (1-based) */
     unsigned long dimension_line;  /* the line that decided graph->dimension */

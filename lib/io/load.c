@@ -128,6 +128,14 @@ int pgem_io_load(const pgem_io_graph_t *graph, pgem_t *instance, char *message,
                               "the graph is %dD but the instance is %dD", graph->dimension,
                               pgem_dimension(instance));
     }
+    if (graph->foreign_edges > 0) { /* checked first: nothing is added */
+        return io_load_failed(graph, graph->first_foreign_line, PGEM_ERR_UNKNOWN_ID, message,
+                              message_size, "%zu edge%s name%s an id with no pose in the graph "
+                              "(read with foreign ids, for a sender): a graph to load needs "
+                              "every pose", graph->foreign_edges,
+                              graph->foreign_edges == 1u ? "" : "s",
+                              graph->foreign_edges == 1u ? "s" : "");
+    }
     status = io_load_fits(graph, instance, message, message_size);
     if (status == PGEM_OK) {
         status = io_load_poses(graph, instance, message, message_size);

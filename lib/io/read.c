@@ -93,10 +93,10 @@ static int io_check_read_arguments(FILE *stream, pgem_format_t format, pgem_io_g
     return PGEM_OK;
 }
 
-static int io_read_stream(FILE *stream, const char *name, pgem_format_t format,
-                          pgem_io_graph_t *graph, char *message, size_t message_size,
-                          pgem_io_progress_fn progress, void *user)
+static int io_read_stream(FILE *stream, const char *name, const pgem_io_read_options_t *options,
+                          pgem_io_graph_t *graph, char *message, size_t message_size)
 {
+    const pgem_format_t format = options->format;
     io_reader_t reader;
     int status;
     io_message(message, message_size, "%s", "");
@@ -113,8 +113,9 @@ static int io_read_stream(FILE *stream, const char *name, pgem_format_t format,
     reader.graph = graph;
     reader.message = message;
     reader.message_size = message_size;
-    reader.progress = progress;
-    reader.progress_user = user;
+    reader.foreign_ids = options->foreign_ids != 0;
+    reader.progress = options->progress;
+    reader.progress_user = options->progress_user;
     status = io_read_lines(&reader, stream);
     if (status == PGEM_OK) {
         status = io_assign_edge_kinds(graph); /* before the chain guess, which follows odometry */
@@ -137,7 +138,10 @@ static int io_read_stream(FILE *stream, const char *name, pgem_format_t format,
 int pgem_io_read_stream(FILE *stream, const char *name, pgem_format_t format,
                         pgem_io_graph_t *graph, char *message, size_t message_size)
 {
-    return io_read_stream(stream, name, format, graph, message, message_size, NULL, NULL);
+    pgem_io_read_options_t options;
+    memset(&options, 0, sizeof options);
+    options.format = format;
+    return io_read_stream(stream, name, &options, graph, message, message_size);
 }
 
 int pgem_io_read(const char *path, pgem_format_t format, pgem_io_graph_t *graph, char *message,
@@ -150,8 +154,24 @@ int pgem_io_read_progress(const char *path, pgem_format_t format, pgem_io_graph_
                           char *message, size_t message_size, pgem_io_progress_fn progress,
                           void *user)
 {
+    pgem_io_read_options_t options;
+    memset(&options, 0, sizeof options);
+    options.format = format;
+    options.progress = progress;
+    options.progress_user = user;
+    return pgem_io_read_with(path, &options, graph, message, message_size);
+}
+
+int pgem_io_read_with(const char *path, const pgem_io_read_options_t *options,
+                      pgem_io_graph_t *graph, char *message, size_t message_size)
+{
+    pgem_io_read_options_t defaults;
     FILE *stream;
     int status;
+    if (options == NULL) {
+        memset(&defaults, 0, sizeof defaults);
+        options = &defaults;
+    }
     if (graph != NULL) {
         memset(graph, 0, sizeof *graph);
     }
@@ -164,7 +184,7 @@ int pgem_io_read_progress(const char *path, pgem_format_t format, pgem_io_graph_
         io_message(message, message_size, "%s: cannot open: %s", path, strerror(errno));
         return PGEM_ERR_IO;
     }
-    status = io_read_stream(stream, path, format, graph, message, message_size, progress, user);
+    status = io_read_stream(stream, path, options, graph, message, message_size);
     fclose(stream);
     return status;
 }

@@ -48,6 +48,7 @@ typedef struct send_args {
     uint64_t pause_every;    /* --pause-every N: silent after every N edge messages; 0 never */
     double pause_seconds;    /* --pause SECONDS: for how long (default 1) */
     int quiet;               /* --quiet: no progress lines */
+    int foreign_ids;         /* --foreign-ids: edges may name other senders' poses */
 } send_args_t;
 
 /* One message of the plan: a pose or an edge of the file graph, by index. */
@@ -114,6 +115,7 @@ static void send_usage(FILE *out)
             "usage: pgem-lcm-send FILE [--rate HZ] [--source NAME] [--shuffle SEED] [--repeat N]\n"
             "                     [--first K] [--count N] [--wait SECONDS] [--latency FILE.csv]\n"
             "                     [--pause-every N [--pause SECONDS]] [--optimize] [--quiet]\n"
+            "                     [--foreign-ids]\n"
             "                     [--url URL] [--channel-prefix P]\n"
             "                     [--pose-channel C] [--edge-channel C] [--graph-channel C]\n"
             "                     [--status-channel C] [--command-channel C]\n");
@@ -173,7 +175,13 @@ static void send_help(FILE *out, const void *context)
             "                         edge taken) ask the bridge to solve now (pgem.command_t\n"
             "                         OPTIMIZE): the bridge solves on new loop closures, so\n"
             "                         without it no graph may include the last odometry edges\n"
-            "  --quiet                no progress lines on stderr\n");
+            "  --quiet                no progress lines on stderr\n"
+            "  --foreign-ids          FILE is one robot's of a team: an edge may name an id\n"
+            "                         with no VERTEX line in it, another robot's pose (its\n"
+            "                         inter-robot loop closures). Such an edge is sent after\n"
+            "                         its own pose (after the last pose when neither is FILE's)\n"
+            "                         and the bridge holds it until the other robot's sender\n"
+            "                         publishes that pose. Without it such a file is refused\n");
     pgem_lcm_options_help(out, lcm);
     fprintf(out,
             "\n"
@@ -246,6 +254,8 @@ static int send_flag(void *user, const char *name)
         args->quiet = 1;
     } else if (strcmp(name, "--optimize") == 0) {
         args->optimize = 1;
+    } else if (strcmp(name, "--foreign-ids") == 0) {
+        args->foreign_ids = 1;
     } else {
         return 0;
     }
@@ -346,11 +356,16 @@ static size_t send_order_edges(const pgem_io_graph_t *graph, const send_args_t *
         }
         size_t from = pgem_io_find_pose(ids, graph->pose_count, graph->edges[e].from);
         size_t to = pgem_io_find_pose(ids, graph->pose_count, graph->edges[e].to);
-        if (from == PGEM_IO_NO_POSE || to == PGEM_IO_NO_POSE) {
-            continue; /* the reader refuses such files; kept safe anyway */
+        if (from == PGEM_IO_NO_POSE && to == PGEM_IO_NO_POSE) { /* (--foreign-ids alone) */
+            ready[e] = graph->pose_count - 1u; /* after the last pose */
+        } else if (from == PGEM_IO_NO_POSE || to == PGEM_IO_NO_POSE) {
+            const size_t own = from == PGEM_IO_NO_POSE ? to : from; /* another sender's pose */
+            needed[own] = 1;
+            ready[e] = own;
+        } else {
+            needed[from] = needed[to] = 1;
+            ready[e] = from > to ? from : to;
         }
-        needed[from] = needed[to] = 1;
-        ready[e] = from > to ? from : to;
         start[ready[e] + 1u]++;
         chosen++;
     }
@@ -1004,7 +1019,15 @@ int main(int argc, char **argv)
     send_context_t context;
     memset(&context, 0, sizeof context);
     status = pgem_cli_read_graph(SEND_TOOL, args.input,
-                                 PGEM_CLI_NEED_POSES | PGEM_CLI_WARN_CHAINED, &graph);
+                                 PGEM_CLI_NEED_POSES | PGEM_CLI_WARN_CHAINED |
+                                     (args.foreign_ids ? PGEM_CLI_FOREIGN_IDS
+                                                       : PGEM_CLI_OFFER_FOREIGN),
+                                 &graph);
+    if (status == PGEM_EXIT_OK && graph.foreign_edges > 0 && !args.quiet) {
+        fprintf(stderr, "%s: %zu edges name another sender's poses (the first on line %lu): "
+                        "the bridge holds each until that pose arrives\n",
+                SEND_TOOL, graph.foreign_edges, graph.first_foreign_line);
+    }
     if (status == PGEM_EXIT_OK) {
         status = pgem_lcm_channels(&args.lcm, graph.dimension, &context.channels) == 0
                      ? send_plan_build(&graph, &args, &plan)

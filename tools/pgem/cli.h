@@ -93,6 +93,10 @@ int pgem_cli_parse_kernel(const char *prefix, const char *text, pgem_kernel_t *k
 #define PGEM_CLI_NEED_POSES 1u   /* a graph without poses is an error ("PATH has no poses") */
 #define PGEM_CLI_WARN_CHAINED 2u /* warn when the poses were guessed along the edges */
 #define PGEM_CLI_LIST_SELF_LOOPS 4u /* the caller lists the skipped self-loop edges itself */
+#define PGEM_CLI_FOREIGN_IDS 8u /* edges may name ids without a VERTEX line (another sender's
+                                   poses): kept and counted (pgem_io_read_options_t) */
+#define PGEM_CLI_OFFER_FOREIGN 16u /* a refused edge naming an id with no VERTEX line says that
+                                      --foreign-ids takes it (pgem-lcm-send) */
 
 /* pgem_cli_read_graph reports progress on stderr for files at least this large (64 MiB). */
 #define PGEM_CLI_PROGRESS_MIN_BYTES (UINT64_C(64) << 20)

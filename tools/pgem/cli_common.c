@@ -117,10 +117,20 @@ int pgem_cli_read_graph(const char *prefix, const char *path, unsigned flags,
     const int show = stat(path, &info) == 0 && S_ISREG(info.st_mode) &&
                      (uint64_t)info.st_size >= PGEM_CLI_PROGRESS_MIN_BYTES;
     reading.size = show ? (uint64_t)info.st_size : 0u;
-    int status = pgem_io_read_progress(path, PGEM_FORMAT_AUTO, graph, message, sizeof message,
-                                       show ? pgem_cli_read_progress : NULL, &reading);
+    pgem_io_read_options_t options;
+    memset(&options, 0, sizeof options);
+    options.format = PGEM_FORMAT_AUTO;
+    options.foreign_ids = (flags & PGEM_CLI_FOREIGN_IDS) != 0u;
+    options.progress = show ? pgem_cli_read_progress : NULL;
+    options.progress_user = &reading;
+    int status = pgem_io_read_with(path, &options, graph, message, sizeof message);
     if (status != PGEM_OK) {
-        fprintf(stderr, "%s: %s\n", prefix, message);
+        const int offer = (flags & PGEM_CLI_OFFER_FOREIGN) != 0u && status == PGEM_ERR_UNKNOWN_ID &&
+                          strstr(message, "which has no VERTEX line") != NULL;
+        fprintf(stderr, "%s: %s%s\n", prefix, message,
+                offer ? " (another robot's pose? --foreign-ids sends such edges, and the bridge "
+                        "holds them until that pose arrives)"
+                      : "");
         return status == PGEM_ERR_IO ? PGEM_EXIT_IO : PGEM_EXIT_FAILURE;
     }
     if ((flags & PGEM_CLI_NEED_POSES) != 0u && graph->pose_count == 0) {
