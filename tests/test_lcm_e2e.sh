@@ -261,7 +261,7 @@ until [ "$(grep -c "settle: EM on the whole graph" paused.log || true)" -gt "$se
     waited=$((waited + 1))
     [ "$waited" -lt 600 ] || fail "paused: no settle started within 30 s of the pause"
 done
-"$SEND" pause_input.g2o --rate "$RATE" --first "$half" --wait 60 >paused.send2.log 2>&1 ||
+"$SEND" pause_input.g2o --rate "$RATE" --first "$half" --wait 180 >paused.send2.log 2>&1 ||
     fail "paused: the rest not accepted"
 wait "$dump" || fail "paused: no complete graph dumped"
 agree paused paused_offline
