@@ -13,7 +13,8 @@
  *
  * One caveat with the system CSparse: its symbolic analysis (first solve after the graph
  * changes) mallocs and frees its own workspace. Built from source (PGEM_CSPARSE_SOURCE_DIR, as
- * the firmware build does) it draws from the block instead; DESIGN.md explains both. */
+ * the firmware build does) it draws from the block instead;
+ * docs/design/csparse-and-exhaustion.md explains both. */
 #include <stdio.h>
 
 #include <pgem/pgem.h>

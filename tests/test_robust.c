@@ -13,7 +13,7 @@
 /* Odometry noise of the test rings: 2 cm per step, and a gyro-like heading (2 mrad). With
  * heading noise as large as the translation noise (0.02 rad), the metres-long lever arm makes
  * the chain far less certain than each loop's information claims, true loops start at chi2
- * ~ 200, and EM at c = 1 prunes some (see DESIGN.md, open work). */
+ * ~ 200, and EM at c = 1 prunes some (docs/design/innovation.md). */
 #define SIGMA 0.02
 #define HEADING_SIGMA 0.002
 

@@ -3,8 +3,8 @@
  *   block_sizes                      the table of docs/FIRMWARE.md
  *   block_sizes DIM POSES EDGES FILL one configuration
  *   block_sizes --per-item           the bytes one more pose, edge or factor value takes (the
- *                                    figure DESIGN.md and docs/FIRMWARE.md quote); exit 1 if
- *                                    one exceeds what PGEM_MEMORY_BOUND allows for it */
+ *                                    figure docs/design/memory.md and docs/FIRMWARE.md quote);
+ *                                    exit 1 if one exceeds what PGEM_MEMORY_BOUND allows for it */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>

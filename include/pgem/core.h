@@ -133,8 +133,9 @@ int pgem_get_memory_parts(const pgem_config_t *config, pgem_memory_parts_t *part
 
 /** Initialises an instance inside buffer (size bytes, at least pgem_memory_size(config)).
  * On success *instance points into buffer; nothing is allocated, now or later (with the
- * system CSparse, its symbolic analysis mallocs and frees workspace: see DESIGN.md). There is no teardown: the
- * caller owns the buffer. pgem_init_message() below is the same call, saying why it failed. */
+ * system CSparse, its symbolic analysis mallocs and frees workspace: see
+ * docs/design/csparse-and-exhaustion.md). There is no teardown: the caller owns the buffer.
+ * pgem_init_message() below is the same call, saying why it failed. */
 int pgem_init(pgem_t **instance, const pgem_config_t *config, void *buffer, size_t size);
 
 /** pgem_init that says why it failed (there is no instance yet for pgem_last_error): on

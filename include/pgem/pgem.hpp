@@ -69,7 +69,7 @@
  *   (`pgem/io.h`, library pgem::pgem): the file graph is heap-allocated, then released once it
  *   is copied into the instance;
  * - what the C core itself does: CSparse's symbolic analysis mallocs and frees its workspace
- *   once per topology change (DESIGN.md, "Memory model"). `analyze()` moves it out of a
+ *   once per topology change (docs/design/csparse-and-exhaustion.md). `analyze()` moves it out of a
  *   time-critical loop; after it, `optimize()` and a robust solve that prunes nothing make zero
  *   allocations (tests/test_cpp_wrapper.cpp counts them).
  *

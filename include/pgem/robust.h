@@ -64,7 +64,8 @@ typedef enum pgem_loop_distance {
     PGEM_DISTANCE_INNOVATION = 0,  /**< default: the loop against what the rest of the graph
                                       predicts for it (leave-one-out innovation, the map's
                                       covariance included), where the map predicts it well
-                                      enough; the point chi2 elsewhere (see DESIGN.md) */
+                                      enough; the point chi2 elsewhere
+                                      (docs/design/innovation.md) */
     PGEM_DISTANCE_POINT = 1        /**< the paper: e^T Omega e under the current estimate */
 } pgem_loop_distance_t;
 

@@ -468,7 +468,7 @@ static void update_options(const bridge_t *bridge, pgem_update_options_t *option
     options->robust = bridge->options.robust.kernel != PGEM_KERNEL_NONE;
     options->gate = bridge->options.robust.gate;
     options->odometry_inflation = bridge->options.robust.odometry_inflation;
-    /* The pass judges what the map cannot yet (DESIGN.md, "Live EM passes"), while passes
+    /* The pass judges what the map cannot yet (docs/design/live-em.md), while passes
      * come within a second: a loop held back waits up to two passes, and passes slower than
      * that (a large map on a slow or busy machine) left the live map drifting for want of
      * the loops held back, and the bridge behind the stream. */

@@ -2,7 +2,7 @@
 # edge3_t's and loop_t's `from`) is generated as `self.from`, a SyntaxError. The attribute is
 # renamed with a trailing underscore (`from_`, PEP 8's way) in the generated .py files only: the
 # fingerprint lcm-gen computed from the .lcm names is kept, so the wire format, journals and the
-# C and Java types are unchanged (DESIGN.md, "LCM bridge").
+# C and Java types are unchanged (docs/design/hostile-input.md).
 # Run as: cmake -DPYTHON_DIR=<generated package folder> -P python_keywords.cmake
 if(NOT PYTHON_DIR)
   message(FATAL_ERROR "usage: cmake -DPYTHON_DIR=<folder> -P python_keywords.cmake")

@@ -8,7 +8,8 @@
  * slices under it already freed), freeing another slice marks it, and the next open empties
  * the pool.
  * The symbolic routines free in nearly LIFO order, so the peak stays near their true need;
- * pgem_cs_pool_bytes bounds it from above for the calls the core makes (see DESIGN.md). */
+ * pgem_cs_pool_bytes bounds it from above for the calls the core makes
+ * (docs/design/csparse-and-exhaustion.md). */
 #include <string.h>
 
 #include "linalg/linear.h"

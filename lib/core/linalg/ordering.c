@@ -13,9 +13,9 @@
  * free poses whose AMD factor needs at least PGEM_ND_MIN_FLOPS_PER_BLOCK flops per pose and
  * PGEM_ND_MIN_FLOPS in all. Below, fronts are small, AMD's flops are within some 10 % of
  * nested dissection's and the dissection (15-25 us per pose) costs more than it saves over a
- * solve's ten or so factorisations (measured, DESIGN.md: City10000, 8.5e3 flops per pose, 0.27 s
- * of dissection to save 1 ms per factorisation; Sphere2500, 1.6e5 per pose and 4e8 in all,
- * where AMD also orders better). */
+ * solve's ten or so factorisations (measured, docs/design/ordering.md: City10000, 8.5e3 flops
+ * per pose, 0.27 s of dissection to save 1 ms per factorisation; Sphere2500, 1.6e5 per pose
+ * and 4e8 in all, where AMD also orders better). */
 #define PGEM_ND_MIN_BLOCKS 2000
 #define PGEM_ND_MIN_FLOPS_PER_BLOCK 2e5
 #define PGEM_ND_MIN_FLOPS 1e9
@@ -201,7 +201,7 @@ int pgem_pattern_order(pgem_t *graph, int block_count)
     }
     /* Our own dissection is not run beside an orderer that beat AMD: a multilevel dissection
      * such as METIS's orders better than ours on every large graph measured (grid3d 100000:
-     * 266G flops against 355G) and ours took twice its time there (DESIGN.md). */
+     * 266G flops against 355G) and ours took twice its time there (docs/design/ordering.md). */
     const int orderer_won = linear->factor.ordering == PGEM_ORDERING_ORDERER;
     if (status == PGEM_OK && choice != PGEM_ORDER_ORDERER &&
         !(choice == PGEM_ORDER_AUTO && orderer_won)) {

@@ -200,7 +200,7 @@ void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double infla
         const double loo = rho / shrink;
         mu0[i] = mu / shrink;
         /* the allowance grows with the map's variance: none for a prediction about as tight
-         * as the loop, all of it for one from a long odometry chain (see DESIGN.md) */
+         * as the loop, all of it for one from a long odometry chain (docs/design/innovation.md) */
         const double allowance = 1.0 + (inflation - 1.0) * mu0[i] / (mu0[i] + PGEM_ALLOWANCE_HALF);
         out->distance += loo * loo / (1.0 + allowance * mu0[i]);
         out->plain += loo * loo / (1.0 + mu0[i]);
