@@ -758,8 +758,21 @@ def check_peer(args: argparse.Namespace) -> None:
         return
     missing = [name for name in ("gtsam", "numpy") if importlib.util.find_spec(name) is None]
     if missing:
-        raise BenchError(f"{' and '.join(missing)} cannot be imported by {sys.executable} (pip install gtsam "
-                         "numpy), or run pgem alone with --peer none")
+        raise BenchError(f"{' and '.join(missing)} cannot be imported by {sys.executable}: "
+                         f"{pip_install(missing)}; or run pgem alone with --peer none")
+
+
+def pip_install(packages: list[str]) -> str:
+    """What to run to install packages into this Python: its venv's pip, or on Debian 12 (whose
+    Python is externally managed, PEP 668) pip beside apt's packages as tools/setup-debian does."""
+    names = " ".join(packages)
+    if sys.prefix != sys.base_prefix:
+        return f"run {sys.executable} -m pip install {names}"
+    pip = "" if importlib.util.find_spec("pip") else "apt-get install python3-pip, then "
+    return (f"run tools/setup-debian (as root or with sudo), or by hand {pip}python3 -m pip install "
+            f"--break-system-packages {names}; or in a venv: apt-get install python3-venv, then "
+            f"python3 -m venv ~/venv && ~/venv/bin/pip install {names} and run "
+            f"~/venv/bin/python3 {sys.argv[0]}")
 
 
 def resolve(args: argparse.Namespace, notes: list[str]) -> tuple[list[bench_gn.Dataset], list[bench_gn.Dataset]]:
