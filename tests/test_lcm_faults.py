@@ -125,6 +125,33 @@ def cannot_run(reason: str) -> None:
     sys.exit(1)
 
 
+def namespace_failure(error: str) -> str:
+    """Why `unshare -n -m` failed, found by taking its steps one at a time."""
+    said = f" (unshare said: {error})" if error else ""
+    if subprocess.run(["unshare", "-n", "true"], capture_output=True).returncode != 0:
+        return f"cannot create a network namespace here: needs root or CAP_SYS_ADMIN{said}"
+    if subprocess.run(["unshare", "-m", "--propagation", "unchanged", "true"],
+                      capture_output=True).returncode != 0:
+        return f"cannot create a mount namespace here: needs root or CAP_SYS_ADMIN{said}"
+    # The namespaces themselves can be made; what failed is unshare(1) making every mount in
+    # the new namespace private (mount --make-rprivate /), which the kernel refuses (EINVAL)
+    # when / is not a mount point, as in a container or chroot whose root is a plain folder.
+    if root_is_mount_point():
+        return f"cannot make the mounts of a new mount namespace private{said}"
+    return (f"cannot make the mounts of a new mount namespace private: / is not a mount point "
+            f"here{said}; run the test where / is a mount point (a container with its own root "
+            "filesystem, a VM or the host)")
+
+
+def root_is_mount_point() -> bool:
+    """Whether / is a mount point, read from /proc/self/mountinfo (field 5: the mount point)."""
+    try:
+        with open("/proc/self/mountinfo") as mounts:
+            return any(line.split()[4] == "/" for line in mounts if len(line.split()) > 4)
+    except OSError:
+        return True
+
+
 def enter_namespace() -> None:
     """Re-runs this script in a fresh network namespace with multicast routed to loopback."""
     if os.environ.get("PGEM_IN_NETNS") == "1":
@@ -137,9 +164,9 @@ def enter_namespace() -> None:
     if shutil.which("unshare") is None or shutil.which("ip") is None:
         cannot_run("needs unshare(1) and ip(8) for a private network namespace "
                    "(tools/setup-debian installs them)")
-    if subprocess.run(["unshare", "-n", "-m", "true"], capture_output=True).returncode != 0:
-        cannot_run("cannot create a network and mount namespace here (needs root or "
-                   "CAP_SYS_ADMIN)")
+    namespaces = subprocess.run(["unshare", "-n", "-m", "true"], capture_output=True, text=True)
+    if namespaces.returncode != 0:
+        cannot_run(namespace_failure(namespaces.stderr.strip()))
     env = dict(os.environ, PGEM_IN_NETNS="1")
     # -m: a namespace of mounts too, for the full disk's tmpfs (gone with the test)
     sys.exit(subprocess.run(["unshare", "-n", "-m", sys.executable, *sys.argv],
