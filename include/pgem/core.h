@@ -160,8 +160,8 @@ const pgem_config_t *pgem_get_config(const pgem_t *instance);
  * field or the number that was wrong. Valid until the next call on the instance. */
 const char *pgem_last_error(const pgem_t *instance);
 
-/** Work a factorisation hands to several threads: called once for every worker 0 ..
- * workers-1 with that worker's number. */
+/** Work a factorisation hands to several threads: called once for every worker, numbered
+ * from 0 to workers - 1, with that worker's number. */
 typedef void (*pgem_task_fn)(void *context, uint32_t worker);
 
 /** Runs tasks on threads the caller owns. run(executor, task, context) must call

@@ -202,7 +202,7 @@ int pgem_io_printable(uint32_t codepoint);
 int pgem_io_text_printable(const char *text, size_t *bad);
 
 /** Copies text into out (out_size > 0 bytes, always NUL-terminated, never cut inside an
- * escape): printable UTF-8 as it is, a backslash as \\, every other byte as \xNN. A name from
+ * escape): printable UTF-8 as it is, a backslash as `\\`, every other byte as `\xNN`. A name from
  * the network printed this way cannot forge a log line or a terminal's state. Returns out. */
 char *pgem_io_escape(char *out, size_t out_size, const char *text);
 
