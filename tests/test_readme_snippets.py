@@ -17,6 +17,8 @@ scratch install prefix, and mktemp's folders are scratch too; the variables a us
 have set (PKG_CONFIG_PATH, CMAKE_PREFIX_PATH, pgem_DIR, PYTHONPATH) are unset. The test fails
 when a snippet fails or when the checkout (outside build/) gains, loses or changes a file.
 A snippet naming ../shared/datasets is skipped, saying so, where that folder is absent.
+Under `sh -e` a failing command stops its snippet, but not one inside an `a && b` list: a run
+snippet holds one command per line, and one with && or || fails.
 
 Usage: test_readme_snippets.py SOURCE_DIR BUILD_DIR
 """
@@ -119,6 +121,9 @@ def run(snippet: Snippet, source: Path, build: Path, scratch: Path) -> str | Non
     env = {name: value for name, value in os.environ.items() if name not in UNSET}
     env.update(HOME=str(scratch / "home"), TMPDIR=str(scratch / "tmp"))
     if snippet.language == "sh":
+        lists = [line for line in commands(snippet.text) if "&&" in line or "||" in line]
+        if lists:
+            return f"one command per line (sh -e misses a failure inside a list): {lists[0]}"
         command = ["sh", "-e", "-c", snippet.text]
     elif snippet.language == "python":
         package = build / "python"
