@@ -3,7 +3,8 @@
  * (pgem_se2_error, pgem_se3_error) at the optimized estimate, inverted densely, then moved to
  * the tangent on the right of each pose (2D: the translation rotated into the pose's frame).
  * 2D and 3D, one pose, two poses, every pose; held poses zero; NO_FACTOR before
- * pgem_covariance_prepare and after anything that changes the graph. */
+ * pgem_covariance_prepare and after anything that changes the graph. pgem_update_covariance
+ * (the incremental factor's) against pgem_covariance once the updates have converged. */
 #include "test_util.h"
 
 #define MAX_POSES 40
@@ -312,6 +313,104 @@ static void test_fixed_pose_is_zero(void **state)
     pgem_destroy(graph);
 }
 
+/* An instance with room for the incremental factor. */
+static pgem_t *create_online(int dimension, uint32_t poses)
+{
+    const uint32_t b = (uint32_t)PGEM_TANGENT_SIZE(dimension);
+    pgem_config_t config = {dimension, poses, 4u * poses, 0, 0, 64u * b * b * poses};
+    pgem_t *graph = NULL;
+    assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
+    return graph;
+}
+
+/* The incremental factor's marginals against the batch ones: updates that relinearise every
+ * pose each time until they converge (the factor's points are then the estimate), for the
+ * newest pose (the root of the tree: one block), one in the middle and the second (the longest
+ * paths); the held first pose zero; NO_FACTOR after any other change. */
+static void check_update_covariance(pgem_t *graph)
+{
+    const int b = PGEM_TANGENT_SIZE(pgem_dimension(graph));
+    const uint32_t count = pgem_pose_count(graph);
+    pgem_id_t first = 0, newest = 0;
+    assert_int_equal(pgem_pose_at(graph, 0, &first, NULL, NULL), PGEM_OK);
+    assert_int_equal(pgem_pose_at(graph, count - 1, &newest, NULL, NULL), PGEM_OK);
+    double got[36], expected[36];
+    assert_int_equal(pgem_update_covariance(graph, newest, got), PGEM_ERR_NO_FACTOR);
+    assert_contains(pgem_last_error(graph), "incremental factor is not current");
+    pgem_update_options_t options;
+    memset(&options, 0, sizeof options);
+    options.relinearize_threshold = -1.0;
+    options.relinearize_skip = 1;
+    options.wildfire_threshold = -1.0;
+    for (int k = 0; k < 30; k++) {
+        assert_int_equal(pgem_update(graph, &options, NULL), PGEM_OK);
+    }
+    assert_int_equal(pgem_covariance_prepare(graph), PGEM_OK); /* changes nothing of the graph */
+    const uint32_t poses[3] = {count - 1, count / 2, 1};
+    for (int k = 0; k < 3; k++) {
+        pgem_id_t id = 0;
+        assert_int_equal(pgem_pose_at(graph, poses[k], &id, NULL, NULL), PGEM_OK);
+        assert_int_equal(pgem_update_covariance(graph, id, got), PGEM_OK);
+        assert_int_equal(pgem_covariance(graph, id, expected), PGEM_OK);
+        double scale = 0.0;
+        for (int i = 0; i < b; i++) {
+            scale = fmax(scale, expected[i * b + i]);
+        }
+        for (int i = 0; i < b * b; i++) {
+            assert_near(got[i], expected[i], 1e-9 * scale);
+        }
+    }
+    assert_int_equal(pgem_update_covariance(graph, first, got), PGEM_OK);
+    for (int i = 0; i < b * b; i++) {
+        assert_true(got[i] == 0.0);
+    }
+    assert_int_equal(pgem_update_covariance(graph, 999999, got), PGEM_ERR_UNKNOWN_ID);
+    assert_int_equal(pgem_update_covariance(NULL, newest, got), PGEM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pgem_update_covariance(graph, newest, NULL), PGEM_ERR_INVALID_ARGUMENT);
+    /* a moved pose, then a solve: not current until the next update */
+    double pose[7];
+    assert_int_equal(pgem_get_pose(graph, newest, pose), PGEM_OK);
+    assert_int_equal(pgem_set_pose(graph, newest, pose), PGEM_OK);
+    assert_int_equal(pgem_update_covariance(graph, newest, got), PGEM_ERR_NO_FACTOR);
+    assert_int_equal(pgem_update(graph, &options, NULL), PGEM_OK);
+    assert_int_equal(pgem_update_covariance(graph, newest, got), PGEM_OK);
+    assert_int_equal(pgem_optimize(graph, NULL, NULL), PGEM_OK);
+    assert_int_equal(pgem_update_covariance(graph, newest, got), PGEM_ERR_NO_FACTOR);
+    /* a pose no edge reaches: the update leaves it out of its factor */
+    assert_int_equal(pgem_add_pose(graph, 777777, pose), PGEM_OK);
+    assert_int_equal(pgem_update_covariance(graph, newest, got), PGEM_ERR_NO_FACTOR);
+    assert_int_equal(pgem_update(graph, &options, NULL), PGEM_OK);
+    assert_int_equal(pgem_update_covariance(graph, newest, got), PGEM_OK);
+    assert_int_equal(pgem_update_covariance(graph, 777777, got), PGEM_ERR_NO_FACTOR);
+    assert_contains(pgem_last_error(graph), "pose 777777 is not in the incremental factor");
+}
+
+static void test_update_covariance_2d(void **state)
+{
+    (void)state;
+    static double truth[3 * MAX_POSES];
+    pgem_t *graph = create_online(2, MAX_POSES);
+    test_ring_2d(graph, 30, 4, 0.05, 0.02, 5, truth);
+    check_update_covariance(graph);
+    pgem_destroy(graph);
+    graph = test_create(2, 4, 8); /* no room for the incremental factor */
+    const double origin[3] = {0.0, 0.0, 0.0};
+    double out[9];
+    assert_int_equal(pgem_add_pose(graph, 0, origin), PGEM_OK);
+    assert_int_equal(pgem_update_covariance(graph, 0, out), PGEM_ERR_CONFIG);
+    assert_contains(pgem_last_error(graph), "online_fill");
+    pgem_destroy(graph);
+}
+
+static void test_update_covariance_3d(void **state)
+{
+    (void)state;
+    pgem_t *graph = create_online(3, MAX_POSES);
+    build_3d(graph, 24);
+    check_update_covariance(graph);
+    pgem_destroy(graph);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -319,6 +418,8 @@ int main(void)
         cmocka_unit_test(test_covariance_3d),
         cmocka_unit_test(test_no_factor),
         cmocka_unit_test(test_fixed_pose_is_zero),
+        cmocka_unit_test(test_update_covariance_2d),
+        cmocka_unit_test(test_update_covariance_3d),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

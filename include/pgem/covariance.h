@@ -57,6 +57,23 @@ int pgem_joint_covariance(pgem_t *graph, pgem_id_t a, pgem_id_t b, double *covar
  */
 int pgem_covariances(pgem_t *graph, double *covariances);
 
+/**
+ * The marginal covariance of pose id from the incremental factor of the last pgem_update, as
+ * pgem_covariance gives it (n x n row-major, body frame, a held pose zero), without factoring
+ * anything: a solve along the pose's path to the root of that factor's elimination tree. New
+ * poses are ordered last, so the newest pose's path is a few blocks and the call costs
+ * microseconds whatever the map's size (an older pose's path may cross the whole tree). The
+ * factor is linearised where pgem_update left its points (each pose within its
+ * relinearize_threshold of the estimate), with the weights its gate gave: the marginal at
+ * those points, as iSAM2's; pgem_covariance_prepare and pgem_covariance give the one at the
+ * estimate itself (they agree once the updates have converged). Nothing is allocated; the
+ * factor is not changed. Errors: INVALID_ARGUMENT, UNKNOWN_ID, CONFIG (no config.online_fill),
+ * NO_FACTOR (no successful pgem_update since the last change to the graph by anything else:
+ * what pgem_covariance_prepare lists, a solve included; or no edge of the pose is in the
+ * factor yet).
+ */
+int pgem_update_covariance(pgem_t *graph, pgem_id_t id, double *covariance);
+
 #ifdef __cplusplus
 }
 #endif

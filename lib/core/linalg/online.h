@@ -68,6 +68,8 @@ typedef struct pgem_online {
     int *adjacent;            /* [2 * max_edges] by column */
     int *touched;             /* [max_poses] stamp of the update that last changed a column */
     int stamp;                /* stamp of the update under way */
+    uint32_t topology_after;  /* the graph's topology and revision after the last successful */
+    uint32_t revision_after;  /* update: while both hold, the factor is the graph's */
     pgem_update_summary_t last; /* counters of the update under way */
 } pgem_online_t;
 
@@ -83,6 +85,11 @@ static inline void pgem_online_pose_moved(pgem_online_t *online, uint32_t pose)
         online->ready = 0;
     }
 }
+
+/* Pose p's marginal covariance in the system's tangent (b x b, row-major) from the factor: a
+ * forward solve along its column's path to the root. 0 when p has no column (held, or not in
+ * the factor yet: out untouched), else 1. */
+int pgem_online_covariance(struct pgem *graph, uint32_t p, double *out);
 
 /* Bytes pgem_online_carve takes (measuring when arena->base is NULL). */
 struct pgem_arena;

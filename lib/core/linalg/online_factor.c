@@ -502,6 +502,21 @@ void pgem_online_marginal(pgem_t *graph, int ca, int cb, const double *a_a, cons
     }
 }
 
+int pgem_online_covariance(pgem_t *graph, uint32_t p, double *out)
+{
+    pgem_online_t *online = &graph->online;
+    const int b = online->block;
+    if (p >= online->poses_linked || online->pose_column[p] < 0) {
+        return 0;
+    }
+    double identity[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0.0};
+    for (int k = 0; k < b; k++) {
+        identity[k * b + k] = 1.0;
+    }
+    pgem_online_marginal(graph, online->pose_column[p], -1, identity, identity, b, out);
+    return 1;
+}
+
 void pgem_online_carve(pgem_t *graph, pgem_arena_t *arena)
 {
     pgem_online_t *online = &graph->online;

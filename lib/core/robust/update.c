@@ -568,6 +568,8 @@ static int pgem_update_run(pgem_t *graph, const pgem_update_settings_t *settings
     pgem_update_apply(graph);
     online->poses_seen = graph->store.pose_count;
     online->edges_seen = graph->store.edge_count;
+    online->topology_after = graph->store.topology;
+    online->revision_after = graph->store.revision;
     online->updates++;
     return PGEM_OK;
 }
