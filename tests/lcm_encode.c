@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "pgem_command_t.h"
+#include "pgem_covariance_t.h"
 #include "pgem_edge2_t.h"
 #include "pgem_edge3_t.h"
 #include "pgem_graph_t.h"
@@ -127,11 +128,37 @@ static int others(const char *folder)
     return failed | save(folder, "status", pgem_status_t_encode(buffer, 0, sizeof buffer, &status));
 }
 
+/* A 3D covariance: 6 x 6 rows i * 6 + j + 0.5, the pose an identity at (1, 2, 3). */
+static int covariance(const char *folder)
+{
+    double pose[7] = {1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0};
+    double values[36];
+    double *rows[6];
+    for (int i = 0; i < 6; i++) {
+        rows[i] = values + 6 * i;
+        for (int j = 0; j < 6; j++) {
+            values[6 * i + j] = 6.0 * i + j + 0.5;
+        }
+    }
+    pgem_covariance_t msg;
+    memset(&msg, 0, sizeof msg);
+    msg.utime = 1234;
+    msg.solve_id = 812;
+    msg.id = 2499;
+    msg.dimension = 3;
+    msg.pose_size = 7;
+    msg.pose = pose;
+    msg.size = 6;
+    msg.covariance = rows;
+    msg.current = 1;
+    return save(folder, "covariance", pgem_covariance_t_encode(buffer, 0, sizeof buffer, &msg));
+}
+
 int main(int argc, char **argv)
 {
     if (argc != 2) {
         fprintf(stderr, "usage: lcm_encode FOLDER\n");
         return 2;
     }
-    return edges(argv[1]) | graph(argv[1]) | others(argv[1]);
+    return edges(argv[1]) | graph(argv[1]) | others(argv[1]) | covariance(argv[1]);
 }

@@ -47,6 +47,11 @@ def main() -> int:
     status = read("status", pgem.status_t)
     assert status.reasons == ["journal"] and list(status.rejected) == [50]
     assert status.accepted_poses == 100 and status.journal_records == 100
+    covariance = read("covariance", pgem.covariance_t)
+    assert (covariance.id, covariance.solve_id, covariance.size) == (2499, 812, 6)
+    assert covariance.current and list(covariance.pose) == [1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0]
+    assert [list(row) for row in covariance.covariance] == [
+        [6.0 * i + j + 0.5 for j in range(6)] for i in range(6)]
     # written from Python, read as the C types write them: an edge built in Python
     built = pgem.edge2_t()
     built.utime, built.source, built.sequence = edge.utime, edge.source, 42

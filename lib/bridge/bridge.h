@@ -65,6 +65,9 @@ typedef struct pgem_bridge_options {
                                   has poses removed down to 70 % (pgem_compact), so the map
                                   keeps growing; 0 (default): poses at capacity are refused */
     uint32_t compact_tail;     /* the newest poses compaction never removes (0: 64) */
+    int no_covariance;         /* 0 (default): after each graph, the newest pose's marginal
+                                  covariance is published (pgem.covariance_t on
+                                  channels.covariance); 1: not */
     pgem_bridge_log_fn log;    /* progress lines (NULL: silent) */
     void *log_user;
 } pgem_bridge_options_t;

@@ -165,6 +165,12 @@ typedef struct bridge {
     int64_t *out_last_anchor;   /* a compaction's anchors, for pgem.compaction_t */
     unsigned char *out_buffer;
     size_t out_buffer_size;
+    int64_t graph_utime;        /* the last graph_t's utime, for pgem.covariance_t */
+    /* The newest pose's covariances published (covariance.c), [0] from the incremental
+     * factor, [1] from a factor at the estimate, and the seconds they took; failures. */
+    uint64_t covariance_count[2];
+    double covariance_seconds[2];
+    uint64_t covariance_failures;
 } bridge_t;
 
 /* Monotonic seconds and wall-clock microseconds. */
@@ -225,6 +231,12 @@ int bridge_graph_compact(bridge_t *bridge);
 /* graph.c: the estimate was replaced other than by an update or a pass: a pass of an older
  * copy is dropped when it ends */
 void bridge_graph_drop_pass(bridge_t *bridge);
+
+/* covariance.c (solver thread): after a graph was published, the newest pose's covariance
+ * (pgem.covariance_t): whole after a whole-graph solve (a factor at the estimate), else from
+ * the incremental factor of the update. Nothing with no_covariance, or when it cannot be had
+ * (logged). */
+void bridge_covariance_publish(bridge_t *bridge, int whole);
 
 /* status.c (either thread). */
 void bridge_publish_status(bridge_t *bridge);

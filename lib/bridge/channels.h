@@ -1,6 +1,7 @@
 /* LCM channel names of the bridge and its tools. Every name is PREFIX + a fixed suffix; the
  * default prefix is "PGEM_", so the defaults are PGEM_POSE2, PGEM_EDGE2, PGEM_POSE3,
- * PGEM_EDGE3, PGEM_GRAPH, PGEM_STATUS, PGEM_COMMAND and PGEM_COMPACTION. Each can also be set alone. */
+ * PGEM_EDGE3, PGEM_GRAPH, PGEM_STATUS, PGEM_COMMAND, PGEM_COMPACTION and PGEM_COVARIANCE. Each
+ * can also be set alone. */
 #ifndef PGEM_BRIDGE_CHANNELS_H
 #define PGEM_BRIDGE_CHANNELS_H
 
@@ -14,6 +15,7 @@ typedef struct pgem_channels {
     char status[PGEM_CHANNEL_MAX];  /* pgem.status_t */
     char command[PGEM_CHANNEL_MAX]; /* pgem.command_t */
     char compaction[PGEM_CHANNEL_MAX]; /* pgem.compaction_t, published after each compaction */
+    char covariance[PGEM_CHANNEL_MAX]; /* pgem.covariance_t, published after each graph */
 } pgem_channels_t;
 
 /* Fills every name from a prefix (NULL means the default) for a dimension (2 or 3).

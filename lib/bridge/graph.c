@@ -815,6 +815,9 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     bridge->solving = 0;
     bridge->solves++;
     pthread_mutex_unlock(&bridge->lock);
+    if (status == PGEM_OK) { /* after the graph: it never waits for the covariance */
+        bridge_covariance_publish(bridge, !incremental);
+    }
     if (status == PGEM_OK) {
         bridge_log(bridge,
                    "solve %lld (%s%s): %u poses, %u loops, %u pruned, chi2 %.6g, %u rounds, "
@@ -899,6 +902,7 @@ static void adopt_pass(bridge_t *bridge)
         char why[256] = "";
         describe_outcome(&same, why, sizeof why);
         bridge_graph_publish(bridge, "em-pass", &same, 1, why, 0);
+        bridge_covariance_publish(bridge, 0);
         bridge_log(bridge,
                    "live EM pass %llu: EM on %u poses and %u loops (%u pruned, %u rounds) in "
                    "%.0f ms: the live map has the same verdicts, nothing to adopt",
@@ -930,6 +934,9 @@ static void adopt_pass(bridge_t *bridge)
     const int64_t micros = (int64_t)((bridge_now() - start) * 1e6);
     bridge_graph_counts(bridge);
     bridge_graph_publish(bridge, "em-pass", &summary, status == PGEM_OK, why, micros);
+    if (status == PGEM_OK) {
+        bridge_covariance_publish(bridge, 0);
+    }
     bridge_log(bridge,
                "live EM pass %llu: EM on %u poses and %u loops (%u pruned, %u rounds) in %.0f ms, "
                "%.0f ms after its copy; adopted: %u verdicts changed, %u later poses carried; "
@@ -1030,6 +1037,7 @@ void bridge_graph_publish(bridge_t *bridge, const char *trigger,
     pgem_graph_t msg;
     memset(&msg, 0, sizeof msg);
     msg.utime = bridge_utime();
+    bridge->graph_utime = msg.utime;
     msg.dimension = (int8_t)dimension;
     msg.num_poses = (int32_t)pgem_pose_count(core);
     msg.pose_size = PGEM_POSE_SIZE(dimension);

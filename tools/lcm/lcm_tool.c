@@ -35,6 +35,8 @@ static const pgem_lcm_channel_option_t pgem_lcm_channel_options[] = {
      "command channel (default: PREFIX + COMMAND)"},
     {"--compaction-channel", PGEM_LCM_COMPACTION_CHANNEL,
      "compaction channel (default: PREFIX + COMPACTION)"},
+    {"--covariance-channel", PGEM_LCM_COVARIANCE_CHANNEL,
+     "covariance channel (default: PREFIX + COVARIANCE)"},
 };
 
 #define PGEM_LCM_CHANNEL_OPTIONS \
@@ -54,6 +56,8 @@ static const char **pgem_lcm_channel_member(pgem_lcm_options_t *options, unsigne
         return &options->status;
     case PGEM_LCM_COMPACTION_CHANNEL:
         return &options->compaction;
+    case PGEM_LCM_COVARIANCE_CHANNEL:
+        return &options->covariance;
     default:
         return &options->command;
     }
@@ -127,6 +131,7 @@ int pgem_lcm_channels(const pgem_lcm_options_t *options, int dimension,
         {options->status, channels->status, "--status-channel"},
         {options->command, channels->command, "--command-channel"},
         {options->compaction, channels->compaction, "--compaction-channel"},
+        {options->covariance, channels->covariance, "--covariance-channel"},
     };
     for (size_t c = 0; c < sizeof alone / sizeof alone[0]; c++) {
         if (alone[c].value != NULL && pgem_channel_set(alone[c].name, alone[c].value) != 0) {

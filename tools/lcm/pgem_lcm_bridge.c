@@ -86,6 +86,10 @@ static void usage(FILE *out, const void *context)
             "  --odometry-inflation K innovation: the map's covariance counts K times (4)\n"
             "  --predictable-rotation R  innovation: a loop is tested by its innovation when\n"
             "                         the map predicts its rotation to R radians (0.1)\n"
+            "  --no-covariance        publish no pgem.covariance_t (by default the newest\n"
+            "                         pose's marginal covariance follows every graph: from\n"
+            "                         the incremental factor after an update, from a factor\n"
+            "                         at the estimate after a whole-graph solve)\n"
             "  --quiet                no progress lines on stderr\n");
     pgem_lcm_options_help(out, lcm);
     fprintf(out, "Exit status: 0 after a clean stop, 1 if the bridge could not start, 2 usage.\n");
@@ -232,6 +236,8 @@ static int parse_flag(void *user, const char *name)
         p->options.no_live_em = 1;
     } else if (strcmp(name, "--compact") == 0) {
         p->options.compact = 1;
+    } else if (strcmp(name, "--no-covariance") == 0) {
+        p->options.no_covariance = 1;
     } else {
         return 0;
     }

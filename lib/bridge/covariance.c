@@ -1,0 +1,100 @@
+/* The newest pose's marginal covariance, published after each graph (pgem.covariance_t): from
+ * the incremental factor after an update (a solve of one block, microseconds), from a factor at
+ * the estimate after a whole-graph solve (one factorisation). Solver thread only. */
+#include <string.h>
+
+#include "bridge_internal.h"
+#include "pgem_covariance_t.h"
+
+#define COVARIANCE_MESSAGE_MAX 512 /* bytes of an encoded covariance_t (386 in 3D) */
+#define COVARIANCE_FAILURES_LOGGED 20
+
+/* The newest pose an edge reaches (its part has edges): its index, or 0 when there is none. */
+static int newest_pose(bridge_t *bridge, uint32_t *index)
+{
+    for (uint32_t i = bridge->parts_poses; i-- > 0u;) {
+        if (bridge->part_edges[pgem_part_root(bridge->component, i)]) {
+            *index = i;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* The covariance of pose id into values (n x n): after a whole-graph solve from a factor at the
+ * estimate (pgem_covariance_prepare), else from the update's incremental factor. */
+static int newest_covariance(bridge_t *bridge, pgem_id_t id, int whole, double *values)
+{
+    if (!whole) {
+        return pgem_update_covariance(bridge->core, id, values);
+    }
+    const int status = pgem_covariance_prepare(bridge->core);
+    return status == PGEM_OK ? pgem_covariance(bridge->core, id, values) : status;
+}
+
+static void publish(bridge_t *bridge, pgem_covariance_t *msg)
+{
+    unsigned char buffer[COVARIANCE_MESSAGE_MAX];
+    const int size = pgem_covariance_t_encoded_size(msg);
+    if (size <= 0 || (size_t)size > sizeof buffer ||
+        pgem_covariance_t_encode(buffer, 0, size, msg) != size) {
+        bridge_note(bridge, "cannot encode the covariance (%d bytes)", size);
+        return;
+    }
+    if (lcm_publish(bridge->lcm, bridge->options.channels.covariance, buffer, (unsigned)size) != 0) {
+        bridge_note(bridge, "LCM refused to publish the covariance (%d bytes) on %s", size,
+                    bridge->options.channels.covariance);
+    }
+}
+
+void bridge_covariance_publish(bridge_t *bridge, int whole)
+{
+    uint32_t index = 0;
+    if (bridge->options.no_covariance || !newest_pose(bridge, &index)) {
+        return;
+    }
+    const double start = bridge_now();
+    const int dimension = bridge->options.dimension;
+    const int n = PGEM_TANGENT_SIZE(dimension);
+    double pose[PGEM_POSE_SIZE_MAX];
+    double values[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    double *rows[PGEM_TANGENT_SIZE_MAX];
+    pgem_id_t id = 0;
+    pgem_pose_at(bridge->core, index, &id, pose, NULL);
+    const int status = newest_covariance(bridge, id, whole, values);
+    if (status != PGEM_OK) {
+        if (bridge->covariance_failures++ < COVARIANCE_FAILURES_LOGGED) {
+            bridge_log(bridge, "no covariance for pose %llu after graph %lld: %s (%s)",
+                       (unsigned long long)id, (long long)bridge->solve_id,
+                       pgem_error_name(status), pgem_last_error(bridge->core));
+        }
+        return;
+    }
+    for (int i = 0; i < n; ++i) {
+        rows[i] = values + i * n;
+    }
+    pgem_covariance_t msg;
+    memset(&msg, 0, sizeof msg);
+    msg.utime = bridge->graph_utime;
+    msg.solve_id = bridge->solve_id;
+    msg.id = (int64_t)id;
+    msg.dimension = (int8_t)dimension;
+    msg.pose_size = PGEM_POSE_SIZE(dimension);
+    msg.pose = pose;
+    msg.size = n;
+    msg.covariance = rows;
+    msg.current = (int8_t)whole;
+    publish(bridge, &msg);
+    const double took = bridge_now() - start;
+    bridge->covariance_count[whole != 0]++;
+    bridge->covariance_seconds[whole != 0] += took;
+    if (whole) {
+        const uint64_t updates = bridge->covariance_count[0];
+        bridge_log(bridge,
+                   "covariance of pose %llu (graph %lld) in %.2f ms from a factor at the estimate; "
+                   "%llu from the incremental factor so far, %.1f us each",
+                   (unsigned long long)id, (long long)bridge->solve_id, 1e3 * took,
+                   (unsigned long long)updates,
+                   updates > 0u ? 1e6 * bridge->covariance_seconds[0] / (double)updates : 0.0);
+    }
+}
