@@ -1,7 +1,7 @@
 /* pgem-lcm-dump: subscribes to the bridge's optimized graph (pgem.graph_t) and writes the
  * latest one: its poses as g2o, its loop-closure weights as pgem optimize --weights writes
- * them, its solve statistics as JSON, and optionally the bridge's latest status as JSON.
- * Every file is written atomically (FILE.tmp, then renamed). */
+ * them, its solve statistics as JSON, and optionally the bridge's latest status and the newest
+ * pose's covariance as JSON. Every file is written atomically (FILE.tmp, then renamed). */
 #define _POSIX_C_SOURCE 200809L
 #include <stdint.h>
 #include <stdio.h>
@@ -11,12 +11,15 @@
 #include "cli.h"
 #include "lcm_tool.h"
 #include "pgem_compaction_t.h"
+#include "pgem_covariance_t.h"
 #include "pgem_graph_t.h"
 #include "pgem_status_t.h"
 
 #define DUMP_TOOL "pgem-lcm-dump"
 #define DUMP_SLICE 0.25   /* longest single wait, so a signal or deadline is seen soon */
 #define DUMP_QUEUE 128    /* messages LCM may hold per subscription before dropping */
+#define DUMP_COVARIANCE_WAIT 2.0 /* s a run that met its condition waits for the graph's
+                                    covariance, which the bridge publishes after the graph */
 
 /* The command line. Conditions are unset when negative (seconds) or 0 (counts). */
 typedef struct dump_args {
@@ -26,6 +29,7 @@ typedef struct dump_args {
     const char *json;         /* --json J */
     const char *status;       /* --status S */
     const char *compactions;  /* --compactions C */
+    const char *covariance;   /* --covariance V */
     uint64_t count;           /* --count N: stop after N graphs */
     uint64_t edges;           /* --edges N: stop at a graph with edges_included >= N */
     int has_edges;
@@ -47,16 +51,20 @@ typedef struct dump_state {
     double last_graph;        /* clock when the latest graph arrived */
     FILE *compactions;        /* --compactions: appended as compactions arrive */
     int compaction_error;     /* a write to it failed */
+    pgem_covariance_t *covariance; /* the latest newest-pose covariance (a copy), or NULL */
+    uint64_t covariances;     /* covariances received (well-formed) */
+    int covariance_new;       /* one arrived since the main loop last looked */
 } dump_state_t;
 
 static void dump_usage(FILE *out)
 {
     fprintf(out,
             "usage: pgem-lcm-dump [-o OUT.g2o] [--weights W] [--json J] [--status S]\n"
-            "                     [--compactions C] [--count N] [--edges N]\n"
+            "                     [--compactions C] [--covariance V] [--count N] [--edges N]\n"
             "                     [--idle SECONDS] [--settled] [--timeout SECONDS]\n"
             "                     [--quiet] [--url URL] [--channel-prefix P] [--graph-channel C]\n"
-            "                     [--status-channel C] [--compaction-channel C]\n");
+            "                     [--status-channel C] [--compaction-channel C]\n"
+            "                     [--covariance-channel C]\n");
 }
 
 static void dump_help(FILE *out, const void *context)
@@ -83,6 +91,11 @@ static void dump_help(FILE *out, const void *context)
             "                         it arrives, one line per removed pose: 'REMOVED N ID\n"
             "                         ANCHOR' and the pose in the anchor's frame (x y theta, or\n"
             "                         x y z qx qy qz qw); a gap in N is a lost message\n"
+            "  --covariance V         the newest pose's marginal covariance (pgem.covariance_t)\n"
+            "                         as one JSON object: its id, pose, the n x n matrix (body\n"
+            "                         frame), the graph's solve_id and whether it came from a\n"
+            "                         factor at the estimate; at a stop condition the one of\n"
+            "                         that graph is waited for (up to 2 s)\n"
             "\n"
             "When to stop and write (the first condition met ends the run, exit 0):\n"
             "  --count N              after N graphs\n"
@@ -100,11 +113,12 @@ static void dump_help(FILE *out, const void *context)
     pgem_lcm_options_help(out, lcm);
     fprintf(out,
             "\n"
-            "Files are written atomically (FILE.tmp, then renamed). A --status file is written\n"
-            "when a status has arrived (else a warning). Large graphs need a large kernel\n"
-            "receive buffer: unless the URL sets recv_buf_size, 16 MB is asked for, or\n"
-            "net.core.rmem_max when that is less. Exit codes: 0 written, 1 no graph or the\n"
-            "stop condition was not met, 2 bad command line, 3 a file could not be written.\n");
+            "Files are written atomically (FILE.tmp, then renamed). A --status or --covariance\n"
+            "file is written when one has arrived (else a warning). Large graphs need a large\n"
+            "kernel receive buffer: unless the URL sets recv_buf_size, 16 MB is asked for, or\n"
+            "net.core.rmem_max when that is less. Exit codes: 0 written, 1 no graph (no\n"
+            "status or covariance when only those are asked for) or the stop condition was\n"
+            "not met, 2 bad command line, 3 a file could not be written.\n");
 }
 
 /* A file option's value; prints an error and returns 0 when it is missing. */
@@ -136,6 +150,9 @@ static int dump_parse_value(void *user, const char *arg, const char *value)
     }
     if (strcmp(arg, "--compactions") == 0) {
         return dump_parse_file(arg, value, &args->compactions);
+    }
+    if (strcmp(arg, "--covariance") == 0) {
+        return dump_parse_file(arg, value, &args->covariance);
     }
     if (strcmp(arg, "--count") == 0) {
         if (!pgem_lcm_parse_u64(DUMP_TOOL, arg, value, &args->count)) {
@@ -172,13 +189,15 @@ static int dump_flag(void *user, const char *name)
 static int dump_parse(int argc, char **argv, dump_args_t *args)
 {
     static const char *const valued[] = {"-o", "--output", "--weights", "--json", "--status",
-                                         "--compactions", "--count", "--edges", "--idle", "--timeout"};
+                                         "--compactions", "--covariance", "--count", "--edges",
+                                         "--idle", "--timeout"};
     static const pgem_cli_parser_t parser = {
         NULL, valued, sizeof valued / sizeof valued[0], dump_parse_value, dump_flag, NULL,
         dump_help, NULL, NULL};
     memset(args, 0, sizeof *args);
     pgem_lcm_options_init(&args->lcm, DUMP_TOOL, PGEM_LCM_GRAPH_CHANNEL | PGEM_LCM_STATUS_CHANNEL |
-                                                     PGEM_LCM_COMPACTION_CHANNEL);
+                                                     PGEM_LCM_COMPACTION_CHANNEL |
+                                                     PGEM_LCM_COVARIANCE_CHANNEL);
     args->idle = -1.0;
     args->timeout = -1.0;
     int status = pgem_lcm_parse_args(&args->lcm, &parser, args, argc, argv);
@@ -186,9 +205,9 @@ static int dump_parse(int argc, char **argv, dump_args_t *args)
         return status;
     }
     if (args->output == NULL && args->weights == NULL && args->json == NULL &&
-        args->status == NULL) {
-        fprintf(stderr, "%s: nothing to write: give -o, --weights, --json or --status\n",
-                DUMP_TOOL);
+        args->status == NULL && args->covariance == NULL) {
+        fprintf(stderr, "%s: nothing to write: give -o, --weights, --json, --status or "
+                        "--covariance\n", DUMP_TOOL);
         return PGEM_EXIT_USAGE;
     }
     return PGEM_EXIT_OK;
@@ -290,6 +309,41 @@ static void dump_on_compaction(const lcm_recv_buf_t *buffer, const char *channel
     if (fflush(state->compactions) != 0) {
         state->compaction_error = 1;
     }
+}
+
+/* Why a decoded covariance cannot be used, or NULL when it can. */
+static const char *dump_covariance_problem(const pgem_covariance_t *covariance)
+{
+    if (covariance->dimension != 2 && covariance->dimension != 3) {
+        return "dimension is neither 2 nor 3";
+    }
+    if (covariance->pose_size != (covariance->dimension == 2 ? 3 : 7) ||
+        covariance->size != (covariance->dimension == 2 ? 3 : 6)) {
+        return "pose_size or size does not match the dimension";
+    }
+    return NULL;
+}
+
+static void dump_on_covariance(const lcm_recv_buf_t *buffer, const char *channel,
+                               const pgem_covariance_t *covariance, void *user)
+{
+    dump_state_t *state = user;
+    (void)buffer;
+    const char *problem = dump_covariance_problem(covariance);
+    if (problem != NULL) {
+        fprintf(stderr, "%s: ignored a covariance on %s: %s\n", DUMP_TOOL, channel, problem);
+        return;
+    }
+    pgem_covariance_t *copy = pgem_covariance_t_copy(covariance);
+    if (copy == NULL) {
+        return;
+    }
+    if (state->covariance != NULL) {
+        pgem_covariance_t_destroy(state->covariance);
+    }
+    state->covariance = copy;
+    state->covariances++;
+    state->covariance_new = 1;
 }
 
 /* Loops in the PRUNED state. */
@@ -415,6 +469,37 @@ static int dump_write_status(const pgem_status_t *status, const char *path)
     return (pgem_cli_file_commit(&file, 0) == PGEM_EXIT_OK ? 0 : -1);
 }
 
+/* The newest pose's covariance as one JSON object. */
+static int dump_write_covariance(const dump_state_t *state, const char *path)
+{
+    const pgem_covariance_t *covariance = state->covariance;
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, DUMP_TOOL, path) != 0) {
+        return -1;
+    }
+    FILE *out = file.stream;
+    fprintf(out, "{\"utime\":%lld,\"solve_id\":%lld,\"id\":%llu,\"dimension\":%d,\"current\":%s,"
+                 "\"pose\":[",
+            (long long)covariance->utime, (long long)covariance->solve_id,
+            (unsigned long long)(uint64_t)covariance->id, (int)covariance->dimension,
+            covariance->current ? "true" : "false");
+    for (int32_t v = 0; v < covariance->pose_size; v++) {
+        fputs(v > 0 ? "," : "", out);
+        pgem_json_number(out, covariance->pose[v], 17);
+    }
+    fputs("],\"covariance\":[", out);
+    for (int32_t i = 0; i < covariance->size; i++) {
+        fputs(i > 0 ? ",[" : "[", out);
+        for (int32_t j = 0; j < covariance->size; j++) {
+            fputs(j > 0 ? "," : "", out);
+            pgem_json_number(out, covariance->covariance[i][j], 17);
+        }
+        fputc(']', out);
+    }
+    fprintf(out, "],\"covariances_received\":%llu}\n", (unsigned long long)state->covariances);
+    return (pgem_cli_file_commit(&file, 0) == PGEM_EXIT_OK ? 0 : -1);
+}
+
 /* Writes the graph files asked for from the latest graph. Returns a PGEM_EXIT_* code. */
 static int dump_write_graph_files(const dump_args_t *args, const dump_state_t *state)
 {
@@ -483,7 +568,29 @@ static int dump_take(const dump_args_t *args, dump_state_t *state)
             return -1;
         }
     }
+    if (state->covariance_new && free_running && args->covariance != NULL) {
+        state->covariance_new = 0;
+        if (dump_write_covariance(state, args->covariance) != 0) {
+            return -1;
+        }
+    }
     return 0;
+}
+
+/* After a stop condition: the bridge publishes a graph's covariance right after the graph, so
+ * with --covariance the one of the latest graph is waited for (up to DUMP_COVARIANCE_WAIT s). */
+static void dump_await_covariance(const dump_args_t *args, lcm_t *lcm, dump_state_t *state)
+{
+    const double deadline = pgem_cli_now() + DUMP_COVARIANCE_WAIT;
+    while (args->covariance != NULL && state->graph != NULL &&
+           (state->covariance == NULL ||
+            state->covariance->solve_id < state->graph->stats.solve_id) &&
+           pgem_lcm_stop_signal() == 0) {
+        const double left = deadline - pgem_cli_now();
+        if (left <= 0.0 || pgem_lcm_handle(DUMP_TOOL, lcm, left < DUMP_SLICE ? left : DUMP_SLICE) < 0) {
+            return;
+        }
+    }
 }
 
 /* Receives until a condition is met, --timeout passes or a signal comes. */
@@ -513,8 +620,12 @@ static dump_end_t dump_receive(const dump_args_t *args, lcm_t *lcm, dump_state_t
             return DUMP_LCM_ERROR;
         }
         int taken = dump_take(args, state);
-        if (taken != 0) {
-            return taken > 0 ? DUMP_MET : DUMP_WRITE_ERROR;
+        if (taken > 0) {
+            dump_await_covariance(args, lcm, state);
+            return DUMP_MET;
+        }
+        if (taken < 0) {
+            return DUMP_WRITE_ERROR;
         }
     }
 }
@@ -534,6 +645,19 @@ static int dump_finish_files(const dump_args_t *args, const dump_state_t *state)
     if (args->status != NULL && state->status == NULL) {
         fprintf(stderr, "%s: no status arrived on %s; %s not written\n", DUMP_TOOL,
                 state->channels->status, args->status);
+    }
+    if (args->covariance != NULL && state->covariance != NULL &&
+        dump_write_covariance(state, args->covariance) != 0) {
+        status = PGEM_EXIT_IO;
+    }
+    if (args->covariance != NULL && state->covariance == NULL) {
+        fprintf(stderr, "%s: no covariance arrived on %s; %s not written\n", DUMP_TOOL,
+                state->channels->covariance, args->covariance);
+    } else if (args->covariance != NULL && state->graph != NULL &&
+               state->covariance->solve_id != state->graph->stats.solve_id) {
+        fprintf(stderr, "%s: the covariance written is that of graph %lld, not of the latest "
+                        "graph %lld\n", DUMP_TOOL, (long long)state->covariance->solve_id,
+                (long long)state->graph->stats.solve_id);
     }
     if (status == PGEM_EXIT_OK && state->graph != NULL) {
         printf("wrote graph %lld (%d poses, %d loops, %lld edges included); %llu graphs "
@@ -555,11 +679,17 @@ static int dump_exit_code(const dump_args_t *args, const dump_state_t *state, du
     if (end == DUMP_WRITE_ERROR || files != PGEM_EXIT_OK) {
         return PGEM_EXIT_IO;
     }
-    int complete = dump_wants_graph(args) ? state->graph != NULL : state->status != NULL;
+    /* what the run is for: the graph files, else the status, else the covariance */
+    const int graph = dump_wants_graph(args), status = !graph && args->status != NULL;
+    int complete = graph ? state->graph != NULL
+                   : status ? state->status != NULL
+                            : state->covariance != NULL;
     if (!complete) {
         fprintf(stderr, "%s: no %s arrived on %s%s\n", DUMP_TOOL,
-                dump_wants_graph(args) ? "graph" : "status",
-                dump_wants_graph(args) ? state->channels->graph : state->channels->status,
+                graph ? "graph" : status ? "status" : "covariance",
+                graph ? state->channels->graph
+                : status ? state->channels->status
+                         : state->channels->covariance,
                 end == DUMP_TIMEOUT ? " before --timeout" : "");
         return PGEM_EXIT_FAILURE;
     }
@@ -585,6 +715,10 @@ static int dump_run(const dump_args_t *args, const pgem_channels_t *channels, lc
         args->status != NULL
             ? pgem_status_t_subscribe(lcm, channels->status, dump_on_status, &state)
             : NULL;
+    pgem_covariance_t_subscription_t *covariances =
+        args->covariance != NULL
+            ? pgem_covariance_t_subscribe(lcm, channels->covariance, dump_on_covariance, &state)
+            : NULL;
     pgem_compaction_t_subscription_t *compactions = NULL;
     if (args->compactions != NULL) {
         state.compactions = fopen(args->compactions, "w");
@@ -593,6 +727,9 @@ static int dump_run(const dump_args_t *args, const pgem_channels_t *channels, lc
             pgem_graph_t_unsubscribe(lcm, graphs);
             if (statuses != NULL) {
                 pgem_status_t_unsubscribe(lcm, statuses);
+            }
+            if (covariances != NULL) {
+                pgem_covariance_t_unsubscribe(lcm, covariances);
             }
             return PGEM_EXIT_IO;
         }
@@ -603,7 +740,8 @@ static int dump_run(const dump_args_t *args, const pgem_channels_t *channels, lc
         }
     }
     if (graphs == NULL || (args->status != NULL && statuses == NULL) ||
-        (args->compactions != NULL && compactions == NULL)) {
+        (args->compactions != NULL && compactions == NULL) ||
+        (args->covariance != NULL && covariances == NULL)) {
         if (state.compactions != NULL) {
             fclose(state.compactions);
         }
@@ -614,6 +752,9 @@ static int dump_run(const dump_args_t *args, const pgem_channels_t *channels, lc
     pgem_graph_t_subscription_set_queue_capacity(graphs, DUMP_QUEUE);
     if (statuses != NULL) {
         pgem_status_t_subscription_set_queue_capacity(statuses, DUMP_QUEUE);
+    }
+    if (covariances != NULL) {
+        pgem_covariance_t_subscription_set_queue_capacity(covariances, DUMP_QUEUE);
     }
     dump_end_t end = dump_receive(args, lcm, &state);
     int files = end == DUMP_LCM_ERROR || end == DUMP_WRITE_ERROR
@@ -630,6 +771,12 @@ static int dump_run(const dump_args_t *args, const pgem_channels_t *channels, lc
     pgem_graph_t_unsubscribe(lcm, graphs);
     if (statuses != NULL) {
         pgem_status_t_unsubscribe(lcm, statuses);
+    }
+    if (covariances != NULL) {
+        pgem_covariance_t_unsubscribe(lcm, covariances);
+    }
+    if (state.covariance != NULL) {
+        pgem_covariance_t_destroy(state.covariance);
     }
     if (state.graph != NULL) {
         pgem_graph_t_destroy(state.graph);
