@@ -10,11 +10,11 @@ find_program(SH sh REQUIRED)
 file(CREATE_LINK "${SH}" "${WORK}/bin/sh" SYMBOLIC)
 execute_process(COMMAND "${PYTHON}" -c "import sys; print(sys.executable)"
                 OUTPUT_VARIABLE PYTHON OUTPUT_STRIP_TRAILING_WHITESPACE)
-foreach(test e2e faults)
+foreach(test e2e faults covariance)
   if(test STREQUAL e2e)
     set(command "${SH}" "${SOURCE}/test_lcm_e2e.sh")
   else()
-    set(command "${PYTHON}" "${SOURCE}/test_lcm_faults.py")
+    set(command "${PYTHON}" "${SOURCE}/test_lcm_${test}.py")
   endif()
   foreach(allow "" 1)
     execute_process(COMMAND ${CMAKE_COMMAND} -E env --unset=PGEM_IN_NETNS PATH=${WORK}/bin

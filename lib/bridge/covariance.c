@@ -70,8 +70,11 @@ void bridge_covariance_publish(bridge_t *bridge, int whole)
         }
         return;
     }
-    for (int i = 0; i < n; ++i) {
+    for (int i = 0; i < n; ++i) { /* symmetric to the last bit (the frame's rotation is not) */
         rows[i] = values + i * n;
+        for (int j = 0; j < i; ++j) {
+            values[i * n + j] = values[j * n + i] = 0.5 * (values[i * n + j] + values[j * n + i]);
+        }
     }
     pgem_covariance_t msg;
     memset(&msg, 0, sizeof msg);
