@@ -1,6 +1,7 @@
 /* The newest pose's marginal covariance, published after each graph (pgem.covariance_t): from
  * the incremental factor after an update (a solve of one block, microseconds), from a factor at
  * the estimate after a whole-graph solve (one factorisation). Solver thread only. */
+#include <stddef.h>
 #include <string.h>
 
 #include "bridge_internal.h"
@@ -71,7 +72,7 @@ void bridge_covariance_publish(bridge_t *bridge, int whole)
         return;
     }
     for (int i = 0; i < n; ++i) { /* symmetric to the last bit (the frame's rotation is not) */
-        rows[i] = values + i * n;
+        rows[i] = values + (ptrdiff_t)i * n;
         for (int j = 0; j < i; ++j) {
             values[i * n + j] = values[j * n + i] = 0.5 * (values[i * n + j] + values[j * n + i]);
         }
