@@ -138,6 +138,27 @@ static void test_optimize_allocates_nothing_3d(void **state)
     check_no_allocation(3, PGEM_GAUSS_NEWTON);
 }
 
+/* The incremental factor's covariance (pgem_update_covariance): nothing allocated, for the
+ * newest pose (one block) and an old one (a long path). */
+static void test_update_covariance_allocates_nothing(void **state)
+{
+    (void)state;
+    static unsigned char buffer[8 << 20];
+    static double truth[3 * 200];
+    pgem_config_t config = {2, 200, 400, 0, 0, 64u * 9u * 200u};
+    assert_true(pgem_memory_size(&config) <= sizeof buffer);
+    pgem_t *graph = NULL;
+    assert_int_equal(pgem_init(&graph, &config, buffer, sizeof buffer), PGEM_OK);
+    build(graph, truth, 2);
+    assert_int_equal(pgem_update(graph, NULL, NULL), PGEM_OK); /* the rebuild's AMD may */
+    double covariance[9];
+    long before = allocations, released = releases;
+    assert_int_equal(pgem_update_covariance(graph, 199, covariance), PGEM_OK);
+    assert_int_equal(pgem_update_covariance(graph, 3, covariance), PGEM_OK);
+    assert_int_equal(allocations, before);
+    assert_int_equal(releases, released);
+}
+
 /* The counters themselves work (so the tests above can fail). */
 static void test_counter_sees_malloc(void **state)
 {
@@ -155,6 +176,7 @@ int main(void)
         cmocka_unit_test(test_optimize_allocates_nothing_2d_gn),
         cmocka_unit_test(test_optimize_allocates_nothing_2d_lm),
         cmocka_unit_test(test_optimize_allocates_nothing_3d),
+        cmocka_unit_test(test_update_covariance_allocates_nothing),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
