@@ -23,11 +23,20 @@ static int newest_pose(bridge_t *bridge, uint32_t *index)
 }
 
 /* The covariance of pose id into values (n x n): after a whole-graph solve from a factor at the
- * estimate (pgem_covariance_prepare), else from the update's incremental factor. */
-static int newest_covariance(bridge_t *bridge, pgem_id_t id, int whole, double *values)
+ * estimate (pgem_covariance_prepare; *current 1), else from the update's incremental factor
+ * (*current 0) or, when no update came since a whole-graph solve (a live EM pass that agreed
+ * publishes the graph again), from that solve's factor if nothing changed since (*current 1). */
+static int newest_covariance(bridge_t *bridge, pgem_id_t id, int whole, double *values,
+                             int *current)
 {
+    *current = 1;
     if (!whole) {
-        return pgem_update_covariance(bridge->core, id, values);
+        const int status = pgem_update_covariance(bridge->core, id, values);
+        if (status != PGEM_ERR_NO_FACTOR) {
+            *current = 0;
+            return status;
+        }
+        return pgem_covariance(bridge->core, id, values);
     }
     const int status = pgem_covariance_prepare(bridge->core);
     return status == PGEM_OK ? pgem_covariance(bridge->core, id, values) : status;
@@ -62,7 +71,8 @@ void bridge_covariance_publish(bridge_t *bridge, int whole)
     double *rows[PGEM_TANGENT_SIZE_MAX];
     pgem_id_t id = 0;
     pgem_pose_at(bridge->core, index, &id, pose, NULL);
-    const int status = newest_covariance(bridge, id, whole, values);
+    int current = 0;
+    const int status = newest_covariance(bridge, id, whole, values, &current);
     if (status != PGEM_OK) {
         if (bridge->covariance_failures++ < COVARIANCE_FAILURES_LOGGED) {
             bridge_log(bridge, "no covariance for pose %llu after graph %lld: %s (%s)",
@@ -87,7 +97,7 @@ void bridge_covariance_publish(bridge_t *bridge, int whole)
     msg.pose = pose;
     msg.size = n;
     msg.covariance = rows;
-    msg.current = (int8_t)whole;
+    msg.current = (int8_t)current;
     publish(bridge, &msg);
     const double took = bridge_now() - start;
     bridge->covariance_count[whole != 0]++;
