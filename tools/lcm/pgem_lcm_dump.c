@@ -54,6 +54,7 @@ typedef struct dump_state {
     pgem_covariance_t *covariance; /* the latest newest-pose covariance (a copy), or NULL */
     uint64_t covariances;     /* covariances received (well-formed) */
     int covariance_new;       /* one arrived since the main loop last looked */
+    int graph_held;           /* a stop condition was met: later graphs are not taken */
 } dump_state_t;
 
 static void dump_usage(FILE *out)
@@ -247,6 +248,9 @@ static void dump_on_graph(const lcm_recv_buf_t *buffer, const char *channel,
 {
     dump_state_t *state = user;
     (void)buffer;
+    if (state->graph_held) {
+        return;
+    }
     const char *problem = dump_graph_problem(graph);
     if (problem != NULL) {
         fprintf(stderr, "%s: ignored a graph on %s: %s\n", DUMP_TOOL, channel, problem);
@@ -578,10 +582,12 @@ static int dump_take(const dump_args_t *args, dump_state_t *state)
 }
 
 /* After a stop condition: the bridge publishes a graph's covariance right after the graph, so
- * with --covariance the one of the latest graph is waited for (up to DUMP_COVARIANCE_WAIT s). */
+ * with --covariance the one of the graph that met it is waited for (up to DUMP_COVARIANCE_WAIT
+ * s; later graphs are not taken meanwhile). */
 static void dump_await_covariance(const dump_args_t *args, lcm_t *lcm, dump_state_t *state)
 {
     const double deadline = pgem_cli_now() + DUMP_COVARIANCE_WAIT;
+    state->graph_held = 1;
     while (args->covariance != NULL && state->graph != NULL &&
            (state->covariance == NULL ||
             state->covariance->solve_id < state->graph->stats.solve_id) &&
