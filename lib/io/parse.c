@@ -247,8 +247,8 @@ static int io_store_edge(io_reader_t *reader, const io_tag_t *tag, const io_valu
     io_expand_information(tag, values->numbers + pose_size, edge->information);
     edge->kind = io_edge_kind(edge->from, edge->to);
     edge->line = reader->line;
-    if (tag->format == PGEM_FORMAT_TORO) {
-        reader->graph->toro_edges++;
+    if (tag->format == PGEM_FORMAT_TORO && values->ids[0] != values->ids[1]) {
+        reader->graph->toro_edges++; /* of edge_count: a self-loop is kept apart */
     }
     return PGEM_OK;
 }
