@@ -183,3 +183,23 @@ def test_to_gtsam_order():
     assert g[0, 0] == c[3, 3] and g[0, 3] == c[3, 0] and g[3, 3] == c[0, 0]
     assert pgem.to_gtsam(np.stack([c, c])).shape == (2, 6, 6)
     assert pgem.to_gtsam(np.eye(3)) is not None
+
+
+def test_one_graph_from_two_threads():
+    """A Graph used from another thread while it solves (the solve releases the GIL): every
+    call waits its turn, none sees a half-solved instance or crashes."""
+    import threading
+
+    graph = pgem.read_g2o(dataset("2d/input_M3500_g2o.g2o"))
+    graph.fix_pose(0)
+    results = {}
+    worker = threading.Thread(target=lambda: results.update(summary=graph.optimize(robust="em")))
+    worker.start()
+    reads = 0
+    while worker.is_alive() or reads == 0:
+        ids, poses = graph.poses()
+        assert len(ids) == 3500 and np.isfinite(poses).all()
+        reads += 1
+    worker.join()
+    assert results["summary"].rejected == 0 and results["summary"].iterations > 0
+    assert np.array_equal(graph.poses()[1], poses)  # the last read waited for the solve

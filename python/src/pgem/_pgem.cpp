@@ -3,6 +3,7 @@
 // (pgem/__init__.py) checks shapes, converts inputs and documents the calls.
 #include <cstdint>
 #include <cstring>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -66,6 +67,27 @@ pgem_kernel_t kernel_of(const std::string &name)
                 "robust must be one of em, none, cauchy, huber, dcs, got '" + name + "'");
 }
 
+// Held for every call on an instance: a Graph shared between Python threads works one call at
+// a time (the long calls release the GIL, and the C instance is not safe for two at once). A
+// thread that must wait waits with the GIL released, so it never blocks the holder, which needs
+// the GIL back at the end of its call. Recursive: a call may use another.
+class Hold {
+public:
+    explicit Hold(std::recursive_mutex &mutex) : mutex_(mutex)
+    {
+        if (!mutex_.try_lock()) {
+            nb::gil_scoped_release unlocked;
+            mutex_.lock();
+        }
+    }
+    ~Hold() { mutex_.unlock(); }
+    Hold(const Hold &) = delete;
+    Hold &operator=(const Hold &) = delete;
+
+private:
+    std::recursive_mutex &mutex_;
+};
+
 class Graph {
 public:
     Graph(int dimension, uint32_t max_poses, uint32_t max_edges, uint32_t fill_budget,
@@ -128,6 +150,7 @@ public:
 
     void write_g2o(const std::string &path) const
     {
+        Hold hold(mutex_);
         pgem_io_graph_t file;
         std::memset(&file, 0, sizeof file);
         char message[1024] = "";
@@ -143,29 +166,56 @@ public:
         }
     }
 
-    int dimension() const { return pgem_dimension(instance_); }
-    uint32_t pose_count() const { return pgem_pose_count(instance_); }
-    uint32_t edge_count() const { return pgem_edge_count(instance_); }
-    double chi2() const { return pgem_total_chi2(instance_); }
+    int dimension() const
+    {
+        Hold hold(mutex_);
+        return pgem_dimension(instance_);
+    }
+    uint32_t pose_count() const
+    {
+        Hold hold(mutex_);
+        return pgem_pose_count(instance_);
+    }
+    uint32_t edge_count() const
+    {
+        Hold hold(mutex_);
+        return pgem_edge_count(instance_);
+    }
+    double chi2() const
+    {
+        Hold hold(mutex_);
+        return pgem_total_chi2(instance_);
+    }
 
     void add_pose(uint64_t id, Input pose)
     {
+        Hold hold(mutex_);
         check(pgem_add_pose(instance_, id, pose.data()));
     }
 
-    void set_pose(uint64_t id, Input pose) { check(pgem_set_pose(instance_, id, pose.data())); }
+    void set_pose(uint64_t id, Input pose)
+    {
+        Hold hold(mutex_);
+        check(pgem_set_pose(instance_, id, pose.data()));
+    }
 
     Output<double> pose(uint64_t id) const
     {
+        Hold hold(mutex_);
         Output<double> out = make_array<double>({pose_size()});
         check(pgem_get_pose(instance_, id, out.data()));
         return out;
     }
 
-    void fix_pose(uint64_t id, bool fixed) { check(pgem_fix_pose(instance_, id, fixed ? 1 : 0)); }
+    void fix_pose(uint64_t id, bool fixed)
+    {
+        Hold hold(mutex_);
+        check(pgem_fix_pose(instance_, id, fixed ? 1 : 0));
+    }
 
     uint32_t add_edge(uint64_t from, uint64_t to, Input measurement, Input information, bool loop)
     {
+        Hold hold(mutex_);
         uint32_t index = 0;
         check(pgem_add_edge(instance_, from, to, measurement.data(), information.data(),
                             loop ? PGEM_EDGE_LOOP : PGEM_EDGE_ODOMETRY, &index));
@@ -176,6 +226,7 @@ public:
     nb::dict optimize(const std::string &robust, double scale, const std::string &method,
                       uint32_t max_iterations)
     {
+        Hold hold(mutex_);
         const pgem_kernel_t kernel = kernel_of(robust);
         pgem_solve_options_t solve;
         std::memset(&solve, 0, sizeof solve);
@@ -228,6 +279,7 @@ public:
 
     nb::dict update(bool robust, bool rebuild)
     {
+        Hold hold(mutex_);
         pgem_update_options_t options;
         std::memset(&options, 0, sizeof options);
         options.robust = robust ? 1 : 0;
@@ -252,6 +304,7 @@ public:
 
     std::pair<Output<uint64_t>, Output<double>> poses() const
     {
+        Hold hold(mutex_);
         const size_t count = pose_count(), size = pose_size();
         Output<uint64_t> ids = make_array<uint64_t>({count});
         Output<double> values = make_array<double>({count, size});
@@ -266,6 +319,7 @@ public:
     // Every loop closure: from and to ids, weight, and 1 if pruned.
     nb::tuple loops() const
     {
+        Hold hold(mutex_);
         size_t count = 0;
         pgem_edge_view_t view;
         for (uint32_t k = 0; k < edge_count(); k++) {
@@ -292,6 +346,7 @@ public:
 
     Output<double> covariance(uint64_t id)
     {
+        Hold hold(mutex_);
         const size_t n = tangent();
         Output<double> out = make_array<double>({n, n});
         with_factor([&] { return pgem_covariance(instance_, id, out.data()); });
@@ -300,6 +355,7 @@ public:
 
     Output<double> joint_covariance(uint64_t a, uint64_t b)
     {
+        Hold hold(mutex_);
         const size_t n = 2 * tangent();
         Output<double> out = make_array<double>({n, n});
         with_factor([&] { return pgem_joint_covariance(instance_, a, b, out.data()); });
@@ -308,6 +364,7 @@ public:
 
     Output<double> covariances()
     {
+        Hold hold(mutex_);
         const size_t n = tangent();
         Output<double> out = make_array<double>({static_cast<size_t>(pose_count()), n, n});
         with_factor([&] { return pgem_covariances(instance_, out.data()); });
@@ -316,6 +373,7 @@ public:
 
     void prepare_covariance()
     {
+        Hold hold(mutex_);
         int status = PGEM_OK;
         {
             nb::gil_scoped_release unlocked;
@@ -326,6 +384,7 @@ public:
 
 private:
     pgem_t *instance_ = nullptr;
+    mutable std::recursive_mutex mutex_; // Hold: one call at a time
 
     Graph(pgem_config_t config, bool online) { create(config, online); }
 
