@@ -614,44 +614,88 @@ static void test_consistency_gate_prunes_what_em_keeps(void **state)
 
 /* Two chains joined only by two loop closures that contradict each other, the second chain's
  * guess halfway between them: EM prunes both, which leaves the second chain with no held pose.
- * Under Gauss-Newton and under Levenberg-Marquardt (whose damping would hide the singular
- * matrix) the solve fails naming a pose of that chain, and the estimate is restored. */
-static void test_pruning_that_splits_the_graph_fails(void **state)
+ * Under Gauss-Newton and under Levenberg-Marquardt (whose damping would hide a singular
+ * matrix) the solve goes on with that chain held at its own gauge (pose 100, its smallest id)
+ * and reports it; the first chain ends where its odometry puts it, as before the solve, and
+ * the second keeps its odometry's shape wherever EM left it. A graph whose part no edge joins
+ * to a held pose, pruned or not, still fails, naming a pose of it, and changes nothing. */
+static pgem_t *split_chains(int joined)
+{
+    pgem_t *graph = test_create(2, 20, 20);
+    double information[9];
+    test_diagonal_information(3, 100.0, information);
+    for (int part = 0; part < 2; part++) {
+        for (int k = 0; k < 10; k++) {
+            const double pose[3] = {k, part * 32.5, 0.0};
+            assert_int_equal(pgem_add_pose(graph, (pgem_id_t)(part * 100 + k), pose), PGEM_OK);
+        }
+        for (int k = 0; k < 9; k++) {
+            const double step[3] = {1.0, 0.0, 0.0};
+            const pgem_id_t from = (pgem_id_t)(part * 100 + k);
+            assert_int_equal(pgem_add_edge(graph, from, from + 1u, step, information,
+                                           PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+        }
+    }
+    const double near[3] = {0.0, 5.0, 0.0}, far[3] = {0.0, 60.0, 0.0};
+    if (joined) {
+        assert_int_equal(pgem_add_edge(graph, 5, 105, near, information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
+        assert_int_equal(pgem_add_edge(graph, 6, 106, far, information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
+    }
+    return graph;
+}
+
+static void test_pruning_that_splits_the_graph_holds_the_part(void **state)
 {
     (void)state;
     for (int method = 0; method < 2; method++) {
-        pgem_t *graph = test_create(2, 20, 20);
-        double information[9];
-        test_diagonal_information(3, 100.0, information);
-        for (int part = 0; part < 2; part++) {
-            for (int k = 0; k < 10; k++) {
-                const double pose[3] = {k, part * 32.5, 0.0};
-                assert_int_equal(pgem_add_pose(graph, (pgem_id_t)(part * 100 + k), pose), PGEM_OK);
-            }
-            for (int k = 0; k < 9; k++) {
-                const double step[3] = {1.0, 0.0, 0.0};
-                const pgem_id_t from = (pgem_id_t)(part * 100 + k);
-                assert_int_equal(pgem_add_edge(graph, from, from + 1u, step, information,
-                                               PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
-            }
-        }
-        const double near[3] = {0.0, 5.0, 0.0}, far[3] = {0.0, 60.0, 0.0};
-        assert_int_equal(pgem_add_edge(graph, 5, 105, near, information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
-        assert_int_equal(pgem_add_edge(graph, 6, 106, far, information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
+        pgem_t *graph = split_chains(1);
         double before[3 * 20], after[3 * 20];
         test_snapshot(graph, before);
         pgem_robust_options_t options = em_options();
         pgem_solve_options_t solve = {0};
         solve.method = method == 0 ? PGEM_GAUSS_NEWTON : PGEM_LEVENBERG_MARQUARDT;
         pgem_robust_summary_t summary;
-        assert_int_equal(pgem_robust_optimize(graph, &options, &solve, &summary),
-                         PGEM_ERR_NOT_POSITIVE_DEFINITE);
-        assert_int_equal(summary.usable, 0);
-        assert_contains(pgem_last_error(graph), "pose 100 is in a part of the graph with no held pose");
+        assert_int_equal(pgem_robust_optimize(graph, &options, &solve, &summary), PGEM_OK);
+        assert_int_equal(summary.usable, 1);
+        assert_int_equal(summary.pruned, 2);
+        assert_int_equal(summary.outcome, PGEM_ROBUST_ALL_REJECTED);
+        assert_int_equal(summary.termination, PGEM_ROBUST_CONVERGED);
+        assert_int_equal(summary.parts_held, 1);
+        pgem_id_t held = 0;
+        assert_int_equal(pgem_robust_held_part(graph, 0, &held), PGEM_OK);
+        assert_int_equal(held, 100);
+        assert_int_equal(pgem_robust_held_part(graph, 1, &held), PGEM_ERR_INVALID_ARGUMENT);
         test_snapshot(graph, after);
-        assert_memory_equal(before, after, sizeof before);
+        for (int k = 0; k < 10; k++) {
+            for (int c = 0; c < 3; c++) {
+                assert_near(after[3 * k + c], before[3 * k + c], 1e-9);
+            }
+            if (k > 0) { /* the second chain: its odometry's shape where it stands */
+                const double *a = after + 3 * (10 + k - 1), *b = after + 3 * (10 + k);
+                assert_near(b[0] - a[0], cos(a[2]), 1e-9);
+                assert_near(b[1] - a[1], sin(a[2]), 1e-9);
+                assert_near(b[2], a[2], 1e-9);
+            }
+        }
+        /* the holds hold for a plain solve of the result; a reset releases them with the loops */
+        assert_int_equal(pgem_optimize(graph, &solve, NULL), PGEM_OK);
+        pgem_robust_reset(graph);
+        assert_int_equal(pgem_robust_held_part(graph, 0, &held), PGEM_ERR_INVALID_ARGUMENT);
         pgem_destroy(graph);
     }
+    pgem_t *graph = split_chains(0);
+    double before[3 * 20], after[3 * 20];
+    test_snapshot(graph, before);
+    pgem_robust_summary_t summary;
+    assert_int_equal(pgem_robust_optimize(graph, NULL, NULL, &summary), PGEM_ERR_NOT_POSITIVE_DEFINITE);
+    assert_int_equal(summary.usable, 0);
+    assert_int_equal(summary.parts_held, 0);
+    assert_contains(pgem_last_error(graph), "pose 100 is in a part of the graph with no held pose");
+    test_snapshot(graph, after);
+    assert_memory_equal(before, after, sizeof before);
+    pgem_id_t held = 0;
+    assert_int_equal(pgem_robust_held_part(graph, 0, &held), PGEM_ERR_INVALID_ARGUMENT);
+    pgem_destroy(graph);
 }
 
 /* NaN or Inf in a robust option (or in the solve options it passes on) is refused by name. */
@@ -1101,7 +1145,7 @@ int main(void)
         cmocka_unit_test(test_pruned_loops_leave_the_structure),
         cmocka_unit_test(test_dormant_loops_keep_the_factor_sparse),
         cmocka_unit_test(test_consistency_gate_prunes_what_em_keeps),
-        cmocka_unit_test(test_pruning_that_splits_the_graph_fails),
+        cmocka_unit_test(test_pruning_that_splits_the_graph_holds_the_part),
         cmocka_unit_test(test_non_finite_robust_options_refused),
         cmocka_unit_test(test_non_finite_start_leaves_the_weights),
         cmocka_unit_test(test_cauchy_weight_of_an_exact_fit),

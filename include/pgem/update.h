@@ -161,7 +161,8 @@ int pgem_update_save(pgem_t *graph, void *buffer, size_t size);
  * current at the save. The next batch solve analyses anew. Everything is checked before
  * anything is put back: a buffer that is not such a save (a pose NaN, beyond
  * PGEM_TRANSLATION_LIMIT or with a quaternion off unit norm: NOT_FINITE, OUT_OF_RANGE,
- * ROTATION; a held flag not 0 or 1, held flags not as many as the header counts, a weight
+ * ROTATION; a held flag that is no hold (above 4: free, fixed, a gauge, a part's gauge held by
+ * a robust solve), fixed flags not as many as the header counts, a weight
  * outside [0, 1], an unknown state, an impossible header: INVALID_ARGUMENT) is refused, the
  * message naming the pose (index and id) or edge (index and ids) and the field ("the save's
  * pose 17 (id 17): field y is beyond the translation limit (1e8 m): not a save of this graph,

@@ -19,6 +19,14 @@ typedef enum pgem_edge_state {
 /* What pose_fixed holds for a pose. */
 #define PGEM_POSE_FIXED 1u /* held constant: no column in the normal equations */
 #define PGEM_POSE_GAUGE 2u /* free, its block damped by PGEM_GAUGE_DAMPING (a part's gauge) */
+#define PGEM_POSE_PART 3u  /* the same, held by a robust solve: pruning left its part without a
+                              held pose (kept until the next robust solve or pgem_robust_reset) */
+#define PGEM_POSE_PART_NEW 4u /* the same, held during the robust solve running (released if
+                                 it fails) */
+
+/* 1 if a pose's pose_fixed value damps its block (its part's gauge, held by the user or by a
+ * robust solve). */
+#define PGEM_POSE_DAMPED(flag) ((flag) >= PGEM_POSE_GAUGE)
 
 /* 1 if pose p is held constant: fixed, or the first pose while none is (the gauge). */
 #define PGEM_POSE_HELD(store, p) \
@@ -38,7 +46,8 @@ typedef struct pgem_store {
     pgem_id_t *pose_id;        /* [max_poses] id of each pose, insertion order */
     double *pose;              /* [max_poses * pose_size] current estimate */
     uint8_t *pose_fixed;       /* [max_poses] PGEM_POSE_FIXED if held constant by pgem_fix_pose,
-                                  PGEM_POSE_GAUGE if free but damped (pgem_hold_gauge), else 0 */
+                                  PGEM_POSE_GAUGE if free but damped (pgem_hold_gauge),
+                                  PGEM_POSE_PART(_NEW) if damped by a robust solve, else 0 */
     uint32_t fixed_count;      /* poses with pose_fixed PGEM_POSE_FIXED */
     uint32_t map_mask;         /* id map slots - 1 (power of two) */
     uint32_t *map_slot;        /* [map_mask + 1] pose index + 1, 0 = empty */
@@ -58,6 +67,12 @@ void pgem_store_carve(pgem_t *graph, pgem_arena_t *arena);
 /* A graph's poses and edges into an empty instance of the same dimension with room for them
  * (the checks are pgem_copy's). */
 void pgem_store_copy(pgem_t *to, const pgem_t *from);
+/* A robust solve's hold on pose `index` (graph/hold.c): flag PGEM_POSE_PART or
+ * PGEM_POSE_PART_NEW, damped as a gauge; the pose stays free, so the structure stands. */
+void pgem_pose_hold_part(pgem_t *graph, uint32_t index, uint8_t flag);
+/* Frees the poses a robust solve holds with `flag` (PGEM_POSE_PART_NEW), or with either flag
+ * (0); returns how many. */
+uint32_t pgem_pose_release_parts(pgem_t *graph, uint8_t flag);
 
 /* Edges ka and kb, which meet at pose index p, composed into one edge between their other
  * ends (graph/compose.c): *from the other end of ka, *to that of kb, the measurement and

@@ -95,7 +95,7 @@ double pgem_linear_assemble(pgem_t *graph)
                                            : pgem_assemble_edges(graph, 3);
     for (uint32_t p = 0; p < graph->store.pose_count; p++) { /* the gauges' damping */
         const int block = linear->pose_block[p];
-        if (block >= 0 && graph->store.pose_fixed[p] == PGEM_POSE_GAUGE) {
+        if (block >= 0 && PGEM_POSE_DAMPED(graph->store.pose_fixed[p])) {
             for (int c = 0; c < linear->block; c++) {
                 linear->lower_values[pgem_lower_column(linear, block, c)] += PGEM_GAUGE_DAMPING;
             }

@@ -283,7 +283,7 @@ static void pgem_online_damp(pgem_t *graph, int j)
 {
     pgem_online_t *online = &graph->online;
     const int b = online->block;
-    if (graph->store.pose_fixed[online->column_pose[j]] != PGEM_POSE_GAUGE) {
+    if (!PGEM_POSE_DAMPED(graph->store.pose_fixed[online->column_pose[j]])) {
         return;
     }
     double *diagonal = online->values + (size_t)online->start[j] * (size_t)b * (size_t)b;

@@ -59,6 +59,7 @@ int pgem_em_polish(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         graph->store.edge_weight[k] = graph->store.edge_active[k] == PGEM_EDGE_ACTIVE ? 1.0 : graph->store.edge_weight[k];
     }
+    pgem_robust_hold_parts(graph);
     int status = pgem_optimize(graph, solve, &result);
     summary->gn_iterations += result.iterations;
     pgem_robust_note_stop(summary, &result);

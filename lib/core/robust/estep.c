@@ -14,6 +14,7 @@
  * from it in pgem_linear_step (the innovations predict from where that step leads). */
 static int pgem_factor_current(pgem_t *graph)
 {
+    pgem_robust_hold_parts(graph);
     int status = pgem_analyze(graph);
     if (status == PGEM_OK) {
         (void)pgem_linear_assemble(graph);

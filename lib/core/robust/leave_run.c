@@ -30,6 +30,7 @@ static double pgem_run_fall(pgem_t *graph, const pgem_loop_run_t *run, int *stat
 {
     const double with = pgem_weighted_chi2(graph);
     pgem_run_set(graph, run, PGEM_RUN_ACCEPTED, 0.0, PGEM_RUN_KEEP_STATE); /* no contribution */
+    pgem_robust_hold_parts(graph);
     *status = pgem_analyze(graph);
     double rest = 0.0, gain = 0.0;
     if (*status == PGEM_OK) {

@@ -90,7 +90,8 @@ static int pgem_saved_refuse(pgem_t *graph, int code)
 }
 
 /* Everything a restore would put back, checked before anything is: each pose as
- * pgem_set_pose checks it, held flags 0 or 1 and as many as the header says, weights in
+ * pgem_set_pose checks it, held flags known (free, fixed, a gauge or a part's gauge held by a
+ * robust solve) and as many fixed as the header says, weights in
  * [0, 1], states known, the header's edited index and factor flag possible. (The robust
  * layer's last distances and checks are its own notes, rewritten before they are read.)
  * PGEM_OK, or the error with the message naming the pose or edge and the field. */
@@ -127,14 +128,14 @@ static int pgem_saved_check(pgem_t *graph, const unsigned char *buffer,
             }
             return pgem_saved_refuse(graph, status);
         }
-        if (held[i] > 1u) {
+        if (held[i] > PGEM_POSE_PART_NEW) {
             pgem_saved_name(graph, "held flag of ", 0, i);
             pgem_message_text(graph, " is ");
             pgem_message_u64(graph, held[i]);
-            pgem_message_text(graph, ", not 0 or 1");
+            pgem_message_text(graph, ", not a hold (0 to 4)");
             return pgem_saved_refuse(graph, PGEM_ERR_INVALID_ARGUMENT);
         }
-        held_count += held[i];
+        held_count += held[i] == PGEM_POSE_FIXED;
     }
     if (held_count != header->fixed_count) {
         pgem_message_clear(graph);

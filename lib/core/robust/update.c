@@ -156,7 +156,7 @@ static int pgem_update_insert(pgem_t *graph, uint32_t k, double w, int *seeded, 
                    graph->store.pose + (size_t)p * (size_t)graph->pose_size,
                    (size_t)graph->pose_size * sizeof(double));
             /* the seed goes once the column's edges are in; a gauge's damping stays */
-            const double damping = graph->store.pose_fixed[p] == PGEM_POSE_GAUGE ? PGEM_GAUGE_DAMPING : 0.0;
+            const double damping = PGEM_POSE_DAMPED(graph->store.pose_fixed[p]) ? PGEM_GAUGE_DAMPING : 0.0;
             const int status = pgem_online_append(graph, p, PGEM_ONLINE_SEED + damping);
             if (status != PGEM_OK) {
                 return status;

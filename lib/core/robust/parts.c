@@ -1,0 +1,48 @@
+/* Parts that pruning leaves alone: when a robust solve prunes the only edges that joined a
+ * part of the graph to a held pose, the part is held at its own gauge (its pose with the
+ * smallest id, damped as pgem_hold_gauge damps it) where it stands, and the solve goes on.
+ * The part's loops stay in the consistency test, which measures them against the estimate;
+ * one that passes joins the part back. */
+#include "instance.h"
+#include "robust/robust.h"
+
+int pgem_robust_check_parts(pgem_t *graph)
+{
+    uint32_t first = UINT32_MAX;
+    if (pgem_linear_unheld_parts(graph, 1, 0u, &first) > 0u) {
+        return pgem_linear_fail_unheld(graph, first);
+    }
+    return PGEM_OK;
+}
+
+void pgem_robust_hold_parts(pgem_t *graph)
+{
+    uint32_t first = UINT32_MAX;
+    (void)pgem_linear_unheld_parts(graph, 0, (uint8_t)PGEM_POSE_PART_NEW, &first);
+}
+
+void pgem_robust_parts_settled(pgem_t *graph, int succeeded, pgem_robust_summary_t *summary)
+{
+    if (!succeeded) {
+        (void)pgem_pose_release_parts(graph, (uint8_t)PGEM_POSE_PART_NEW);
+        return;
+    }
+    uint32_t first = UINT32_MAX;
+    (void)pgem_pose_release_parts(graph, 0u);
+    summary->parts_held = pgem_linear_unheld_parts(graph, 0, (uint8_t)PGEM_POSE_PART, &first);
+}
+
+int pgem_robust_held_part(const pgem_t *graph, uint32_t index, pgem_id_t *id)
+{
+    if (graph == NULL || id == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    uint32_t seen = 0;
+    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+        if (graph->store.pose_fixed[p] == PGEM_POSE_PART && seen++ == index) {
+            *id = graph->store.pose_id[p];
+            return PGEM_OK;
+        }
+    }
+    return PGEM_ERR_INVALID_ARGUMENT;
+}
