@@ -3,6 +3,7 @@
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
+#include <string.h>
 
 #include "instance.h" /* to put an estimate out of range behind the API */
 #include "test_util.h"
@@ -612,6 +613,86 @@ static void test_consistency_gate_prunes_what_em_keeps(void **state)
     }
 }
 
+/* A loop whose innovation lies between what the rounds prune (weight below tau: d^2 above
+ * 1 / tau - 1 = 99) and a gate set above it (1000): the consistency test re-admits it, the
+ * rounds prune it again, and the passes come back to the set they left. Before the passes
+ * noticed, they ran to the pass limit (20) and said round_limit; now the second pass ends them
+ * with PGEM_ROBUST_OSCILLATED at the one set of the cycle (the loop pruned), polished: the
+ * estimate of the run whose default gate prunes the loop and converges. */
+static void test_oscillating_passes_end_in_the_cycle(void **state)
+{
+    (void)state;
+    double truth[3 * RING], estimates[2][3 * RING];
+    for (int g = 0; g < 2; g++) {
+        pgem_t *graph = ring(12, truth);
+        double z[3], information[9];
+        pgem_se2_between(truth + 3 * 30, truth + 3 * 60, z);
+        z[0] += 3.0;
+        test_diagonal_information(3, 1.0 / (0.2 * 0.2), information);
+        uint32_t bad = 0;
+        assert_int_equal(pgem_add_edge(graph, 30, 60, z, information, PGEM_EDGE_LOOP, &bad), PGEM_OK);
+        pgem_robust_options_t options = em_options();
+        options.gate = g == 0 ? 1000.0 : 0.0;
+        pgem_robust_summary_t summary;
+        assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+        assert_int_equal(summary.termination, g == 0 ? PGEM_ROBUST_OSCILLATED : PGEM_ROBUST_CONVERGED);
+        assert_string_equal(pgem_robust_termination_name(summary.termination),
+                            g == 0 ? "oscillated" : "converged");
+        assert_int_equal(summary.usable, 1);
+        assert_int_equal(summary.readmitted, g == 0 ? 1 : 0);
+        assert_true(summary.rounds <= 4u);
+        assert_int_equal(summary.pruned, 1);
+        pgem_edge_view_t edge;
+        assert_int_equal(pgem_edge_at(graph, bad, &edge), PGEM_OK);
+        assert_int_equal(edge.active, 0);
+        test_snapshot(graph, estimates[g]);
+        pgem_destroy(graph);
+    }
+    for (int k = 0; k < 3 * RING; k++) {
+        assert_near(estimates[0][k], estimates[1][k], 1e-9);
+    }
+}
+
+/* The rule that ends a cycle, on the passes' marks: a pass that comes back to an earlier set
+ * ends the passes if that set is the cheapest of the cycle (ties too); else the passes go
+ * around to the cheapest and end there, or, if they stray from the cycle, after as many passes
+ * as it had. */
+static void test_cycle_ends_at_its_cheapest_set(void **state)
+{
+    (void)state;
+    const pgem_pass_mark_t a = {0xa, 10, 5.0}, b = {0xb, 9, 3.0}, c = {0xc, 8, 4.0}, d = {0xd, 7, 1.0};
+    pgem_settle_t settle;
+    memset(&settle, 0, sizeof settle);
+    assert_int_equal(pgem_settle_pass(&settle, &a), 0);
+    assert_int_equal(pgem_settle_pass(&settle, &b), 0);
+    assert_int_equal(pgem_settle_pass(&settle, &a), 0); /* A, B, A: B is cheaper */
+    assert_int_equal(settle.cycling, 1);
+    assert_int_equal(pgem_settle_pass(&settle, &b), 1);
+    memset(&settle, 0, sizeof settle);
+    assert_int_equal(pgem_settle_pass(&settle, &b), 0);
+    assert_int_equal(pgem_settle_pass(&settle, &a), 0);
+    assert_int_equal(pgem_settle_pass(&settle, &b), 1); /* B, A, B: B is the cheapest */
+    memset(&settle, 0, sizeof settle);
+    assert_int_equal(pgem_settle_pass(&settle, &a), 0);
+    assert_int_equal(pgem_settle_pass(&settle, &c), 0);
+    assert_int_equal(pgem_settle_pass(&settle, &b), 0);
+    assert_int_equal(pgem_settle_pass(&settle, &a), 0); /* A, C, B, A: to B, two passes on */
+    assert_int_equal(pgem_settle_pass(&settle, &c), 0);
+    assert_int_equal(pgem_settle_pass(&settle, &b), 1);
+    memset(&settle, 0, sizeof settle);
+    assert_int_equal(pgem_settle_pass(&settle, &a), 0);
+    assert_int_equal(pgem_settle_pass(&settle, &b), 0);
+    assert_int_equal(pgem_settle_pass(&settle, &a), 0);
+    assert_int_equal(pgem_settle_pass(&settle, &d), 0); /* strays: ends a cycle's length on */
+    assert_int_equal(pgem_settle_pass(&settle, &c), 1);
+    pgem_pass_mark_t same = a;
+    same.accepted = 11; /* the same fingerprint with another count is another set */
+    memset(&settle, 0, sizeof settle);
+    assert_int_equal(pgem_settle_pass(&settle, &a), 0);
+    assert_int_equal(pgem_settle_pass(&settle, &same), 0);
+    assert_int_equal(settle.cycling, 0);
+}
+
 /* Two chains joined only by two loop closures that contradict each other, the second chain's
  * guess halfway between them: EM prunes both, which leaves the second chain with no held pose.
  * Under Gauss-Newton and under Levenberg-Marquardt (whose damping would hide a singular
@@ -1146,6 +1227,8 @@ int main(void)
         cmocka_unit_test(test_dormant_loops_keep_the_factor_sparse),
         cmocka_unit_test(test_consistency_gate_prunes_what_em_keeps),
         cmocka_unit_test(test_pruning_that_splits_the_graph_holds_the_part),
+        cmocka_unit_test(test_oscillating_passes_end_in_the_cycle),
+        cmocka_unit_test(test_cycle_ends_at_its_cheapest_set),
         cmocka_unit_test(test_non_finite_robust_options_refused),
         cmocka_unit_test(test_non_finite_start_leaves_the_weights),
         cmocka_unit_test(test_cauchy_weight_of_an_exact_fit),

@@ -168,7 +168,15 @@ typedef enum pgem_robust_termination {
                                          any of the method's Gauss-Newton solves, asked to
                                          stop: the solve returned at once, its estimate
                                          mid-solve (pgem_update_restore can undo it) */
-    PGEM_ROBUST_FAILED = 4            /**< the solve failed (usable is 0; see the error) */
+    PGEM_ROBUST_FAILED = 4,           /**< the solve failed (usable is 0; see the error) */
+    PGEM_ROBUST_OSCILLATED = 5        /**< EM: the passes of consistency test and rounds came
+                                         back to a set of accepted loops they had left (a
+                                         cycle, e.g. two sets in turn); the solve ended at the
+                                         set of the cycle whose polished estimate has the
+                                         lowest robust cost (odometry chi2 plus every loop's
+                                         Cauchy rho, pruned loops included), polished. Usable,
+                                         but not settled: the decisions on the loops that
+                                         change state around the cycle are not firm */
 } pgem_robust_termination_t;
 
 /** What a robust solve did. */
@@ -235,6 +243,10 @@ const char *pgem_kernel_name(pgem_kernel_t kernel);
 
 /** Name of an outcome ("loops_accepted", "no_loops", "most_rejected", "all_rejected"). */
 const char *pgem_robust_outcome_name(pgem_robust_outcome_t outcome);
+
+/** Name of a termination ("converged", "round_limit", "iteration_limit", "stopped", "failed",
+ * "oscillated"). */
+const char *pgem_robust_termination_name(pgem_robust_termination_t termination);
 
 #ifdef __cplusplus
 }

@@ -75,13 +75,21 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *later,
                           const pgem_solve_options_t *solve, pgem_robust_summary_t *summary, double gate)
 {
     int status = PGEM_OK;
+    pgem_settle_t settle;
+    memset(&settle, 0, sizeof settle);
     for (uint32_t pass = 0; status == PGEM_OK; pass++) {
         status = pgem_em_polish(graph, solve, summary);
         if (status != PGEM_OK || pgem_robust_stopped(summary)) {
             break;
         }
+        pgem_pass_mark_t mark;
+        pgem_pass_mark(graph, later->scale, &mark);
+        if (pgem_settle_pass(&settle, &mark)) {
+            pgem_robust_ended(summary, PGEM_ROBUST_OSCILLATED);
+            break;
+        }
         if (pass == later->max_rounds) {
-            pgem_robust_ended(summary, PGEM_ROBUST_ROUND_LIMIT);
+            pgem_robust_ended(summary, settle.cycling ? PGEM_ROBUST_OSCILLATED : PGEM_ROBUST_ROUND_LIMIT);
             break;
         }
         if (pgem_em_gate(graph, later, gate, summary) > 0u) {

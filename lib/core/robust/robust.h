@@ -161,6 +161,29 @@ uint32_t pgem_em_leave_run_out(pgem_t *graph, pgem_robust_summary_t *summary, in
 double pgem_em_gate_value(const pgem_t *graph, const pgem_robust_options_t *options);
 uint32_t pgem_em_gate(pgem_t *graph, const pgem_robust_options_t *options, double gate,
                       pgem_robust_summary_t *summary);
+/* Oscillation between EM's passes (robust/settle.c). A pass's mark: a fingerprint of its
+ * loops' states (accepted, pruned, left out with a run), how many are accepted, and the
+ * robust cost of its polished estimate (odometry chi2 plus every loop's Cauchy rho at
+ * `scale`). The last PGEM_PASS_MARKS marks are kept (on the stack: no storage in the block). */
+#define PGEM_PASS_MARKS 8u
+typedef struct pgem_pass_mark {
+    uint64_t set;      /* FNV-1a of every loop's index and state */
+    uint32_t accepted; /* loops accepted */
+    double cost;       /* robust cost at the polished estimate */
+} pgem_pass_mark_t;
+typedef struct pgem_settle {
+    pgem_pass_mark_t marks[PGEM_PASS_MARKS]; /* the last passes' marks, a ring */
+    uint32_t count;                          /* passes marked */
+    int cycling;                             /* 1 once a cycle was found */
+    pgem_pass_mark_t target;                 /* then: its cheapest set */
+    uint32_t remaining;                      /* passes left to reach it */
+} pgem_settle_t;
+void pgem_pass_mark(const pgem_t *graph, double scale, pgem_pass_mark_t *mark);
+/* After a pass's polish: 1 if the passes should end here, oscillating (this pass came back to
+ * the set of an earlier one and is the cheapest of the cycle, or reached the cheapest after
+ * one was found, or strayed from the cycle for as many passes as it had); 0 to go on. A
+ * settle starts zeroed. */
+int pgem_settle_pass(pgem_settle_t *settle, const pgem_pass_mark_t *mark);
 /* IRLS for the kernels that never prune (robust/irls.c). */
 int pgem_irls(pgem_t *graph, const pgem_robust_options_t *options,
               const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);

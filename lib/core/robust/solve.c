@@ -130,3 +130,16 @@ const char *pgem_robust_outcome_name(pgem_robust_outcome_t outcome)
     }
     return "unknown";
 }
+
+const char *pgem_robust_termination_name(pgem_robust_termination_t termination)
+{
+    switch (termination) {
+    case PGEM_ROBUST_CONVERGED: return "converged";
+    case PGEM_ROBUST_ROUND_LIMIT: return "round_limit";
+    case PGEM_ROBUST_ITERATION_LIMIT: return "iteration_limit";
+    case PGEM_ROBUST_STOPPED: return "stopped";
+    case PGEM_ROBUST_FAILED: return "failed";
+    case PGEM_ROBUST_OSCILLATED: return "oscillated";
+    }
+    return "unknown";
+}
