@@ -48,6 +48,21 @@ foreach(pair "sim_random_res.g2o;again.g2o" "sim_random_w.txt;again_w.txt")
   endif()
 endforeach()
 
+# Passes that cycle (issue 36): a gate above what the rounds prune (d^2 > 99 at tau = 0.01)
+# re-admits loops the rounds prune again. The run ends at the cycle, says so in the JSON
+# (termination oscillated; a converged run has no termination field) and in the text, and
+# rejects what the default run rejects.
+pgem_ok(cycle optimize sim_local_bad.g2o --robust em --gate 1000 --json)
+expect("${cycle_out}" status PGEM_OK termination oscillated pruned 50 readmitted 2)
+within("${cycle_out}" rounds 1 4)
+pgem_ok(cycle_text optimize sim_local_bad.g2o --robust em --gate 1000 --quiet)
+contains(cycle_text "${cycle_text_out}" "  not settled: the accepted loop closures came back to a set of an earlier pass")
+pgem_ok(settled optimize sim_local_bad.g2o --robust em --json)
+string(JSON settled_termination ERROR_VARIABLE missing GET "${settled_out}" termination)
+if(NOT missing)
+  fail("a converged run reports a termination: ${settled_out}")
+endif()
+
 # Shared datasets (skipped with a note when the folder is not beside the repository).
 if(DATASETS AND EXISTS "${DATASETS}/2d/intel.g2o" AND EXISTS "${DATASETS}/2d/input_M3500_g2o.g2o")
   set(intel "${DATASETS}/2d/intel.g2o")

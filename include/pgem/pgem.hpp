@@ -343,6 +343,10 @@ struct Summary : pgem_summary_t {
 /** What a robust solve did: pgem_robust_summary_t. */
 struct RobustSummary : pgem_robust_summary_t {
     RobustSummary() noexcept : pgem_robust_summary_t{} {}
+    /** "converged", "round_limit", "oscillated", ... (pgem_robust_termination_name). */
+    const char *termination_name() const noexcept {
+        return pgem_robust_termination_name(termination);
+    }
 };
 
 /**

@@ -203,3 +203,21 @@ def test_one_graph_from_two_threads():
     worker.join()
     assert results["summary"].rejected == 0 and results["summary"].iterations > 0
     assert np.array_equal(graph.poses()[1], poses)  # the last read waited for the solve
+
+
+def test_em_holds_a_part_its_pruned_loops_leave_alone():
+    # two chains joined only by two contradicting loop closures: EM prunes both, and the
+    # second chain is held at its own gauge (pose 100) instead of failing the solve
+    graph = pgem.Graph(2, 20, 20)
+    information = np.eye(3) * 100.0
+    for part in range(2):
+        for k in range(10):
+            graph.add_pose(part * 100 + k, [k, part * 32.5, 0.0])
+        for k in range(9):
+            graph.add_edge(part * 100 + k, part * 100 + k + 1, [1.0, 0.0, 0.0], information)
+    graph.add_edge(5, 105, [0.0, 5.0, 0.0], information, loop=True)
+    graph.add_edge(6, 106, [0.0, 60.0, 0.0], information, loop=True)
+    summary = graph.optimize(robust="em")
+    assert summary.outcome == "all_rejected"
+    assert summary.termination == "converged"
+    assert summary.held_poses == (100,)

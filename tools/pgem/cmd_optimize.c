@@ -465,6 +465,57 @@ static void pgem_warn_outcome(const pgem_t *graph, const pgem_robust_summary_t *
     }
 }
 
+/* The JSON fields of a robust solve that only some solves have: "termination" when it did not
+ * converge, "parts_held" and "held_poses" (the ids that hold them) when pruning left parts of
+ * the graph without a held pose. */
+static void pgem_print_json_robust_extras(const pgem_t *graph, const pgem_robust_summary_t *summary,
+                                          int status)
+{
+    if (status == PGEM_OK && summary->termination != PGEM_ROBUST_CONVERGED) {
+        printf(",\"termination\":\"%s\"", pgem_robust_termination_name(summary->termination));
+    }
+    if (status != PGEM_OK || summary->parts_held == 0u) {
+        return;
+    }
+    printf(",\"parts_held\":%u,\"held_poses\":[", summary->parts_held);
+    for (uint32_t k = 0; k < summary->parts_held; k++) {
+        pgem_id_t id = 0;
+        (void)pgem_robust_held_part(graph, k, &id);
+        printf("%s%llu", k > 0u ? "," : "", (unsigned long long)id);
+    }
+    printf("]");
+}
+
+/* The text lines of a robust solve that only some solves have: why it ended when it did not
+ * converge, and the parts that pruning left without a held pose (the first ten named). */
+static void pgem_print_robust_extras(FILE *out, const pgem_t *graph,
+                                     const pgem_robust_summary_t *summary)
+{
+    if (summary->termination == PGEM_ROBUST_ROUND_LIMIT) {
+        fprintf(out, "  not settled: loop closures still changed state at the round limit\n");
+    } else if (summary->termination == PGEM_ROBUST_OSCILLATED) {
+        fprintf(out, "  not settled: the accepted loop closures came back to a set of an earlier "
+                     "pass; ended at the pass of the cycle with the lowest robust cost\n");
+    } else if (summary->termination == PGEM_ROBUST_STOPPED) {
+        fprintf(out, "  stopped before the loop closures settled\n");
+    }
+    if (summary->parts_held == 0u) {
+        return;
+    }
+    fprintf(out, "  %u part%s of the graph joined only by rejected loop closures, each held at "
+                 "its own gauge: pose%s", summary->parts_held, summary->parts_held > 1u ? "s" : "",
+            summary->parts_held > 1u ? "s" : "");
+    for (uint32_t k = 0; k < summary->parts_held && k < 10u; k++) {
+        pgem_id_t id = 0;
+        (void)pgem_robust_held_part(graph, k, &id);
+        fprintf(out, "%s %llu", k > 0u ? "," : "", (unsigned long long)id);
+    }
+    if (summary->parts_held > 10u) {
+        fprintf(out, " and %u more", summary->parts_held - 10u);
+    }
+    fprintf(out, "\n");
+}
+
 static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *args,
                                       const pgem_t *graph, const pgem_robust_summary_t *summary,
                                       double seconds, int status)
@@ -478,12 +529,13 @@ static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *arg
         pgem_json_string(stdout, args->input);
         printf(",\"robust\":\"%s\",\"status\":\"%s\",\"outcome\":\"%s\",\"rounds\":%u,"
                "\"em_iterations\":%u,\"gn_iterations\":%u,\"loops\":%u,\"pruned\":%u,"
-               "\"rejected\":%u,\"non_finite\":%u,\"readmitted\":%u,\"gated\":%u,"
-               "\"initial_chi2\":",
+               "\"rejected\":%u,\"non_finite\":%u,\"readmitted\":%u,\"gated\":%u",
                pgem_kernel_name(args->robust.kernel), pgem_error_name(status),
                pgem_robust_outcome_name(summary->outcome), summary->rounds,
                summary->em_iterations, summary->gn_iterations, summary->loops, summary->pruned,
                summary->rejected, summary->non_finite, summary->readmitted, summary->gated);
+        pgem_print_json_robust_extras(graph, summary, status);
+        printf(",\"initial_chi2\":");
         pgem_json_number(stdout, summary->initial_chi2, 10);
         printf(",\"final_chi2\":");
         pgem_json_number(stdout, summary->final_chi2, 10);
@@ -507,6 +559,7 @@ static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *arg
                 summary->gated, pgem_cli_number(initial, sizeof initial, summary->initial_chi2, 6),
                 pgem_cli_number(final, sizeof final, summary->final_chi2, 6),
                 pgem_cli_number(all, sizeof all, summary->final_chi2_all, 6), seconds);
+        pgem_print_robust_extras(out, graph, summary);
     } else { /* no rejected counts or final chi2 to report: the solve left nothing behind */
         fprintf(out, "%s: failed after %u rounds, %u E/M iterations, %u GN iterations in %.4f s\n",
                 pgem_kernel_name(args->robust.kernel), summary->rounds, summary->em_iterations,

@@ -48,8 +48,10 @@ class Summary:
     ``final_chi2`` is the weighted chi2 of the result (rejected loops excluded),
     ``iterations`` the Gauss-Newton iterations run (over every M-step for a robust solve),
     ``rejected`` the loop closures the robust method rejected (0 for ``robust="none"``),
-    ``loops`` the loop closures in the graph (robust solves), ``outcome`` (robust) or
-    ``termination`` (plain) why it ended."""
+    ``loops`` the loop closures in the graph (robust solves), ``outcome`` (robust) and
+    ``termination`` why it ended (robust: ``converged``, ``round_limit``, ``oscillated`` ...),
+    ``held_poses`` (robust) the poses holding the parts that rejected loop closures left
+    without a held pose, each at its own gauge."""
 
     initial_chi2: float
     final_chi2: float
@@ -61,6 +63,7 @@ class Summary:
     final_chi2_with_rejected: float = float("nan")
     outcome: str = ""
     termination: str = ""
+    held_poses: Tuple[int, ...] = ()
     usable: bool = True
 
 
@@ -182,6 +185,8 @@ class Graph:
         if robust not in _ROBUST:
             raise ValueError(f"robust must be one of {', '.join(_ROBUST)}, got {robust!r}")
         done = self._graph.optimize(robust, float(scale), method, int(max_iterations))
+        if "held_poses" in done:
+            done["held_poses"] = tuple(done["held_poses"])
         return Summary(**done)
 
     def update(self, robust: bool = False, rebuild: bool = False) -> UpdateSummary:

@@ -273,6 +273,14 @@ public:
         out["em_iterations"] = summary.em_iterations;
         out["final_chi2_with_rejected"] = summary.final_chi2_all;
         out["outcome"] = pgem_robust_outcome_name(summary.outcome);
+        out["termination"] = pgem_robust_termination_name(summary.termination);
+        nb::list held;
+        for (uint32_t k = 0; k < summary.parts_held; k++) {
+            pgem_id_t id = 0;
+            (void)pgem_robust_held_part(instance_, k, &id);
+            held.append(id);
+        }
+        out["held_poses"] = held;
         out["usable"] = summary.usable != 0;
         return out;
     }
