@@ -2,7 +2,8 @@
 # same bytes and another seed other bytes; the pose and edge counts are those of the world;
 # the noisy graph solves to the truth (pgem optimize, then pgem eval against --truth); and the
 # chi2 at the truth and at the optimum show that the information matches the noise drawn.
-# Also the usage errors (unknown world, too few poses) exit 2 with a message.
+# A team (--robots, --false-loops) has its ids, origins, truth and false loops, and EM solves
+# it. Also the usage errors (unknown world, too few poses, teams) exit 2 with a message.
 # Run by CTest as: cmake -DPGEM=<pgem executable> -DWORK=<scratch folder> -P test_cli_simulate.cmake
 include("${CMAKE_CURRENT_LIST_DIR}/cli_test_helpers.cmake")
 
@@ -200,6 +201,55 @@ endforeach()
 if(NOT checked EQUAL grid3d_loops)
   fail("grid3d: checked ${checked} loops, the summary said ${grid3d_loops}")
 endif()
+
+# A team (issue 36): the same walk split across 4 robots. Each robot's poses have ids
+# r*1000000+i and its odometry starts at the identity (its own frame); the truth is the
+# single robot's, pose for pose; the steps between robots are gone; the false loops join two
+# robots and are listed in OUT.outliers. On this seed EM rejects every loop that joins robot 2
+# (its frame is far from the others'), and the solve holds robot 2 at its own gauge instead
+# of failing (until issue 36: exit 1, nothing written).
+pgem_ok(single simulate -o single.g2o --truth single_truth.g2o --poses 1000 --seed 2)
+pgem_ok(team simulate -o team.g2o --truth team_truth.g2o --poses 1000 --seed 2 --robots 4
+        --false-loops 20)
+contains(team "${team_out}" ", 4 robots (20 false inter-robot loops) -> team.g2o")
+file(STRINGS "${WORK}/team.g2o" team_first REGEX "^VERTEX_SE2 ([1-3]000000|0) 0 0 0$")
+list(LENGTH team_first count)
+if(NOT count EQUAL 4)
+  fail("team: each robot's first pose is not at its origin: ${team_first}")
+endif()
+file(STRINGS "${WORK}/single_truth.g2o" walk_500 REGEX "^VERTEX_SE2 500 ")
+file(STRINGS "${WORK}/team_truth.g2o" robot_2 REGEX "^VERTEX_SE2 2000000 ")
+string(REPLACE "VERTEX_SE2 500 " "" walk_500 "${walk_500}")
+string(REPLACE "VERTEX_SE2 2000000 " "" robot_2 "${robot_2}")
+if(NOT walk_500 STREQUAL robot_2)
+  fail("team: robot 2's first true pose ${robot_2} is not the walk's pose 500 ${walk_500}")
+endif()
+file(STRINGS "${WORK}/team.g2o.outliers" team_false)
+list(LENGTH team_false count)
+if(NOT count EQUAL 20)
+  fail("team: ${count} false loops listed, expected 20")
+endif()
+foreach(pair IN LISTS team_false)
+  string(REGEX REPLACE "^([0-9]+) .*" "\\1" from "${pair}")
+  string(REGEX REPLACE "^[0-9]+ ([0-9]+)$" "\\1" to "${pair}")
+  math(EXPR from_robot "${from} / 1000000")
+  math(EXPR to_robot "${to} / 1000000")
+  if(from_robot EQUAL to_robot)
+    fail("team: false loop ${pair} does not join two robots")
+  endif()
+endforeach()
+pgem_ok(team_em optimize team.g2o --robust em -o team_result.g2o --weights team_w.txt --json)
+contains(team_em "${team_em_err}" "1000 poses, 1239 edges (996 odometry, 243 loop closures)")
+expect("${team_em_out}" status PGEM_OK parts_held 1)
+nested("${team_em_out}" 2000000 held_poses 0)
+pgem_ok(team_eval eval team_result.g2o --reference team_truth.g2o --outliers team.g2o.outliers
+        --weights team_w.txt --json)
+expect("${team_eval_out}" outliers 20 false_negatives 0)
+pgem_fails(2 robots_9 "--robots takes 1 to 8, got 9" simulate --robots 9 -o bad.g2o)
+pgem_fails(2 robots_poses "5 poses cannot be split across 3 robots" simulate --robots 3
+           --poses 5 -o bad.g2o)
+pgem_fails(2 false_alone "--false-loops needs --robots 2 or more" simulate --false-loops 3
+           -o bad.g2o)
 
 # Usage errors: exit 2 with a message on stderr, nothing written.
 pgem_fails(2 bad_world "--world takes manhattan, sphere or grid3d (got 'mars')" simulate

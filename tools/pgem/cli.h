@@ -84,6 +84,10 @@ int pgem_cli_parse_number(const char *prefix, const char *option, const char *te
  * and standard normal (Box-Muller). */
 double pgem_cli_uniform(uint64_t *state);
 double pgem_cli_gaussian(uint64_t *state);
+/* A false loop closure's measurement (pgem corrupt, pgem simulate --false-loops): translation
+ * uniform in +-10 m per axis (z is drawn in 2D too, and not used), any rotation (2D: heading
+ * uniform; 3D: uniform on the unit quaternions). */
+void pgem_cli_random_pose(uint64_t *rng, int dimension, double *measurement);
 
 /* Parses a robust kernel name (em, cauchy, huber, dcs, none); prints "PREFIX: --robust takes ..."
  * on failure. */

@@ -423,6 +423,27 @@ double pgem_cli_gaussian(uint64_t *state)
     return pgem_random_gaussian(state);
 }
 
+void pgem_cli_random_pose(uint64_t *rng, int dimension, double *measurement)
+{
+    for (int d = 0; d < 3; d++) {
+        measurement[d] = 20.0 * pgem_cli_uniform(rng) - 10.0;
+    }
+    if (dimension == 2) {
+        measurement[2] = pgem_wrap_angle(6.283185307179586 * pgem_cli_uniform(rng));
+        return;
+    }
+    double q[4], norm = 0.0;
+    do { /* uniform on the unit 3-sphere by rejection */
+        norm = 0.0;
+        for (int d = 0; d < 4; d++) {
+            q[d] = 2.0 * pgem_cli_uniform(rng) - 1.0;
+            norm += q[d] * q[d];
+        }
+    } while (norm > 1.0 || norm < 1e-6);
+    pgem_quat_normalize(q);
+    memcpy(measurement + 3, q, sizeof q);
+}
+
 static int pgem_cli_compare_pairs(const void *a, const void *b)
 {
     const pgem_cli_pair_t *x = a, *y = b;

@@ -115,28 +115,6 @@ static int corrupt_parse(int argc, char **argv, corrupt_args_t *args)
     return PGEM_EXIT_OK;
 }
 
-/* A random relative pose: translation uniform in +-10 m, rotation uniform. */
-static void corrupt_measurement(uint64_t *rng, int dimension, double *measurement)
-{
-    for (int d = 0; d < 3; d++) {
-        measurement[d] = 20.0 * pgem_cli_uniform(rng) - 10.0;
-    }
-    if (dimension == 2) {
-        measurement[2] = pgem_wrap_angle(6.283185307179586 * pgem_cli_uniform(rng));
-        return;
-    }
-    double q[4], norm = 0.0;
-    do { /* uniform on the unit 3-sphere by rejection */
-        norm = 0.0;
-        for (int d = 0; d < 4; d++) {
-            q[d] = 2.0 * pgem_cli_uniform(rng) - 1.0;
-            norm += q[d] * q[d];
-        }
-    } while (norm > 1.0 || norm < 1e-6);
-    pgem_quat_normalize(q);
-    memcpy(measurement + 3, q, sizeof q);
-}
-
 /* The first pose of a pair and its partner, by policy (indices into the pose list). */
 static void corrupt_pair(uint64_t *rng, const corrupt_args_t *args, size_t poses, size_t span,
                          size_t *first, size_t *second)
@@ -247,7 +225,7 @@ static int corrupt_apply(const corrupt_args_t *args, const double *information,
     for (uint32_t added = 0; added < args->count;) {
         size_t first, second;
         corrupt_pair(&rng, args, graph->pose_count, group - 1u, &first, &second);
-        corrupt_measurement(&rng, graph->dimension, model.measurement);
+        pgem_cli_random_pose(&rng, graph->dimension, model.measurement);
         for (size_t g = 0; g < group && added < args->count; g++, added++) {
             pgem_io_edge_t *edge = &graph->edges[graph->edge_count++];
             *edge = model;

@@ -33,7 +33,7 @@ static void sim_help(FILE *out, const void *context)
             "usage: pgem simulate -o OUT.g2o [--truth TRUTH.g2o]\n"
             "                     [--world manhattan|sphere|grid3d] [--poses N] [--seed S]\n"
             "                     [--sigma-translation M] [--sigma-rotation RAD]\n"
-            "                     [--loop-probability P]\n"
+            "                     [--loop-probability P] [--robots R] [--false-loops K]\n"
             "\n"
             "Simulates a robot with noisy odometry and loop closures. OUT holds the odometry-\n"
             "composed initial estimate, TRUTH the same edges with ground-truth vertices.\n"
@@ -53,6 +53,16 @@ static void sim_help(FILE *out, const void *context)
             "                     its cell and of the 6 cells next to it (11 or more steps\n"
             "                     back), each with probability P, at most 4 per pose.\n"
             "                     Defaults: 2000 poses, sigmas 0.05 m and 0.01 rad, P 0.3.\n"
+            "\n"
+            "  --robots R         a team: the walk split into R stretches (2 to 8), one per\n"
+            "                     robot; robot r's poses have ids r*1000000+i, its odometry\n"
+            "                     starts at its own origin (its frame unknown), the step\n"
+            "                     between two robots' stretches is not measured, and loop\n"
+            "                     closures between stretches join robots. TRUTH holds every\n"
+            "                     pose in the world frame (robot 0's).\n"
+            "  --false-loops K    with --robots: K false inter-robot loop closures (two poses\n"
+            "                     of two robots, a random measurement as pgem corrupt's),\n"
+            "                     listed in OUT.outliers (one 'from to' per line).\n"
             "\n"
             "Noise: 2D adds N(0, sigma^2) to x, y and the heading. 3D perturbs the true\n"
             "relative pose on the right by (rho, Exp(phi)), rho ~ N(0, sigma_t^2) and\n"
@@ -114,6 +124,12 @@ static int sim_value(void *user, const char *name, const char *value)
     if (strcmp(name, "--loop-probability") == 0) {
         return sim_probability(name, value, &args->loop_probability);
     }
+    if (strcmp(name, "--robots") == 0) {
+        return pgem_cli_parse_at_least("pgem simulate", name, value, 1u, "robots", &args->robots);
+    }
+    if (strcmp(name, "--false-loops") == 0) {
+        return pgem_cli_parse_u32("pgem", name, value, &args->false_loops);
+    }
     if (strcmp(name, "--sigma-translation") == 0 || strcmp(name, "--sigma-rotation") == 0) {
         double *sigma = strcmp(name, "--sigma-translation") == 0 ? &args->sigma_translation
                                                                  : &args->sigma_rotation;
@@ -130,15 +146,37 @@ static int sim_value(void *user, const char *name, const char *value)
     return 1;
 }
 
+/* A team's bounds: 1 to 8 robots of at least 2 poses and fewer than 1000000 each; false
+ * inter-robot loops need two robots. */
+static int sim_team_check(const sim_args_t *args)
+{
+    if (args->robots > PGEM_SIM_ROBOTS_MAX) {
+        fprintf(stderr, "pgem simulate: --robots takes 1 to %u, got %u\n", PGEM_SIM_ROBOTS_MAX,
+                args->robots);
+        return PGEM_EXIT_USAGE;
+    }
+    if (args->poses < 2u * args->robots || args->poses / args->robots >= PGEM_SIM_ROBOT_IDS) {
+        fprintf(stderr, "pgem simulate: %u poses cannot be split across %u robots (each needs 2 "
+                        "to 999999)\n", args->poses, args->robots);
+        return PGEM_EXIT_USAGE;
+    }
+    if (args->false_loops > 0u && args->robots < 2u) {
+        fprintf(stderr, "pgem simulate: --false-loops needs --robots 2 or more\n");
+        return PGEM_EXIT_USAGE;
+    }
+    return PGEM_EXIT_OK;
+}
+
 static int sim_parse(int argc, char **argv, sim_args_t *args)
 {
     static const char *const valued[] = {"-o",     "--truth",       "--world",
                                          "--poses", "--seed",        "--sigma-translation",
-                                         "--sigma-rotation", "--loop-probability"};
+                                         "--sigma-rotation", "--loop-probability",
+                                         "--robots", "--false-loops"};
     const pgem_cli_parser_t parser = {
         "pgem simulate", valued, sizeof valued / sizeof valued[0], sim_value, NULL, NULL, sim_help,
         NULL, NULL};
-    *args = (sim_args_t){NULL, NULL, SIM_WORLD_MANHATTAN, 0u, 1u, (double)NAN, (double)NAN, (double)NAN};
+    *args = (sim_args_t){NULL, NULL, SIM_WORLD_MANHATTAN, 0u, 1u, (double)NAN, (double)NAN, (double)NAN, 1u, 0u};
     const int status = pgem_cli_parse_args(&parser, args, argc, argv);
     if (status != 0) {
         return status;
@@ -148,20 +186,25 @@ static int sim_parse(int argc, char **argv, sim_args_t *args)
         return PGEM_EXIT_USAGE;
     }
     sim_defaults(args);
-    return PGEM_EXIT_OK;
+    return sim_team_check(args);
 }
 
-/* Vertices of the graph: truth, or the composition of the noisy odometry from pose 0. */
-static void sim_vertices(pgem_io_graph_t *graph, const double *truth, int use_truth)
+/* Vertices of the graph: truth, or the composition of the noisy odometry from pose 0 (each
+ * robot's from its own first pose, at the identity, in a team). */
+static void sim_vertices(const sim_args_t *args, pgem_io_graph_t *graph, const double *truth,
+                         int use_truth)
 {
     size_t size = (size_t)PGEM_POSE_SIZE(graph->dimension), odometry = 0;
     double estimate[PGEM_POSE_SIZE_MAX];
-    memcpy(estimate, truth, size * sizeof estimate[0]);
+    memcpy(estimate, truth, size * sizeof estimate[0]); /* pose 0: the identity */
     for (uint32_t k = 0; k < graph->pose_count; k++) {
         pgem_io_pose_t *pose = &graph->poses[k];
         memset(pose, 0, sizeof *pose);
-        pose->id = k;
-        if (k > 0 && !use_truth) {
+        pose->id = args->robots > 1u ? pgem_sim_robot_id(args, k) : k;
+        const int first = args->robots > 1u && pgem_sim_robot_first(args, pgem_sim_robot(args, k)) == k;
+        if (first && !use_truth) {
+            memcpy(estimate, truth, size * sizeof estimate[0]);
+        } else if (k > 0 && !use_truth) {
             while (graph->edges[odometry].kind != PGEM_EDGE_ODOMETRY) {
                 odometry++;
             }
@@ -194,6 +237,31 @@ static int sim_run(const sim_args_t *args, const sim_world_info_t *info, pgem_io
     return info->walk(args, *truth, graph);
 }
 
+/* OUT.outliers, for a team's false loops. */
+static int sim_outliers_open(const sim_args_t *args, pgem_cli_file_t *outliers)
+{
+    char path[4096];
+    if ((size_t)snprintf(path, sizeof path, "%s.outliers", args->output) >= sizeof path) {
+        fprintf(stderr, "pgem simulate: %s: the path is too long\n", args->output);
+        return PGEM_EXIT_USAGE;
+    }
+    return pgem_cli_file_open(outliers, "pgem simulate", path) == 0 ? PGEM_EXIT_OK : PGEM_EXIT_IO;
+}
+
+/* The one line that says what was written. */
+static void sim_report(const sim_args_t *args, const sim_world_info_t *info,
+                       const pgem_io_graph_t *graph)
+{
+    const size_t loops = graph->edge_count - (args->poses - args->robots);
+    printf("simulated %s world: %u poses, %zu edges (%zu loop closures), seed %u", info->name,
+           args->poses, graph->edge_count, loops, args->seed);
+    if (args->robots > 1u) {
+        printf(", %u robots (%u false inter-robot loops)", args->robots, args->false_loops);
+    }
+    printf(" -> %s%s%s\n", args->output, args->truth != NULL ? ", truth " : "",
+           args->truth != NULL ? args->truth : "");
+}
+
 int pgem_cmd_simulate(int argc, char **argv)
 {
     sim_args_t args;
@@ -210,20 +278,28 @@ int pgem_cmd_simulate(int argc, char **argv)
         pgem_io_graph_free(&graph);
         return PGEM_EXIT_FAILURE;
     }
-    status = PGEM_EXIT_OK;
-    if (args.truth != NULL) {
-        sim_vertices(&graph, truth, 1);
+    pgem_cli_file_t outliers = {0};
+    status = args.false_loops > 0u ? sim_outliers_open(&args, &outliers) : PGEM_EXIT_OK;
+    if (status == PGEM_EXIT_OK && args.robots > 1u &&
+        pgem_sim_team(&args, &graph, outliers.stream) != 0) {
+        fprintf(stderr, "pgem simulate: out of memory for %u false loops\n", args.false_loops);
+        status = PGEM_EXIT_FAILURE;
+    }
+    if (status == PGEM_EXIT_OK && args.truth != NULL) {
+        sim_vertices(&args, &graph, truth, 1);
         status = pgem_cli_write_graph("pgem simulate", &graph, args.truth);
     }
-    sim_vertices(&graph, truth, 0);
+    sim_vertices(&args, &graph, truth, 0);
     if (status == PGEM_EXIT_OK) {
         status = pgem_cli_write_graph("pgem simulate", &graph, args.output);
     }
+    if (outliers.stream != NULL && status != PGEM_EXIT_OK) {
+        pgem_cli_file_discard(&outliers); /* no list of loops that were never written */
+    } else if (outliers.stream != NULL) {
+        status = pgem_cli_file_commit(&outliers, 0);
+    }
     if (status == PGEM_EXIT_OK) {
-        printf("simulated %s world: %u poses, %zu edges (%zu loop closures), seed %u -> %s%s%s\n",
-               info->name, args.poses, graph.edge_count, graph.edge_count - (args.poses - 1u),
-               args.seed, args.output, args.truth != NULL ? ", truth " : "",
-               args.truth != NULL ? args.truth : "");
+        sim_report(&args, info, &graph);
     }
     free(truth);
     pgem_io_graph_free(&graph);

@@ -26,7 +26,23 @@ typedef struct sim_args {
     double sigma_translation;    /* odometry and loop noise, metres (per axis) */
     double sigma_rotation;       /* radians (2D: heading; 3D: per axis of the rotation vector) */
     double loop_probability;     /* chance a candidate revisit yields a loop closure */
+    uint32_t robots;             /* robots the walk is split across (1: one robot) */
+    uint32_t false_loops;        /* false inter-robot loops to add (robots > 1) */
 } sim_args_t;
+
+/* Ids of a team's poses: robot r's pose i is r * PGEM_SIM_ROBOT_IDS + i. */
+#define PGEM_SIM_ROBOT_IDS UINT64_C(1000000)
+#define PGEM_SIM_ROBOTS_MAX 8u
+
+/* The robot that drives walk pose k, a robot's first walk pose, and pose k's id
+ * (simulate_team.c). */
+uint32_t pgem_sim_robot(const sim_args_t *args, uint32_t k);
+uint32_t pgem_sim_robot_first(const sim_args_t *args, uint32_t robot);
+pgem_id_t pgem_sim_robot_id(const sim_args_t *args, uint32_t k);
+/* The walk's graph (pose indices as ids) made a team's: the odometry steps between robots
+ * dropped, args->false_loops false inter-robot loops appended (their ids listed in
+ * `outliers`), every edge's ends turned into the robots' ids. 0, or -1 when out of memory. */
+int pgem_sim_team(const sim_args_t *args, pgem_io_graph_t *graph, FILE *outliers);
 
 /* A world's walk: fills truth (args->poses poses of 3 or 7 values, the first the identity)
  * and appends odometry and loop edges to graph, whose edge array holds at least the world's
