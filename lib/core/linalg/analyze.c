@@ -172,31 +172,24 @@ int pgem_linear_check_parts(pgem_t *graph)
     }
     for (uint32_t p = 0; p < graph->store.pose_count; p++) {
         if (!held[pgem_part_root(parent, p)]) {
-            return pgem_linear_fail_unheld(graph, p);
+            pgem_message_clear(graph);
+            pgem_message_text(graph, "pose ");
+            pgem_message_u64(graph, graph->store.pose_id[p]);
+            pgem_message_text(graph, " is in a part of the graph with no held pose (a fixed "
+                                     "pose, or the first pose added when none is fixed): no "
+                                     "edge, or only pruned loop closures, join it to one");
+            return PGEM_ERR_NOT_POSITIVE_DEFINITE;
         }
     }
     return PGEM_OK;
 }
 
-int pgem_linear_fail_unheld(pgem_t *graph, uint32_t p)
-{
-    pgem_message_clear(graph);
-    pgem_message_text(graph, "pose ");
-    pgem_message_u64(graph, graph->store.pose_id[p]);
-    pgem_message_text(graph, " is in a part of the graph with no held pose (a fixed "
-                             "pose, or the first pose added when none is fixed): no "
-                             "edge, or only pruned loop closures, join it to one");
-    return PGEM_ERR_NOT_POSITIVE_DEFINITE;
-}
-
 /* The parts of the graph (every edge, or those not pruned) that no held pose holds: counted,
- * the first one's first pose into *first (UINT32_MAX if none), and each held
- * at that pose (pgem_pose_hold_part) unless flag is 0. Needs no analysis: a pose is held if
- * fixed (or the first while none is) or damped. The lists of pgem_linear_check_parts hold
- * the forest and, per part, -2 once held, else its pose with the smallest id so far (-1:
- * none yet). The first unheld pose in insertion order is the one pgem_linear_check_parts
- * names. */
-uint32_t pgem_linear_unheld_parts(pgem_t *graph, int every_edge, uint8_t flag, uint32_t *first)
+ * and each held at its pose with the smallest id (pgem_pose_hold_part) unless flag is 0.
+ * Needs no analysis: a pose is held if fixed (or the first while none is) or damped. The
+ * lists of pgem_linear_check_parts hold the forest and, per part, -2 once held, else its pose
+ * with the smallest id so far (-1: none yet). */
+uint32_t pgem_linear_unheld_parts(pgem_t *graph, int every_edge, uint8_t flag)
 {
     const pgem_store_t *store = &graph->store;
     uint32_t *parent = (uint32_t *)(void *)graph->linear->factor.head;
@@ -219,12 +212,11 @@ uint32_t pgem_linear_unheld_parts(pgem_t *graph, int every_edge, uint8_t flag, u
         }
     }
     uint32_t unheld = 0;
-    *first = UINT32_MAX;
     for (uint32_t p = 0; p < store->pose_count; p++) {
         if (parent[p] != p || lowest[p] < 0) {
             continue;
         }
-        *first = unheld++ == 0u ? p : *first; /* a part's root is its first pose */
+        unheld++;
         if (flag != 0u) {
             pgem_pose_hold_part(graph, (uint32_t)lowest[p], flag);
         }

@@ -6,19 +6,13 @@
 #include "instance.h"
 #include "robust/robust.h"
 
-int pgem_robust_check_parts(pgem_t *graph)
-{
-    uint32_t first = UINT32_MAX;
-    if (pgem_linear_unheld_parts(graph, 1, 0u, &first) > 0u) {
-        return pgem_linear_fail_unheld(graph, first);
-    }
-    return PGEM_OK;
-}
-
 void pgem_robust_hold_parts(pgem_t *graph)
 {
-    uint32_t first = UINT32_MAX;
-    (void)pgem_linear_unheld_parts(graph, 0, (uint8_t)PGEM_POSE_PART_NEW, &first);
+    /* a part that no edge joins to a held pose, pruned or not, is the caller's graph: nothing
+     * is held, and the solve fails on it as pgem_optimize does */
+    if (pgem_linear_unheld_parts(graph, 1, 0u) == 0u) {
+        (void)pgem_linear_unheld_parts(graph, 0, (uint8_t)PGEM_POSE_PART_NEW);
+    }
 }
 
 void pgem_robust_parts_settled(pgem_t *graph, int succeeded, pgem_robust_summary_t *summary)
@@ -27,9 +21,8 @@ void pgem_robust_parts_settled(pgem_t *graph, int succeeded, pgem_robust_summary
         (void)pgem_pose_release_parts(graph, (uint8_t)PGEM_POSE_PART_NEW);
         return;
     }
-    uint32_t first = UINT32_MAX;
     (void)pgem_pose_release_parts(graph, 0u);
-    summary->parts_held = pgem_linear_unheld_parts(graph, 0, (uint8_t)PGEM_POSE_PART, &first);
+    summary->parts_held = pgem_linear_unheld_parts(graph, 0, (uint8_t)PGEM_POSE_PART);
 }
 
 int pgem_robust_held_part(const pgem_t *graph, uint32_t index, pgem_id_t *id)

@@ -63,13 +63,12 @@ void pgem_save_loops(pgem_t *graph);
 void pgem_restore_loops(pgem_t *graph);
 void pgem_restore_initial(pgem_t *graph);
 
-/* Parts that pruning leaves without a held pose (robust/parts.c): at the start, a part that
- * no held pose holds even with every edge fails the solve (PGEM_ERR_NOT_POSITIVE_DEFINITE,
- * naming a pose: it is the caller's graph, not pruning, that leaves it floating); before each
- * solve of the method, every part that pruning left alone is held at its own gauge; at the
- * end, the holds are those of the final loop states (counted into summary->parts_held), or,
- * after a failure, the ones from before the call. */
-int pgem_robust_check_parts(pgem_t *graph);
+/* Parts that pruning leaves without a held pose (robust/parts.c): before each solve of the
+ * method, every part that pruning left alone is held at its own gauge, unless a part has no
+ * held pose even with every edge (the caller's graph, not pruning, leaves it floating: nothing
+ * is held and the solve fails, PGEM_ERR_NOT_POSITIVE_DEFINITE naming a pose, as before); at
+ * the end, the holds are those of the final loop states (counted into summary->parts_held),
+ * or, after a failure, the ones from before the call. */
 void pgem_robust_hold_parts(pgem_t *graph);
 void pgem_robust_parts_settled(pgem_t *graph, int succeeded, pgem_robust_summary_t *summary);
 

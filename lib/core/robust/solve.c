@@ -10,8 +10,7 @@ static int pgem_plain(pgem_t *graph, const pgem_solve_options_t *solve, pgem_rob
 {
     pgem_robust_reset(graph);
     summary->rounds = 1u;
-    const int status = pgem_robust_check_parts(graph);
-    return status == PGEM_OK ? pgem_em_polish(graph, solve, summary) : status;
+    return pgem_em_polish(graph, solve, summary);
 }
 
 /* A loop closure whose chi2 is not finite (a pose or measurement near the double range) is an
@@ -91,8 +90,8 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     memcpy(graph->robust.pose_initial, graph->store.pose, pgem_pose_bytes(graph));
     pgem_save_loops(graph);
     out->initial_chi2 = pgem_weighted_chi2(graph);
-    int status = resolved.kernel == PGEM_KERNEL_NONE ? PGEM_OK : pgem_robust_check_parts(graph);
-    if (status == PGEM_OK && !isfinite(pgem_total_chi2(graph))) {
+    int status = PGEM_OK;
+    if (!isfinite(pgem_total_chi2(graph))) {
         /* before any E-step: a NaN chi2 would become a NaN weight on the loops */
         status = resolved.kernel == PGEM_KERNEL_NONE ? pgem_fail_numeric(graph, "initial chi2", 0)
                                                      : pgem_prune_non_finite(graph, out);
