@@ -206,7 +206,7 @@ typedef struct pgem_robust_summary {
     int usable;                      /**< 1 if the estimate is the result of a successful solve */
     uint32_t parts_held;             /**< parts of the graph that pruned loop closures left
                                         with no held pose, each held at its own gauge where
-                                        the solve left it (pgem_robust_held_part names them) */
+                                        the solve left it (pgem_robust_held_parts names them) */
 } pgem_robust_summary_t;
 
 /** Robust solve from the current estimate. Weights and prune states are left on the edges
@@ -217,7 +217,7 @@ typedef struct pgem_robust_summary {
  * loops leave H's structure (one symbolic re-analysis when the pruned set changes). On failure
  * the estimate and every loop's weight and state are restored to what they were before the
  * call (the next solve then re-analyses). A part that pruning leaves without a held pose does
- * not fail the solve (pgem_robust_held_part); a part that no held pose holds even with every
+ * not fail the solve (pgem_robust_held_parts); a part that no held pose holds even with every
  * edge does (NOT_POSITIVE_DEFINITE, naming a pose of it), as pgem_optimize.
  * options may be NULL (a zeroed struct: EM with its defaults); solve may be NULL (Gauss-Newton
  * defaults; max_iterations is ignored for EM M-steps). */
@@ -228,15 +228,16 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
  * solve held released). */
 void pgem_robust_reset(pgem_t *graph);
 
-/** A part of the graph that a robust solve's pruning left without a held pose: the id of the
- * pose that holds it (index 0 .. summary.parts_held - 1, in insertion order). A robust solve
+/** The parts of the graph that a robust solve's pruning left without a held pose: the ids of
+ * the poses that hold them, in insertion order, into ids (at most capacity of them; ids may be
+ * NULL when capacity is 0); returns how many parts are held (summary.parts_held after the
+ * solve; 0 for NULL graph). One pass over the poses; allocates nothing. A robust solve
  * (kernels that prune: EM) does not fail for such a part: it holds the part at its own gauge,
  * its pose with the smallest id, as pgem_hold_gauge does (the pose stays free, its block is
  * damped), so the part stays where the solve left it, and its loop closures stay in the
  * consistency test, measured against the estimate; one that passes joins the part back. The
- * holds last until the next robust solve (which makes them anew) or pgem_robust_reset.
- * Errors: INVALID_ARGUMENT (NULL, or no such part). */
-int pgem_robust_held_part(const pgem_t *graph, uint32_t index, pgem_id_t *id);
+ * holds last until the next robust solve (which makes them anew) or pgem_robust_reset. */
+uint32_t pgem_robust_held_parts(const pgem_t *graph, pgem_id_t *ids, uint32_t capacity);
 
 /** Name of a kernel ("em", "cauchy", "huber", "dcs", "none"); never NULL. */
 const char *pgem_kernel_name(pgem_kernel_t kernel);

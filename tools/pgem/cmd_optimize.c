@@ -477,13 +477,15 @@ static void pgem_print_json_robust_extras(const pgem_t *graph, const pgem_robust
     if (status != PGEM_OK || summary->parts_held == 0u) {
         return;
     }
+    pgem_id_t *ids = malloc(summary->parts_held * sizeof *ids);
+    const uint32_t listed = ids != NULL ? summary->parts_held : 0u;
+    (void)pgem_robust_held_parts(graph, ids, listed);
     printf(",\"parts_held\":%u,\"held_poses\":[", summary->parts_held);
-    for (uint32_t k = 0; k < summary->parts_held; k++) {
-        pgem_id_t id = 0;
-        (void)pgem_robust_held_part(graph, k, &id);
-        printf("%s%llu", k > 0u ? "," : "", (unsigned long long)id);
+    for (uint32_t k = 0; k < listed; k++) {
+        printf("%s%llu", k > 0u ? "," : "", (unsigned long long)ids[k]);
     }
     printf("]");
+    free(ids);
 }
 
 /* The text lines of a robust solve that only some solves have: why it ended when it did not
@@ -505,10 +507,11 @@ static void pgem_print_robust_extras(FILE *out, const pgem_t *graph,
     fprintf(out, "  %u part%s of the graph joined only by rejected loop closures, each held at "
                  "its own gauge: pose%s", summary->parts_held, summary->parts_held > 1u ? "s" : "",
             summary->parts_held > 1u ? "s" : "");
-    for (uint32_t k = 0; k < summary->parts_held && k < 10u; k++) {
-        pgem_id_t id = 0;
-        (void)pgem_robust_held_part(graph, k, &id);
-        fprintf(out, "%s %llu", k > 0u ? "," : "", (unsigned long long)id);
+    pgem_id_t ids[10];
+    const uint32_t listed = summary->parts_held < 10u ? summary->parts_held : 10u;
+    (void)pgem_robust_held_parts(graph, ids, listed);
+    for (uint32_t k = 0; k < listed; k++) {
+        fprintf(out, "%s %llu", k > 0u ? "," : "", (unsigned long long)ids[k]);
     }
     if (summary->parts_held > 10u) {
         fprintf(out, " and %u more", summary->parts_held - 10u);

@@ -25,17 +25,17 @@ void pgem_robust_parts_settled(pgem_t *graph, int succeeded, pgem_robust_summary
     summary->parts_held = pgem_linear_unheld_parts(graph, 0, (uint8_t)PGEM_POSE_PART);
 }
 
-int pgem_robust_held_part(const pgem_t *graph, uint32_t index, pgem_id_t *id)
+uint32_t pgem_robust_held_parts(const pgem_t *graph, pgem_id_t *ids, uint32_t capacity)
 {
-    if (graph == NULL || id == NULL) {
-        return PGEM_ERR_INVALID_ARGUMENT;
-    }
-    uint32_t seen = 0;
-    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
-        if (graph->store.pose_fixed[p] == PGEM_POSE_PART && seen++ == index) {
-            *id = graph->store.pose_id[p];
-            return PGEM_OK;
+    uint32_t held = 0;
+    for (uint32_t p = 0; graph != NULL && p < graph->store.pose_count; p++) {
+        if (graph->store.pose_fixed[p] != PGEM_POSE_PART) {
+            continue;
         }
+        if (ids != NULL && held < capacity) {
+            ids[held] = graph->store.pose_id[p];
+        }
+        held++;
     }
-    return PGEM_ERR_INVALID_ARGUMENT;
+    return held;
 }

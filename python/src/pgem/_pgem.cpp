@@ -274,10 +274,10 @@ public:
         out["final_chi2_with_rejected"] = summary.final_chi2_all;
         out["outcome"] = pgem_robust_outcome_name(summary.outcome);
         out["termination"] = pgem_robust_termination_name(summary.termination);
+        std::vector<pgem_id_t> ids(summary.parts_held);
+        (void)pgem_robust_held_parts(instance_, ids.data(), summary.parts_held);
         nb::list held;
-        for (uint32_t k = 0; k < summary.parts_held; k++) {
-            pgem_id_t id = 0;
-            (void)pgem_robust_held_part(instance_, k, &id);
+        for (pgem_id_t id : ids) {
             held.append(id);
         }
         out["held_poses"] = held;
