@@ -184,8 +184,10 @@ int pgem_linear_check_parts(pgem_t *graph)
     return PGEM_OK;
 }
 
-/* The parts of the graph (every edge, or those not pruned) that no held pose holds: counted,
- * and each held at its pose with the smallest id (pgem_pose_hold_part) unless flag is 0.
+/* The parts of the graph (every edge, or those in the problem: not pruned, and not a loop at
+ * weight 0, as a run the leave-run-out test leaves out for one factorisation) that no held
+ * pose holds: counted, and each held at its pose with the smallest id (pgem_pose_hold_part)
+ * unless flag is 0.
  * Needs no analysis: a pose is held if fixed (or the first while none is) or damped. The
  * lists of pgem_linear_check_parts hold the forest and, per part, -2 once held, else its pose
  * with the smallest id so far (-1: none yet). */
@@ -199,7 +201,9 @@ uint32_t pgem_linear_unheld_parts(pgem_t *graph, int every_edge, uint8_t flag)
         lowest[p] = -1;
     }
     for (uint32_t k = 0; k < store->edge_count; k++) {
-        if (every_edge || store->edge_active[k] != PGEM_EDGE_PRUNED) {
+        const int out = store->edge_active[k] == PGEM_EDGE_PRUNED ||
+                        (store->edge_kind[k] == PGEM_EDGE_LOOP && store->edge_weight[k] == 0.0);
+        if (every_edge || !out) {
             (void)pgem_part_join(parent, store->edge_from[k], store->edge_to[k]);
         }
     }

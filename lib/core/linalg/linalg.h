@@ -43,9 +43,9 @@ int pgem_linear_on_pattern(const pgem_t *graph, uint32_t k);
 /* PGEM_ERR_NOT_POSITIVE_DEFINITE, naming a pose, if a part of the graph (edges not pruned)
  * has no held pose; needs the numbering of a valid analysis (linalg/analyze.c). */
 int pgem_linear_check_parts(pgem_t *graph);
-/* The parts of the graph (every edge, or the edges not pruned) that no held pose holds: how
- * many, and unless flag is 0 each held at its pose with the smallest id (pgem_pose_hold_part
- * with flag). */
+/* The parts of the graph (every edge, or the edges in the problem: not pruned, not a loop at
+ * weight 0) that no held pose holds: how many, and unless flag is 0 each held at its pose with
+ * the smallest id (pgem_pose_hold_part with flag). */
 uint32_t pgem_linear_unheld_parts(pgem_t *graph, int every_edge, uint8_t flag);
 
 /* Assembles H and -b at the current estimate and weights; returns the weighted chi2. */
