@@ -136,3 +136,13 @@ function(block_adds_up name json)
     fail("${name}: block ${block_bytes} = ${poses} poses x ${block_bytes_per_pose} + ${edges} edges x ${block_bytes_per_edge} + factor ${block_bytes_factor} + rest ${rest} (expected 0 .. ${most})")
   endif()
 endfunction()
+
+# count_lines(<name> <file> <regex> <expected>): the file has exactly that many lines matching
+# the regex.
+function(count_lines name file regex expected)
+  file(STRINGS "${file}" matched REGEX "${regex}")
+  list(LENGTH matched count)
+  if(NOT count EQUAL expected)
+    fail("${name}: ${count} lines of ${file} match '${regex}', expected ${expected}: ${matched}")
+  endif()
+endfunction()

@@ -192,11 +192,7 @@ def main() -> int:
         else:
             print("(no 3d/sphere2500.g2o in the datasets folder: 3D not checked)")
     except (faults.Failure, subprocess.CalledProcessError, subprocess.TimeoutExpired) as error:
-        print(f"FAIL: {error}")
-        for log in sorted(Path(".").glob("*.log")):
-            print(f"--- {log} (last 15 lines)")
-            print("\n".join(log.read_text().splitlines()[-15:]))
-        return 1
+        return faults.report_failure(error)
     finally:
         faults.end_started()
     print(f"PASS {json.dumps(figures)}")

@@ -1442,6 +1442,15 @@ def journal_scenario(graph: Path) -> dict:
     return {"records": total, "refused_while_away": refused}
 
 
+def report_failure(error: Exception) -> int:
+    """Prints the failure and the last lines of every log in the working folder; returns 1."""
+    print(f"FAIL: {error}")
+    for log in sorted(Path(".").glob("*.log")):
+        print(f"--- {log} (last 15 lines)")
+        print("\n".join(log.read_text().splitlines()[-15:]))
+    return 1
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--only",
@@ -1494,11 +1503,7 @@ def main() -> int:
         if "compact" in only:
             figures["compact"] = compact_scenario(graph, edges)
     except (Failure, subprocess.CalledProcessError, subprocess.TimeoutExpired) as error:
-        print(f"FAIL: {error}")
-        for log in sorted(Path(".").glob("*.log")):
-            print(f"--- {log} (last 15 lines)")
-            print("\n".join(log.read_text().splitlines()[-15:]))
-        return 1
+        return report_failure(error)
     finally:
         end_started()
     figures["seconds"] = time.monotonic() - started
