@@ -218,6 +218,13 @@ void bridge_graph_publish(bridge_t *bridge, const char *trigger,
                           const pgem_robust_summary_t *summary, int usable, const char *why,
                           int64_t solve_time_us);
 void bridge_graph_snapshot(bridge_t *bridge, const char *path);
+/* graph.c (solver thread): every message the solver thread publishes is encoded into the out
+ * buffer. bridge_out_ready: 1 when it has room for `size` bytes (grown if need be), else 0,
+ * noted, naming `what`; bridge_out_publish: the buffer's message (`encoded`: what its encoder
+ * returned) published on channel, a failed encoding or a refusal noted. */
+int bridge_out_ready(bridge_t *bridge, int size, const char *what);
+void bridge_out_publish(bridge_t *bridge, const char *channel, const char *what, int size,
+                        int encoded);
 
 /* components.c (solver thread): the parts joined by odometry that have edges, each held at its
  * smallest pose id (or by a pose the front-end fixed); returns how many there are. Visits only

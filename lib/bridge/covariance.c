@@ -7,7 +7,6 @@
 #include "bridge_internal.h"
 #include "pgem_covariance_t.h"
 
-#define COVARIANCE_MESSAGE_MAX 512 /* bytes of an encoded covariance_t (386 in 3D) */
 #define COVARIANCE_FAILURES_LOGGED 20
 
 /* The newest pose an edge reaches (its part has edges): its index, or 0 when there is none. */
@@ -40,21 +39,6 @@ static int newest_covariance(bridge_t *bridge, pgem_id_t id, int whole, double *
     }
     const int status = pgem_covariance_prepare(bridge->core);
     return status == PGEM_OK ? pgem_covariance(bridge->core, id, values) : status;
-}
-
-static void publish(bridge_t *bridge, pgem_covariance_t *msg)
-{
-    unsigned char buffer[COVARIANCE_MESSAGE_MAX];
-    const int size = pgem_covariance_t_encoded_size(msg);
-    if (size <= 0 || (size_t)size > sizeof buffer ||
-        pgem_covariance_t_encode(buffer, 0, size, msg) != size) {
-        bridge_note(bridge, "cannot encode the covariance (%d bytes)", size);
-        return;
-    }
-    if (lcm_publish(bridge->lcm, bridge->options.channels.covariance, buffer, (unsigned)size) != 0) {
-        bridge_note(bridge, "LCM refused to publish the covariance (%d bytes) on %s", size,
-                    bridge->options.channels.covariance);
-    }
 }
 
 void bridge_covariance_publish(bridge_t *bridge, int whole)
@@ -98,7 +82,11 @@ void bridge_covariance_publish(bridge_t *bridge, int whole)
     msg.size = n;
     msg.covariance = rows;
     msg.current = (int8_t)current;
-    publish(bridge, &msg);
+    const int size = pgem_covariance_t_encoded_size(&msg);
+    if (bridge_out_ready(bridge, size, "the covariance")) {
+        bridge_out_publish(bridge, bridge->options.channels.covariance, "the covariance", size,
+                           pgem_covariance_t_encode(bridge->out_buffer, 0, size, &msg));
+    }
     const double took = bridge_now() - start;
     bridge->covariance_count[whole != 0]++;
     bridge->covariance_seconds[whole != 0] += took;

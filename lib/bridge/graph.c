@@ -527,10 +527,6 @@ static void compact_pose_arrays(bridge_t *bridge, uint32_t before)
     bridge->solved_poses = solved;
 }
 
-static int out_ready(bridge_t *bridge, int size, const char *what);
-static void out_publish(bridge_t *bridge, const char *channel, const char *what, int size,
-                        int encoded);
-
 /* pgem.compaction_t: the poses one compaction removed, each with its anchor and where it lies
  * in the anchor's frame (compact_relative holds the reverse, for the ingest). */
 static void publish_compaction(bridge_t *bridge, const pgem_compact_summary_t *summary,
@@ -565,8 +561,8 @@ static void publish_compaction(bridge_t *bridge, const pgem_compact_summary_t *s
     msg.loops_fused = (int32_t)summary->loops_fused;
     msg.full = (int8_t)full;
     const int size = pgem_compaction_t_encoded_size(&msg);
-    if (out_ready(bridge, size, "the compaction")) {
-        out_publish(bridge, bridge->options.channels.compaction, "the compaction", size,
+    if (bridge_out_ready(bridge, size, "the compaction")) {
+        bridge_out_publish(bridge, bridge->options.channels.compaction, "the compaction", size,
                     pgem_compaction_t_encode(bridge->out_buffer, 0, size, &msg));
     }
 }
@@ -997,9 +993,7 @@ void bridge_graph_pass(bridge_t *bridge)
     bridge->pass_loops = bridge->loop_count;
 }
 
-/* 1 when the out buffer has room for an encoded message of `size` bytes (grown if need be);
- * else 0, noted, naming `what`. */
-static int out_ready(bridge_t *bridge, int size, const char *what)
+int bridge_out_ready(bridge_t *bridge, int size, const char *what)
 {
     if (size > 0 && (size_t)size <= bridge->out_buffer_size) {
         return 1;
@@ -1014,9 +1008,7 @@ static int out_ready(bridge_t *bridge, int size, const char *what)
     return 1;
 }
 
-/* The out buffer's message (`encoded`: what its encoder returned) published on channel; a
- * failed encoding or a refusal noted, naming `what`. */
-static void out_publish(bridge_t *bridge, const char *channel, const char *what, int size,
+void bridge_out_publish(bridge_t *bridge, const char *channel, const char *what, int size,
                         int encoded)
 {
     if (encoded != size) {
@@ -1099,8 +1091,8 @@ void bridge_graph_publish(bridge_t *bridge, const char *trigger,
     msg.stats.edges = (int32_t)msg.edges_included;
     msg.stats.loops = msg.num_loops;
     const int size = pgem_graph_t_encoded_size(&msg);
-    if (out_ready(bridge, size, "the graph")) {
-        out_publish(bridge, bridge->options.channels.graph, "the graph", size,
+    if (bridge_out_ready(bridge, size, "the graph")) {
+        bridge_out_publish(bridge, bridge->options.channels.graph, "the graph", size,
                     pgem_graph_t_encode(bridge->out_buffer, 0, size, &msg));
     }
 }

@@ -235,9 +235,9 @@ static void io_expand_information(const io_tag_t *tag, const double *values, dou
 static int io_store_edge(io_reader_t *reader, const io_tag_t *tag, const io_values_t *values)
 {
     size_t pose_size = (size_t)PGEM_POSE_SIZE(tag->dimension);
-    pgem_io_edge_t *edge = values->ids[0] == values->ids[1]
-                               ? io_graph_new_self_loop(reader->graph)
-                               : io_graph_new_edge(reader->graph);
+    const int self_loop = values->ids[0] == values->ids[1]; /* kept apart: constrains nothing */
+    pgem_io_edge_t *edge = self_loop ? io_graph_new_self_loop(reader->graph)
+                                     : io_graph_new_edge(reader->graph);
     if (edge == NULL) {
         return io_out_of_memory(reader);
     }
@@ -247,8 +247,8 @@ static int io_store_edge(io_reader_t *reader, const io_tag_t *tag, const io_valu
     io_expand_information(tag, values->numbers + pose_size, edge->information);
     edge->kind = io_edge_kind(edge->from, edge->to);
     edge->line = reader->line;
-    if (tag->format == PGEM_FORMAT_TORO && values->ids[0] != values->ids[1]) {
-        reader->graph->toro_edges++; /* of edge_count: a self-loop is kept apart */
+    if (tag->format == PGEM_FORMAT_TORO && !self_loop) {
+        reader->graph->toro_edges++; /* of edge_count */
     }
     return PGEM_OK;
 }

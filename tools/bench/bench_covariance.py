@@ -38,6 +38,8 @@ HELD_SIGMA = 1e-6  # GTSAM's prior on the first pose (pgem holds it: no column)
 
 sys.path.insert(0, str(REPO_ROOT / "build" / "release" / "python"))  # the build tree's package
 sys.path.insert(0, str(REPO_ROOT / "python" / "tests"))  # peers.py: the same graph in GTSAM
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import bench_gn  # noqa: E402  (the spread every benchmark reports)
 
 
 class BenchError(Exception):
@@ -102,8 +104,7 @@ def bench_dataset(path: Path, runs: int) -> Result:
 
 
 def spread(times: list[float]) -> str:
-    median = statistics.median(times)
-    return f"{100.0 * (max(times) - min(times)) / median:.0f}%" if median > 0 else "-"
+    return f"{bench_gn.spread_percent(times):.0f}%" if statistics.median(times) > 0 else "-"
 
 
 def render(results: list[Result], runs: int) -> str:

@@ -296,19 +296,13 @@ static void dump_on_compaction(const lcm_recv_buf_t *buffer, const char *channel
     (void)buffer;
     (void)channel;
     for (int32_t i = 0; i < compaction->num_removed && !state->compaction_error; i++) {
-        if (fprintf(state->compactions, "REMOVED %lld %llu %llu", (long long)compaction->compaction,
-                    (unsigned long long)compaction->ids[i],
-                    (unsigned long long)compaction->anchors[i]) < 0) {
-            state->compaction_error = 1;
-        }
+        fprintf(state->compactions, "REMOVED %lld %llu %llu", (long long)compaction->compaction,
+                (unsigned long long)compaction->ids[i], (unsigned long long)compaction->anchors[i]);
         for (int32_t v = 0; v < compaction->pose_size; v++) {
-            if (fprintf(state->compactions, " %.17g", compaction->relative[i][v]) < 0) {
-                state->compaction_error = 1;
-            }
+            fprintf(state->compactions, " %.17g", compaction->relative[i][v]);
         }
-        if (fputc('\n', state->compactions) == EOF) {
-            state->compaction_error = 1;
-        }
+        fputc('\n', state->compactions);
+        state->compaction_error = ferror(state->compactions) != 0; /* any write above failed */
     }
     if (fflush(state->compactions) != 0) {
         state->compaction_error = 1;

@@ -166,26 +166,10 @@ public:
         }
     }
 
-    int dimension() const
-    {
-        Hold hold(mutex_);
-        return pgem_dimension(instance_);
-    }
-    uint32_t pose_count() const
-    {
-        Hold hold(mutex_);
-        return pgem_pose_count(instance_);
-    }
-    uint32_t edge_count() const
-    {
-        Hold hold(mutex_);
-        return pgem_edge_count(instance_);
-    }
-    double chi2() const
-    {
-        Hold hold(mutex_);
-        return pgem_total_chi2(instance_);
-    }
+    int dimension() const { return held(pgem_dimension); }
+    uint32_t pose_count() const { return held(pgem_pose_count); }
+    uint32_t edge_count() const { return held(pgem_edge_count); }
+    double chi2() const { return held(pgem_total_chi2); }
 
     void add_pose(uint64_t id, Input pose)
     {
@@ -414,6 +398,13 @@ private:
             raise_error(status, std::string("cannot create the instance: ") +
                                     pgem_error_description(status));
         }
+    }
+
+    // A query of the instance, under the Hold.
+    template <typename Result> Result held(Result (*query)(const pgem_t *)) const
+    {
+        Hold hold(mutex_);
+        return query(instance_);
     }
 
     size_t pose_size() const { return dimension() == 3 ? 7u : 3u; }
