@@ -36,9 +36,9 @@
 #include "pgem_command_t.h"
 #include "pgem_edge2_t.h"
 #include "pgem_edge3_t.h"
-#include "pgem_random.h"
 #include "pgem_pose2_t.h"
 #include "pgem_pose3_t.h"
+#include "random.h"
 
 #define FIRST_ID 1000000000000LL /* far above any real pose id of the tests */
 #define MESSAGE_MAX 1024

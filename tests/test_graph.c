@@ -380,26 +380,6 @@ static void test_memory_parts(void **state)
     assert_int_equal(pgem_get_memory_parts(NULL, &parts), PGEM_ERR_INVALID_ARGUMENT);
 }
 
-/* The union-find the core, the tools and the bridge share: a part's root is its smallest
- * index, whatever order the joins come in. */
-static void test_parts(void **state)
-{
-    (void)state;
-    uint32_t parent[8];
-    for (uint32_t k = 0; k < 8u; k++) {
-        parent[k] = k;
-    }
-    assert_int_equal(pgem_part_join(parent, 6, 4), 4);
-    assert_int_equal(pgem_part_join(parent, 7, 6), 4);
-    assert_int_equal(pgem_part_join(parent, 3, 1), 1);
-    assert_int_equal(pgem_part_join(parent, 7, 3), 1);
-    assert_int_equal(pgem_part_join(parent, 4, 1), 1); /* already one part */
-    const uint32_t expected[8] = {0, 1, 2, 1, 1, 5, 1, 1};
-    for (uint32_t k = 0; k < 8u; k++) {
-        assert_int_equal(pgem_part_root(parent, k), expected[k]);
-    }
-}
-
 static void test_memory_bound(void **state)
 {
     (void)state;
@@ -464,7 +444,6 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_config_defaults),
         cmocka_unit_test(test_memory_bound),
-        cmocka_unit_test(test_parts),
         cmocka_unit_test(test_memory_parts),
         cmocka_unit_test(test_memory_grows_with_capacity),
         cmocka_unit_test(test_init_in_static_buffer),

@@ -19,7 +19,7 @@ extern "C" {
 #endif
 #include <cmocka.h>
 
-#include "pgem_random.h"
+#include "random.h"
 #ifdef __cplusplus
 }
 #endif
@@ -55,7 +55,7 @@ extern "C" {
         }                                                                                          \
     } while (0)
 
-/* Deterministic generator (tools/common/pgem_random.h's splitmix64) so every run sees the same
+/* Deterministic generator (lib/support/random.h's splitmix64) so every run sees the same
  * numbers. */
 typedef struct test_rng {
     uint64_t state;  /* advances by the golden-ratio increment */

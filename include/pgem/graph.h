@@ -142,14 +142,6 @@ int pgem_edge_chi2(const pgem_t *graph, uint32_t index, double *chi2);
 /** Total chi2 (sum of e^T Omega e over all edges, unweighted) under the current estimate. */
 double pgem_total_chi2(const pgem_t *graph);
 
-/** Union-find over pose indices, the one the core checks a graph's parts with (and the tools
- * and the bridge use): parent[i] == i for a root. pgem_part_root returns i's root, halving the
- * path on the way; pgem_part_join joins the parts of a and b under the smaller of their roots
- * and returns it, so a part's root is its smallest index. No allocation: the caller owns
- * parent, one entry per pose, each set to its own index first. */
-uint32_t pgem_part_root(uint32_t *parent, uint32_t index);
-uint32_t pgem_part_join(uint32_t *parent, uint32_t a, uint32_t b);
-
 #ifdef __cplusplus
 }
 #endif

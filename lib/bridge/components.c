@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "bridge_internal.h"
+#include "union_find.h"
 
 void bridge_components_reset(bridge_t *bridge)
 {

@@ -6,6 +6,7 @@
 
 #include "bridge_internal.h"
 #include "pgem_covariance_t.h"
+#include "union_find.h"
 
 #define COVARIANCE_FAILURES_LOGGED 20
 

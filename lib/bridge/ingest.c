@@ -8,12 +8,12 @@
 #include <string.h>
 
 #include "pgem/geometry.h"
-#include "pgem/io.h"
 #include "pgem_command_t.h"
 #include "pgem_edge2_t.h"
 #include "pgem_edge3_t.h"
 #include "pgem_pose2_t.h"
 #include "pgem_pose3_t.h"
+#include "utf8.h"
 
 #define DEFAULT_MAX_PENDING 4096u
 #define DEFAULT_MAX_SOURCES 64u
@@ -403,10 +403,10 @@ static int source_index(pgem_ingest_t *ingest, const char *name, pgem_ingest_res
                  "source name must have 1 to %d bytes, got %zu", PGEM_SOURCE_MAX - 1, length);
         return -1;
     }
-    if (!pgem_io_text_printable(name, &bad)) {
+    if (!pgem_utf8_text_printable(name, &bad)) {
         snprintf(result->message, sizeof result->message,
                  "source name '%s' is not printable UTF-8 (byte %zu, 0x%02x): names appear in "
-                 "logs and JSON", pgem_io_escape(shown, sizeof shown, name), bad,
+                 "logs and JSON", pgem_utf8_escape(shown, sizeof shown, name), bad,
                  (unsigned)(unsigned char)name[bad]);
         return -1;
     }
@@ -805,7 +805,7 @@ static void edge_what(char *what, size_t size, const pgem_item_t *item, const ch
     char shown[128];
     snprintf(what, size, "edge %llu -> %llu (source '%s', sequence %lld)",
              (unsigned long long)item->from, (unsigned long long)item->to,
-             pgem_io_escape(shown, sizeof shown, source != NULL ? source : ""),
+             pgem_utf8_escape(shown, sizeof shown, source != NULL ? source : ""),
              (long long)item->sequence);
 }
 
@@ -1203,7 +1203,7 @@ static int snapshot_ok(pgem_ingest_t *ingest, const char *name, pgem_ingest_resu
         snprintf(result->message, sizeof result->message,
                  "SNAPSHOT takes a file name of 1 to %d bytes of A-Z a-z 0-9 . _ - (not "
                  "starting with '.'), written in the bridge's --snapshot-dir; got '%s'",
-                 PGEM_SNAPSHOT_NAME_MAX, pgem_io_escape(shown, sizeof shown, name));
+                 PGEM_SNAPSHOT_NAME_MAX, pgem_utf8_escape(shown, sizeof shown, name));
     } else if (ingest->snapshot_check == NULL ||
                ingest->snapshot_check(ingest->snapshot_user, name, result->message,
                                       sizeof result->message) == 0) {

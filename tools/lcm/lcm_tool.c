@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "cli.h"
+#include "utf8.h"
 
 /* LCM's own default when neither a URL nor LCM_DEFAULT_URL is given (lcm.h, LCM 1.3). */
 #define PGEM_LCM_BUILTIN_URL "udpm://239.255.76.67:7667?ttl=0"
@@ -358,7 +359,7 @@ void pgem_lcm_print_status(FILE *out, const pgem_status_t *s)
     for (int32_t r = 0; r < s->num_reasons; r++) {
         if (s->rejected[r] != 0) {
             char reason[64]; /* from the network: escaped */
-            pgem_io_escape(reason, sizeof reason, s->reasons[r] != NULL ? s->reasons[r] : "?");
+            pgem_utf8_escape(reason, sizeof reason, s->reasons[r] != NULL ? s->reasons[r] : "?");
             fprintf(out, "%s%s %lld", separator, reason, (long long)s->rejected[r]);
             separator = ", ";
         }

@@ -14,6 +14,7 @@
 #include "pgem_covariance_t.h"
 #include "pgem_graph_t.h"
 #include "pgem_status_t.h"
+#include "utf8.h"
 
 #define DUMP_TOOL "pgem-lcm-dump"
 #define DUMP_SLICE 0.25   /* longest single wait, so a signal or deadline is seen soon */
@@ -361,7 +362,7 @@ static void dump_graph_line(const pgem_graph_t *graph)
     double milliseconds = (double)graph->stats.solve_time_us / 1000.0;
     char chi2[PGEM_CLI_NUMBER_MAX];
     char why[256]; /* from the network: escaped */
-    pgem_io_escape(why, sizeof why, graph->stats.message == NULL ? "" : graph->stats.message);
+    pgem_utf8_escape(why, sizeof why, graph->stats.message == NULL ? "" : graph->stats.message);
     fprintf(stderr, "graph %lld: %d poses, %d loops (%d pruned), chi2 %s, solve %.*f ms%s%s\n",
             (long long)graph->stats.solve_id, (int)graph->num_poses, (int)graph->num_loops,
             (int)dump_pruned(graph), pgem_cli_number(chi2, sizeof chi2, graph->stats.chi2, 2),

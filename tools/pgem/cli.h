@@ -10,6 +10,8 @@
 #include "pgem/pgem.h"
 #include "pgem/threads.h"
 
+#include "json.h" /* lib/support: the JSON writer every --json output goes through */
+
 /* Exit codes (documented in docs/CLI.md). */
 #define PGEM_EXIT_OK 0
 #define PGEM_EXIT_FAILURE 1  /* the solve failed or the input was rejected */
@@ -197,17 +199,6 @@ const char *pgem_cli_number(char *out, size_t size, double value, int decimals);
 
 /* "s" unless count is 1. */
 const char *pgem_cli_plural(size_t count);
-
-/* JSON (cli_json.c), the one writer every --json output goes through. A number with `digits`
- * significant digits (%.*g: 10 for the CLI's summaries, 17 for values that must read back
- * exactly), or with `decimals` after the point (%.*f: seconds); null when it is NaN or
- * infinite, which JSON cannot hold. */
-void pgem_json_number(FILE *out, double value, int digits);
-void pgem_json_fixed(FILE *out, double value, int decimals);
-
-/* A JSON string: quoted, '"', '\\' and control bytes escaped, and each byte that is not part
- * of valid UTF-8 as \ufffd (a name from the network cannot break the document). */
-void pgem_json_string(FILE *out, const char *text);
 
 int pgem_cmd_optimize(int argc, char **argv);
 int pgem_cmd_simulate(int argc, char **argv);

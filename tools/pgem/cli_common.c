@@ -13,7 +13,7 @@
 #ifdef PGEM_HAVE_METIS
 #include "pgem/metis.h"
 #endif
-#include "pgem_random.h"
+#include "random.h"
 
 double pgem_cli_now(void)
 {

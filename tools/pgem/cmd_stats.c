@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "union_find.h"
 
 #define STATS_SHOWN 3            /* items listed per finding, then "... and N more" */
 #define STATS_SIZES 5            /* component sizes kept, largest first */

@@ -5,6 +5,7 @@
 #define PGEM_GRAPH_LAYER_H
 
 #include "common/common.h"
+#include "union_find.h" /* lib/support: the parts of a graph (built into pgem_core) */
 
 /* States of an edge (edge_active). A dormant loop closure (EM weight below the prune
  * threshold) stays in the problem with its weight, but H's structure is not built for it: its

@@ -1,13 +1,13 @@
-/* pgem I/O text: UTF-8 decoding, the printable rule and escaping, for names and paths that come
- * from outside (LCM messages, files) before they are kept, logged or written as JSON. */
+/* UTF-8 decoding, the printable rule and escaping, for names and paths that come from outside
+ * (LCM messages, files) before they are kept, logged or written as JSON. */
 #include <stdio.h>
 #include <string.h>
 
-#include "io_internal.h"
+#include "utf8.h"
 
 /* Bytes of a UTF-8 sequence by its first byte (0: not a first byte), and the smallest code
  * point each length may encode (anything smaller is an overlong form). */
-static size_t io_utf8_length(unsigned char first)
+static size_t utf8_length(unsigned char first)
 {
     if (first < 0x80u) {
         return 1;
@@ -24,11 +24,11 @@ static size_t io_utf8_length(unsigned char first)
     return 0;
 }
 
-size_t pgem_io_utf8_next(const char *text, size_t length, uint32_t *codepoint)
+size_t pgem_utf8_next(const char *text, size_t length, uint32_t *codepoint)
 {
     static const uint32_t smallest[5] = {0, 0, 0x80u, 0x800u, 0x10000u};
     const unsigned char *bytes = (const unsigned char *)text;
-    size_t size = length > 0 ? io_utf8_length(bytes[0]) : 0;
+    size_t size = length > 0 ? utf8_length(bytes[0]) : 0;
     uint32_t value = length > 0 ? bytes[0] : 0u;
     size_t k;
     *codepoint = value;
@@ -52,7 +52,7 @@ size_t pgem_io_utf8_next(const char *text, size_t length, uint32_t *codepoint)
     return size;
 }
 
-int pgem_io_printable(uint32_t c)
+int pgem_utf8_printable(uint32_t c)
 {
     if (c < 0x20u || (c >= 0x7Fu && c <= 0x9Fu)) {
         return 0; /* C0, DEL, C1 */
@@ -64,14 +64,14 @@ int pgem_io_printable(uint32_t c)
     return 1;
 }
 
-int pgem_io_text_printable(const char *text, size_t *bad)
+int pgem_utf8_text_printable(const char *text, size_t *bad)
 {
     size_t length = strlen(text);
     size_t at = 0;
     while (at < length) {
         uint32_t codepoint;
-        size_t size = pgem_io_utf8_next(text + at, length - at, &codepoint);
-        if (size == 0 || !pgem_io_printable(codepoint)) {
+        size_t size = pgem_utf8_next(text + at, length - at, &codepoint);
+        if (size == 0 || !pgem_utf8_printable(codepoint)) {
             break;
         }
         at += size;
@@ -82,7 +82,7 @@ int pgem_io_text_printable(const char *text, size_t *bad)
     return at == length;
 }
 
-char *pgem_io_escape(char *out, size_t out_size, const char *text)
+char *pgem_utf8_escape(char *out, size_t out_size, const char *text)
 {
     size_t length = strlen(text);
     size_t at = 0;
@@ -90,8 +90,8 @@ char *pgem_io_escape(char *out, size_t out_size, const char *text)
     while (at < length) {
         char piece[8];
         uint32_t codepoint;
-        size_t size = pgem_io_utf8_next(text + at, length - at, &codepoint);
-        if (size > 0 && pgem_io_printable(codepoint) && codepoint != '\\') {
+        size_t size = pgem_utf8_next(text + at, length - at, &codepoint);
+        if (size > 0 && pgem_utf8_printable(codepoint) && codepoint != '\\') {
             memcpy(piece, text + at, size);
             piece[size] = '\0';
         } else if (size > 0 && codepoint == '\\') {

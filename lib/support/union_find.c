@@ -1,6 +1,6 @@
 /* Union-find over pose indices: the parts of a graph (the core's solvable check, the tools'
- * connected components, the bridge's gauge per part). */
-#include "pgem/graph.h"
+ * connected components, the bridge's gauge per part). Compiled into pgem_core (lib/CMakeLists.txt). */
+#include "union_find.h"
 
 uint32_t pgem_part_root(uint32_t *parent, uint32_t index)
 {

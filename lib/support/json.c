@@ -1,11 +1,13 @@
-/* JSON output of the tools (pgem and the LCM tools): the one writer of numbers and strings, so
- * every --json output stays valid JSON whatever the values (non-finite numbers, names from the
- * network that are not UTF-8). */
+/* The JSON writer of pgem, the LCM tools and the benchmark driver: the one writer of numbers
+ * and strings, so every --json output stays valid JSON whatever the values (non-finite numbers,
+ * names from the network that are not UTF-8). */
 #include <math.h>
 #include <stdio.h>
+#include <stdint.h>
 #include <string.h>
 
-#include "cli.h"
+#include "json.h"
+#include "utf8.h"
 
 /* A finite value in a printf format taking a precision, or null. */
 static void pgem_json_formatted(FILE *out, const char *format, int precision, double value)
@@ -35,7 +37,7 @@ void pgem_json_string(FILE *out, const char *text)
     while (at < length) {
         const unsigned char c = (unsigned char)text[at];
         uint32_t codepoint;
-        size_t size = pgem_io_utf8_next(text + at, length - at, &codepoint);
+        size_t size = pgem_utf8_next(text + at, length - at, &codepoint);
         if (size == 0) {
             fputs("\\ufffd", out); /* a byte that is not UTF-8: JSON cannot carry it */
             at++;

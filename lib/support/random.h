@@ -1,7 +1,8 @@
-/* The one deterministic random generator of the tools and tests (splitmix64): the same stream
- * for a seed on every platform, uniform and Gaussian numbers drawn from it. Header only. */
-#ifndef PGEM_RANDOM_H
-#define PGEM_RANDOM_H
+/* The one deterministic random generator of the tools and tests (lib/support, private;
+ * splitmix64): the same stream for a seed on every platform, uniform and Gaussian numbers drawn
+ * from it. Header only. */
+#ifndef PGEM_SUPPORT_RANDOM_H
+#define PGEM_SUPPORT_RANDOM_H
 
 #include <math.h>
 #include <stdint.h>
@@ -28,4 +29,4 @@ static inline double pgem_random_gaussian(uint64_t *state)
     return sqrt(-2.0 * log(u + 1e-300)) * cos(6.283185307179586 * v);
 }
 
-#endif /* PGEM_RANDOM_H */
+#endif /* PGEM_SUPPORT_RANDOM_H */

@@ -1,12 +1,14 @@
 /* The tools' one JSON writer (tools/pgem/cli_json.c): numbers at the precision each output
  * uses, null for what JSON cannot hold, strings escaped so that any bytes make valid JSON; and
- * the escaping of names for log lines (pgem_io_escape) beside it. */
+ * the escaping of names for log lines (pgem_utf8_escape) beside it. */
 #define _POSIX_C_SOURCE 200809L
 #include <stdio.h>
 #include <stdlib.h>
 
-#include "cli.h"
+#include "json.h"
 #include "test_util.h"
+#include "union_find.h"
+#include "utf8.h"
 
 /* What a writer call printed, into a caller's buffer. */
 #define CAPTURE(buffer, call)                                                                      \
@@ -63,18 +65,38 @@ static void test_log_escaping(void **state)
 {
     (void)state;
     char out[64];
-    assert_string_equal(pgem_io_escape(out, sizeof out, "fe\nrejected (x): forged"),
+    assert_string_equal(pgem_utf8_escape(out, sizeof out, "fe\nrejected (x): forged"),
                         "fe\\x0arejected (x): forged");
-    assert_string_equal(pgem_io_escape(out, sizeof out, "\x1b[2J\\"), "\\x1b[2J\\\\");
-    assert_string_equal(pgem_io_escape(out, sizeof out, "caf\xc3\xa9 \xc2\x85 \xe2\x80\xae"),
+    assert_string_equal(pgem_utf8_escape(out, sizeof out, "\x1b[2J\\"), "\\x1b[2J\\\\");
+    assert_string_equal(pgem_utf8_escape(out, sizeof out, "caf\xc3\xa9 \xc2\x85 \xe2\x80\xae"),
                         "caf\xc3\xa9 \\xc2\\x85 \\xe2\\x80\\xae");
     char small[8];
-    assert_string_equal(pgem_io_escape(small, sizeof small, "ab\xff\xff"), "ab\\xff"); /* cut */
+    assert_string_equal(pgem_utf8_escape(small, sizeof small, "ab\xff\xff"), "ab\\xff"); /* cut */
     size_t bad = 0;
-    assert_true(pgem_io_text_printable("robot \xe6\x9c\xba", &bad));
+    assert_true(pgem_utf8_text_printable("robot \xe6\x9c\xba", &bad));
     assert_int_equal(bad, 9);
-    assert_false(pgem_io_text_printable("ok\x7f", &bad));
+    assert_false(pgem_utf8_text_printable("ok\x7f", &bad));
     assert_int_equal(bad, 2);
+}
+
+/* The union-find the core, the tools and the bridge share: a part's root is its smallest
+ * index, whatever order the joins come in. */
+static void test_parts(void **state)
+{
+    (void)state;
+    uint32_t parent[8];
+    for (uint32_t k = 0; k < 8u; k++) {
+        parent[k] = k;
+    }
+    assert_int_equal(pgem_part_join(parent, 6, 4), 4);
+    assert_int_equal(pgem_part_join(parent, 7, 6), 4);
+    assert_int_equal(pgem_part_join(parent, 3, 1), 1);
+    assert_int_equal(pgem_part_join(parent, 7, 3), 1);
+    assert_int_equal(pgem_part_join(parent, 4, 1), 1); /* already one part */
+    const uint32_t expected[8] = {0, 1, 2, 1, 1, 5, 1, 1};
+    for (uint32_t k = 0; k < 8u; k++) {
+        assert_int_equal(pgem_part_root(parent, k), expected[k]);
+    }
 }
 
 int main(void)
@@ -83,6 +105,7 @@ int main(void)
         cmocka_unit_test(test_numbers),
         cmocka_unit_test(test_strings),
         cmocka_unit_test(test_log_escaping),
+        cmocka_unit_test(test_parts),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
