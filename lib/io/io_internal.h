@@ -128,10 +128,11 @@ int io_check_ids(io_reader_t *reader);
  * (odometry first). FIX ids are checked afterwards by the caller. */
 int io_chain_poses(io_reader_t *reader);
 
-/* ids.c: sorts ids ascending; finds id in sorted ids (1 and *index if found, else 0). */
+/* sorted_ids.c: sorts ids ascending; finds id in sorted ids (1 and *index if found, else 0). */
 void io_sort_ids(pgem_id_t *ids, size_t count);
 int io_find_id(const pgem_id_t *sorted, size_t count, pgem_id_t id, size_t *index);
-/* ids.c: ids with where they came from (an index, or a file line in `index`), sorted by both. */
+/* sorted_ids.c: ids with where they came from (an index, or a file line in `index`), sorted by
+ * both. */
 void io_sort_keyed_ids(pgem_io_pose_index_t *items, size_t count);
 
 #endif /* PGEM_IO_INTERNAL_H */

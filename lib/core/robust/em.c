@@ -51,21 +51,6 @@ int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
     return PGEM_OK;
 }
 
-/* Accepted loops back to weight 1, then Gauss-Newton to convergence. */
-int pgem_em_polish(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
-{
-    pgem_summary_t result;
-    pgem_wake_dormant(graph);
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        graph->store.edge_weight[k] = graph->store.edge_active[k] == PGEM_EDGE_ACTIVE ? 1.0 : graph->store.edge_weight[k];
-    }
-    pgem_robust_hold_parts(graph);
-    int status = pgem_optimize(graph, solve, &result);
-    summary->gn_iterations += result.iterations;
-    pgem_robust_note_stop(summary, &result);
-    return status;
-}
-
 /* From EM's rounds: the polish, then under the polished estimate the consistency test, and EM
  * again while it changes any loop's state; when it changes none and the outcome is degenerate
  * (most loops rejected: the map rests on a few, and a false run among them bends it), the

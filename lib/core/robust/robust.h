@@ -105,8 +105,9 @@ int pgem_report_round(pgem_t *graph, const pgem_robust_options_t *options,
 int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
                     const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
                     int weights_current, double *largest_change);
-/* EM (robust/em.c): rounds with pruning (the literal method); the polish (accepted loops at
- * weight 1, Gauss-Newton to convergence); rounds, polish and consistency test (the default). */
+/* EM (robust/em.c): rounds with pruning (the literal method); the polish (robust/polish.c:
+ * accepted loops at weight 1, Gauss-Newton to convergence); rounds, polish and consistency test
+ * (the default). */
 int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
                    const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
 int pgem_em_polish(pgem_t *graph, const pgem_solve_options_t *solve,
