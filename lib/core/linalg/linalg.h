@@ -30,18 +30,19 @@ int pgem_linear_analyze(pgem_t *graph);
  * the budget; the ordering is kept (and the analysis, within the budget). */
 int pgem_linear_fill_needed(pgem_t *graph, uint32_t *nonzeros);
 /* How the next analyses order (choice) and the orderer they may use (NULL: none); the
- * ordering is made anew (linalg/ordering.c; checked by pgem_set_ordering). */
+ * ordering is made anew (linalg/analysis/ordering.c; checked by pgem_set_ordering). */
 void pgem_linear_set_ordering(pgem_t *graph, pgem_order_choice_t choice,
                               const pgem_orderer_t *orderer);
 /* Forgets the structure (edge states changed so that it no longer fits). */
 void pgem_linear_invalidate(pgem_t *graph);
 /* Keeps the structure fit for the next solve after edge states changed: invalidated when an
- * active edge has no place in it, or when idle loops in it are too many (linalg/structure.c). */
+ * active edge has no place in it, or when idle loops in it are too many
+ * (linalg/analysis/structure.c). */
 void pgem_linear_review(pgem_t *graph);
 /* 1 if loop k's poses meet on the factor's pattern (or one is held). */
 int pgem_linear_on_pattern(const pgem_t *graph, uint32_t k);
 /* PGEM_ERR_NOT_POSITIVE_DEFINITE, naming a pose, if a part of the graph (edges not pruned)
- * has no held pose; needs the numbering of a valid analysis (linalg/analyze.c). */
+ * has no held pose; needs the numbering of a valid analysis (linalg/analysis/analyze.c). */
 int pgem_linear_check_parts(pgem_t *graph);
 /* The parts of the graph (every edge, or the edges in the problem: not pruned, not a loop at
  * weight 0) that no held pose holds: how many, and unless flag is 0 each held at its pose with
@@ -54,7 +55,7 @@ void pgem_linear_damp(pgem_t *graph, double lambda);
 int pgem_linear_factor(pgem_t *graph);
 void pgem_linear_solve(pgem_t *graph, double *step);
 /* Solves (H + D) step = rhs in place (rhs: pgem_linear_step): the factor's solve, refined by
- * conjugate gradients preconditioned with it when couplings were left out (linalg/newton.c).
+ * conjugate gradients preconditioned with it when couplings were left out (linalg/query/newton.c).
  * Returns PGEM_OK, or PGEM_ERR_NUMERIC if the refinement did not converge. */
 int pgem_solve_newton(pgem_t *graph);
 /* y = H x with the assembled values (linalg/multiply.c); y += D x for the couplings the
@@ -82,10 +83,10 @@ void pgem_linear_progress_iteration(pgem_t *graph, uint32_t iteration);
 uint32_t pgem_linear_nonzeros(const pgem_t *graph);
 
 /* out = A H^-1 A^T (n x n) for A = [a_from a_to] on poses from and to (n x n blocks,
- * row-major), from the current factor (linalg/marginal.c). */
+ * row-major), from the current factor (linalg/query/marginal.c). */
 void pgem_linear_marginal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
                           const double *a_to, double *out);
-/* H^-1 on the factor's pattern, over the factor (linalg/inverse.c); then the marginal of two
+/* H^-1 on the factor's pattern, over the factor (linalg/query/inverse.c); then the marginal of two
  * poses joined by a block of the pattern (PGEM_ERR_INVALID_ARGUMENT if they are not). */
 void pgem_linear_invert(pgem_t *graph);
 int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
@@ -95,7 +96,7 @@ int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, cons
 void pgem_linear_marginal_diagonal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
                                    const double *a_to, double *out);
 
-/* The covariance calls (pgem/covariance.h) over the factor (linalg/covariance.c). What the
+/* The covariance calls (pgem/covariance.h) over the factor (linalg/query/covariance.c). What the
  * factor holds for them: nothing current (any assembly, factorisation, inverse or analysis
  * since, or a change of the graph's topology or revision), L of H, or H^-1 on L's pattern. */
 #define PGEM_COVARIANCE_NONE 0

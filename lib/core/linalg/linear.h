@@ -5,7 +5,7 @@
 #define PGEM_LINEAR_H
 
 #include "instance.h"
-#include "linalg/factor.h"
+#include "linalg/factor/factor.h"
 #include "linalg/linalg.h"
 #include "pgem_cs.h"
 
@@ -47,11 +47,12 @@ struct pgem_linear {
     int *lower_start;      /* [max_poses + 1] permuted lower triangle of H: first value of
                                   each block column (its scalar columns follow each other, see
                                   pgem_lower_column); the rows are implied by the block
-                                  pattern (see linalg/analyze.c), so only values are stored */
+                                  pattern (see linalg/analysis/analyze.c), so only values are
+                                  stored */
     double *lower_values;      /* [max_edges * b^2 + max_poses * b(b+1)/2] refilled every
                                   iteration */
-    pgem_factor_t factor;      /* L, supernodal (linalg/factor.h) */
-    const pgem_dense_ops_t *dense; /* the dense kernels this CPU runs (linalg/dense.h) */
+    pgem_factor_t factor;      /* L, supernodal (linalg/factor/factor.h) */
+    const pgem_dense_ops_t *dense; /* the dense kernels this CPU runs (linalg/factor/dense.h) */
     double *rhs;               /* [max_poses * block] -b in permuted order, then the step */
     double *diagonal;          /* [max_poses * block] diagonal of H (LM damping) */
     double *gradient;          /* [max_poses * block] copy of -b kept across LM retries */
@@ -65,7 +66,7 @@ struct pgem_linear {
     pgem_orderer_t orderer;    /* an ordering to weigh against AMD's (order NULL: none) */
     pgem_order_choice_t ordering_choice; /* which orderings the analysis uses */
     int covariance;            /* what the factor holds for the covariance calls
-                                  (linalg/covariance.c): PGEM_COVARIANCE_NONE (every assembly,
+                                  (linalg/query/covariance.c): PGEM_COVARIANCE_NONE (every assembly,
                                   factorisation, inverse and analysis sets it), _FACTOR (L of H
                                   at the estimate pgem_covariance_prepare saw) or _INVERSE (H^-1
                                   on L's pattern, written over L) */
@@ -74,7 +75,7 @@ struct pgem_linear {
 };
 
 /* Forgets the structure and the ordering if the graph's topology changed since they were
- * built, and takes its version (linalg/structure.c). */
+ * built, and takes its version (linalg/analysis/structure.c). */
 void pgem_linear_follow(pgem_t *graph);
 
 /* First value of scalar column c of block column `block` of H's lower triangle: each of the
@@ -94,7 +95,7 @@ static inline int *pgem_linear_scratch(const pgem_linear_t *linear)
     return (int *)(void *)linear->factor.shared;
 }
 
-/* Block pattern of H (linalg/pattern.c). */
+/* Block pattern of H (linalg/analysis/pattern.c). */
 /* 1 if edge k has an off-diagonal block in H's structure: both poses free, and the edge
  * active (or every edge, in the fallback). *a, *b receive the poses' permuted blocks. */
 static inline int pgem_edge_blocks(const pgem_t *graph, uint32_t k, int *a, int *b)

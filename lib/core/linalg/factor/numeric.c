@@ -1,7 +1,7 @@
 /* Numeric supernodal Cholesky H = L L^T, left-looking: each supernode gathers its columns of
  * H, subtracts the update of every descendant with rows in it (in an order fixed by the
- * structure alone), then factorises its trapezoid densely (linalg/dense_kernel.h). Whole
- * subtrees of the schedule (linalg/schedule.c) are independent tasks; the supernodes above
+ * structure alone), then factorises its trapezoid densely (linalg/factor/dense_kernel.h). Whole
+ * subtrees of the schedule (linalg/factor/schedule.c) are independent tasks; the supernodes above
  * them follow one by one. No allocation: the workspace is carved at init. */
 #include <string.h>
 
@@ -23,7 +23,7 @@ static void pgem_numeric_map(const pgem_factor_t *factor, int s, int *map)
     }
 }
 
-/* Supernode s's values zeroed, then its columns of H (lower CSC, see linalg/analyze.c)
+/* Supernode s's values zeroed, then its columns of H (lower CSC, see linalg/analysis/analyze.c)
  * scattered in. */
 static void pgem_numeric_gather(const pgem_linear_t *linear, int s, const int *map)
 {

@@ -2,7 +2,7 @@
  * structure (dormant loop closures), conjugate gradients on the whole matrix H + D with the
  * factor of H as preconditioner, so the step is the exact one (to a relative residual of
  * 1e-13) however sparse the factor was kept. No allocation: the vectors live in the shared
- * region (linalg/factor.h) and the LM gradient copy. */
+ * region (linalg/factor/factor.h) and the LM gradient copy. */
 #include <math.h>
 #include <string.h>
 

@@ -1,6 +1,7 @@
-/* When H's structure is rebuilt: the graph's topology version changed, the edge states left an
- * active edge without a place, or too many idle loops hold a place (the policy the robust
- * layer asks for by pgem_linear_review); and which loops meet on the factor's pattern. */
+/* When H's structure no longer holds: the graph's topology version changed, the edge states left
+ * an active edge without a place, or too many idle loops hold a place (the policy the robust
+ * layer asks for by pgem_linear_review); and which loops meet on the factor's pattern. It only
+ * marks the structure stale; linalg/analysis/analyze.c rebuilds it (pgem_linear_prepare). */
 #include "linalg/linear.h"
 
 void pgem_linear_follow(pgem_t *graph)
@@ -18,12 +19,6 @@ void pgem_linear_invalidate(pgem_t *graph)
     graph->linear->valid = 0;
     graph->linear->ordered = 0;
     graph->linear->covariance = PGEM_COVARIANCE_NONE;
-}
-
-int pgem_linear_prepare(pgem_t *graph)
-{
-    pgem_linear_follow(graph);
-    return graph->linear->valid ? PGEM_OK : pgem_linear_analyze(graph);
 }
 
 /* 1 if edge k, made active, can be assembled into the current (valid) structure: it has a

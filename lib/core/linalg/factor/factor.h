@@ -14,7 +14,7 @@ struct pgem;
 struct pgem_linear;
 
 /* Doubles of the dense workspace of one worker (the packed operands of the update products:
- * PGEM_DENSE_KC x (144 + 240), linalg/dense_kernel.h), at most; smaller instances get less
+ * PGEM_DENSE_KC x (144 + 240), linalg/factor/dense_kernel.h), at most; smaller instances get less
  * (pgem_factor_work_doubles; PGEM_WORK_BYTES in pgem/core.h states the same). */
 #define PGEM_DENSE_WORK_MAX 49152u
 
@@ -22,7 +22,7 @@ struct pgem_linear;
 #define PGEM_PROGRESS_FLOPS 1e8
 
 /* Supernodes whose subtree holds less than a 1/PGEM_SUBTREE_SHARE of the factorisation's
- * flops are factorised whole by one worker (see linalg/schedule.c). */
+ * flops are factorised whole by one worker (see linalg/factor/schedule.c). */
 #define PGEM_SUBTREE_SHARE 64
 
 /* One worker's private workspace, carved from the block at init. */
@@ -45,10 +45,10 @@ typedef struct pgem_factor_worker {
  * one pose's columns (its diagonal block's rows, then b rows per block below). Relaxed
  * amalgamation merges a chain into one supernode at the price of explicit zeros, counted in
  * nonzeros (what the fill budget must hold). */
-/* The fill-reducing orderings (linalg/ordering.c). */
+/* The fill-reducing orderings (linalg/analysis/ordering.c). */
 typedef enum pgem_ordering {
     PGEM_ORDERING_AMD = 0,   /* CSparse's approximate minimum degree on the block graph */
-    PGEM_ORDERING_NESTED = 1, /* nested dissection of the block graph (linalg/nested.c) */
+    PGEM_ORDERING_NESTED = 1, /* nested dissection of the block graph (linalg/analysis/nested.c) */
     PGEM_ORDERING_ORDERER = 2 /* the instance's orderer (pgem_set_ordering) */
 } pgem_ordering_t;
 
@@ -72,7 +72,7 @@ typedef struct pgem_factor {
     int *rows;              /* [fill_budget / b^2 + 1] block rows below each supernode */
     int *value_start;       /* [max_poses + 1] first value of each supernode */
     double *values;         /* [fill_budget] */
-    /* schedule (linalg/schedule.c): supernodes in the order a factorisation visits them,
+    /* schedule (linalg/factor/schedule.c): supernodes in the order a factorisation visits them,
      * the subtrees (task_first[t] .. task_first[t+1]-1 of order) that run whole on one
      * worker, then the rest (order[task_first[task_count]] ..), run one by one */
     int *order;             /* [max_poses] */
@@ -168,30 +168,23 @@ static inline int pgem_factor_column_parent(const pgem_factor_t *factor, const i
     return column + 1 < factor->super_first[s + 1] ? column + 1 : block_parent[column];
 }
 
-/* linalg/supernodes.c: supernodes, their rows and the layout from the block elimination tree
+/* linalg/factor/supernodes.c: supernodes, their rows and the layout from the block elimination tree
  * (linear->block_parent, postordered) and block column counts; returns the nonzeros the
  * factor needs (more than the fill budget: nothing else was written), or a negative error. */
 int64_t pgem_supernodes_analyze(struct pgem *graph, const int *counts);
 
-/* linalg/schedule.c: tasks and order of a factorisation; tasks to workers. */
+/* linalg/factor/schedule.c: tasks and order of a factorisation; tasks to workers. */
 void pgem_schedule_analyze(struct pgem_linear *linear);
 void pgem_schedule_assign(pgem_factor_t *factor, int workers);
 
-/* linalg/nested.c: nested dissection of the n-vertex graph whose upper pattern is
- * (colptr, rows): order[k] receives the k-th vertex. region (region_ints ints) is workspace;
- * CSparse's AMD orders the leaves (from linear's pool or the heap). PGEM_OK, or
- * PGEM_ERR_OUT_OF_MEMORY (region too small for the graph, or CSparse out of memory). */
-int pgem_nested_order(struct pgem_linear *linear, int n, const int *colptr, const int *rows,
-                      int *order, int *region, size_t region_ints);
-
-/* linalg/blocks.c: one-block supernodes. The update of d (a single block column) into
+/* linalg/factor/blocks.c: one-block supernodes. The update of d (a single block column) into
  * ancestor s, its rows from position[d] on, the first `inside` of them in s; map as the
  * worker's. The factorisation of a one-block trapezoid; returns the failing column or -1. */
 void pgem_block_update(const pgem_factor_t *factor, int d, int s, int inside, const int *map);
 int pgem_block_factor(double *values, int height, int block);
 
-/* linalg/numeric.c: a factorisation is pgem_numeric_begin, every task (in any order, at the
- * same time on different workers), then pgem_numeric_top. The last two return PGEM_OK or
+/* linalg/factor/numeric.c: a factorisation is pgem_numeric_begin, every task (in any order, at
+ * the same time on different workers), then pgem_numeric_top. The last two return PGEM_OK or
  * PGEM_ERR_NOT_POSITIVE_DEFINITE with *failed the scalar column of the first pivot that was
  * not positive. */
 void pgem_numeric_begin(struct pgem_linear *linear);

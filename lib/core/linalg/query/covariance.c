@@ -1,7 +1,7 @@
 /* Marginal covariances of poses for the covariance calls (pgem/covariance.h), in the linear
  * system's tangent, from what the factor holds: L (a solve along a pose's path to the root,
- * linalg/marginal.c) or H^-1 on L's pattern (the sparse inverse, linalg/inverse.c, whose
- * diagonal blocks are every pose's marginal). Held poses have no block: their covariance is
+ * linalg/query/marginal.c) or H^-1 on L's pattern (the sparse inverse,
+ * linalg/query/inverse.c, whose diagonal blocks are every pose's marginal). Held poses have no block: their covariance is
  * zero. No allocation: the solves' right-hand sides live in the shared region. */
 #include <string.h>
 

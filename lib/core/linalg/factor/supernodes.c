@@ -10,7 +10,7 @@
  * columns wide with fewer than ZEROS_MEDIUM explicit zeros, at most RELAX_WIDE with fewer than
  * ZEROS_WIDE, or of any width with fewer than ZEROS_ANY. Far more sparing than CHOLMOD's
  * defaults: the zeros cost fill budget, and one-block supernodes have fast kernels of their own
- * (linalg/blocks.c). Measured on the shared datasets and the simulated graphs
+ * (linalg/factor/blocks.c). Measured on the shared datasets and the simulated graphs
  * (docs/benchmarks/2026-12-02-factorisation.md). */
 #define PGEM_RELAX_MEDIUM 30
 #define PGEM_RELAX_WIDE 100

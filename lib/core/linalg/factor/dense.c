@@ -1,5 +1,5 @@
-/* The portable build of the dense kernels (linalg/dense_kernel.h), and the choice of the build
- * the CPU runs fastest. Two doubles per vector where the compiler has vectors for them (SSE2,
+/* The portable build of the dense kernels (linalg/factor/dense_kernel.h), and the choice of the
+ * build the CPU runs fastest. Two doubles per vector where the compiler has vectors for them (SSE2,
  * NEON; GCC and clang vector extensions), plain scalar code elsewhere (the Cortex-M7). */
 #include "dense.h"
 

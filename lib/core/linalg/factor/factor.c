@@ -66,7 +66,7 @@ static int pgem_not_positive_definite(pgem_t *graph, int unknown)
 }
 
 /* The tasks' part of a factorisation on several workers: each runs the tasks assigned to it
- * (linalg/schedule.c), in order, and stops at its first failure. */
+ * (linalg/factor/schedule.c), in order, and stops at its first failure. */
 typedef struct pgem_factor_job {
     pgem_linear_t *linear;
     int failed_task[PGEM_MAX_THREADS];   /* first task that failed on each worker, or -1 */

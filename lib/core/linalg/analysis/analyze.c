@@ -1,5 +1,5 @@
 /* Symbolic analysis, once per topology change: ordering, postordered block elimination tree
- * and column counts (CSparse), the supernodes of L (linalg/supernodes.c) and their schedule,
+ * and column counts (CSparse), the supernodes of L (linalg/factor/supernodes.c) and their schedule,
  * H's lower block pattern and each edge's place in it. */
 #include "linalg/linear.h"
 
@@ -287,6 +287,13 @@ int pgem_linear_analyze(pgem_t *graph)
         }
     }
     return status;
+}
+
+/* The structure is kept while it is still the graph's (linalg/analysis/structure.c). */
+int pgem_linear_prepare(pgem_t *graph)
+{
+    pgem_linear_follow(graph);
+    return graph->linear->valid ? PGEM_OK : pgem_linear_analyze(graph);
 }
 
 int pgem_linear_fill_needed(pgem_t *graph, uint32_t *nonzeros)

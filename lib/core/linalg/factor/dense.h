@@ -1,6 +1,6 @@
 /* Dense kernels of the supernodal factorisation: the update product of a supernode into an
  * ancestor (or of a supernode's left columns into its own panel) and the dense Cholesky of a
- * supernode's trapezoid. Several builds of the same C source exist (linalg/dense_kernel.h):
+ * supernode's trapezoid. Several builds of the same C source exist (linalg/factor/dense_kernel.h):
  * a portable one, and on x86-64 hosts AVX2+FMA and AVX-512 ones chosen at init by the CPU. */
 #ifndef PGEM_DENSE_H
 #define PGEM_DENSE_H

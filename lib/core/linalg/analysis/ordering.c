@@ -1,13 +1,14 @@
 /* The fill-reducing ordering of the free poses, chosen per graph: CSparse's AMD on the block
  * graph, and for graphs of at least PGEM_ND_MIN_BLOCKS free poses also nested dissection
- * (linalg/nested.c) and the orderer a hosted program set (pgem_set_ordering: METIS, lib/metis);
+ * (linalg/analysis/nested.c) and the orderer a hosted program set (pgem_set_ordering: METIS,
+ * lib/metis);
  * the one whose factor needs the fewest flops (from the elimination tree and column counts of
  * each) is kept, as CHOLMOD chooses among its orderings. Bare-metal builds
  * (PGEM_NO_NESTED) order by AMD alone: a microcontroller's RAM holds far fewer poses than
  * nested dissection needs to pay, and it saves 6.6 KiB of flash. CSparse allocates
  * here: from the heap with the system CSparse, from the block's pool with the source-built
  * one; nested dissection works in the part of the block H's values use later. */
-#include "linalg/linear.h"
+#include "linalg/analysis/nested.h"
 
 /* Nested dissection is tried only where it can pay for itself: graphs of at least this many
  * free poses whose AMD factor needs at least PGEM_ND_MIN_FLOPS_PER_BLOCK flops per pose and
