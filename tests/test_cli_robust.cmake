@@ -48,14 +48,25 @@ foreach(pair "sim_random_res.g2o;again.g2o" "sim_random_w.txt;again_w.txt")
   endif()
 endforeach()
 
-# Passes that cycle (issue 36): a gate above what the rounds prune (d^2 > 99 at tau = 0.01)
-# re-admits loops the rounds prune again. The run ends at the cycle, says so in the JSON
-# (termination oscillated; a converged run has no termination field) and in the text, and
-# rejects what the default run rejects.
-pgem_ok(cycle optimize sim_local_bad.g2o --robust em --gate 1000 --json)
-expect("${cycle_out}" status PGEM_OK termination oscillated pruned 50 readmitted 2)
-within("${cycle_out}" rounds 1 4)
-pgem_ok(cycle_text optimize sim_local_bad.g2o --robust em --gate 1000 --quiet)
+# Passes that cycle (issue 36): a straight chain of 40 poses and two loop closures from its
+# first pose to its last that disagree by 1.2 m. The chain alone predicts either (the test
+# re-admits both), each contradicts the other (the test prunes both), and the passes come back
+# to the set they left. The run ends at the cycle and says so in the JSON (termination
+# oscillated; a converged run has no termination field) and in the text.
+set(chain_text "")
+foreach(i RANGE 39)
+  string(APPEND chain_text "VERTEX_SE2 ${i} ${i} 0 0\n")
+endforeach()
+foreach(i RANGE 38)
+  math(EXPR next "${i} + 1")
+  string(APPEND chain_text "EDGE_SE2 ${i} ${next} 1 0 0 400 0 0 400 0 10000\n")
+endforeach()
+string(APPEND chain_text "EDGE_SE2 0 39 39.6 0 0 100 0 0 100 0 1000\nEDGE_SE2 0 39 38.4 0 0 100 0 0 100 0 1000\n")
+file(WRITE "${WORK}/conflict.g2o" "${chain_text}")
+pgem_ok(cycle optimize conflict.g2o --robust em --json)
+expect("${cycle_out}" status PGEM_OK termination oscillated readmitted 2 gated 2)
+within("${cycle_out}" rounds 0 5)
+pgem_ok(cycle_text optimize conflict.g2o --robust em --quiet)
 contains(cycle_text "${cycle_text_out}" "  not settled: the accepted loop closures came back to a set of an earlier pass")
 pgem_ok(settled optimize sim_local_bad.g2o --robust em --json)
 string(JSON settled_termination ERROR_VARIABLE missing GET "${settled_out}" termination)

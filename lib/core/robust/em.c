@@ -51,11 +51,13 @@ int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
     return PGEM_OK;
 }
 
-/* From EM's rounds: the polish, then under the polished estimate the consistency test, and EM
- * again while it changes any loop's state; when it changes none and the outcome is degenerate
- * (most loops rejected: the map rests on a few, and a false run among them bends it), the
- * leave-run-out test, and the next pass if it pruned a run (bounded by max_rounds passes).
- * Ends polished. */
+/* From EM's rounds: the polish, then under the polished estimate the consistency test, and
+ * the polish and test again while it changes any loop's state; when it changes none and the
+ * outcome is degenerate (most loops rejected: the map rests on a few, and a false run among
+ * them bends it), the leave-run-out test, and the next pass if it pruned a run (bounded by
+ * max_rounds passes). Ends polished. No EM rounds run between passes: the test decides each
+ * loop against the leave-one-out prediction of the polished map, which is what the rounds'
+ * innovation E-steps converged to, at a tenth of their cost (docs/design/robust-em.md). */
 static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *later,
                           const pgem_solve_options_t *solve, pgem_robust_summary_t *summary, double gate)
 {
@@ -77,12 +79,8 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *later,
             pgem_robust_ended(summary, settle.cycling ? PGEM_ROBUST_OSCILLATED : PGEM_ROBUST_ROUND_LIMIT);
             break;
         }
-        if (pgem_em_gate(graph, later, gate, summary) > 0u) {
-            status = pgem_em_rounds(graph, later, solve, summary);
-            if (pgem_robust_stopped(summary)) {
-                break;
-            }
-        } else if (!pgem_most_rejected(graph) || pgem_em_leave_run_out(graph, summary, &status) == 0u) {
+        if (pgem_em_gate(graph, later, gate, summary) == 0u &&
+            (!pgem_most_rejected(graph) || pgem_em_leave_run_out(graph, summary, &status) == 0u)) {
             pgem_robust_ended(summary, PGEM_ROBUST_CONVERGED);
             break;
         }
@@ -90,30 +88,24 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *later,
     return status;
 }
 
-/* EM rounds, then the passes of polish and consistency test. With the innovation distance,
- * the first rounds are the paper's (point chi2, from wherever the estimate starts); the test
- * and the rounds after it measure loops against the map they produced. If every loop ends
- * rejected, a run of loops that passes the global test alone (robust/rescue.c) starts the
- * passes again. */
+/* EM rounds, then the passes of polish and consistency test. The rounds are the paper's
+ * (point chi2, from wherever the estimate starts); with the innovation distance the test
+ * measures loops against the map they produced. If every loop ends rejected, a run of loops
+ * that passes the global test alone (robust/rescue.c) starts the passes again. */
 int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
                              const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
     const double gate = pgem_em_gate_value(graph, options);
-    pgem_robust_options_t first = *options, later = *options;
-    first.distance = PGEM_DISTANCE_POINT;
-    if (options->distance == PGEM_DISTANCE_INNOVATION) {
-        later.dormant_threshold = 0.0; /* the innovations need the factor of the whole matrix */
-    }
-    int status = pgem_em_rounds(graph, &first, solve, summary);
+    int status = pgem_em_rounds(graph, options, solve, summary);
     if (status == PGEM_OK && !pgem_robust_stopped(summary)) {
-        status = pgem_em_passes(graph, &later, solve, summary, gate);
+        status = pgem_em_passes(graph, options, solve, summary, gate);
     }
     int rescued = 0;
     if (status == PGEM_OK && !pgem_robust_stopped(summary)) {
         status = pgem_em_rescue(graph, solve, summary, &rescued);
     }
     if (status == PGEM_OK && rescued && !pgem_robust_stopped(summary)) {
-        status = pgem_em_passes(graph, &later, solve, summary, gate);
+        status = pgem_em_passes(graph, options, solve, summary, gate);
     }
     return status;
 }

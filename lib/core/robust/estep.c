@@ -1,10 +1,11 @@
-/* EM's E-step: each loop closure's distance and, from it, its weight. The paper's distance is
- * the point chi2 under the current estimate; the innovation distance measures the loop against
- * what the rest of the graph predicts for its two poses (robust/innovation.c), so a loop that
- * the odometry's drift explains is not called an outlier. It is used where the map predicts
- * the loop's rotation to options->predictable_rotation; where it does not, any measurement
- * would look consistent, and the point chi2 (or, for an accepted loop in the consistency
- * test, the innovation without the odometry allowance) is used instead. */
+/* EM's E-step and the consistency test's distances. The E-step is the paper's: each loop's
+ * weight from its point chi2 under the current estimate. The test's innovation distance
+ * measures a loop against what the rest of the graph predicts for its two poses
+ * (robust/innovation.c), so a loop that the odometry's drift explains is not called an
+ * outlier. It is used where the map predicts the loop's rotation to
+ * options->predictable_rotation; where it does not, any measurement would look consistent,
+ * and the point chi2 (or, for an accepted loop, the innovation without the odometry
+ * allowance) is used instead. */
 #include <math.h>
 
 #include "instance.h"
@@ -28,7 +29,7 @@ static int pgem_factor_current(pgem_t *graph)
 
 /* Loop k's distance into edge_distance, and edge_checked: 1 if the map predicted it. */
 static void pgem_loop_distance(pgem_t *graph, const pgem_robust_options_t *options, uint32_t k,
-                               int gating, int from_inverse)
+                               int from_inverse)
 {
     const int pruned = graph->store.edge_active[k] == PGEM_EDGE_PRUNED;
     pgem_innovation_t innovation;
@@ -38,7 +39,7 @@ static void pgem_loop_distance(pgem_t *graph, const pgem_robust_options_t *optio
     graph->robust.edge_checked[k] = (uint8_t)checked;
     if (checked) {
         graph->robust.edge_distance[k] = innovation.distance;
-    } else if (gating && !pruned) {
+    } else if (!pruned) {
         graph->robust.edge_distance[k] = innovation.plain; /* leave-one-out, no odometry allowance */
     } else {
         graph->robust.edge_distance[k] = pgem_edge_mahalanobis(graph, k);
@@ -48,20 +49,13 @@ static void pgem_loop_distance(pgem_t *graph, const pgem_robust_options_t *optio
 /* edge_checked while a pruned loop waits for its solve with L. */
 #define PGEM_CHECK_PENDING 2
 
-static int pgem_selected(const pgem_t *graph, uint32_t k, int with_pruned)
-{
-    return graph->store.edge_kind[k] == PGEM_EDGE_LOOP &&
-           (with_pruned || graph->store.edge_active[k] != PGEM_EDGE_PRUNED);
-}
-
-void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int gating,
-                       double gate)
+void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, double gate)
 {
     const int innovation = options->distance == PGEM_DISTANCE_INNOVATION &&
                            pgem_factor_current(graph) == PGEM_OK;
     uint32_t on_pattern = 0, off_pattern = 0;
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        if (!pgem_selected(graph, k, gating)) {
+        if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
             continue;
         }
         if (!innovation) { /* the point distance, or a singular problem: no covariance */
@@ -79,11 +73,11 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int 
     pgem_linear_invert(graph);
     uint32_t unsure = 0;
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        if (!pgem_selected(graph, k, gating)) {
+        if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
             continue;
         }
         if (pgem_linear_on_pattern(graph, k)) {
-            pgem_loop_distance(graph, options, k, gating, 1);
+            pgem_loop_distance(graph, options, k, 1);
             continue;
         }
         /* a pruned loop off the pattern: a solve with L along its poses' paths, unless bounds
@@ -99,7 +93,7 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int 
     }
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP && graph->robust.edge_checked[k] == PGEM_CHECK_PENDING) {
-            pgem_loop_distance(graph, options, k, gating, 0);
+            pgem_loop_distance(graph, options, k, 0);
         }
     }
 }
@@ -107,11 +101,12 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int 
 int pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options, double *largest_change)
 {
     double largest = 0.0;
-    pgem_em_distances(graph, options, 0, 0.0);
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP || graph->store.edge_active[k] == PGEM_EDGE_PRUNED) {
             continue;
         }
+        graph->robust.edge_distance[k] = pgem_edge_mahalanobis(graph, k);
+        graph->robust.edge_checked[k] = 0;
         double weight = 1.0;
         const int status = pgem_loop_kernel_weight(graph, options, k, &weight);
         if (status != PGEM_OK) {
@@ -121,12 +116,6 @@ int pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options, double *
         graph->store.edge_weight[k] = weight;
         graph->store.edge_active[k] = weight < options->dormant_threshold ? PGEM_EDGE_DORMANT
                                                                     : PGEM_EDGE_ACTIVE;
-        /* a loop the map checked and found inconsistent leaves at once: its pull would bend
-         * the map the other loops are tested against (the others wait for the round's end) */
-        if (graph->robust.edge_checked[k] && options->kernel == PGEM_KERNEL_EM &&
-            weight < options->prune_threshold) {
-            graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
-        }
     }
     *largest_change = largest;
     return PGEM_OK;

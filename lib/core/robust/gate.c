@@ -22,7 +22,7 @@ uint32_t pgem_em_gate(pgem_t *graph, const pgem_robust_options_t *options, doubl
                       pgem_robust_summary_t *summary)
 {
     uint32_t changed = 0;
-    pgem_em_distances(graph, options, 1, gate);
+    pgem_em_distances(graph, options, gate);
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
             continue;

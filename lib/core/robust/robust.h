@@ -39,11 +39,12 @@ void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double infla
  * a lower bound of its innovation are above it), 0 if only the innovation can tell;
  * *distance is the measure that decided (robust/innovation.c). */
 int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, double *distance);
-/* EM's E-step (robust/estep.c): every loop's distance (every loop, pruned ones included, in
- * the consistency test: gating), then the weights, and the largest weight change; fails only
- * on a user kernel's weight outside [0, 1]. */
-void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, int gating,
-                       double gate);
+/* The consistency test's distances (robust/estep.c): every loop's, pruned ones included,
+ * under the options' distance; `gate` lets bounds decide pruned loops off the factor's
+ * pattern without a solve. */
+void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, double gate);
+/* EM's E-step (robust/estep.c): each unpruned loop's point chi2, then its weight, and the
+ * largest weight change; fails only on a user kernel's weight outside [0, 1]. */
 int pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options, double *largest_change);
 /* Loop k's weight from its distance (edge_distance) under the options' kernel (robust/kernel.c):
  * PGEM_ERR_NUMERIC, naming the loop, if a user kernel's weight is not in [0, 1]. */
