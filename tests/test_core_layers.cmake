@@ -1,25 +1,28 @@
 # The core's layering, checked on its sources (ARCHITECTURE: no layer reaches past the one
-# below): common < graph < linalg < solver < robust, geometry beside them (it knows no graph),
-# instance/ composing them all. A layer may not include a private header, read the state, or
-# call the functions of a layer above it; only linalg/ sees the linear system's layout
-# (linalg/linear.h); lib/core/internal.h is gone. Comments are ignored. Usage:
+# below): common < graph < linalg < solver < robust < online, geometry beside them (it knows no
+# graph), instance/ composing them all. A layer may not include a private header, read the
+# state, or call the functions of a layer above it; only linalg/ sees the linear system's layout
+# (linalg/linear.h), only online/ the incremental factor's (online/factor.h); lib/core/internal.h
+# is gone. Comments are ignored. Usage:
 #   cmake -DCORE=lib/core -P tests/test_core_layers.cmake
 if(NOT CORE)
   message(FATAL_ERROR "pass -DCORE=<path of lib/core>")
 endif()
-set(layers common geometry graph linalg solver robust)
+set(layers common geometry graph linalg solver robust online)
 # What marks each layer's headers, state and functions (CMake regular expressions).
 set(mark_graph "graph/graph\\.h|->store\\.|pgem_store_[a-z_]*\\(")
 set(mark_linalg "linalg/(linalg|linear|factor|dense)\\.h|->linear->|pgem_linear_[a-z_]*\\(|pgem_factor_[a-z_]*\\(|pgem_pattern_[a-z_]*\\(|pgem_solve_newton\\(")
 set(mark_solver "solver/solver\\.h|->solver\\.|pgem_optimize\\(|pgem_gauss_newton\\(|pgem_levenberg_marquardt\\(|pgem_apply_step\\(|pgem_check_solve_options\\(")
 set(mark_robust "robust/robust\\.h|->robust\\.|pgem_em_[a-z_]*\\(|pgem_robust_[a-z_]*\\(|pgem_irls\\(|pgem_loop_innovation\\(|pgem_loop_screen\\(")
+set(mark_online "online/(online|factor)\\.h|->online->|pgem_online_[a-z_]*\\(|pgem_update[a-z_]*\\(|pgem_compact\\(")
 # The layers above each one: what it must not mention.
-set(above_common graph linalg solver robust)
-set(above_geometry graph linalg solver robust)
-set(above_graph linalg solver robust)
-set(above_linalg solver robust)
-set(above_solver robust)
-set(above_robust)
+set(above_common graph linalg solver robust online)
+set(above_geometry graph linalg solver robust online)
+set(above_graph linalg solver robust online)
+set(above_linalg solver robust online)
+set(above_solver robust online)
+set(above_robust online)
+set(above_online)
 set(failures 0)
 set(checked 0)
 file(GLOB_RECURSE everything ${CORE}/*.c ${CORE}/*.h)
@@ -45,6 +48,10 @@ foreach(layer IN LISTS layers)
     endforeach()
     if(NOT layer STREQUAL "linalg" AND code MATCHES "linalg/linear\\.h|->linear->")
       message(SEND_ERROR "${file}: only linalg/ sees the linear system's layout")
+      math(EXPR failures "${failures} + 1")
+    endif()
+    if(NOT layer STREQUAL "online" AND code MATCHES "online/factor\\.h|->online->")
+      message(SEND_ERROR "${file}: only online/ sees the incremental factor's layout")
       math(EXPR failures "${failures} + 1")
     endif()
   endforeach()
