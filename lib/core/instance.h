@@ -1,7 +1,8 @@
 /* The composition of a pgem instance, private to lib/core: struct pgem holds the instance's
  * own fields (configuration, block, message) and one part per layer, each defined and carved
  * by its layer (common/common.h, graph/graph.h, linalg/linalg.h, solver/solver.h,
- * robust/robust.h). The linear system is a pointer to a type only linalg/ sees whole. This
+ * robust/robust.h, online/online.h). The linear system and the incremental solve's state are
+ * pointers to types only linalg/ and online/ see whole. This
  * replaces the former lib/core/internal.h, which exposed every layer's arrays to every other. */
 #ifndef PGEM_INSTANCE_H
 #define PGEM_INSTANCE_H
@@ -9,7 +10,7 @@
 #include "common/common.h"
 #include "graph/graph.h"
 #include "linalg/linalg.h"
-#include "linalg/online.h"
+#include "online/online.h"
 #include "robust/robust.h"
 #include "solver/solver.h"
 
@@ -26,7 +27,7 @@ struct pgem {
     pgem_robust_state_t robust; /* robust layer: what a robust solve keeps */
     pgem_linear_t *linear;     /* linalg layer: the normal equations (opaque here) */
     pgem_executor_t executor;  /* threads of the factorisation (run NULL: the caller's only) */
-    pgem_online_t online;      /* the incremental factor of pgem_update (linalg/online.h) */
+    pgem_online_t *online;     /* online layer: the incremental solve (opaque here) */
     char message[PGEM_MESSAGE_SIZE]; /* last error message */
 };
 

@@ -1,5 +1,5 @@
 /* Two edges that meet at a pose composed into one edge between their other ends: the pose
- * removed from the graph (robust/compact.c). The removed pose is marginalised out of the two
+ * removed from the graph (online/compact.c). The removed pose is marginalised out of the two
  * edges' quadratic form about the current estimate, and the composed edge keeps that form
  * whole: its information gives the curvature, its measurement (the composition of the two,
  * moved by the pull the pair's residual exerts on the far pose) the gradient. On a solved map

@@ -70,6 +70,7 @@ int pgem_config_resolve(const pgem_config_t *config, pgem_config_t *resolved)
 static void pgem_carve(pgem_t *graph, pgem_arena_t *arena, pgem_memory_parts_t *parts)
 {
     pgem_memory_parts_t taken;
+    pgem_online_carve_state(graph, arena); /* beside struct pgem, in the instance's part */
     size_t mark = arena->used;
     pgem_store_carve(graph, arena);
     taken.graph = arena->used - mark;
@@ -81,7 +82,7 @@ static void pgem_carve(pgem_t *graph, pgem_arena_t *arena, pgem_memory_parts_t *
     taken.robust = arena->used - mark;
     mark = arena->used;
     pgem_linear_carve(graph, arena);
-    pgem_online_carve(graph, arena); /* the incremental factor: linalg's too */
+    pgem_online_carve(graph, arena); /* the online arrays count with linalg's, as they did */
     taken.linalg = arena->used - mark;
     if (parts != NULL) {
         parts->graph = taken.graph;

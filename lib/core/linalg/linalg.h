@@ -33,6 +33,10 @@ int pgem_linear_fill_needed(pgem_t *graph, uint32_t *nonzeros);
  * ordering is made anew (linalg/analysis/ordering.c; checked by pgem_set_ordering). */
 void pgem_linear_set_ordering(pgem_t *graph, pgem_order_choice_t choice,
                               const pgem_orderer_t *orderer);
+/* AMD's order of a symmetric pattern of n columns given by one triangle (compressed columns,
+ * CSparse's workspace from linalg's pool): order[k] is the column placed k-th. PGEM_OK or
+ * PGEM_ERR_OUT_OF_MEMORY (no message: the caller names what it was ordering). */
+int pgem_linear_amd(pgem_t *graph, int n, int *colptr, int *rows, int *order);
 /* Forgets the structure (edge states changed so that it no longer fits). */
 void pgem_linear_invalidate(pgem_t *graph);
 /* Keeps the structure fit for the next solve after edge states changed: invalidated when an

@@ -1,7 +1,7 @@
 /* The covariance calls (pgem/covariance.h): the factor at the current estimate, then marginals
  * from linalg, turned from the system's tangent into the one on the right of each pose (in 2D
- * the system's translation step is in the world frame; in 3D it is already the body's); and
- * one pose's marginal from the incremental factor pgem_update keeps, in the same tangent. */
+ * the system's translation step is in the world frame; in 3D it is already the body's). The
+ * incremental factor's covariance call is the online layer's (online/covariance.c). */
 #include <math.h>
 #include <string.h>
 
@@ -43,8 +43,7 @@ static int pgem_covariance_current(pgem_t *graph)
                      "or its weights (a solve, pgem_update, pgem_set_pose, an added pose or edge)");
 }
 
-/* Pose p's index for id, or UNKNOWN_ID with its message. */
-static int pgem_covariance_pose(pgem_t *graph, pgem_id_t id, uint32_t *p)
+int pgem_covariance_pose(pgem_t *graph, pgem_id_t id, uint32_t *p)
 {
     const int64_t index = pgem_map_find(graph, id);
     if (index < 0) {
@@ -57,10 +56,7 @@ static int pgem_covariance_pose(pgem_t *graph, pgem_id_t id, uint32_t *p)
     return PGEM_OK;
 }
 
-/* In 2D, rows and columns [offset, offset + 2) of the n x n matrix (the translation of pose p)
- * from the world frame into p's: R^T C R on that block, R^T on its rows elsewhere. */
-static void pgem_covariance_to_body(const pgem_t *graph, uint32_t p, int n, int offset,
-                                    double *matrix)
+void pgem_covariance_to_body(const pgem_t *graph, uint32_t p, int n, int offset, double *matrix)
 {
     const double theta = graph->store.pose[(size_t)p * 3u + 2u];
     const double c = cos(theta), s = sin(theta);
@@ -141,45 +137,6 @@ int pgem_covariances(pgem_t *graph, double *covariances)
         for (uint32_t p = 0; p < graph->store.pose_count; p++) {
             pgem_covariance_to_body(graph, p, 3, 0, covariances + (size_t)p * 9u);
         }
-    }
-    pgem_message_clear(graph);
-    return PGEM_OK;
-}
-
-int pgem_update_covariance(pgem_t *graph, pgem_id_t id, double *covariance)
-{
-    if (graph == NULL || covariance == NULL) {
-        return PGEM_ERR_INVALID_ARGUMENT;
-    }
-    const pgem_online_t *online = &graph->online;
-    if (online->pool_blocks == 0u) {
-        return pgem_fail(graph, PGEM_ERR_CONFIG, "pgem_update_covariance needs config.online_fill "
-                                                 "(the incremental factor's room)");
-    }
-    uint32_t p = 0;
-    int status = pgem_covariance_pose(graph, id, &p);
-    if (status != PGEM_OK) {
-        return status;
-    }
-    if (!online->ready || online->topology_after != graph->store.topology ||
-        online->revision_after != graph->store.revision) {
-        return pgem_fail(graph, PGEM_ERR_NO_FACTOR,
-                         "the incremental factor is not current: call pgem_update after the last "
-                         "change to the graph, its estimate or its weights");
-    }
-    const int n = graph->tangent;
-    if (!pgem_online_covariance(graph, p, covariance)) {
-        if (!PGEM_POSE_HELD(&graph->store, p)) {
-            pgem_message_clear(graph);
-            pgem_message_text(graph, "pose ");
-            pgem_message_u64(graph, id);
-            pgem_message_text(graph, " is not in the incremental factor: no edge of it is");
-            return PGEM_ERR_NO_FACTOR;
-        }
-        memset(covariance, 0, (size_t)(n * n) * sizeof(double)); /* held: certain */
-    }
-    if (graph->config.dimension == 2) {
-        pgem_covariance_to_body(graph, p, 3, 0, covariance);
     }
     pgem_message_clear(graph);
     return PGEM_OK;

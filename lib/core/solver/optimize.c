@@ -179,7 +179,7 @@ int pgem_optimize(pgem_t *graph, const pgem_solve_options_t *options, pgem_summa
         return PGEM_ERR_INVALID_ARGUMENT;
     }
     int checked = pgem_check_solve_options(graph, options);
-    pgem_online_invalidate(&graph->online); /* the estimate changes under pgem_update */
+    graph->store.solves++; /* the estimate changes under pgem_update: it rebuilds */
     if (checked != PGEM_OK) {
         if (summary != NULL) {
             memset(summary, 0, sizeof *summary);

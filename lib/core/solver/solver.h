@@ -21,6 +21,13 @@ int pgem_check_option(pgem_t *graph, double value, const char *name);
 /* The method and every double of solve options (NULL: fine), as pgem_optimize checks them. */
 int pgem_check_solve_options(pgem_t *graph, const pgem_solve_options_t *options);
 
+/* The covariance calls' pieces the online layer's shares (solver/covariance.c): pose p's
+ * index for id, or UNKNOWN_ID with its message; in 2D, rows and columns [offset, offset + 2)
+ * of the n x n matrix (the translation of pose p) from the world frame into p's: R^T C R on
+ * that block, R^T on its rows elsewhere. */
+int pgem_covariance_pose(pgem_t *graph, pgem_id_t id, uint32_t *p);
+void pgem_covariance_to_body(const pgem_t *graph, uint32_t p, int n, int offset, double *matrix);
+
 /* Solver pieces shared by Gauss-Newton and Levenberg-Marquardt. */
 /* Applies a step (permuted order, pgem_linear_step) to every free pose. */
 void pgem_apply_step(pgem_t *graph, const double *step);

@@ -4,8 +4,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "instance.h"
-#include "linalg/linear.h"
+#include "online/factor.h"
 
 void pgem_online_edge(const pgem_t *graph, uint32_t k, const double *from, const double *to,
                       double weight, double *a_from, double *a_to, double *residual)
@@ -78,7 +77,7 @@ static uint32_t pgem_online_other(const pgem_t *graph, int end)
  * many. */
 static int pgem_online_number(pgem_t *graph)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     int columns = 0;
     for (uint32_t p = 0; p < graph->store.pose_count; p++) {
         online->pose_column[p] = -1;
@@ -99,7 +98,7 @@ static int pgem_online_number(pgem_t *graph)
  * `recent` of them moved last in arrival order. */
 static int pgem_online_order(pgem_t *graph, int columns, int recent)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     int *colptr = online->adjacent_start, *rows = online->adjacent;
     for (int j = 0; j <= columns; j++) {
         colptr[j] = 0;
@@ -130,11 +129,8 @@ static int pgem_online_order(pgem_t *graph, int columns, int recent)
             }
         }
     }
-    cs_di pattern = {colptr[columns], columns, columns, colptr, rows, NULL, -1};
-    pgem_cs_open(&graph->linear->cs_pool);
-    int *order = columns > 0 ? cs_di_amd(1, &pattern) : NULL;
-    if (columns > 0 && order == NULL) {
-        pgem_cs_close(&graph->linear->cs_pool);
+    int *order = online->mark; /* free until the columns are mapped back to their poses */
+    if (pgem_linear_amd(graph, columns, colptr, rows, order) != PGEM_OK) {
         return pgem_fail(graph, PGEM_ERR_OUT_OF_MEMORY,
                          "the online factor's ordering (CSparse's AMD) could not get workspace");
     }
@@ -148,8 +144,6 @@ static int pgem_online_order(pgem_t *graph, int columns, int recent)
     for (int j = first_recent > 0 ? first_recent : 0; j < columns; j++) {
         online->list[k++] = j;
     }
-    cs_di_free(order);
-    pgem_cs_close(&graph->linear->cs_pool);
     return PGEM_OK;
 }
 
@@ -157,7 +151,7 @@ static int pgem_online_order(pgem_t *graph, int columns, int recent)
  * with some room to grow; PGEM_ERR_FILL_BUDGET with the blocks needed if it does not fit. */
 static int pgem_online_symbolic(pgem_t *graph, int columns)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     int *children = online->head, *sibling = online->next, *gather = online->position;
     uint64_t used = 0, live = 0;
     int short_of_room = 0; /* a column did not fit (used may still be within the pool: the
@@ -233,7 +227,7 @@ static int pgem_online_in(const pgem_online_t *online, int j, int partial)
  * gradient, negated, into forward. */
 static void pgem_online_add_edge(pgem_t *graph, uint32_t k, int partial)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const int b = online->block;
     const size_t bb = (size_t)b * (size_t)b, size = (size_t)graph->pose_size;
     const double w = online->edge_weight_in[k];
@@ -281,7 +275,7 @@ static void pgem_online_add_edge(pgem_t *graph, uint32_t k, int partial)
 /* Column j's gauge damping (pgem_hold_gauge) onto its diagonal block. */
 static void pgem_online_damp(pgem_t *graph, int j)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const int b = online->block;
     if (!PGEM_POSE_DAMPED(graph->store.pose_fixed[online->column_pose[j]])) {
         return;
@@ -295,7 +289,7 @@ static void pgem_online_damp(pgem_t *graph, int j)
 /* Every edge of the system into the zeroed factor, and the gauges' damping. */
 static void pgem_online_assemble(pgem_t *graph, int columns)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const size_t bb = (size_t)online->block * (size_t)online->block;
     memset(online->values, 0, (size_t)online->pool_used * bb * sizeof(double));
     memset(online->forward, 0, (size_t)columns * (size_t)online->block * sizeof(double));
@@ -311,7 +305,7 @@ static void pgem_online_assemble(pgem_t *graph, int columns)
  * an edge with both ends touched is added once, from its lower column. */
 static void pgem_online_assemble_touched(pgem_t *graph, const int *touched, int count)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const int b = online->block;
     const size_t bb = (size_t)b * (size_t)b;
     for (int t = 0; t < count; t++) {
@@ -415,7 +409,7 @@ static void pgem_online_propagate(pgem_online_t *online, int j, int q)
  * its ancestors, and the touched columns are closed towards the root). */
 static int pgem_online_numeric(pgem_t *graph, int columns, int partial)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const int b = online->block;
     const size_t bb = (size_t)b * (size_t)b;
     int *head = online->adjacent_start, *next = online->next, *position = online->position;
@@ -499,7 +493,7 @@ static int pgem_online_numeric(pgem_t *graph, int columns, int partial)
 
 int pgem_online_rebuild(pgem_t *graph, int recent)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     online->ready = 0;
     online->full = 0;
     const int columns = pgem_online_number(graph);
@@ -561,7 +555,7 @@ static int pgem_online_touch_path(pgem_online_t *online, int j, int *list, int c
 
 int pgem_online_affected(pgem_t *graph, const int *poses, int count, double *work)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     int *list = online->adjacent, marked = 0;
     for (int m = 0; m < count; m++) {
         const uint32_t p = (uint32_t)poses[m];
@@ -592,7 +586,7 @@ int pgem_online_affected(pgem_t *graph, const int *poses, int count, double *wor
 
 void pgem_online_unaffected(pgem_t *graph, int count)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     for (int t = 0; t < count; t++) {
         online->touched[online->adjacent[t]] = 0; /* stamps start at 1 */
     }
@@ -600,7 +594,7 @@ void pgem_online_unaffected(pgem_t *graph, int count)
 
 int pgem_online_refactor(pgem_t *graph, int count)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     pgem_online_assemble_touched(graph, online->adjacent, count);
     const int status = pgem_online_numeric(graph, online->columns, 1);
     if (status != PGEM_OK) {

@@ -3,8 +3,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "instance.h"
-#include "linalg/linear.h"
+#include "online/factor.h"
 
 static double *pgem_online_block(const pgem_online_t *online, int q)
 {
@@ -207,7 +206,7 @@ static void pgem_online_clear_path(pgem_online_t *online, int j, int rank)
  * how much there is and what to raise. Returns PGEM_ERR_FILL_BUDGET. */
 static int pgem_online_out_of_room(pgem_t *graph, const char *what)
 {
-    const pgem_online_t *online = &graph->online;
+    const pgem_online_t *online = graph->online;
     pgem_message_clear(graph);
     pgem_message_text(graph, "the incremental factor is out of room (");
     pgem_message_text(graph, what);
@@ -224,7 +223,7 @@ static int pgem_online_out_of_room(pgem_t *graph, const char *what)
 int pgem_online_rank_update(pgem_t *graph, const int *columns, int column_count, double sign,
                             int rank)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     int j = columns[0];
     int changed = 0, status = PGEM_OK;
     for (int k = 1; k < column_count && status == PGEM_OK; k++) {
@@ -271,7 +270,7 @@ int pgem_online_rank_update(pgem_t *graph, const int *columns, int column_count,
 
 int pgem_online_append(pgem_t *graph, uint32_t p, double seed)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const int b = online->block, j = online->columns;
     const int room = 4;
     if (online->pool_used > online->pool_blocks ||
@@ -358,7 +357,7 @@ static int pgem_online_stale(const pgem_online_t *online, int j)
 
 void pgem_online_back(pgem_t *graph, double tolerance)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     int *stack = online->list, top = 0;
     online->recomputed_count = 0;
     for (int r = online->root; r >= 0; r = online->sibling[r]) {
@@ -467,7 +466,7 @@ static void pgem_online_forward_column(pgem_online_t *online, int j, int n, doub
 void pgem_online_marginal(pgem_t *graph, int ca, int cb, const double *a_a, const double *a_b,
                           int n, double *out)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const int b = online->block;
     memset(out, 0, (size_t)n * (size_t)n * sizeof(double));
     const int ends[2] = {ca, cb};
@@ -504,7 +503,7 @@ void pgem_online_marginal(pgem_t *graph, int ca, int cb, const double *a_a, cons
 
 int pgem_online_covariance(pgem_t *graph, uint32_t p, double *out)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const int b = online->block;
     if (p >= online->poses_linked || online->pose_column[p] < 0) {
         return 0;
@@ -517,9 +516,21 @@ int pgem_online_covariance(pgem_t *graph, uint32_t p, double *out)
     return 1;
 }
 
+void pgem_online_carve_state(pgem_t *graph, pgem_arena_t *arena)
+{
+    graph->online = pgem_arena_take_struct(arena, sizeof(pgem_online_t));
+    if (graph->online != NULL) {
+        memset(graph->online, 0, sizeof *graph->online);
+    }
+}
+
 void pgem_online_carve(pgem_t *graph, pgem_arena_t *arena)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t probe; /* what a measuring pass (or a failed carve) fills instead */
+    pgem_online_t *online = graph->online != NULL ? graph->online : &probe;
+    if (online == &probe) {
+        memset(online, 0, sizeof *online);
+    }
     const size_t poses = graph->config.max_poses, edges = graph->config.max_edges;
     const size_t b = (size_t)graph->tangent;
     online->block = (int)b;

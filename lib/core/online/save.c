@@ -3,7 +3,7 @@
  * factor, which the batch solve does not touch, is current again. */
 #include <string.h>
 
-#include "instance.h"
+#include "online/factor.h"
 #include "pgem/update.h"
 #include "robust/robust.h"
 
@@ -203,7 +203,8 @@ int pgem_update_save(pgem_t *graph, void *buffer, size_t size)
     header.edge_count = graph->store.edge_count;
     header.fixed_count = graph->store.fixed_count;
     header.edited_low = graph->store.edited_low;
-    header.online_ready = graph->online.ready;
+    pgem_online_sync(graph);
+    header.online_ready = graph->online->ready;
     memcpy(buffer, &header, sizeof header);
     pgem_saved_copy(graph, buffer, NULL);
     return PGEM_OK;
@@ -242,7 +243,8 @@ int pgem_update_restore(pgem_t *graph, const void *buffer, size_t size)
     graph->store.fixed_count = header.fixed_count;
     graph->store.edited_low = header.edited_low;
     graph->store.topology++; /* held flags may be back to others: the next analysis is anew */
-    graph->online.ready = header.online_ready;
+    graph->online->ready = header.online_ready;
+    graph->online->solves_seen = graph->store.solves;
     pgem_linear_invalidate(graph);
     pgem_message_clear(graph);
     return PGEM_OK;

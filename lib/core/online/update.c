@@ -1,11 +1,11 @@
-/* pgem_update: the incremental solve. New poses become block columns at the end of the
+/* pgem_update: the incremental solve (the online layer's entry). New poses become block columns at the end of the
  * ordering, new edges, relinearised poses and re-admitted loops become rank-one updates of
  * the factor along elimination-tree paths, one triangular solve gives the step from the
  * linearisation points; a rebuild (order, factorise whole) when the factor has grown. */
 #include <math.h>
 #include <string.h>
 
-#include "instance.h"
+#include "online/factor.h"
 #include "robust/robust.h"
 #include "solver/solver.h"
 
@@ -60,7 +60,7 @@ static int pgem_update_resolve(pgem_t *graph, const pgem_update_options_t *optio
 /* New poses and edges onto the per-pose edge lists; new poses' linearisation points. */
 static void pgem_update_link(pgem_t *graph)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const size_t size = (size_t)graph->pose_size;
     for (uint32_t p = online->poses_linked; p < graph->store.pose_count; p++) {
         online->pose_edge[p] = -1;
@@ -103,7 +103,7 @@ static double pgem_update_weight(const pgem_t *graph, uint32_t k)
 static int pgem_update_edge(pgem_t *graph, uint32_t k, const double *from, const double *to,
                             double weight, double sign)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const int b = online->block;
     double a[2][PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {{0.0}};
     double r[PGEM_TANGENT_SIZE_MAX] = {0.0};
@@ -139,14 +139,14 @@ static int pgem_update_edge(pgem_t *graph, uint32_t k, const double *from, const
 
 static const double *pgem_update_lin(const pgem_t *graph, uint32_t p)
 {
-    return graph->online.lin + (size_t)p * (size_t)graph->pose_size;
+    return graph->online->lin + (size_t)p * (size_t)graph->pose_size;
 }
 
 /* Puts edge k into the factor with weight w (> 0), appending columns for its free poses
  * that have none (seeded; their index into seeded[], *seeded_count grows). */
 static int pgem_update_insert(pgem_t *graph, uint32_t k, double w, int *seeded, int *seeded_count)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const uint32_t ends[2] = {graph->store.edge_from[k], graph->store.edge_to[k]};
     for (int s = 0; s < 2; s++) {
         const uint32_t p = ends[s];
@@ -174,7 +174,7 @@ static int pgem_update_insert(pgem_t *graph, uint32_t k, double w, int *seeded, 
 /* Takes the seeds of the columns listed out again. */
 static int pgem_update_unseed(pgem_t *graph, const int *seeded, int count)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const int b = online->block;
     for (int s = 0; s < count; s++) {
         double *x = online->vector + (size_t)seeded[s] * (size_t)b * (size_t)b;
@@ -206,7 +206,7 @@ static int pgem_update_exceeds(const pgem_online_t *online, int j, double thresh
  * may have grown past the threshold that the last back-substitution did not recompute. */
 static int pgem_update_due(pgem_t *graph, double threshold)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     int count = 0;
     for (int j = 0; j < online->columns; j++) {
         const int p = online->column_pose[j];
@@ -223,7 +223,7 @@ static int pgem_update_due(pgem_t *graph, double threshold)
  * flops each; counted until it passes `bound`. */
 static double pgem_update_cost(const pgem_t *graph, int count, double bound)
 {
-    const pgem_online_t *online = &graph->online;
+    const pgem_online_t *online = graph->online;
     double work = 0.0;
     for (int m = 0; m < count && work <= bound; m++) {
         const int p = online->head[m];
@@ -244,7 +244,7 @@ static double pgem_update_cost(const pgem_t *graph, int count, double bound)
  * new point and removed at the old one (the points move afterwards, pgem_update_move). */
 static int pgem_update_relinearise(pgem_t *graph, int count)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const int b = online->block;
     const size_t size = (size_t)graph->pose_size;
     double moved_from[PGEM_POSE_SIZE_MAX], moved_to[PGEM_POSE_SIZE_MAX];
@@ -290,7 +290,7 @@ static int pgem_update_relinearise(pgem_t *graph, int count)
 /* The linearisation points of the `count` poses due move by their steps. */
 static void pgem_update_move(pgem_t *graph, int count)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const int b = online->block;
     for (int m = 0; m < count; m++) {
         const uint32_t p = (uint32_t)online->head[m];
@@ -313,7 +313,7 @@ static void pgem_update_move(pgem_t *graph, int count)
  * online->head (count in *moved). */
 static int pgem_update_relinearise_due(pgem_t *graph, double threshold, int limit, int *moved)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const int count = pgem_update_due(graph, threshold);
     *moved = count;
     if (count == 0) {
@@ -357,7 +357,7 @@ static double pgem_update_quadratic(double *s, const double *e, int n)
  * inflation J H^-1 J^T)^-1 e. */
 static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation, double *plain)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const int n = graph->tangent;
     double e[PGEM_TANGENT_SIZE_MAX], jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
@@ -421,7 +421,7 @@ static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation
 static int pgem_update_gate(pgem_t *graph, uint32_t k, const pgem_update_settings_t *settings,
                             int *seeded, int *seeded_count, int *status)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const uint32_t ends[2] = {graph->store.edge_from[k], graph->store.edge_to[k]};
     for (int s = 0; s < 2; s++) {
         const int held = PGEM_POSE_HELD(&graph->store, ends[s]);
@@ -449,7 +449,7 @@ static int pgem_update_gate(pgem_t *graph, uint32_t k, const pgem_update_setting
  * the relinearised poses tested again. */
 static int pgem_update_edges(pgem_t *graph, const pgem_update_settings_t *settings, int moved)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     int *seeded = online->next, seeded_count = 0, status = PGEM_OK;
     for (uint32_t k = online->edges_seen; k < graph->store.edge_count && status == PGEM_OK; k++) {
         const double w = pgem_update_weight(graph, k);
@@ -494,7 +494,7 @@ static int pgem_update_edges(pgem_t *graph, const pgem_update_settings_t *settin
  * the gate when robust. */
 static int pgem_update_rebuild(pgem_t *graph, const pgem_update_settings_t *settings)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     memcpy(online->lin, graph->store.pose, pgem_pose_bytes(graph));
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         const int fresh = k >= online->edges_seen;
@@ -511,7 +511,7 @@ static int pgem_update_rebuild(pgem_t *graph, const pgem_update_settings_t *sett
 /* The estimate: every pose whose step was recomputed at its linearisation point plus it. */
 static void pgem_update_apply(pgem_t *graph)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     const size_t size = (size_t)graph->pose_size, b = (size_t)online->block;
     for (int q = 0; q < online->recomputed_count; q++) {
         const int j = online->recomputed[q];
@@ -526,7 +526,7 @@ static void pgem_update_apply(pgem_t *graph)
 
 static int pgem_update_run(pgem_t *graph, const pgem_update_settings_t *settings)
 {
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     pgem_update_link(graph);
     const double bound = settings->growth * (double)online->packed_blocks + (double)settings->slack;
     const int rebuild = !online->ready || settings->rebuild || online->full ||
@@ -578,7 +578,7 @@ static int pgem_update_run(pgem_t *graph, const pgem_update_settings_t *settings
  * pose: the edge was linearised at its value). */
 static int pgem_update_in_factor(const pgem_t *graph, uint32_t p)
 {
-    const pgem_online_t *online = &graph->online;
+    const pgem_online_t *online = graph->online;
     if (online->pose_column[p] >= 0) {
         return 1;
     }
@@ -599,7 +599,8 @@ int pgem_update(pgem_t *graph, const pgem_update_options_t *options,
     if (graph == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    pgem_online_t *online = &graph->online;
+    pgem_online_sync(graph);
+    pgem_online_t *online = graph->online;
     if (online->pool_blocks == 0u) {
         return pgem_fail(graph, PGEM_ERR_CONFIG,
                          "pgem_update needs config.online_fill (the incremental factor's room)");
@@ -652,6 +653,6 @@ int pgem_update_settle(pgem_t *graph, const pgem_robust_options_t *robust,
     }
     const int status = robust != NULL ? pgem_robust_optimize(graph, robust, NULL, summary)
                                       : pgem_optimize(graph, NULL, NULL);
-    graph->online.ready = 0;
+    graph->online->ready = 0;
     return status;
 }

@@ -1,16 +1,16 @@
 /* The incremental factor behind pgem_update: L of the Newton matrix at a linearisation point
  * of its own, one block column per free pose in a pool of blocks that columns grow in, kept
- * current by rank updates along elimination-tree paths. Private to lib/core. */
-#ifndef PGEM_ONLINE_H
-#define PGEM_ONLINE_H
+ * current by rank updates along elimination-tree paths. Private to lib/core/online/: the other
+ * layers see only online/online.h. */
+#ifndef PGEM_ONLINE_FACTOR_H
+#define PGEM_ONLINE_FACTOR_H
 
 #include <stddef.h>
 #include <stdint.h>
 
+#include "instance.h"
 #include "pgem/geometry.h"
 #include "pgem/update.h"
-
-struct pgem;
 
 /* Block column j of L lives in the pool from block start[j]: its diagonal block, then
  * count[j] off-diagonal blocks (room for capacity[j]), their block rows rows[start[j] + 1 ..]
@@ -18,8 +18,9 @@ struct pgem;
  * block at values[(start + q) b^2 + c b + r]. The diagonal block holds its lower triangle
  * (the upper one is zero). A column that outgrows its room moves to the pool's end; columns
  * never shrink until a rebuild packs them again. */
-typedef struct pgem_online {
+struct pgem_online {
     int ready;                /* 1 while the factor is L of the system at lin */
+    uint32_t solves_seen;     /* graph->store.solves when ready was last brought up to date */
     int block;                /* b: 3 or 6 */
     int columns;              /* block columns in use */
     uint32_t poses_seen;      /* poses the factor has looked at (pose_count at the last update) */
@@ -50,10 +51,10 @@ typedef struct pgem_online {
     int *child;               /* [max_poses] first child of a column in the tree, -1 */
     int *sibling;             /* [max_poses] next child of the same parent, -1 */
     int *previous;            /* [max_poses] previous child of the same parent, -1 */
-    int root;                 /* first root column, -1 */
     int *changed;             /* [max_poses] 1: the back-substitution changed the column's step */
     int *recomputed;          /* [max_poses] columns the last back-substitution recomputed */
     int recomputed_count;
+    int root;                 /* first root column, -1 */
     double *vector;           /* [max_poses * b * b] a rank-one update's vector (or b of them
                                  interleaved, the marginal's), zero between uses */
     double *edge_weight_in;   /* [max_edges] weight the edge has in the factor (0: not in) */
@@ -71,49 +72,44 @@ typedef struct pgem_online {
     uint32_t topology_after;  /* the graph's topology and revision after the last successful */
     uint32_t revision_after;  /* update: while both hold, the factor is the graph's */
     pgem_update_summary_t last; /* counters of the update under way */
-} pgem_online_t;
+};
 
-/* The estimate changed outside pgem_update (a batch solve, a held pose, reset weights): the
- * next update rebuilds. For one pose: only if the factor solves for it. */
-static inline void pgem_online_invalidate(pgem_online_t *online)
+/* A batch solve (pgem_optimize: graph->store.solves) moved the estimate since the factor was
+ * last current: the factor is not ready (the next update rebuilds). Called by every entry that
+ * reads or sets online->ready. */
+static inline void pgem_online_sync(pgem_t *graph)
 {
-    online->ready = 0;
-}
-static inline void pgem_online_pose_moved(pgem_online_t *online, uint32_t pose)
-{
-    if (online->pool_blocks > 0u && pose < online->poses_linked && online->pose_column[pose] >= 0) {
+    pgem_online_t *online = graph->online;
+    if (online->solves_seen != graph->store.solves) {
         online->ready = 0;
+        online->solves_seen = graph->store.solves;
     }
 }
 
 /* Pose p's marginal covariance in the system's tangent (b x b, row-major) from the factor: a
  * forward solve along its column's path to the root. 0 when p has no column (held, or not in
  * the factor yet: out untouched), else 1. */
-int pgem_online_covariance(struct pgem *graph, uint32_t p, double *out);
+int pgem_online_covariance(pgem_t *graph, uint32_t p, double *out);
 
-/* Bytes pgem_online_carve takes (measuring when arena->base is NULL). */
-struct pgem_arena;
-void pgem_online_carve(struct pgem *graph, struct pgem_arena *arena);
-
-/* linalg/online_factor.c */
+/* online/rebuild.c and online/factor.c */
 /* The system's ordering, pattern and factor from scratch at lin (poses with columns, edges
  * with edge_weight_in > 0). PGEM_OK, PGEM_ERR_FILL_BUDGET (the pool cannot hold the packed
  * factor: the message gives the blocks needed), PGEM_ERR_OUT_OF_MEMORY (CSparse's ordering),
  * PGEM_ERR_NOT_POSITIVE_DEFINITE. The newest `recent` columns are ordered last. */
-int pgem_online_rebuild(struct pgem *graph, int recent);
+int pgem_online_rebuild(pgem_t *graph, int recent);
 /* The rows of sqrt(w) U J_from, sqrt(w) U J_to (n x n each, row-major) and sqrt(w) U e of
  * edge k at the poses given (Omega = U^T U): the edge's square-root linearisation. */
-void pgem_online_edge(const struct pgem *graph, uint32_t k, const double *from, const double *to,
+void pgem_online_edge(const pgem_t *graph, uint32_t k, const double *from, const double *to,
                       double weight, double *a_from, double *a_to, double *residual);
 /* L L^T + sign A A^T for the `rank` (1 .. b) vectors in online->vector (interleaved: entry
  * (scalar s, vector k) at s rank + k; non-zero only in the block columns listed, ascending,
  * at most 2), growing the pattern along the path. PGEM_OK, PGEM_ERR_FILL_BUDGET (the pool is
  * full: online->full), PGEM_ERR_NOT_POSITIVE_DEFINITE (a downdate lost definiteness). The
  * vectors are zero afterwards. */
-int pgem_online_rank_update(struct pgem *graph, const int *columns, int column_count, double sign,
+int pgem_online_rank_update(pgem_t *graph, const int *columns, int column_count, double sign,
                             int rank);
 /* Appends a block column for pose p with diagonal block sqrt(seed) I and no rows. */
-int pgem_online_append(struct pgem *graph, uint32_t p, double seed);
+int pgem_online_append(pgem_t *graph, uint32_t p, double seed);
 /* Cholesky of an n x n symmetric block in place: its lower factor by column (the upper
  * triangle zeroed); 0 if not positive definite. Read by row, the result is U with A = U^T U. */
 int pgem_online_cholesky(double *d, int n);
@@ -123,24 +119,24 @@ int pgem_online_find(const pgem_online_t *online, int j, int i);
  * (theirs, their neighbours' and all their ancestors) and lists them in online->adjacent;
  * returns how many, and in *work the cost of refactoring them (the sum over the columns of
  * the squared number of blocks they update there: blocks updated, x b^3 flops). */
-int pgem_online_affected(struct pgem *graph, const int *poses, int count, double *work);
+int pgem_online_affected(pgem_t *graph, const int *poses, int count, double *work);
 /* Takes those `count` marks off again. */
-void pgem_online_unaffected(struct pgem *graph, int count);
+void pgem_online_unaffected(pgem_t *graph, int count);
 /* Refactors the `count` columns pgem_online_affected marked at lin, in place on the present
  * pattern and from the present values of the other columns, with their part of forward.
  * PGEM_OK or PGEM_ERR_NOT_POSITIVE_DEFINITE (online->ready cleared). */
-int pgem_online_refactor(struct pgem *graph, int count);
+int pgem_online_refactor(pgem_t *graph, int count);
 /* delta = L^-T forward from the roots down, recomputing a column when it was touched by this
  * update or a row's step changed by more than tolerance (negative: every column); the
  * recomputed columns into online->recomputed. */
-void pgem_online_back(struct pgem *graph, double tolerance);
+void pgem_online_back(pgem_t *graph, double tolerance);
 /* Column j's parent becomes p (-1: a root), in the tree's child lists. */
 void pgem_online_set_parent(pgem_online_t *online, int j, int p);
 /* The child lists from parent[] for columns 0 .. columns-1. */
 void pgem_online_link_tree(pgem_online_t *online);
 /* Y = L^-1 A^T for A (n x (2 b), row-major, by the two columns ca < cb, either -1 when held):
  * the forward solve along the two paths; returns A H^-1 A^T (n x n, row-major) in out. */
-void pgem_online_marginal(struct pgem *graph, int ca, int cb, const double *a_a, const double *a_b,
+void pgem_online_marginal(pgem_t *graph, int ca, int cb, const double *a_a, const double *a_b,
                           int n, double *out);
 
-#endif /* PGEM_ONLINE_H */
+#endif /* PGEM_ONLINE_FACTOR_H */

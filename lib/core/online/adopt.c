@@ -4,7 +4,7 @@
  * holds, and what arrived since moves with it. */
 #include <string.h>
 
-#include "instance.h"
+#include "online/factor.h"
 #include "pgem/update.h"
 #include "robust/robust.h"
 
@@ -106,7 +106,7 @@ int pgem_update_adopt(pgem_t *graph, const pgem_t *pass, pgem_adopt_summary_t *s
     if (graph->config.dimension != pass->config.dimension) {
         return pgem_fail(graph, PGEM_ERR_DIMENSION, "pgem_update_adopt: the instances' dimensions differ");
     }
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     if (online->pool_blocks == 0u) {
         return pgem_fail(graph, PGEM_ERR_CONFIG,
                          "pgem_update_adopt needs config.online_fill (the incremental factor's room)");

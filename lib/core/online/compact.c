@@ -1,8 +1,8 @@
 /* pgem_compact: poses removed in the block, each one's two odometry edges composed into one
  * and its loop closures carried onto a kept neighbour (graph/compose.c does the algebra).
- * The robust layer owns it because a loop's verdict (weight, state) is what decides whether
- * the loop is carried or dropped, and the incremental factor must be told. Scratch: the robust
- * layer's copies for a failed solve (pose_initial, edge_weight_saved) and the loop distances
+ * The online layer owns it (a long mission's stream): a loop's verdict (weight, state) decides
+ * whether the loop is carried or dropped, and the incremental factor must be told. Scratch: the
+ * robust layer's copies for a failed solve (pose_initial, edge_weight_saved) and the loop distances
  * (edge_distance), none of which outlives a call: per pose its new index, its first edge end
  * and the sweep that last changed it (of the 24 bytes or more pose_initial holds); per edge
  * its new index (4 of edge_weight_saved's 8 bytes) and, per edge end, the next end of the
@@ -10,7 +10,7 @@
  * it (20 bytes a pose in all). */
 #include <string.h>
 
-#include "instance.h"
+#include "online/factor.h"
 #include "robust/robust.h"
 
 #define PGEM_COMPACT_TAIL 32u
@@ -294,7 +294,7 @@ static void pgem_compact_close(pgem_compactor_t *c, const pgem_compact_options_t
     pgem_t *graph = c->graph;
     pgem_store_t *store = &graph->store;
     const size_t size = (size_t)graph->pose_size, nn = (size_t)graph->tangent * (size_t)graph->tangent;
-    pgem_online_t *online = &graph->online;
+    pgem_online_t *online = graph->online;
     uint32_t poses = 0, seen_poses = 0;
     for (uint32_t p = 0; p < store->pose_count; p++) {
         if (c->pose_new[p] == PGEM_COMPACT_GONE) {
