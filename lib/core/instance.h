@@ -8,6 +8,7 @@
 
 #include "common/common.h"
 #include "graph/graph.h"
+#include "instance/message.h"
 #include "linalg/linalg.h"
 #include "linalg/online.h"
 #include "robust/robust.h"

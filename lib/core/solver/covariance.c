@@ -46,7 +46,7 @@ static int pgem_covariance_current(pgem_t *graph)
 /* Pose p's index for id, or UNKNOWN_ID with its message. */
 static int pgem_covariance_pose(pgem_t *graph, pgem_id_t id, uint32_t *p)
 {
-    const int64_t index = pgem_map_find(graph, id);
+    const int64_t index = pgem_map_find(&graph->store, id);
     if (index < 0) {
         pgem_message_clear(graph);
         pgem_message_text(graph, "no pose with id ");
