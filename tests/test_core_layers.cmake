@@ -48,11 +48,11 @@ set(state_linalg "->linear[^_a-zA-Z0-9]")
 set(state_solver "->solver\\.")
 set(state_robust "->robust\\.")
 set(state_online "->online->")
-# Item 1 of the layering is not done for these yet: they still include the hub (instance.h)
-# and take pgem_t. What a file of another layer reaches through the hub is not followed for
-# these layers (the hub itself is the known exception); any other layer that reaches the hub,
-# directly or through a header, fails.
-set(sees_hub common graph linalg solver robust online)
+# Item 1 of the layering is not done for these yet: they still include the hub (instance.h),
+# take pgem_t and call the instance's message calls (instance/message.h). What a file of these
+# layers reaches through the hub is not followed (the hub itself is the known exception); any
+# other layer that reaches the hub, directly or through a header, or calls instance/, fails.
+set(sees_hub graph linalg solver robust online)
 # -------------------------------------------------------------------------------------------------
 
 set(failures 0)
@@ -230,6 +230,9 @@ foreach(file IN LISTS everything)
     string(REGEX REPLACE "\\($" "" name "${call}")
     if(DEFINED owner_${name})
       may_use(${layer} ${owner_${name}} allowed)
+      if(owner_${name} STREQUAL "instance" AND layer IN_LIST sees_hub)
+        set(allowed 1)
+      endif()
       if(NOT allowed)
         violation("${rel}: layer ${layer} calls ${name} of layer ${owner_${name}}")
       endif()

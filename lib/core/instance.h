@@ -9,6 +9,7 @@
 
 #include "common/common.h"
 #include "graph/graph.h"
+#include "instance/message.h"
 #include "linalg/linalg.h"
 #include "online/online.h"
 #include "robust/robust.h"

@@ -48,14 +48,7 @@ long pgem_fault_seen(void);
  * bytes, truncating. */
 void pgem_text_append(char *text, size_t size, const char *piece);
 void pgem_text_u64(char *text, size_t size, uint64_t value);
-
-/* Message building into the instance: clear, then append pieces. */
-void pgem_message_clear(pgem_t *graph);
-void pgem_message_text(pgem_t *graph, const char *text);
-void pgem_message_u64(pgem_t *graph, uint64_t value);
-void pgem_message_i64(pgem_t *graph, int64_t value);
-/* Sets the message to text and returns code (for one-line error returns). */
-int pgem_fail(pgem_t *graph, int code, const char *text);
+void pgem_text_i64(char *text, size_t size, int64_t value);
 
 /* Small dense matrices, n <= PGEM_SMALL_MAX, row-major (common/small.c). */
 #define PGEM_SMALL_MAX 6

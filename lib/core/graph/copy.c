@@ -2,29 +2,28 @@
 #include <string.h>
 
 #include "graph/graph.h"
-#include "instance.h"
 
-void pgem_store_copy(pgem_t *to, const pgem_t *from)
+void pgem_store_copy(pgem_store_t *to, const pgem_store_t *from, int pose_size, int tangent)
 {
-    const size_t poses = from->store.pose_count, edges = from->store.edge_count;
-    const size_t pose_bytes = poses * (size_t)from->pose_size * sizeof(double);
-    const size_t info = (size_t)from->tangent * (size_t)from->tangent;
-    memcpy(to->store.pose_id, from->store.pose_id, poses * sizeof *to->store.pose_id);
-    memcpy(to->store.pose, from->store.pose, pose_bytes);
-    memcpy(to->store.pose_fixed, from->store.pose_fixed, poses);
-    for (uint32_t p = 0; p < from->store.pose_count; p++) {
-        pgem_map_insert(to, from->store.pose_id[p], p);
+    const size_t poses = from->pose_count, edges = from->edge_count;
+    const size_t pose_bytes = poses * (size_t)pose_size * sizeof(double);
+    const size_t info = (size_t)tangent * (size_t)tangent;
+    memcpy(to->pose_id, from->pose_id, poses * sizeof *to->pose_id);
+    memcpy(to->pose, from->pose, pose_bytes);
+    memcpy(to->pose_fixed, from->pose_fixed, poses);
+    for (uint32_t p = 0; p < from->pose_count; p++) {
+        pgem_map_insert(to, from->pose_id[p], p);
     }
-    to->store.pose_count = from->store.pose_count;
-    to->store.fixed_count = from->store.fixed_count;
-    memcpy(to->store.edge_from, from->store.edge_from, edges * sizeof *to->store.edge_from);
-    memcpy(to->store.edge_to, from->store.edge_to, edges * sizeof *to->store.edge_to);
-    memcpy(to->store.edge_measurement, from->store.edge_measurement,
-           edges * (size_t)from->pose_size * sizeof(double));
-    memcpy(to->store.edge_information, from->store.edge_information, edges * info * sizeof(double));
-    memcpy(to->store.edge_kind, from->store.edge_kind, edges);
-    memcpy(to->store.edge_active, from->store.edge_active, edges);
-    memcpy(to->store.edge_weight, from->store.edge_weight, edges * sizeof(double));
-    to->store.edge_count = from->store.edge_count;
-    to->store.topology++;
+    to->pose_count = from->pose_count;
+    to->fixed_count = from->fixed_count;
+    memcpy(to->edge_from, from->edge_from, edges * sizeof *to->edge_from);
+    memcpy(to->edge_to, from->edge_to, edges * sizeof *to->edge_to);
+    memcpy(to->edge_measurement, from->edge_measurement,
+           edges * (size_t)pose_size * sizeof(double));
+    memcpy(to->edge_information, from->edge_information, edges * info * sizeof(double));
+    memcpy(to->edge_kind, from->edge_kind, edges);
+    memcpy(to->edge_active, from->edge_active, edges);
+    memcpy(to->edge_weight, from->edge_weight, edges * sizeof(double));
+    to->edge_count = from->edge_count;
+    to->topology++;
 }

@@ -17,8 +17,8 @@ static int pgem_edge_fail_ids(pgem_t *graph, int code, pgem_id_t from, pgem_id_t
 static int pgem_edge_check_ends(pgem_t *graph, pgem_id_t from, pgem_id_t to, int64_t *from_index,
                                 int64_t *to_index)
 {
-    *from_index = pgem_map_find(graph, from);
-    *to_index = pgem_map_find(graph, to);
+    *from_index = pgem_map_find(&graph->store, from);
+    *to_index = pgem_map_find(&graph->store, to);
     if (*from_index < 0 || *to_index < 0) {
         pgem_message_clear(graph);
         pgem_message_text(graph, "no pose with id ");
@@ -63,7 +63,7 @@ int pgem_add_edge(pgem_t *graph, pgem_id_t from, pgem_id_t to, const double *mea
         status = pgem_check_pose(graph, measurement, checked, "measurement");
     }
     if (status == PGEM_OK) {
-        status = pgem_check_information(graph, information);
+        status = pgem_check_information(graph->message, graph->tangent, information);
     }
     if (status != PGEM_OK) {
         return status == PGEM_ERR_UNKNOWN_ID || status == PGEM_ERR_SELF_LOOP
@@ -111,4 +111,12 @@ int pgem_edge_at(const pgem_t *graph, uint32_t index, pgem_edge_view_t *view)
     view->weight = graph->store.edge_weight[index];
     view->active = graph->store.edge_active[index] != PGEM_EDGE_PRUNED; /* dormant: not pruned */
     return PGEM_OK;
+}
+
+/* An edge named by its poses' ids in messages. */
+void pgem_message_edge(pgem_t *graph, uint32_t k)
+{
+    pgem_message_u64(graph, graph->store.pose_id[graph->store.edge_from[k]]);
+    pgem_message_text(graph, "-");
+    pgem_message_u64(graph, graph->store.pose_id[graph->store.edge_to[k]]);
 }

@@ -65,17 +65,23 @@ typedef struct pgem_store {
     double *edge_weight;       /* [max_edges] robust weight, 1 for odometry */
 } pgem_store_t;
 
-/* Carves the store's arrays from the arena (measuring when arena->base is NULL). */
-void pgem_store_carve(pgem_t *graph, pgem_arena_t *arena);
+/* Carves the store's arrays for config's capacities and the dimension (doubles per pose, rows
+ * per edge) from the arena (measuring when arena->base is NULL). */
+void pgem_store_carve(pgem_store_t *store, const pgem_config_t *config, int pose_size,
+                      int tangent, pgem_arena_t *arena);
 /* A graph's poses and edges into an empty instance of the same dimension with room for them
  * (the checks are pgem_copy's). */
-void pgem_store_copy(pgem_t *to, const pgem_t *from);
+void pgem_store_copy(pgem_store_t *to, const pgem_store_t *from, int pose_size, int tangent);
+/* Loop closure `index`'s robust weight and state (graph/loop.c; PGEM_ERR_INVALID_ARGUMENT if
+ * there is no such edge or no output): pgem_loop_weight and pgem_loop_state on the store. */
+int pgem_store_loop_weight(const pgem_store_t *store, uint32_t index, double *weight);
+int pgem_store_loop_state(const pgem_store_t *store, uint32_t index, pgem_loop_state_t *state);
 /* A robust solve's hold on pose `index` (graph/hold.c): flag PGEM_POSE_PART or
  * PGEM_POSE_PART_NEW, damped as a gauge; the pose stays free, so the structure stands. */
-void pgem_pose_hold_part(pgem_t *graph, uint32_t index, uint8_t flag);
+void pgem_pose_hold_part(pgem_store_t *store, uint32_t index, uint8_t flag);
 /* Frees the poses a robust solve holds with `flag` (PGEM_POSE_PART_NEW), or with either flag
  * (0); returns how many. */
-uint32_t pgem_pose_release_parts(pgem_t *graph, uint8_t flag);
+uint32_t pgem_pose_release_parts(pgem_store_t *store, uint8_t flag);
 
 /* Edges ka and kb, which meet at pose index p, composed into one edge between their other
  * ends (graph/compose.c): *from the other end of ka, *to that of kb, the measurement and
@@ -97,14 +103,15 @@ int pgem_edge_fuse(const pgem_t *graph, uint32_t ka, double weight_a, uint32_t k
 void pgem_message_edge(pgem_t *graph, uint32_t k);
 
 /* Id map: pose index of id, or -1. */
-int64_t pgem_map_find(const pgem_t *graph, pgem_id_t id);
-void pgem_map_insert(pgem_t *graph, pgem_id_t id, uint32_t index);
+int64_t pgem_map_find(const pgem_store_t *store, pgem_id_t id);
+void pgem_map_insert(pgem_store_t *store, pgem_id_t id, uint32_t index);
 
 /* Checks and normalises a pose; names the field in the message on failure. */
 int pgem_check_pose(pgem_t *graph, const double *pose, double *normalised, const char *what);
 
-/* Checks an n x n information matrix (finite, symmetric, positive definite). */
-int pgem_check_information(pgem_t *graph, const double *information);
+/* Checks a tangent x tangent information matrix (finite, symmetric, positive definite); on
+ * failure message (PGEM_MESSAGE_SIZE bytes) names the entry. */
+int pgem_check_information(char *message, int tangent, const double *information);
 
 /* Error and Jacobians of edge k under the current estimate (Jacobians may be NULL). */
 void pgem_edge_error(const pgem_t *graph, uint32_t k, double *error, double *jacobian_from,
@@ -137,8 +144,9 @@ typedef struct pgem_edge_linearisation {
 } pgem_edge_blocks_t;
 /* Edge k linearised at the current estimate and its robust weight w: Jf^T wOmega Jf,
  * Jt^T wOmega Jt, Jf^T wOmega Jt and the gradients Jf^T wOmega e, Jt^T wOmega e into out;
- * returns the weighted chi2 w e^T Omega e (graph/linearise.c). */
-double pgem_edge_linearise(const pgem_t *graph, uint32_t k, pgem_edge_blocks_t *out);
+ * returns the weighted chi2 w e^T Omega e (graph/linearise.c; tangent 3 or 6). */
+double pgem_edge_linearise(const pgem_store_t *store, uint32_t k, pgem_edge_blocks_t *out,
+                           int tangent);
 
 /* Weighted chi2 (edges not pruned, robust weights) under the current estimate. */
 double pgem_weighted_chi2(const pgem_t *graph);

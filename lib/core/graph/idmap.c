@@ -1,7 +1,5 @@
-/* Open-addressing map from 64-bit pose id to pose index, sized at init (no growth), and an
- * edge named by its poses' ids in messages. */
+/* Open-addressing map from 64-bit pose id to pose index, sized at init (no growth). */
 #include "graph/graph.h"
-#include "instance.h"
 
 static uint32_t pgem_id_hash(pgem_id_t id)
 {
@@ -14,32 +12,25 @@ static uint32_t pgem_id_hash(pgem_id_t id)
     return (uint32_t)mixed;
 }
 
-int64_t pgem_map_find(const pgem_t *graph, pgem_id_t id)
+int64_t pgem_map_find(const pgem_store_t *store, pgem_id_t id)
 {
-    uint32_t slot = pgem_id_hash(id) & graph->store.map_mask;
-    while (graph->store.map_slot[slot] != 0u) {
-        uint32_t index = graph->store.map_slot[slot] - 1u;
-        if (graph->store.pose_id[index] == id) {
+    uint32_t slot = pgem_id_hash(id) & store->map_mask;
+    while (store->map_slot[slot] != 0u) {
+        uint32_t index = store->map_slot[slot] - 1u;
+        if (store->pose_id[index] == id) {
             return (int64_t)index;
         }
-        slot = (slot + 1u) & graph->store.map_mask;
+        slot = (slot + 1u) & store->map_mask;
     }
     return -1;
 }
 
 /* The map has at least twice as many slots as poses, so a free slot always exists. */
-void pgem_map_insert(pgem_t *graph, pgem_id_t id, uint32_t index)
+void pgem_map_insert(pgem_store_t *store, pgem_id_t id, uint32_t index)
 {
-    uint32_t slot = pgem_id_hash(id) & graph->store.map_mask;
-    while (graph->store.map_slot[slot] != 0u) {
-        slot = (slot + 1u) & graph->store.map_mask;
+    uint32_t slot = pgem_id_hash(id) & store->map_mask;
+    while (store->map_slot[slot] != 0u) {
+        slot = (slot + 1u) & store->map_mask;
     }
-    graph->store.map_slot[slot] = index + 1u;
-}
-
-void pgem_message_edge(pgem_t *graph, uint32_t k)
-{
-    pgem_message_u64(graph, graph->store.pose_id[graph->store.edge_from[k]]);
-    pgem_message_text(graph, "-");
-    pgem_message_u64(graph, graph->store.pose_id[graph->store.edge_to[k]]);
+    store->map_slot[slot] = index + 1u;
 }

@@ -4,7 +4,6 @@
 #include <math.h>
 
 #include "graph/graph.h"
-#include "instance.h"
 
 /* Which entry (row, column) breaks the check, for the message. */
 typedef struct pgem_entry_ref {
@@ -12,13 +11,18 @@ typedef struct pgem_entry_ref {
     int column;  /* 0-based column */
 } pgem_entry_ref_t;
 
-static void pgem_message_entry(pgem_t *graph, pgem_entry_ref_t entry)
+static void pgem_note(char *message, const char *text)
 {
-    pgem_message_text(graph, "information(");
-    pgem_message_i64(graph, entry.row);
-    pgem_message_text(graph, ",");
-    pgem_message_i64(graph, entry.column);
-    pgem_message_text(graph, ")");
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, text);
+}
+
+static void pgem_note_entry(char *message, pgem_entry_ref_t entry)
+{
+    pgem_note(message, "information(");
+    pgem_text_i64(message, PGEM_MESSAGE_SIZE, entry.row);
+    pgem_note(message, ",");
+    pgem_text_i64(message, PGEM_MESSAGE_SIZE, entry.column);
+    pgem_note(message, ")");
 }
 
 static double pgem_largest_magnitude(const double *matrix, int n)
@@ -100,38 +104,37 @@ int pgem_information_positive(const double *information, int n)
     return pgem_first_bad_pivot(information, n, 0.0) < 0;
 }
 
-int pgem_check_information(pgem_t *graph, const double *information)
+int pgem_check_information(char *message, int n, const double *information)
 {
-    const int n = graph->tangent;
     int entry;
     int status = pgem_information_check(information, n, &entry);
     if (status == PGEM_OK) {
         return PGEM_OK;
     }
     const pgem_entry_ref_t at = {entry / n, entry % n};
-    pgem_message_clear(graph);
+    message[0] = '\0';
     if (status == PGEM_ERR_NOT_FINITE) {
-        pgem_message_entry(graph, at);
-        pgem_message_text(graph, " is not finite");
+        pgem_note_entry(message, at);
+        pgem_note(message, " is not finite");
     } else if (status == PGEM_ERR_OUT_OF_RANGE) {
-        pgem_message_entry(graph, at);
-        pgem_message_text(graph, " is beyond the information limit (|entry| at most 1e15, "
-                                 "PGEM_INFORMATION_LIMIT)");
+        pgem_note_entry(message, at);
+        pgem_note(message, " is beyond the information limit (|entry| at most 1e15, "
+                           "PGEM_INFORMATION_LIMIT)");
     } else if (at.row != at.column) {
-        pgem_message_entry(graph, at);
-        pgem_message_text(graph, " differs from ");
-        pgem_message_entry(graph, (pgem_entry_ref_t){at.column, at.row});
-        pgem_message_text(graph, ": information must be symmetric");
+        pgem_note_entry(message, at);
+        pgem_note(message, " differs from ");
+        pgem_note_entry(message, (pgem_entry_ref_t){at.column, at.row});
+        pgem_note(message, ": information must be symmetric");
     } else if (pgem_information_positive(information, n)) {
-        pgem_message_text(graph, "information is positive definite but too badly conditioned "
-                                 "for double precision (pivot ");
-        pgem_message_i64(graph, at.row);
-        pgem_message_text(graph, " below n * DBL_EPSILON of the largest entry: condition "
-                                 "number beyond about 1e15)");
+        pgem_note(message, "information is positive definite but too badly conditioned "
+                           "for double precision (pivot ");
+        pgem_text_i64(message, PGEM_MESSAGE_SIZE, at.row);
+        pgem_note(message, " below n * DBL_EPSILON of the largest entry: condition "
+                           "number beyond about 1e15)");
     } else {
-        pgem_message_text(graph, "information is not positive definite (pivot ");
-        pgem_message_i64(graph, at.row);
-        pgem_message_text(graph, " is not positive)");
+        pgem_note(message, "information is not positive definite (pivot ");
+        pgem_text_i64(message, PGEM_MESSAGE_SIZE, at.row);
+        pgem_note(message, " is not positive)");
     }
     return status;
 }

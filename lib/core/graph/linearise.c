@@ -10,7 +10,6 @@
 #include <stddef.h>
 
 #include "graph/graph.h"
-#include "instance.h"
 
 
 /* SE(2) edge k. pgem_se2_error's Jacobians have the form
@@ -20,14 +19,14 @@
  * (c, s: cosine and sine of the edge's rotation, d: derivative of the translation error by
  * the first pose's angle), so rows 0 and 1 of Jf^T W are those of Jt^T W negated, and most
  * products reduce to two terms. Returns the edge's weighted chi2. */
-static double pgem_linearise_se2(const pgem_t *graph, uint32_t k, pgem_edge_blocks_t *out)
+static double pgem_linearise_se2(const pgem_store_t *store, uint32_t k, pgem_edge_blocks_t *out)
 {
     double e[3], jf[9], jt[9];
-    const double *from = graph->store.pose + (size_t)graph->store.edge_from[k] * 3u;
-    const double *to = graph->store.pose + (size_t)graph->store.edge_to[k] * 3u;
-    const double *o = graph->store.edge_information + (size_t)k * 9u;
-    const double w = graph->store.edge_weight[k];
-    pgem_se2_error(from, to, graph->store.edge_measurement + (size_t)k * 3u, e, jf, jt);
+    const double *from = store->pose + (size_t)store->edge_from[k] * 3u;
+    const double *to = store->pose + (size_t)store->edge_to[k] * 3u;
+    const double *o = store->edge_information + (size_t)k * 9u;
+    const double w = store->edge_weight[k];
+    pgem_se2_error(from, to, store->edge_measurement + (size_t)k * 3u, e, jf, jt);
     const double c = jt[0], s = jt[3], d0 = jf[2], d1 = jf[5];
     double a[9];  /* Jt^T W */
     double f2[3]; /* row 2 of Jf^T W (rows 0 and 1 are -a's) */
@@ -106,15 +105,15 @@ static inline void pgem_block_a_b(const double *a, const double *b, double *out,
  * so each block of the products is one or two 3 x 3 products. Of the diagonal blocks only the
  * upper triangle is read: their lower left 3 x 3 block is not computed, the lower triangles of
  * their two 3 x 3 blocks on the diagonal are. Returns the edge's weighted chi2. */
-static double pgem_linearise_se3(const pgem_t *graph, uint32_t k, pgem_edge_blocks_t *out)
+static double pgem_linearise_se3(const pgem_store_t *store, uint32_t k, pgem_edge_blocks_t *out)
 {
     double e[6], jf[36], jt[36];
     double tw[36], fw[36]; /* Jt^T W, Jf^T W */
-    const double *from = graph->store.pose + (size_t)graph->store.edge_from[k] * 7u;
-    const double *to = graph->store.pose + (size_t)graph->store.edge_to[k] * 7u;
-    const double *o = graph->store.edge_information + (size_t)k * 36u;
-    const double w = graph->store.edge_weight[k];
-    pgem_se3_error(from, to, graph->store.edge_measurement + (size_t)k * 7u, e, jf, jt);
+    const double *from = store->pose + (size_t)store->edge_from[k] * 7u;
+    const double *to = store->pose + (size_t)store->edge_to[k] * 7u;
+    const double *o = store->edge_information + (size_t)k * 36u;
+    const double w = store->edge_weight[k];
+    pgem_se3_error(from, to, store->edge_measurement + (size_t)k * 7u, e, jf, jt);
     const double *p = jt, *s = jt + 21, *a = jf, *b = jf + 3, *c = jf + 21;
     const double *o00 = o, *o01 = o + 3, *o10 = o + 18, *o11 = o + 21;
     pgem_block_at_b(p, o00, tw, 0);
@@ -156,8 +155,8 @@ static double pgem_linearise_se3(const pgem_t *graph, uint32_t k, pgem_edge_bloc
     return w * pgem_quadratic_form(o, e, 6);
 }
 
-double pgem_edge_linearise(const pgem_t *graph, uint32_t k, pgem_edge_blocks_t *out)
+double pgem_edge_linearise(const pgem_store_t *store, uint32_t k, pgem_edge_blocks_t *out,
+                           int tangent)
 {
-    return graph->tangent == 6 ? pgem_linearise_se3(graph, k, out)
-                               : pgem_linearise_se2(graph, k, out);
+    return tangent == 6 ? pgem_linearise_se3(store, k, out) : pgem_linearise_se2(store, k, out);
 }

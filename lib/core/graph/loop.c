@@ -1,22 +1,22 @@
-/* A loop closure's robust weight and state, read from the graph's store. */
+/* A loop closure's robust weight and state, read from the store (pgem_loop_weight and
+ * pgem_loop_state are these over the instance's store, instance/graph.c). */
 #include "graph/graph.h"
-#include "instance.h"
 
-int pgem_loop_weight(const pgem_t *graph, uint32_t index, double *weight)
+int pgem_store_loop_weight(const pgem_store_t *store, uint32_t index, double *weight)
 {
-    if (graph == NULL || weight == NULL || index >= graph->store.edge_count) {
+    if (weight == NULL || index >= store->edge_count) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    *weight = graph->store.edge_weight[index];
+    *weight = store->edge_weight[index];
     return PGEM_OK;
 }
 
-int pgem_loop_state(const pgem_t *graph, uint32_t index, pgem_loop_state_t *state)
+int pgem_store_loop_state(const pgem_store_t *store, uint32_t index, pgem_loop_state_t *state)
 {
-    if (graph == NULL || state == NULL || index >= graph->store.edge_count) {
+    if (state == NULL || index >= store->edge_count) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    switch ((pgem_edge_state_t)graph->store.edge_active[index]) {
+    switch ((pgem_edge_state_t)store->edge_active[index]) {
     case PGEM_EDGE_PRUNED:
         *state = PGEM_LOOP_PRUNED;
         break;

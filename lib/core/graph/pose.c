@@ -97,7 +97,7 @@ int pgem_add_pose(pgem_t *graph, pgem_id_t id, const double *pose)
         pgem_message_text(graph, ")");
         return PGEM_ERR_CAPACITY;
     }
-    if (pgem_map_find(graph, id) >= 0) {
+    if (pgem_map_find(&graph->store, id) >= 0) {
         pgem_message_clear(graph);
         pgem_message_text(graph, "pose id ");
         pgem_message_u64(graph, id);
@@ -116,7 +116,7 @@ int pgem_add_pose(pgem_t *graph, pgem_id_t id, const double *pose)
     memcpy(graph->store.pose + (size_t)index * (size_t)graph->pose_size, checked,
            (size_t)graph->pose_size * sizeof(double));
     graph->store.pose_fixed[index] = 0;
-    pgem_map_insert(graph, id, index);
+    pgem_map_insert(&graph->store, id, index);
     graph->store.pose_count++;
     graph->store.topology++;
     pgem_message_clear(graph);
@@ -149,7 +149,7 @@ static int pgem_hold(pgem_t *graph, pgem_id_t id, uint8_t flag)
     if (graph == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    int64_t index = pgem_map_find(graph, id);
+    int64_t index = pgem_map_find(&graph->store, id);
     if (index < 0) {
         return pgem_unknown_pose(graph, id);
     }
@@ -173,7 +173,7 @@ int pgem_pose_index(const pgem_t *graph, pgem_id_t id, uint32_t *index)
     if (graph == NULL || index == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    int64_t found = pgem_map_find(graph, id);
+    int64_t found = pgem_map_find(&graph->store, id);
     if (found < 0) {
         return PGEM_ERR_UNKNOWN_ID;
     }
@@ -186,7 +186,7 @@ int pgem_get_pose(const pgem_t *graph, pgem_id_t id, double *pose)
     if (graph == NULL || pose == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    int64_t index = pgem_map_find(graph, id);
+    int64_t index = pgem_map_find(&graph->store, id);
     if (index < 0) {
         return PGEM_ERR_UNKNOWN_ID;
     }
@@ -201,7 +201,7 @@ int pgem_set_pose(pgem_t *graph, pgem_id_t id, const double *pose)
     if (graph == NULL || pose == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    int64_t index = pgem_map_find(graph, id);
+    int64_t index = pgem_map_find(&graph->store, id);
     if (index < 0) {
         return pgem_unknown_pose(graph, id);
     }

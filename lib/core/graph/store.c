@@ -1,6 +1,5 @@
 /* The graph layer's part of the block: the pose and edge arrays and the id map's slots. */
 #include "graph/graph.h"
-#include "instance.h"
 
 /* Slots of the id map: a power of two, at least twice the poses (and 16). */
 static uint32_t pgem_map_slots(uint32_t max_poses)
@@ -12,17 +11,17 @@ static uint32_t pgem_map_slots(uint32_t max_poses)
     return slots;
 }
 
-void pgem_store_carve(pgem_t *graph, pgem_arena_t *arena)
+void pgem_store_carve(pgem_store_t *store, const pgem_config_t *config, int pose_doubles,
+                      int edge_rows, pgem_arena_t *arena)
 {
-    pgem_store_t *store = &graph->store;
-    const size_t poses = graph->config.max_poses;
-    const size_t edges = graph->config.max_edges;
-    const size_t pose_size = (size_t)graph->pose_size;
-    const size_t tangent = (size_t)graph->tangent;
+    const size_t poses = config->max_poses;
+    const size_t edges = config->max_edges;
+    const size_t pose_size = (size_t)pose_doubles;
+    const size_t tangent = (size_t)edge_rows;
     store->pose_id = pgem_arena_take(arena, poses, sizeof(pgem_id_t));
     store->pose = pgem_arena_take(arena, poses * pose_size, sizeof(double));
     store->pose_fixed = pgem_arena_take(arena, poses, 1);
-    store->map_mask = pgem_map_slots(graph->config.max_poses) - 1u;
+    store->map_mask = pgem_map_slots(config->max_poses) - 1u;
     store->map_slot = pgem_arena_take(arena, (size_t)store->map_mask + 1u, sizeof(uint32_t));
     store->edge_from = pgem_arena_take(arena, edges, sizeof(uint32_t));
     store->edge_to = pgem_arena_take(arena, edges, sizeof(uint32_t));

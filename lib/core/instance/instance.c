@@ -72,7 +72,7 @@ static void pgem_carve(pgem_t *graph, pgem_arena_t *arena, pgem_memory_parts_t *
     pgem_memory_parts_t taken;
     pgem_online_carve_state(graph, arena); /* beside struct pgem, in the instance's part */
     size_t mark = arena->used;
-    pgem_store_carve(graph, arena);
+    pgem_store_carve(&graph->store, &graph->config, graph->pose_size, graph->tangent, arena);
     taken.graph = arena->used - mark;
     mark = arena->used;
     pgem_solver_carve(graph, arena);

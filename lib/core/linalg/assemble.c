@@ -66,7 +66,7 @@ static inline double pgem_assemble_edges(pgem_t *graph, int n)
         }
         const int from = pose_block[graph->store.edge_from[k]];
         const int to = pose_block[graph->store.edge_to[k]];
-        chi2 += pgem_edge_linearise(graph, k, &blocks);
+        chi2 += pgem_edge_linearise(&graph->store, k, &blocks, graph->tangent);
         if (from >= 0) {
             pgem_add_diagonal(linear, n, from, blocks.from_from, blocks.gradient_from);
         }
@@ -134,7 +134,7 @@ static inline void pgem_left_out_edges(const pgem_t *graph, int n, const double 
             linear->edge_offset[k] >= 0) {
             continue;
         }
-        (void)pgem_edge_linearise(graph, k, &blocks);
+        (void)pgem_edge_linearise(&graph->store, k, &blocks, graph->tangent);
         const double *xf = x + (ptrdiff_t)from * n, *xt = x + (ptrdiff_t)to * n;
         double *yf = y + (ptrdiff_t)from * n, *yt = y + (ptrdiff_t)to * n;
         for (int r = 0; r < n; r++) {

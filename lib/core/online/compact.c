@@ -335,7 +335,7 @@ static void pgem_compact_close(pgem_compactor_t *c, const pgem_compact_options_t
     store->edge_count = edges;
     memset(store->map_slot, 0, ((size_t)store->map_mask + 1u) * sizeof(uint32_t));
     for (uint32_t p = 0; p < poses; p++) {
-        pgem_map_insert(graph, store->pose_id[p], p);
+        pgem_map_insert(store, store->pose_id[p], p);
     }
     memset(graph->robust.edge_distance, 0, (size_t)graph->config.max_edges * sizeof(double));
     memset(graph->robust.edge_checked, 0, graph->config.max_edges);

@@ -12,7 +12,7 @@ void pgem_robust_reset(pgem_t *graph)
         return;
     }
     graph->store.revision++; /* the weights change: the covariance calls' factor is old */
-    (void)pgem_pose_release_parts(graph, 0u); /* every part is joined as the caller made it */
+    (void)pgem_pose_release_parts(&graph->store, 0u); /* every part is joined as the caller made it */
     uint32_t returned = 0;
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         returned += graph->store.edge_active[k] != PGEM_EDGE_ACTIVE;

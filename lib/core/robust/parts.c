@@ -18,10 +18,10 @@ void pgem_robust_hold_parts(pgem_t *graph)
 void pgem_robust_parts_settled(pgem_t *graph, int succeeded, pgem_robust_summary_t *summary)
 {
     if (!succeeded) {
-        (void)pgem_pose_release_parts(graph, (uint8_t)PGEM_POSE_PART_NEW);
+        (void)pgem_pose_release_parts(&graph->store, (uint8_t)PGEM_POSE_PART_NEW);
         return;
     }
-    (void)pgem_pose_release_parts(graph, 0u);
+    (void)pgem_pose_release_parts(&graph->store, 0u);
     summary->parts_held = pgem_linear_unheld_parts(graph, 0, (uint8_t)PGEM_POSE_PART);
 }
 

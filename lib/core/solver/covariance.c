@@ -45,7 +45,7 @@ static int pgem_covariance_current(pgem_t *graph)
 
 int pgem_covariance_pose(pgem_t *graph, pgem_id_t id, uint32_t *p)
 {
-    const int64_t index = pgem_map_find(graph, id);
+    const int64_t index = pgem_map_find(&graph->store, id);
     if (index < 0) {
         pgem_message_clear(graph);
         pgem_message_text(graph, "no pose with id ");

@@ -222,7 +222,7 @@ uint32_t pgem_linear_unheld_parts(pgem_t *graph, int every_edge, uint8_t flag)
         }
         unheld++;
         if (flag != 0u) {
-            pgem_pose_hold_part(graph, (uint32_t)lowest[p], flag);
+            pgem_pose_hold_part(&graph->store, (uint32_t)lowest[p], flag);
         }
     }
     return unheld;
