@@ -237,11 +237,23 @@ foreach(pair IN LISTS team_false)
 endforeach()
 pgem_ok(team_em optimize team.g2o --robust em -o team_result.g2o --weights team_w.txt --json)
 contains(team_em "${team_em_err}" "1000 poses, 1239 edges (996 odometry, 243 loop closures)")
-expect("${team_em_out}" status PGEM_OK parts_held 1)
-nested("${team_em_out}" 2000000 held_poses 0)
+# each robot placed in the frame its agreeing loops imply: EM rejects exactly the false loops
+expect("${team_em_out}" status PGEM_OK frames_placed 3 rejected 20)
+if(team_em_out MATCHES "parts_held")
+  fail("team: a part held although every robot was placed: ${team_em_out}")
+endif()
 pgem_ok(team_eval eval team_result.g2o --reference team_truth.g2o --outliers team.g2o.outliers
         --weights team_w.txt --json)
-expect("${team_eval_out}" outliers 20 false_negatives 0)
+expect("${team_eval_out}" outliers 20 false_negatives 0 false_positives 0)
+# without the frames, EM judges robot 2's loops from its origin and holds it there
+pgem_ok(team_off optimize team.g2o --robust em --frames off --json)
+expect("${team_off_out}" status PGEM_OK parts_held 1)
+nested("${team_off_out}" 2000000 held_poses 0)
+if(team_off_out MATCHES "frames_placed")
+  fail("team: --frames off placed a part: ${team_off_out}")
+endif()
+pgem_fails(2 frames_value "--frames takes on or off, got 'maybe'" optimize team.g2o --robust em
+           --frames maybe)
 pgem_fails(2 robots_9 "--robots takes 1 to 8, got 9" simulate --robots 9 -o bad.g2o)
 pgem_fails(2 robots_poses "5 poses cannot be split across 3 robots" simulate --robots 3
            --poses 5 -o bad.g2o)

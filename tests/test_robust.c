@@ -810,6 +810,126 @@ static void test_pruning_that_splits_the_graph_holds_the_part(void **state)
     pgem_destroy(graph);
 }
 
+/* Two robots, each from its own origin (issue 36, item 2): robot A (ids 0..19) holds the
+ * gauge; robot B (ids 1000..1019) starts at the identity while its true frame is
+ * (40, -25, 2.5) in A's. Odometry and true loops are exact; the false inter-robot loops are
+ * far from any frame the true ones agree on. */
+#define TEAM_POSES 20
+static const int team_true[4][2] = {{3, 4}, {8, 10}, {12, 6}, {17, 15}};
+static const int team_false[3][2] = {{5, 2}, {10, 18}, {15, 12}};
+static const double team_false_z[3][3] = {{3.0, 7.0, 2.0}, {-6.0, 1.0, -1.2}, {2.0, -9.0, 0.4}};
+
+static pgem_t *two_robots(int true_loops, int false_loops, double *truth)
+{
+    pgem_t *graph = test_create(2, 2 * TEAM_POSES, 2 * TEAM_POSES + 8);
+    double information[9]; /* 0.05 m and 0.01 rad, as pgem simulate's */
+    test_diagonal_information(3, 400.0, information);
+    information[8] = 1e4;
+    const double frame[3] = {40.0, -25.0, 2.5}, steps[2][3] = {{1.0, 0.0, 0.1}, {1.0, 0.0, -0.08}};
+    for (int robot = 0; robot < 2; robot++) {
+        double local[3] = {0.0, 0.0, 0.0};
+        for (int k = 0; k < TEAM_POSES; k++) {
+            double *world = truth + 3 * (robot * TEAM_POSES + k);
+            if (robot == 0) {
+                memcpy(world, local, sizeof local);
+            } else {
+                pgem_se2_compose(frame, local, world);
+            }
+            const pgem_id_t id = (pgem_id_t)(robot * 1000 + k);
+            assert_int_equal(pgem_add_pose(graph, id, local), PGEM_OK);
+            if (k > 0) {
+                assert_int_equal(pgem_add_edge(graph, id - 1u, id, steps[robot], information,
+                                               PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+            }
+            pgem_se2_compose(local, steps[robot], local);
+        }
+    }
+    for (int k = 0; k < true_loops; k++) {
+        double z[3];
+        pgem_se2_between(truth + 3 * team_true[k][0], truth + 3 * (TEAM_POSES + team_true[k][1]), z);
+        assert_int_equal(pgem_add_edge(graph, (pgem_id_t)team_true[k][0], (pgem_id_t)(1000 + team_true[k][1]),
+                                       z, information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
+    }
+    for (int k = 0; k < false_loops; k++) {
+        assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(1000 + team_false[k][1]), (pgem_id_t)team_false[k][0],
+                                       team_false_z[k], information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
+    }
+    return graph;
+}
+
+static void test_robot_frame_from_agreeing_loops(void **state)
+{
+    (void)state;
+    double truth[3 * 2 * TEAM_POSES], after[3 * 2 * TEAM_POSES];
+    pgem_t *graph = two_robots(4, 3, truth);
+    pgem_robust_summary_t summary;
+    assert_int_equal(pgem_robust_optimize(graph, NULL, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.frames_placed, 1);
+    assert_int_equal(summary.parts_held, 0);
+    assert_int_equal(summary.rejected, 3);
+    for (uint32_t k = 2 * TEAM_POSES - 2; k < 2 * TEAM_POSES + 5; k++) { /* the true loops */
+        pgem_edge_view_t edge;
+        assert_int_equal(pgem_edge_at(graph, k, &edge), PGEM_OK);
+        assert_int_equal(edge.active, k < 2 * TEAM_POSES + 2);
+    }
+    test_snapshot(graph, after);
+    for (int k = 0; k < 3 * 2 * TEAM_POSES; k++) {
+        assert_near(after[k], truth[k], 1e-6);
+    }
+    pgem_destroy(graph);
+    /* without the stage, the same EM judges the loops from B's origin and loses B */
+    graph = two_robots(4, 3, truth);
+    pgem_robust_options_t options = em_options();
+    options.frames = -1;
+    assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+    assert_int_equal(summary.frames_placed, 0);
+    test_snapshot(graph, after);
+    double worst = 0.0;
+    for (int k = 3 * TEAM_POSES; k < 3 * 2 * TEAM_POSES; k++) {
+        worst = fmax(worst, fabs(after[k] - truth[k]));
+    }
+    assert_true(worst > 1.0);
+    pgem_destroy(graph);
+}
+
+/* Loops that agree on no frame move nothing (the part stays where its odometry put it for
+ * EM to judge them), and a graph of one part is never touched. */
+static void test_robot_frame_needs_agreeing_loops(void **state)
+{
+    (void)state;
+    double truth[3 * 2 * TEAM_POSES], before[3 * 2 * TEAM_POSES], after[3 * 2 * TEAM_POSES];
+    pgem_t *graph = two_robots(0, 3, truth);
+    const pgem_robust_options_t options = pgem_robust_resolve(NULL);
+    test_snapshot(graph, before);
+    assert_int_equal(pgem_robust_frames(graph, &options), 0);
+    test_snapshot(graph, after);
+    assert_memory_equal(before, after, sizeof before);
+    pgem_destroy(graph);
+    /* one true loop and one false one: they disagree, nothing moves */
+    graph = two_robots(1, 1, truth);
+    test_snapshot(graph, before);
+    assert_int_equal(pgem_robust_frames(graph, &options), 0);
+    test_snapshot(graph, after);
+    assert_memory_equal(before, after, sizeof before);
+    pgem_destroy(graph);
+    /* a single loop places its robot where it says */
+    graph = two_robots(1, 0, truth);
+    assert_int_equal(pgem_robust_frames(graph, &options), 1);
+    test_snapshot(graph, after);
+    for (int k = 0; k < 3 * 2 * TEAM_POSES; k++) {
+        assert_near(after[k], truth[k], 1e-9);
+    }
+    pgem_destroy(graph);
+    double ring_truth[3 * RING];
+    graph = ring(5, ring_truth);
+    double ring_before[3 * RING], ring_after[3 * RING];
+    test_snapshot(graph, ring_before);
+    assert_int_equal(pgem_robust_frames(graph, &options), 0);
+    test_snapshot(graph, ring_after);
+    assert_memory_equal(ring_before, ring_after, sizeof ring_before);
+    pgem_destroy(graph);
+}
+
 /* NaN or Inf in a robust option (or in the solve options it passes on) is refused by name. */
 static void test_non_finite_robust_options_refused(void **state)
 {
@@ -1258,6 +1378,8 @@ int main(void)
         cmocka_unit_test(test_dormant_loops_keep_the_factor_sparse),
         cmocka_unit_test(test_consistency_gate_prunes_what_em_keeps),
         cmocka_unit_test(test_pruning_that_splits_the_graph_holds_the_part),
+        cmocka_unit_test(test_robot_frame_from_agreeing_loops),
+        cmocka_unit_test(test_robot_frame_needs_agreeing_loops),
         cmocka_unit_test(test_oscillating_passes_end_in_the_cycle),
         cmocka_unit_test(test_cycle_ends_at_its_cheapest_set),
         cmocka_unit_test(test_non_finite_robust_options_refused),

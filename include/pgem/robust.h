@@ -149,6 +149,12 @@ typedef struct pgem_robust_options {
     double predictable_rotation;     /**< innovation: the map predicts a loop well enough when
                                         the standard deviation of its predicted rotation is
                                         at most this (radians); 0 means 0.1 */
+    int frames;                      /**< EM: 0 (default) places each part of the graph that its
+                                        odometry alone leaves without a held pose (a team's
+                                        robot, its frame unknown) in the frame on which most of
+                                        the loops joining it to the placed parts agree, before
+                                        the first E-step (pgem_robust_summary_t.frames_placed);
+                                        a graph of one part is not touched. Negative: never */
     pgem_robust_fn on_round;         /**< may be NULL; return non-zero to stop */
     void *user;                      /**< passed to on_round */
     pgem_kernel_fn kernel_function;  /**< PGEM_KERNEL_USER: the kernel (required then; NULL
@@ -207,6 +213,8 @@ typedef struct pgem_robust_summary {
     uint32_t parts_held;             /**< parts of the graph that pruned loop closures left
                                         with no held pose, each held at its own gauge where
                                         the solve left it (pgem_robust_held_parts names them) */
+    uint32_t frames_placed;          /**< parts moved into the frame their agreeing loops imply
+                                        before the first E-step (options.frames) */
 } pgem_robust_summary_t;
 
 /** Robust solve from the current estimate. Weights and prune states are left on the edges

@@ -46,8 +46,8 @@ static void pgem_optimize_help(FILE *out, const void *context)
             "                        [--max-em-iterations N] [--gate X] [--literal]\n"
             "                        [--dormant-threshold D|off] [--distance innovation|point]\n"
             "                        [--odometry-inflation K] [--predictable-rotation R]\n"
-            "                        [--weights FILE] [--covariances FILE] [--threads N]\n"
-            "                        [--ordering O] [--quiet]\n"
+            "                        [--frames on|off] [--weights FILE] [--covariances FILE]\n"
+            "                        [--threads N] [--ordering O] [--quiet]\n"
             "                        [--json]\n"
             "\n"
             "Reads a g2o (VERTEX_SE2/EDGE_SE2, VERTEX_SE3:QUAT/EDGE_SE3:QUAT, FIX) or TORO 2D\n"
@@ -81,6 +81,11 @@ static void pgem_optimize_help(FILE *out, const void *context)
             "  --predictable-rotation R  innovation: a loop is tested by its innovation when\n"
             "                      the map predicts its rotation to R radians (default 0.1),\n"
             "                      else by its chi2 under the estimate\n"
+            "  --frames on|off     EM: place each part of the graph that its odometry\n"
+            "                      leaves without a held pose (a team's robot, each from its\n"
+            "                      own origin) in the frame most of its loops to the placed\n"
+            "                      parts agree on, before the first E-step (default on; a\n"
+            "                      graph of one part is not touched)\n"
             "  --literal           EM exactly as published: keep the EM weights at the end\n"
             "                      (default: re-solve with accepted loops at weight 1)\n"
             "  --weights FILE      write one line per loop closure: from to weight state\n"
@@ -128,6 +133,14 @@ static int pgem_optimize_robust_value(const char *name, const char *value,
     }
     if (strcmp(name, "--max-em-iterations") == 0) {
         return pgem_cli_parse_u32("pgem", name, value, &robust->max_em_iterations);
+    }
+    if (strcmp(name, "--frames") == 0) {
+        if (value != NULL && (strcmp(value, "on") == 0 || strcmp(value, "off") == 0)) {
+            robust->frames = strcmp(value, "off") == 0 ? -1 : 0;
+            return 1;
+        }
+        fprintf(stderr, "pgem optimize: --frames takes on or off, got '%s'\n", value != NULL ? value : "");
+        return 0;
     }
     if (strcmp(name, "--dormant-threshold") == 0) {
         if (value != NULL && strcmp(value, "off") == 0) {
@@ -213,7 +226,7 @@ static int pgem_optimize_parse(int argc, char **argv, pgem_optimize_args_t *args
         "--distance",
         "--robust", "--m-step-iterations", "--max-em-iterations", "--dormant-threshold",
         "--robust-scale", "--prune-threshold", "--gate", "--odometry-inflation",
-        "--predictable-rotation"};
+        "--predictable-rotation", "--frames"};
     const pgem_cli_parser_t parser = {
         "pgem optimize", valued, sizeof valued / sizeof valued[0], pgem_optimize_value,
         pgem_optimize_flag, pgem_optimize_positional, pgem_optimize_help, NULL, NULL};
@@ -474,6 +487,9 @@ static void pgem_print_json_robust_extras(const pgem_t *graph, const pgem_robust
     if (status == PGEM_OK && summary->termination != PGEM_ROBUST_CONVERGED) {
         printf(",\"termination\":\"%s\"", pgem_robust_termination_name(summary->termination));
     }
+    if (status == PGEM_OK && summary->frames_placed > 0u) {
+        printf(",\"frames_placed\":%u", summary->frames_placed);
+    }
     if (status != PGEM_OK || summary->parts_held == 0u) {
         return;
     }
@@ -500,6 +516,11 @@ static void pgem_print_robust_extras(FILE *out, const pgem_t *graph,
                      "pass; ended at the pass of the cycle with the lowest robust cost\n");
     } else if (summary->termination == PGEM_ROBUST_STOPPED) {
         fprintf(out, "  stopped before the loop closures settled\n");
+    }
+    if (summary->frames_placed > 0u) {
+        fprintf(out, "  %u part%s of the graph placed in the frame %s agreeing loop closures "
+                     "imply\n", summary->frames_placed, summary->frames_placed > 1u ? "s" : "",
+                summary->frames_placed > 1u ? "their" : "its");
     }
     if (summary->parts_held == 0u) {
         return;

@@ -52,6 +52,11 @@ int pgem_linear_check_parts(pgem_t *graph);
  * weight 0) that no held pose holds: how many, and unless flag is 0 each held at its pose with
  * the smallest id (pgem_pose_hold_part with flag). */
 uint32_t pgem_linear_unheld_parts(pgem_t *graph, int every_edge, uint8_t flag);
+/* The shared region of the factor (the analysis's scratch, the dense workspace and the solves'
+ * vectors take turns in it; none outlives its call), lent to a robust-layer stage that runs
+ * between solves (robust/frames.c): at least (3 max_edges + 4 max_poses) ints and
+ * max_poses * block^2 doubles; its size in bytes into *bytes. */
+void *pgem_linear_shared_region(pgem_t *graph, size_t *bytes);
 
 /* Assembles H and -b at the current estimate and weights; returns the weighted chi2. */
 double pgem_linear_assemble(pgem_t *graph);

@@ -179,3 +179,9 @@ uint32_t pgem_linear_nonzeros(const pgem_t *graph)
 {
     return (uint32_t)graph->linear->factor.nonzeros;
 }
+
+void *pgem_linear_shared_region(pgem_t *graph, size_t *bytes)
+{
+    *bytes = graph->linear->factor.shared_doubles * sizeof(double);
+    return graph->linear->factor.shared;
+}

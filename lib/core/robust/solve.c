@@ -96,6 +96,9 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
         status = resolved.kernel == PGEM_KERNEL_NONE ? pgem_fail_numeric(graph, "initial chi2", 0)
                                                      : pgem_prune_non_finite(graph, out);
     }
+    if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_EM && resolved.frames >= 0) {
+        out->frames_placed = pgem_robust_frames(graph, &resolved);
+    }
     if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_NONE) {
         status = pgem_plain(graph, solve, out);
     } else if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_EM && !resolved.literal) {
