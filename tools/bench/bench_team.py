@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Simulated robot teams (issue 36): ``bench_team.py PGEM [--robots 2,4,8] [--seeds 1,2,3]
-[--false 0,50] [--poses 2000] [--gtsam] [--out DIR]``.
+[--false 0,50] [--poses 2000] [--world manhattan|sphere|grid3d] [--gtsam] [--em-options OPTS]
+[--out DIR]``.
 
 Each cell is one ``pgem simulate --robots R --false-loops K`` world (the walk split across R
 robots, each robot's odometry from its own origin, an unknown frame; ids r*1000000+i), solved
@@ -77,10 +78,10 @@ def score(pgem: str, result_dir: Path, graph: Path, outliers: Path | None) -> st
 
 
 def cell(args: argparse.Namespace, robots: int, seed: int, false: int, out: Path) -> str:
-    name = f"team_r{robots}_s{seed}_f{false}"
+    name = f"team_{args.world}_r{robots}_s{seed}_f{false}"
     graph, truth = out / f"{name}.g2o", out / f"{name}_truth.g2o"
     simulate = [args.pgem, "simulate", "-o", str(graph), "--truth", str(truth), "--poses",
-                str(args.poses), "--seed", str(seed), "--robots", str(robots)]
+                str(args.poses), "--seed", str(seed), "--robots", str(robots), "--world", args.world]
     if false > 0:
         simulate += ["--false-loops", str(false)]
     run(simulate)
@@ -115,6 +116,7 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--seeds", default="1,2,3")
     parser.add_argument("--false", default="0,50")
     parser.add_argument("--poses", type=int, default=2000)
+    parser.add_argument("--world", default="manhattan", choices=("manhattan", "sphere", "grid3d"))
     parser.add_argument("--gtsam", action="store_true")
     parser.add_argument("--em-options", default="",
                         help="more options for pgem optimize, e.g. '--frames off'")

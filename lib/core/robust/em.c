@@ -35,6 +35,10 @@ int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
             return status;
         }
         const uint32_t pruned = pgem_prune(graph, options->prune_threshold);
+        if (options->frames >= 0 && (pruned > 0u || round == 1u)) {
+            /* a part left joined only by pruned loops, moved rigidly: its weights stand */
+            summary->frames_placed += pgem_robust_frames(graph, options, 1);
+        }
         summary->rounds++; /* counted across re-admission passes */
         if (pgem_report_round(graph, options, summary, &progress)) {
             return PGEM_OK;

@@ -92,19 +92,23 @@ static void pgem_frames_edge_variances(const pgem_t *graph, uint32_t k, double *
     *translation = fmax(t, PGEM_FRAMES_VARIANCE_MIN);
 }
 
-/* The parts over the edges that are not loop closures (union-find, each pose's root), and
- * along them, from each part's root, the drift each pose carries (breadth first). */
-static void pgem_frames_drift(pgem_frames_t *f)
+/* 1 if edge k joins a part: it is not a loop closure, or (with_loops) a loop in the problem. */
+static int pgem_frames_joins(const pgem_store_t *store, uint32_t k, int with_loops)
+{
+    return store->edge_kind[k] != PGEM_EDGE_LOOP ||
+           (with_loops && store->edge_active[k] != PGEM_EDGE_PRUNED && store->edge_weight[k] > 0.0);
+}
+
+/* The parts over the joining edges (union-find, each pose's root) and their adjacency. */
+static void pgem_frames_parts(pgem_frames_t *f, int with_loops)
 {
     const pgem_store_t *store = &f->graph->store;
-    const uint32_t poses = store->pose_count;
-    for (uint32_t p = 0; p < poses; p++) {
+    for (uint32_t p = 0; p < store->pose_count; p++) {
         f->part[p] = p;
         f->first[p] = -1;
-        f->drift[(size_t)3u * p + 2u] = -1.0f; /* not reached yet */
     }
     for (uint32_t k = 0; k < store->edge_count; k++) {
-        if (store->edge_kind[k] == PGEM_EDGE_LOOP) {
+        if (!pgem_frames_joins(store, k, with_loops)) {
             continue;
         }
         (void)pgem_part_join(f->part, store->edge_from[k], store->edge_to[k]);
@@ -113,8 +117,19 @@ static void pgem_frames_drift(pgem_frames_t *f)
         f->next[(size_t)2u * k + 1u] = f->first[store->edge_to[k]];
         f->first[store->edge_to[k]] = (int32_t)(2u * k + 1u);
     }
-    for (uint32_t p = 0; p < poses; p++) {
+    for (uint32_t p = 0; p < store->pose_count; p++) {
         f->part[p] = pgem_part_root(f->part, p);
+    }
+}
+
+/* Along the joining edges, from each part's root, the drift each pose carries (breadth
+ * first; the state array is the queue). */
+static void pgem_frames_drift(pgem_frames_t *f)
+{
+    const pgem_store_t *store = &f->graph->store;
+    const uint32_t poses = store->pose_count;
+    for (uint32_t p = 0; p < poses; p++) {
+        f->drift[(size_t)3u * p + 2u] = -1.0f; /* not reached yet */
     }
     for (uint32_t root = 0; root < poses; root++) {
         if (f->part[root] != root) {
@@ -394,6 +409,19 @@ static int pgem_frames_place_one(pgem_frames_t *f)
     if (chosen == PGEM_FRAMES_NONE) {
         return 0;
     }
+    /* a part that already stands where as many of its loops say stays */
+    const double identity[7] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0}; /* 2D: the first three */
+    pgem_frames_loop_t h, l;
+    (void)pgem_frames_side(f, (uint32_t)f->next[chosen_best], &h);
+    uint32_t staying = 0;
+    for (uint32_t j = chosen_first; j < (uint32_t)f->first[chosen]; j++) {
+        (void)pgem_frames_side(f, (uint32_t)f->next[j], &l);
+        staying += (uint32_t)(pgem_frames_distance(f, &h, &l, identity) <= f->gate);
+    }
+    if (staying >= chosen_votes) {
+        f->state[chosen] = PGEM_FRAMES_PLACED;
+        return 1;
+    }
     double frame[7];
     pgem_frames_refine(f, chosen_first, (uint32_t)f->first[chosen], chosen_best, frame);
     for (int c = 0; c < f->graph->pose_size; c++) {
@@ -412,7 +440,7 @@ static int pgem_frames_place_one(pgem_frames_t *f)
     return 2;
 }
 
-uint32_t pgem_robust_frames(pgem_t *graph, const pgem_robust_options_t *options)
+uint32_t pgem_robust_frames(pgem_t *graph, const pgem_robust_options_t *options, int with_loops)
 {
     const pgem_store_t *store = &graph->store;
     const size_t max_poses = graph->config.max_poses, max_edges = graph->config.max_edges;
@@ -431,7 +459,7 @@ uint32_t pgem_robust_frames(pgem_t *graph, const pgem_robust_options_t *options)
     f.loop_var = (float *)(void *)graph->robust.edge_distance;
     f.inflation = options->odometry_inflation;
     f.gate = pgem_em_gate_value(graph, options);
-    pgem_frames_drift(&f);
+    pgem_frames_parts(&f, with_loops);
     /* the parts that hold a pose the caller holds are placed; the others are to place */
     uint32_t placed = 0, unplaced = 0;
     for (uint32_t p = 0; p < store->pose_count; p++) {
@@ -450,6 +478,15 @@ uint32_t pgem_robust_frames(pgem_t *graph, const pgem_robust_options_t *options)
     }
     if (placed == 0u || unplaced == 0u) {
         return 0;
+    }
+    pgem_frames_drift(&f); /* (its queue is the state array: the states again after it) */
+    for (uint32_t p = 0; p < store->pose_count; p++) {
+        f.state[p] = PGEM_FRAMES_UNPLACED;
+    }
+    for (uint32_t p = 0; p < store->pose_count; p++) {
+        if (PGEM_POSE_HELD(store, p) || store->pose_fixed[p] == PGEM_POSE_GAUGE) {
+            f.state[f.part[p]] = PGEM_FRAMES_PLACED;
+        }
     }
     for (uint32_t k = 0; k < store->edge_count; k++) {
         if (store->edge_kind[k] == PGEM_EDGE_LOOP) {

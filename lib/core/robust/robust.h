@@ -72,10 +72,12 @@ void pgem_restore_initial(pgem_t *graph);
  * or, after a failure, the ones from before the call. */
 void pgem_robust_hold_parts(pgem_t *graph);
 void pgem_robust_parts_settled(pgem_t *graph, int succeeded, pgem_robust_summary_t *summary);
-/* The frames of the parts that odometry alone leaves without a held pose (a team's robots,
- * robust/frames.c): before EM's first E-step, each is moved into the frame on which most of
- * the loops that join it to the placed parts agree; returns how many parts were moved. */
-uint32_t pgem_robust_frames(pgem_t *graph, const pgem_robust_options_t *options);
+/* The frames of a team's robots (robust/frames.c): each part of the graph without a held pose
+ * (over the edges that are not loop closures, before EM's first E-step; with_loops: over them
+ * and the loops in the problem, after a round's pruning left a part joined only by pruned
+ * loops) is moved into the frame on which most of the loops joining it to the placed parts
+ * agree, unless as many agree where it stands; returns how many parts were moved. */
+uint32_t pgem_robust_frames(pgem_t *graph, const pgem_robust_options_t *options, int with_loops);
 
 /* The summary's termination, unless an earlier stop by on_round already set it. */
 static inline void pgem_robust_ended(pgem_robust_summary_t *summary,

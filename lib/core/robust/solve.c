@@ -97,7 +97,7 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
                                                      : pgem_prune_non_finite(graph, out);
     }
     if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_EM && resolved.frames >= 0) {
-        out->frames_placed = pgem_robust_frames(graph, &resolved);
+        out->frames_placed = pgem_robust_frames(graph, &resolved, 0);
     }
     if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_NONE) {
         status = pgem_plain(graph, solve, out);
