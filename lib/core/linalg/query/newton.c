@@ -1,14 +1,16 @@
 /* The Newton step: the factor's solve, then, when the assembly left couplings out of the
  * structure (dormant loop closures), conjugate gradients on the whole matrix H + D with the
- * factor of H as preconditioner, so the step is the exact one (to a relative residual of
- * 1e-13) however sparse the factor was kept. No allocation: the vectors live in the shared
- * region (linalg/factor/factor.h) and the LM gradient copy. */
+ * factor of H as preconditioner, to a relative residual of 1e-6 however sparse the factor was
+ * kept. Dormant loops exist only in EM's M-steps, one Gauss-Newton iteration each between
+ * E-steps that move the weights far more than that; the polish, which gives the result, has
+ * none, so its steps are the factor's own (docs/design/robust-em.md). No allocation: the
+ * vectors live in the shared region (linalg/factor/factor.h) and the LM gradient copy. */
 #include <math.h>
 #include <string.h>
 
 #include "linalg/linear.h"
 
-#define PGEM_NEWTON_TOLERANCE 1e-13
+#define PGEM_NEWTON_TOLERANCE 1e-6
 #define PGEM_NEWTON_ITERATIONS 200
 
 static double pgem_dot(const double *a, const double *b, int count)
