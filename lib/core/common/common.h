@@ -50,7 +50,8 @@ void pgem_text_append(char *text, size_t size, const char *piece);
 void pgem_text_u64(char *text, size_t size, uint64_t value);
 void pgem_text_i64(char *text, size_t size, int64_t value);
 
-/* Small dense matrices, n <= PGEM_SMALL_MAX, row-major (common/small.c). */
+/* Small dense matrices, n <= PGEM_SMALL_MAX, row-major (common/small.c): every dense block the
+ * core factors, solves or inverts outside the sparse factors. */
 #define PGEM_SMALL_MAX 6
 /* out = op(a) op(b), op the transpose where asked; out must not alias a or b. */
 void pgem_small_product(const double *a, int transpose_a, const double *b, int transpose_b,
@@ -59,5 +60,21 @@ void pgem_small_product(const double *a, int transpose_a, const double *b, int t
 void pgem_small_apply(const double *a, int transpose, const double *v, double *out, int n);
 /* out = a^-1 (Gauss-Jordan with partial pivoting); 0, out undefined, if a is singular. */
 int pgem_small_inverse(const double *a, double *out, int n);
+/* out = a^-1 for a symmetric positive definite a: Gauss-Jordan on the diagonal pivots, each
+ * row divided by its pivot (the online gate's Omega^-1); 0, out undefined, if a pivot is not
+ * positive. Not merged with pgem_small_inverse: its pivoting and reciprocal change the last
+ * bits of the gate's distances. */
+int pgem_small_inverse_definite(const double *a, double *out, int n);
+/* Cholesky of a symmetric n x n matrix in place (row-major), from its upper triangle: the
+ * upper factor U with a = U^T U, row by row, the strictly lower triangle zeroed; read by
+ * column, the array holds the lower factor L = U^T. A pivot (before its root) that is not
+ * above `least`, or not finite, stops it when `strict` and its index is returned (the matrix
+ * part factored); when not strict it is raised to `least` (a zero root zeroes the rest of
+ * its row). Returns -1 when every pivot passed. */
+int pgem_small_cholesky(double *a, int n, double least, int strict);
+/* x = U^-1 x in place for an upper-triangular U (row-major) with a non-zero diagonal. */
+void pgem_small_upper_solve(const double *u, double *x, int n);
+/* e^T (U^T U)^-1 e = |U^-T e|^2 for U from pgem_small_cholesky (a's quadratic form). */
+double pgem_small_form(const double *u, const double *e, int n);
 
 #endif /* PGEM_COMMON_LAYER_H */

@@ -1,5 +1,6 @@
-/* Small dense matrices (n <= 6, row-major): the products, matrix times vector and the inverse
- * the composition of two edges needs. */
+/* Small dense matrices (n <= 6, row-major): products, matrix times vector, the inverses (the
+ * composition of two edges, the online gate), Cholesky, triangular solves and a quadratic
+ * form (information checks, whitening, the innovation tests, the online factor's blocks). */
 #include <math.h>
 
 #include "common/common.h"
@@ -77,4 +78,90 @@ int pgem_small_inverse(const double *a, double *out, int n)
         }
     }
     return 1;
+}
+
+int pgem_small_inverse_definite(const double *a, double *out, int n)
+{
+    double work[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
+    if (n < 1 || n > PGEM_SMALL_MAX) {
+        return 0;
+    }
+    for (int q = 0; q < n * n; q++) {
+        work[q] = a[q];
+        out[q] = q / n == q % n ? 1.0 : 0.0;
+    }
+    for (int c = 0; c < n; c++) {
+        const double pivot = work[c * n + c];
+        if (!(pivot > 0.0)) {
+            return 0;
+        }
+        for (int m = 0; m < n; m++) {
+            work[c * n + m] /= pivot;
+            out[c * n + m] /= pivot;
+        }
+        for (int r = 0; r < n; r++) {
+            if (r == c) {
+                continue;
+            }
+            const double f = work[r * n + c];
+            for (int m = 0; m < n; m++) {
+                work[r * n + m] -= f * work[c * n + m];
+                out[r * n + m] -= f * out[c * n + m];
+            }
+        }
+    }
+    return 1;
+}
+
+int pgem_small_cholesky(double *a, int n, double least, int strict)
+{
+    for (int j = 0; j < n; j++) {
+        double pivot = a[j * n + j];
+        for (int k = 0; k < j; k++) {
+            pivot -= a[k * n + j] * a[k * n + j];
+        }
+        if (strict && (!(pivot > least) || !isfinite(pivot))) {
+            return j;
+        }
+        const double root = sqrt(pivot > least ? pivot : least);
+        a[j * n + j] = root;
+        for (int i = j + 1; i < n; i++) {
+            double value = a[j * n + i];
+            for (int k = 0; k < j; k++) {
+                value -= a[k * n + j] * a[k * n + i];
+            }
+            a[j * n + i] = root > 0.0 ? value / root : 0.0;
+        }
+    }
+    for (int i = 1; i < n; i++) {
+        for (int j = 0; j < i; j++) {
+            a[i * n + j] = 0.0;
+        }
+    }
+    return -1;
+}
+
+void pgem_small_upper_solve(const double *u, double *x, int n)
+{
+    for (int r = n - 1; r >= 0; r--) {
+        double sum = x[r];
+        for (int c = r + 1; c < n; c++) {
+            sum -= u[r * n + c] * x[c];
+        }
+        x[r] = sum / u[r * n + r];
+    }
+}
+
+double pgem_small_form(const double *u, const double *e, int n)
+{
+    double y[PGEM_SMALL_MAX], form = 0.0;
+    for (int r = 0; r < n; r++) { /* y = U^-T e, then |y|^2 */
+        double sum = e[r];
+        for (int m = 0; m < r; m++) {
+            sum -= u[m * n + r] * y[m];
+        }
+        y[r] = sum / u[r * n + r];
+        form += y[r] * y[r];
+    }
+    return form;
 }

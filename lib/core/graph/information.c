@@ -34,32 +34,17 @@ static double pgem_largest_magnitude(const double *matrix, int n)
     return largest;
 }
 
-/* Dense Cholesky on a copy; returns the first failing pivot or -1. */
+/* Cholesky on a copy, from the lower triangle (copied into the upper one); returns the first
+ * pivot not above floor, or -1. */
 static int pgem_first_bad_pivot(const double *matrix, int n, double floor)
 {
-    double work[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    for (int k = 0; k < n * n; k++) {
-        work[k] = matrix[k];
-    }
-    for (int j = 0; j < n; j++) {
-        double pivot = work[j * n + j];
-        for (int k = 0; k < j; k++) {
-            pivot -= work[j * n + k] * work[j * n + k];
-        }
-        if (!(pivot > floor)) {
-            return j;
-        }
-        double root = sqrt(pivot);
-        work[j * n + j] = root;
-        for (int i = j + 1; i < n; i++) {
-            double value = work[i * n + j];
-            for (int k = 0; k < j; k++) {
-                value -= work[i * n + k] * work[j * n + k];
-            }
-            work[i * n + j] = value / root;
+    double work[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    for (int i = 0; i < n; i++) {
+        for (int j = 0; j < n; j++) {
+            work[j * n + i] = matrix[i * n + j];
         }
     }
-    return -1;
+    return pgem_small_cholesky(work, n, floor, 1);
 }
 
 int pgem_information_check(const double *information, int n, int *entry)

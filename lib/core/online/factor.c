@@ -301,18 +301,6 @@ int pgem_online_append(pgem_t *graph, uint32_t p, double seed)
     return PGEM_OK;
 }
 
-/* x = D^-T x. */
-static void pgem_online_upper_solve(const double *diagonal, int b, double *x)
-{
-    for (int c = b - 1; c >= 0; c--) {
-        double sum = x[c];
-        for (int r = c + 1; r < b; r++) {
-            sum -= diagonal[c * b + r] * x[r];
-        }
-        x[c] = sum / diagonal[c * b + c];
-    }
-}
-
 /* Recomputes column j's step; returns its largest change. */
 static double pgem_online_back_column(pgem_online_t *online, int j)
 {
@@ -330,7 +318,7 @@ static double pgem_online_back_column(pgem_online_t *online, int j)
             x[c] -= sum;
         }
     }
-    pgem_online_upper_solve(pgem_online_block(online, online->start[j]), b, x);
+    pgem_small_upper_solve(pgem_online_block(online, online->start[j]), x, b); /* D^-T x */
     double largest = 0.0;
     double *d = online->delta + (size_t)j * (size_t)b;
     for (int c = 0; c < b; c++) {
@@ -527,10 +515,8 @@ void pgem_online_carve_state(pgem_t *graph, pgem_arena_t *arena)
 void pgem_online_carve(pgem_t *graph, pgem_arena_t *arena)
 {
     pgem_online_t probe; /* what a measuring pass (or a failed carve) fills instead */
+    memset(&probe, 0, sizeof probe);
     pgem_online_t *online = graph->online != NULL ? graph->online : &probe;
-    if (online == &probe) {
-        memset(online, 0, sizeof *online);
-    }
     const size_t poses = graph->config.max_poses, edges = graph->config.max_edges;
     const size_t b = (size_t)graph->tangent;
     online->block = (int)b;

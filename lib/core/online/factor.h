@@ -110,9 +110,6 @@ int pgem_online_rank_update(pgem_t *graph, const int *columns, int column_count,
                             int rank);
 /* Appends a block column for pose p with diagonal block sqrt(seed) I and no rows. */
 int pgem_online_append(pgem_t *graph, uint32_t p, double seed);
-/* Cholesky of an n x n symmetric block in place: its lower factor by column (the upper
- * triangle zeroed); 0 if not positive definite. Read by row, the result is U with A = U^T U. */
-int pgem_online_cholesky(double *d, int n);
 /* Pool block of block row i in column j (its diagonal block for i == j), or -1. */
 int pgem_online_find(const pgem_online_t *online, int j, int i);
 /* Marks touched the columns whose values relinearising the `count` poses listed changes

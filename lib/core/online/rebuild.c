@@ -23,7 +23,7 @@ void pgem_online_edge(const pgem_t *graph, uint32_t k, const double *from, const
      * checked positive definite when the edge was added); rows of sqrt(w) U J, sqrt(w) U e */
     const double *o = graph->store.edge_information + (size_t)k * (size_t)(n * n);
     memcpy(u, o, (size_t)(n * n) * sizeof(double));
-    (void)pgem_online_cholesky(u, n);
+    (void)pgem_small_cholesky(u, n, 0.0, 1);
     const double root = sqrt(weight);
     for (int r = 0; r < n; r++) {
         double er = 0.0;
@@ -327,34 +327,6 @@ static void pgem_online_assemble_touched(pgem_t *graph, const int *touched, int 
     }
 }
 
-int pgem_online_cholesky(double *d, int b)
-{
-    for (int c = 0; c < b; c++) {
-        double pivot = d[c * b + c];
-        for (int m = 0; m < c; m++) {
-            pivot -= d[m * b + c] * d[m * b + c];
-        }
-        if (!(pivot > 0.0) || !isfinite(pivot)) {
-            return 0;
-        }
-        pivot = sqrt(pivot);
-        d[c * b + c] = pivot;
-        for (int r = c + 1; r < b; r++) {
-            double sum = d[c * b + r];
-            for (int m = 0; m < c; m++) {
-                sum -= d[m * b + r] * d[m * b + c];
-            }
-            d[c * b + r] = sum / pivot;
-        }
-    }
-    for (int c = 0; c < b; c++) {
-        for (int r = 0; r < c; r++) {
-            d[c * b + r] = 0.0; /* the upper triangle stays zero */
-        }
-    }
-    return 1;
-}
-
 /* target -= L_id L_jd^T for b x b blocks (column-major), the lower triangle only on the
  * diagonal block; inlined with b a constant below, so the compiler unrolls it. */
 static inline void pgem_online_subtract_block(double *target, const double *lid,
@@ -454,7 +426,7 @@ static int pgem_online_numeric(pgem_t *graph, int columns, int partial)
             d = after;
         }
         double *diagonal = online->values + (size_t)first * bb;
-        if (!pgem_online_cholesky(diagonal, b)) {
+        if (pgem_small_cholesky(diagonal, b, 0.0, 1) >= 0) {
             pgem_message_clear(graph);
             pgem_message_text(graph, "the online factor is not positive definite at pose index ");
             pgem_message_u64(graph, (uint64_t)online->column_pose[j]);

@@ -338,19 +338,10 @@ static int pgem_update_relinearise_due(pgem_t *graph, double threshold, int limi
  * if S is not positive definite. */
 static double pgem_update_quadratic(double *s, const double *e, int n)
 {
-    if (!pgem_online_cholesky(s, n)) {
+    if (pgem_small_cholesky(s, n, 0.0, 1) >= 0) {
         return (double)INFINITY;
     }
-    double x[PGEM_TANGENT_SIZE_MAX], sum = 0.0;
-    for (int r = 0; r < n; r++) { /* x = L^-1 e, L(r, m) at s[m n + r]; e^T S^-1 e = |x|^2 */
-        double v = e[r];
-        for (int m = 0; m < r; m++) {
-            v -= s[m * n + r] * x[m];
-        }
-        x[r] = v / s[r * n + r];
-        sum += x[r] * x[r];
-    }
-    return sum;
+    return pgem_small_form(s, e, n);
 }
 
 /* Loop k's innovation distance under the factor and the current estimate: e^T (Omega^-1 +
@@ -362,7 +353,7 @@ static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation
     double e[PGEM_TANGENT_SIZE_MAX], jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double s[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0.0};
-    double covariance[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0.0};
+    double covariance[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX]; /* Omega^-1 */
     pgem_edge_error(graph, k, e, jf, jt);
     pgem_online_marginal(graph, online->pose_column[graph->store.edge_from[k]],
                          online->pose_column[graph->store.edge_to[k]], jf, jt, n, s);
@@ -375,7 +366,6 @@ static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation
         *plain = (double)INFINITY;
         return (double)INFINITY;
     }
-    /* invert Omega by Gauss-Jordan on a copy (n <= 6) */
     const double *o = graph->store.edge_information + (size_t)k * (size_t)(n * n);
     *plain = 0.0; /* e^T Omega e: the loop's chi2 with the map taken as certain */
     for (int r = 0; r < n; r++) {
@@ -383,32 +373,8 @@ static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation
             *plain += e[r] * o[r * n + c] * e[c];
         }
     }
-    double a[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    memcpy(a, o, (size_t)(n * n) * sizeof(double));
-    for (int r = 0; r < n; r++) {
-        for (int c = 0; c < n; c++) {
-            covariance[r * n + c] = r == c ? 1.0 : 0.0;
-        }
-    }
-    for (int c = 0; c < n; c++) {
-        const double pivot = a[c * n + c];
-        if (!(pivot > 0.0)) {
-            return (double)INFINITY;
-        }
-        for (int m = 0; m < n; m++) {
-            a[c * n + m] /= pivot;
-            covariance[c * n + m] /= pivot;
-        }
-        for (int r = 0; r < n; r++) {
-            if (r == c) {
-                continue;
-            }
-            const double f = a[r * n + c];
-            for (int m = 0; m < n; m++) {
-                a[r * n + m] -= f * a[c * n + m];
-                covariance[r * n + m] -= f * covariance[c * n + m];
-            }
-        }
+    if (!pgem_small_inverse_definite(o, covariance, n)) {
+        return (double)INFINITY;
     }
     for (int q = 0; q < n * n; q++) {
         s[q] = covariance[q] + inflation * s[q];

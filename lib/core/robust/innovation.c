@@ -23,22 +23,8 @@
  * (checked when the edge was added). */
 static void pgem_information_root(const double *information, int n, double *upper)
 {
-    memset(upper, 0, (size_t)(n * n) * sizeof(double));
-    for (int j = 0; j < n; j++) {
-        double pivot = information[j * n + j];
-        for (int k = 0; k < j; k++) {
-            pivot -= upper[k * n + j] * upper[k * n + j];
-        }
-        const double root = sqrt(pivot > 0.0 ? pivot : 0.0);
-        upper[j * n + j] = root;
-        for (int i = j + 1; i < n; i++) {
-            double value = information[j * n + i];
-            for (int k = 0; k < j; k++) {
-                value -= upper[k * n + j] * upper[k * n + i];
-            }
-            upper[j * n + i] = root > 0.0 ? value / root : 0.0;
-        }
-    }
+    memcpy(upper, information, (size_t)(n * n) * sizeof(double));
+    (void)pgem_small_cholesky(upper, n, 0.0, 0);
 }
 
 /* out = U X for upper-triangular U and X (n x n row-major). */
@@ -140,13 +126,10 @@ static double pgem_rotation_sd(int n, const double *upper, const double *mu0, co
     double variance = 0.0;
     for (int i = 0; i < n; i++) {
         double g[PGEM_TANGENT_SIZE_MAX] = {0}; /* U^-1 v_i */
-        for (int r = n - 1; r >= 0; r--) {
-            double sum = vectors[r * n + i];
-            for (int c = r + 1; c < n; c++) {
-                sum -= upper[r * n + c] * g[c];
-            }
-            g[r] = upper[r * n + r] > 0.0 ? sum / upper[r * n + r] : 0.0;
+        for (int r = 0; r < n; r++) {
+            g[r] = vectors[r * n + i];
         }
+        pgem_small_upper_solve(upper, g, n);
         for (int r = n == 3 ? 2 : 3; r < n; r++) { /* the rotation rows: theta, or 3..5 */
             variance += mu0[i] * g[r] * g[r];
         }
@@ -208,30 +191,18 @@ void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double infla
     out->rotation_sd = pgem_rotation_sd(n, upper, mu0, vectors);
 }
 
-/* p^T (I + m)^-1 p for a symmetric positive semi-definite n x n m, by Cholesky of I + m. */
+/* p^T (I + m)^-1 p for a symmetric positive semi-definite n x n m, by Cholesky of I + m from
+ * its lower triangle (its pivots at least 1). */
 static double pgem_shifted_form(int n, const double *m, const double *p)
 {
-    double l[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    double y[PGEM_TANGENT_SIZE_MAX] = {0};
-    for (int j = 0; j < n; j++) {
-        for (int i = j; i < n; i++) {
-            double sum = m[i * n + j] + (i == j ? 1.0 : 0.0);
-            for (int c = 0; c < j; c++) {
-                sum -= l[i * n + c] * l[j * n + c];
-            }
-            l[i * n + j] = i == j ? sqrt(sum > 1.0 ? sum : 1.0) : sum / l[j * n + j];
-        }
-    }
-    double form = 0.0;
+    double u[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     for (int i = 0; i < n; i++) {
-        double sum = p[i];
-        for (int c = 0; c < i; c++) {
-            sum -= l[i * n + c] * y[c];
+        for (int j = 0; j < n; j++) {
+            u[j * n + i] = m[i * n + j] + (i == j ? 1.0 : 0.0);
         }
-        y[i] = sum / l[i * n + i];
-        form += y[i] * y[i];
     }
-    return form;
+    (void)pgem_small_cholesky(u, n, 1.0, 0);
+    return pgem_small_form(u, p, n);
 }
 
 int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, double *distance)

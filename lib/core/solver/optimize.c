@@ -139,18 +139,6 @@ static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_sum
     return PGEM_OK;
 }
 
-int pgem_check_option(pgem_t *graph, double value, const char *name)
-{
-    if (isfinite(value)) {
-        return PGEM_OK;
-    }
-    pgem_message_clear(graph);
-    pgem_message_text(graph, "option ");
-    pgem_message_text(graph, name);
-    pgem_message_text(graph, " is not a finite number");
-    return PGEM_ERR_INVALID_ARGUMENT;
-}
-
 /* A NaN would slip past every "0 means the default" test below and stop the solve from ever
  * converging (or, as a damping, poison the matrix): refused, naming the option. */
 int pgem_check_solve_options(pgem_t *graph, const pgem_solve_options_t *options)

@@ -1,6 +1,6 @@
 /* The solver layer, private to lib/core: Gauss-Newton and Levenberg-Marquardt over the linalg
- * layer's calls, with the estimate copies they keep (graph->solver) and the option checks the
- * robust layer shares. */
+ * layer's calls, with the estimate copies they keep (graph->solver) and the solve options'
+ * check. */
 #ifndef PGEM_SOLVER_LAYER_H
 #define PGEM_SOLVER_LAYER_H
 
@@ -15,9 +15,6 @@ typedef struct pgem_solver_state {
 /* Carves the solver's arrays from the arena (measuring when arena->base is NULL). */
 void pgem_solver_carve(pgem_t *graph, pgem_arena_t *arena);
 
-/* PGEM_ERR_INVALID_ARGUMENT with "option NAME is not a finite number" unless value is finite
- * (solver/optimize.c). */
-int pgem_check_option(pgem_t *graph, double value, const char *name);
 /* The method and every double of solve options (NULL: fine), as pgem_optimize checks them. */
 int pgem_check_solve_options(pgem_t *graph, const pgem_solve_options_t *options);
 
