@@ -105,6 +105,25 @@ if(EXISTS "${WORK}/refused.g2o" OR EXISTS "${WORK}/refused.g2o.outliers")
   fail("--information not positive definite: files were written")
 endif()
 
+# corrupt --shift: an attacker's group measures the input's relative poses with the second
+# stretch moved by one rigid shift, so with a zero shift its loops fit the input's estimates
+# exactly and the chi2 there is the clean graph's; a shift of the wrong size is refused.
+pgem_ok(ref_chi2 optimize sim_ref.g2o --max-iterations 0 --json --quiet)
+json_value("${ref_chi2_out}" initial_chi2 clean_chi2)
+pgem_ok(shift_zero corrupt sim_ref.g2o -o shift0.g2o --policy random-grouped --count 20
+        --group-size 20 --seed 2 --shift 0,0,0)
+pgem_ok(shift_chi2 optimize shift0.g2o --max-iterations 0 --json --quiet)
+equals("${shift_chi2_out}" initial_chi2 "${clean_chi2}") # as printed, 10 digits
+pgem_ok(shift_some corrupt sim_ref.g2o -o shift1.g2o --policy random-grouped --count 20
+        --group-size 20 --seed 2 --shift 5,5,1)
+pgem_ok(shift_some_chi2 optimize shift1.g2o --max-iterations 0 --json --quiet)
+json_value("${shift_some_chi2_out}" initial_chi2 shifted_chi2)
+if(NOT shifted_chi2 GREATER clean_chi2)
+  fail("--shift 5,5,1: chi2 ${shifted_chi2} not above the clean ${clean_chi2}")
+endif()
+pgem_fails(2 shift_size "--shift '1,2': 2 numbers; a 2D graph takes 3" corrupt sim.g2o
+           -o never.g2o --policy random-grouped --count 1 --seed 1 --shift 1,2)
+
 # corrupt: an unreadable input is exit 3 (as in every verb); a group of 0 is refused with a
 # message; a graph too small for false loops leaves no files behind.
 pgem_fails(3 unreadable "cannot open" corrupt missing.g2o -o never.g2o --policy random

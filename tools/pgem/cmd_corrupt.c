@@ -20,6 +20,7 @@ typedef struct corrupt_args {
     uint32_t group_size;         /* consecutive loops per group (grouped policies) */
     uint32_t seed;               /* random seed */
     const char *information;     /* --information text, or NULL: copy the first loop's */
+    const char *shift;           /* --shift text, or NULL: random measurements */
 } corrupt_args_t;
 
 static const char *const corrupt_policy_names[] = {"random", "local", "random-grouped", "local-grouped"};
@@ -36,6 +37,7 @@ static void corrupt_help(FILE *out, const void *context)
     fprintf(out,
             "usage: pgem corrupt IN -o OUT --policy random|local|random-grouped|local-grouped\n"
             "                    --count K [--group-size G] --seed S [--information V]\n"
+            "                    [--shift D]\n"
             "\n"
             "Appends K false loop closures after the original edges (the protocol of Suenderhauf &\n"
             "Protzel): random joins two uniformly random poses, local a pose and one within %d\n"
@@ -44,7 +46,13 @@ static void corrupt_help(FILE *out, const void *context)
             "uniform in +-10 m, any rotation); information is copied from the file's first loop\n"
             "closure (or its first edge), or given with --information V: one number (a diagonal\n"
             "matrix) or the upper triangle row by row as in g2o (6 numbers in 2D, 21 in 3D),\n"
-            "separated by commas. Writes OUT and OUT.outliers (one 'from to' per line).\n"
+            "separated by commas. --shift D makes an attacker's loops instead: every false loop\n"
+            "measures the relative pose of the input's estimates with its second pose moved by the\n"
+            "same rigid shift D, expressed in the frame of its group's first pose (2D: x,y,theta;\n"
+            "3D: x,y,z,rx,ry,rz, rotation as angle-axis), so a group agrees with itself and with\n"
+            "the odometry on both stretches, and only the path between its ends contradicts it\n"
+            "(corrupt an optimised graph for the true relative poses).\n"
+            "Writes OUT and OUT.outliers (one 'from to' per line).\n"
             "The same input and seed always give the same output.\n",
             CORRUPT_LOCAL_SPAN);
 }
@@ -83,7 +91,9 @@ static int corrupt_value(void *user, const char *name, const char *value)
     if (strcmp(name, "--group-size") == 0) {
         return pgem_cli_parse_at_least("pgem corrupt", name, value, 1u, "loop", &args->group_size);
     }
-    const char **field = strcmp(name, "-o") == 0 ? &args->output : &args->information;
+    const char **field = strcmp(name, "-o") == 0          ? &args->output
+                         : strcmp(name, "--shift") == 0 ? &args->shift
+                                                        : &args->information;
     return pgem_cli_text_value("pgem corrupt", name, value, "a value", field);
 }
 
@@ -96,11 +106,12 @@ static int corrupt_positional(void *user, const char *argument)
 static int corrupt_parse(int argc, char **argv, corrupt_args_t *args)
 {
     static const char *const valued[] = {"-o",     "--policy",      "--count",
-                                         "--seed", "--group-size",  "--information"};
+                                         "--seed", "--group-size",  "--information",
+                                         "--shift"};
     const pgem_cli_parser_t parser = {
         "pgem corrupt", valued, sizeof valued / sizeof valued[0], corrupt_value, NULL,
         corrupt_positional, corrupt_help, NULL, NULL};
-    *args = (corrupt_args_t){NULL, NULL, CORRUPT_RANDOM, 0u, 10u, 0u, NULL};
+    *args = (corrupt_args_t){NULL, NULL, CORRUPT_RANDOM, 0u, 10u, 0u, NULL, NULL};
     corrupt_parsed_t parsed = {args, 0, 0, 0};
     const int status = pgem_cli_parse_args(&parser, &parsed, argc, argv);
     if (status != 0) {
@@ -133,6 +144,32 @@ static void corrupt_pair(uint64_t *rng, const corrupt_args_t *args, size_t poses
     } while (*second + 1u >= *first && *first + 1u >= *second); /* not a self-loop or odometry */
 }
 
+/* Up to `most` finite numbers separated by commas from `text` (option `option`); prints an
+ * error and returns -1 when malformed, else how many. */
+static int corrupt_numbers(const char *option, const char *text, double *values, int most)
+{
+    int count = 0;
+    const char *cursor = text;
+    while (1) {
+        char *end;
+        double value = strtod(cursor, &end);
+        if (end == cursor || !isfinite(value) || count == most) {
+            fprintf(stderr, "pgem corrupt: %s '%s': expected at most %d finite numbers separated by commas\n",
+                    option, text, most);
+            return -1;
+        }
+        values[count++] = value;
+        if (*end == '\0') {
+            return count;
+        }
+        if (*end != ',') {
+            fprintf(stderr, "pgem corrupt: %s '%s': unexpected '%c' after number %d\n", option, text, *end, count);
+            return -1;
+        }
+        cursor = end + 1;
+    }
+}
+
 /* --information: one value (diagonal) or the upper triangle, comma-separated, into a full
  * row-major n x n matrix. Prints an error and returns 0 when it is malformed or fails the
  * check the core applies when an edge is added ("not positive definite"). */
@@ -140,25 +177,9 @@ static int corrupt_parse_information(const char *text, int dimension, double *in
 {
     const int n = dimension == 2 ? 3 : 6, triangle = n * (n + 1) / 2;
     double values[21];
-    int count = 0;
-    const char *cursor = text;
-    while (1) {
-        char *end;
-        double value = strtod(cursor, &end);
-        if (end == cursor || !isfinite(value) || count == triangle) {
-            fprintf(stderr, "pgem corrupt: --information '%s': expected 1 or %d finite numbers separated by commas\n",
-                    text, triangle);
-            return 0;
-        }
-        values[count++] = value;
-        if (*end == '\0') {
-            break;
-        }
-        if (*end != ',') {
-            fprintf(stderr, "pgem corrupt: --information '%s': unexpected '%c' after number %d\n", text, *end, count);
-            return 0;
-        }
-        cursor = end + 1;
+    const int count = corrupt_numbers("--information", text, values, triangle);
+    if (count < 0) {
+        return 0;
     }
     if (count != 1 && count != triangle) {
         fprintf(stderr, "pgem corrupt: --information '%s': %d numbers; a %dD graph takes 1 or %d\n", text,
@@ -177,6 +198,60 @@ static int corrupt_parse_information(const char *text, int dimension, double *in
         return 0;
     }
     return 1;
+}
+
+/* --shift: 3 numbers in 2D (x, y, theta), 6 in 3D (x, y, z and an angle-axis rotation), into
+ * a pose. Prints an error and returns 0 when malformed. */
+static int corrupt_parse_shift(const char *text, int dimension, double shift[PGEM_POSE_SIZE_MAX])
+{
+    const int want = dimension == 2 ? 3 : 6;
+    double values[6];
+    const int count = corrupt_numbers("--shift", text, values, want);
+    if (count < 0) {
+        return 0;
+    }
+    if (count != want) {
+        fprintf(stderr, "pgem corrupt: --shift '%s': %d numbers; a %dD graph takes %d\n", text, count,
+                dimension, want);
+        return 0;
+    }
+    memcpy(shift, values, 3u * sizeof *shift);
+    if (dimension == 2) {
+        shift[2] = pgem_wrap_angle(values[2]);
+    } else {
+        pgem_so3_exp(values + 3, shift + 3);
+    }
+    return 1;
+}
+
+static void corrupt_compose(int dimension, const double *a, const double *b, double *out)
+{
+    if (dimension == 2) {
+        pgem_se2_compose(a, b, out);
+    } else {
+        pgem_se3_compose(a, b, out);
+    }
+}
+
+/* The attacker's measurement from pose `from` to pose `to` of a group based at pose `base`:
+ * from^-1 (base shift base^-1) to, the relative pose with `to` moved rigidly by the shift
+ * expressed in the base's frame. */
+static void corrupt_shifted(int dimension, const double *base, const double *shift, const double *from,
+                            const double *to, double *measurement)
+{
+    double moved[PGEM_POSE_SIZE_MAX], relative[PGEM_POSE_SIZE_MAX];
+    if (dimension == 2) {
+        pgem_se2_between(base, to, relative);
+    } else {
+        pgem_se3_between(base, to, relative);
+    }
+    corrupt_compose(dimension, shift, relative, moved);
+    corrupt_compose(dimension, base, moved, moved);
+    if (dimension == 2) {
+        pgem_se2_between(from, moved, measurement);
+    } else {
+        pgem_se3_between(from, moved, measurement);
+    }
 }
 
 static const pgem_io_edge_t *corrupt_template(const pgem_io_graph_t *graph)
@@ -206,7 +281,7 @@ static int corrupt_possible(const corrupt_args_t *args, const pgem_io_graph_t *g
 }
 
 /* Appends the false loops to the graph's edge array and writes their pairs to `outliers`. */
-static int corrupt_apply(const corrupt_args_t *args, const double *information,
+static int corrupt_apply(const corrupt_args_t *args, const double *information, const double *shift,
                          pgem_io_graph_t *graph, FILE *outliers)
 {
     const size_t group = corrupt_group(args);
@@ -231,6 +306,10 @@ static int corrupt_apply(const corrupt_args_t *args, const double *information,
             *edge = model;
             edge->from = graph->poses[first + g].id;
             edge->to = graph->poses[second + g].id;
+            if (shift != NULL) {
+                corrupt_shifted(graph->dimension, graph->poses[first].pose, shift, graph->poses[first + g].pose,
+                                graph->poses[second + g].pose, edge->measurement);
+            }
             edge->kind = PGEM_EDGE_LOOP;
             edge->line = 0;
             fprintf(outliers, "%llu %llu\n", (unsigned long long)edge->from, (unsigned long long)edge->to);
@@ -262,14 +341,19 @@ int pgem_cmd_corrupt(int argc, char **argv)
         pgem_io_graph_free(&graph);
         return PGEM_EXIT_USAGE;
     }
+    double shift[PGEM_POSE_SIZE_MAX] = {0};
+    if (args.shift != NULL && !corrupt_parse_shift(args.shift, graph.dimension, shift)) {
+        pgem_io_graph_free(&graph);
+        return PGEM_EXIT_USAGE;
+    }
     snprintf(outliers_path, sizeof outliers_path, "%s.outliers", args.output);
     pgem_cli_file_t outliers;
     if (pgem_cli_file_open(&outliers, "pgem corrupt", outliers_path) != 0) {
         pgem_io_graph_free(&graph);
         return PGEM_EXIT_IO;
     }
-    status = corrupt_apply(&args, args.information != NULL ? information : NULL, &graph,
-                           outliers.stream);
+    status = corrupt_apply(&args, args.information != NULL ? information : NULL,
+                           args.shift != NULL ? shift : NULL, &graph, outliers.stream);
     if (status == PGEM_EXIT_OK) {
         status = pgem_cli_write_graph("pgem corrupt", &graph, args.output);
     }

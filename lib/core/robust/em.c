@@ -56,10 +56,10 @@ int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
 }
 
 /* From EM's rounds: the polish, then under the polished estimate the consistency test, and
- * the polish and test again while it changes any loop's state; when it changes none and the
- * outcome is degenerate (most loops rejected: the map rests on a few, and a false run among
- * them bends it), the leave-run-out test, and the next pass if it pruned a run (bounded by
- * max_rounds passes). Ends polished. No EM rounds run between passes: the test decides each
+ * the polish and test again while it changes any loop's state; when it changes none, on a
+ * degenerate outcome (most loops rejected: the map rests on a few, and a false run among them
+ * bends it) the leave-run-out test, on any other the leave-group-out test (robust/groups.c),
+ * and the next pass if it pruned a run or group (bounded by max_rounds passes). Ends polished. No EM rounds run between passes: the test decides each
  * loop against the leave-one-out prediction of the polished map, which is what the rounds'
  * innovation E-steps converged to, at a tenth of their cost (docs/design/robust-em.md). */
 static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *later,
@@ -84,7 +84,8 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *later,
             break;
         }
         if (pgem_em_gate(graph, later, gate, summary) == 0u &&
-            (!pgem_most_rejected(graph) || pgem_em_leave_run_out(graph, summary, &status) == 0u)) {
+            (pgem_most_rejected(graph) ? pgem_em_leave_run_out(graph, summary, &status)
+                                       : pgem_em_leave_group_out(graph, summary, &status)) == 0u) {
             pgem_robust_ended(summary, PGEM_ROBUST_CONVERGED);
             break;
         }

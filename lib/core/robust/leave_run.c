@@ -23,18 +23,13 @@ static double pgem_run_chi2(const pgem_t *graph, const pgem_loop_run_t *run)
     return chi2;
 }
 
-/* How much the chi2 falls when the run leaves, from the polished estimate: the chi2 of the
- * rest there, less the decrease the Gauss-Newton model of the rest predicts (exact for a
- * linear problem); the estimate is not moved. *status set if the factor fails. */
-static double pgem_run_fall(pgem_t *graph, const pgem_loop_run_t *run, int *status)
+double pgem_model_minimum(pgem_t *graph, int *status)
 {
-    const double with = pgem_weighted_chi2(graph);
-    pgem_run_set(graph, run, PGEM_RUN_ACCEPTED, 0.0, PGEM_RUN_KEEP_STATE); /* no contribution */
     pgem_robust_hold_parts(graph);
     *status = pgem_analyze(graph);
-    double rest = 0.0, gain = 0.0;
+    double chi2 = 0.0, gain = 0.0;
     if (*status == PGEM_OK) {
-        rest = pgem_linear_assemble(graph);
+        chi2 = pgem_linear_assemble(graph);
         pgem_linear_keep_gradient(graph);
         *status = pgem_linear_factor(graph);
     }
@@ -44,8 +39,19 @@ static double pgem_run_fall(pgem_t *graph, const pgem_loop_run_t *run, int *stat
     if (*status == PGEM_OK) {
         gain = pgem_linear_predicted_gain(graph, 0.0);
     }
+    return chi2 - gain;
+}
+
+/* How much the chi2 falls when the run leaves, from the polished estimate: the chi2 of the
+ * rest there, less the decrease the Gauss-Newton model of the rest predicts (exact for a
+ * linear problem); the estimate is not moved. *status set if the factor fails. */
+static double pgem_run_fall(pgem_t *graph, const pgem_loop_run_t *run, int *status)
+{
+    const double with = pgem_weighted_chi2(graph);
+    pgem_run_set(graph, run, PGEM_RUN_ACCEPTED, 0.0, PGEM_RUN_KEEP_STATE); /* no contribution */
+    const double fall = with - pgem_model_minimum(graph, status);
     pgem_run_set(graph, run, PGEM_RUN_ACCEPTED, 1.0, PGEM_RUN_KEEP_STATE);
-    return with - (rest - gain);
+    return fall;
 }
 
 uint32_t pgem_em_leave_run_out(pgem_t *graph, pgem_robust_summary_t *summary, int *status)

@@ -62,11 +62,7 @@ static void pgem_run_alone(pgem_t *graph, const pgem_loop_run_t *run)
  * chi-square distribution with the redundancy's degrees of freedom (Wilson-Hilferty). */
 static int pgem_adjustment_consistent(const pgem_t *graph)
 {
-    uint32_t rows = 0;
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        rows += graph->store.edge_active[k] != PGEM_EDGE_PRUNED ? (uint32_t)graph->tangent : 0u;
-    }
-    const double dof = (double)rows - (double)pgem_linear_unknowns(graph);
+    const double dof = pgem_redundancy(graph);
     if (!(dof > 0.0)) {
         return 0;
     }

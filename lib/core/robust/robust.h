@@ -150,9 +150,14 @@ static inline int pgem_share_most_rejected(uint32_t rejected, uint32_t loops)
 }
 /* 1 if more than PGEM_MOST_REJECTED of the loops (and at least one) are pruned. */
 int pgem_most_rejected(const pgem_t *graph);
+/* The adjustment's redundancy: rows of the edges not pruned (weight 0 included) less the
+ * unknowns. */
+double pgem_redundancy(const pgem_t *graph);
 /* The 99.9% quantile of the chi-square distribution with dof degrees of freedom
  * (Wilson-Hilferty). */
 double pgem_chi2_quantile(double dof);
+/* The 0.1% quantile (Wilson-Hilferty; 0 where the approximation goes below 0). */
+double pgem_chi2_lower_quantile(double dof);
 /* When every loop was rejected (robust/rescue.c): the longest runs of loops along a revisit,
  * tried alone from the initial estimate; *rescued = 1 and the run active, polished, if one
  * passes the adjustment's global chi-square test, else every loop pruned and polished again. */
@@ -163,6 +168,16 @@ int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust
  * would make the chi2 fall by more than the 99.9% quantile for its rows is pruned at weight
  * 0; returns 1 if one was (0 if none: the estimate is not moved). */
 uint32_t pgem_em_leave_run_out(pgem_t *graph, pgem_robust_summary_t *summary, int *status);
+/* The minimum of the Gauss-Newton model of the adjustment at the current estimate and weights
+ * (robust/leave_run.c): its chi2 less the decrease a step would bring, exact for a linear
+ * problem; the estimate is not moved (one factorisation). *status set if the factor fails. */
+double pgem_model_minimum(pgem_t *graph, int *status);
+/* The leave-group-out test (robust/groups.c), after a consistency test that changed nothing on
+ * any other outcome: a run of loops (any state) is a group, tested through its accepted
+ * members; the group that fails its test by the largest factor is pruned at weight 0; returns
+ * 1 if one was (0 if none: the estimate is not moved). A factorisation that fails decides
+ * nothing (*status stays PGEM_OK). */
+uint32_t pgem_em_leave_group_out(pgem_t *graph, pgem_robust_summary_t *summary, int *status);
 /* The consistency test (robust/gate.c): the gate, then the loops it re-admits or prunes under
  * the current (polished) estimate; returns how many changed state. */
 double pgem_em_gate_value(const pgem_t *graph, const pgem_robust_options_t *options);

@@ -76,6 +76,13 @@ double pgem_chi2_quantile(double dof)
     return dof * cube * cube * cube;
 }
 
+double pgem_chi2_lower_quantile(double dof)
+{
+    const double spread = sqrt(2.0 / (9.0 * dof));
+    const double cube = 1.0 - 2.0 / (9.0 * dof) - PGEM_RUN_Z * spread;
+    return cube > 0.0 ? dof * cube * cube * cube : 0.0;
+}
+
 int pgem_most_rejected(const pgem_t *graph)
 {
     uint32_t loops = 0, accepted = 0;
@@ -86,4 +93,13 @@ int pgem_most_rejected(const pgem_t *graph)
         }
     }
     return pgem_share_most_rejected(loops - accepted, loops);
+}
+
+double pgem_redundancy(const pgem_t *graph)
+{
+    uint32_t rows = 0;
+    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+        rows += graph->store.edge_active[k] != PGEM_EDGE_PRUNED ? (uint32_t)graph->tangent : 0u;
+    }
+    return (double)rows - (double)pgem_linear_unknowns(graph);
 }
