@@ -12,99 +12,102 @@
 
 #include "bridge_internal.h"
 #include "pgem/io.h"
+#include "pgem_compaction_t.h"
 
 int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
 {
     const pgem_bridge_options_t *o = &bridge->options;
-    memset(&bridge->core_config, 0, sizeof bridge->core_config);
-    bridge->core_config.dimension = o->dimension;
-    bridge->core_config.max_poses = o->max_poses;
-    bridge->core_config.max_edges = o->max_edges;
-    bridge->core_config.fill_budget = o->fill_budget;
+    memset(&bridge->solver.core_config, 0, sizeof bridge->solver.core_config);
+    bridge->solver.core_config.dimension = o->dimension;
+    bridge->solver.core_config.max_poses = o->max_poses;
+    bridge->solver.core_config.max_edges = o->max_edges;
+    bridge->solver.core_config.fill_budget = o->fill_budget;
     if (!o->full) { /* the incremental factor's room: twice the core's default fill */
         const uint64_t b = (uint64_t)PGEM_TANGENT_SIZE(o->dimension);
         const uint64_t fill = 2u * (uint64_t)PGEM_DEFAULT_FILL_PER_POSE * b * b * o->max_poses;
-        bridge->core_config.online_fill = fill > (uint64_t)INT32_MAX ? (uint32_t)INT32_MAX
+        bridge->solver.core_config.online_fill = fill > (uint64_t)INT32_MAX ? (uint32_t)INT32_MAX
                                                                        : (uint32_t)fill;
     }
-    bridge->core_block_size = pgem_memory_size(&bridge->core_config);
-    if (bridge->core_block_size == 0) {
+    bridge->solver.core_block_size = pgem_memory_size(&bridge->solver.core_config);
+    if (bridge->solver.core_block_size == 0) {
         snprintf(message, message_size, "invalid capacities (%u poses, %u edges, fill %u)",
                  (unsigned)o->max_poses, (unsigned)o->max_edges, (unsigned)o->fill_budget);
         return -1;
     }
-    bridge->core_block = malloc(bridge->core_block_size);
+    bridge->solver.core_block = malloc(bridge->solver.core_block_size);
     size_t poses = o->max_poses;
     size_t edges = o->max_edges;
     size_t sources = o->max_sources;
     size_t pose_size = (size_t)PGEM_POSE_SIZE(o->dimension);
-    bridge->edge_source = calloc(edges, sizeof *bridge->edge_source);
-    bridge->edge_sequence = calloc(edges, sizeof *bridge->edge_sequence);
-    bridge->source_last = calloc(sources, sizeof *bridge->source_last);
-    bridge->anchored = calloc(poses, 1);
-    bridge->user_fixed = calloc(poses, 1);
-    bridge->gauge_fixed = calloc(poses, 1);
-    bridge->component = calloc(poses, sizeof *bridge->component);
-    bridge->component_anchor = calloc(poses, sizeof *bridge->component_anchor);
-    bridge->raw = calloc(poses * pose_size, sizeof *bridge->raw);
-    bridge->part_edges = calloc(poses, 1);
-    bridge->compact_pose_map = calloc(poses, sizeof *bridge->compact_pose_map);
-    bridge->compact_edge_map = calloc(edges, sizeof *bridge->compact_edge_map);
-    bridge->compact_ids = calloc(poses, sizeof *bridge->compact_ids);
-    bridge->compact_anchors = calloc(poses, sizeof *bridge->compact_anchors);
-    bridge->compact_relative = calloc(poses * pose_size, sizeof *bridge->compact_relative);
-    bridge->compact_before = calloc(poses * pose_size, sizeof *bridge->compact_before);
-    bridge->compact_edges = calloc(edges, sizeof *bridge->compact_edges);
-    bridge->out_ids = calloc(poses, sizeof *bridge->out_ids);
-    bridge->out_last_anchor = calloc(poses, sizeof *bridge->out_last_anchor);
-    bridge->out_values = calloc(poses * pose_size, sizeof *bridge->out_values);
-    bridge->out_rows = calloc(poses, sizeof *bridge->out_rows);
-    bridge->out_loops = calloc(edges, sizeof *bridge->out_loops);
-    bridge->out_sources = calloc(sources, sizeof *bridge->out_sources);
-    bridge->out_last = calloc(sources, sizeof *bridge->out_last);
-    if (bridge->core_block == NULL || bridge->edge_source == NULL ||
-        bridge->edge_sequence == NULL || bridge->source_last == NULL ||
-        bridge->anchored == NULL || bridge->user_fixed == NULL || bridge->gauge_fixed == NULL ||
-        bridge->component == NULL || bridge->component_anchor == NULL || bridge->raw == NULL || bridge->part_edges == NULL ||
-        bridge->out_ids == NULL || bridge->out_last_anchor == NULL || bridge->out_values == NULL ||
-        bridge->out_rows == NULL || bridge->out_loops == NULL || bridge->out_sources == NULL ||
-        bridge->out_last == NULL || bridge->compact_pose_map == NULL ||
-        bridge->compact_edge_map == NULL || bridge->compact_ids == NULL ||
-        bridge->compact_anchors == NULL || bridge->compact_relative == NULL ||
-        bridge->compact_before == NULL ||
-        bridge->compact_edges == NULL) {
+    bridge->solver.edge_source = calloc(edges, sizeof *bridge->solver.edge_source);
+    bridge->solver.edge_sequence = calloc(edges, sizeof *bridge->solver.edge_sequence);
+    bridge->solver.source_last = calloc(sources, sizeof *bridge->solver.source_last);
+    bridge->solver.anchored = calloc(poses, 1);
+    bridge->solver.user_fixed = calloc(poses, 1);
+    bridge->solver.gauge_fixed = calloc(poses, 1);
+    bridge->solver.component = calloc(poses, sizeof *bridge->solver.component);
+    bridge->solver.component_anchor = calloc(poses, sizeof *bridge->solver.component_anchor);
+    bridge->solver.raw = calloc(poses * pose_size, sizeof *bridge->solver.raw);
+    bridge->solver.part_edges = calloc(poses, 1);
+    bridge->solver.compact_pose_map = calloc(poses, sizeof *bridge->solver.compact_pose_map);
+    bridge->solver.compact_edge_map = calloc(edges, sizeof *bridge->solver.compact_edge_map);
+    bridge->solver.compact_ids = calloc(poses, sizeof *bridge->solver.compact_ids);
+    bridge->solver.compact_anchors = calloc(poses, sizeof *bridge->solver.compact_anchors);
+    bridge->solver.compact_relative = calloc(poses * pose_size, sizeof *bridge->solver.compact_relative);
+    bridge->solver.compact_before = calloc(poses * pose_size, sizeof *bridge->solver.compact_before);
+    bridge->solver.compact_edges = calloc(edges, sizeof *bridge->solver.compact_edges);
+    bridge->solver.out_ids = calloc(poses, sizeof *bridge->solver.out_ids);
+    bridge->solver.out_last_anchor = calloc(poses, sizeof *bridge->solver.out_last_anchor);
+    bridge->solver.out_values = calloc(poses * pose_size, sizeof *bridge->solver.out_values);
+    bridge->solver.out_rows = calloc(poses, sizeof *bridge->solver.out_rows);
+    bridge->solver.out_loops = calloc(edges, sizeof *bridge->solver.out_loops);
+    bridge->solver.out_sources = calloc(sources, sizeof *bridge->solver.out_sources);
+    bridge->solver.out_names = calloc(sources, PGEM_SOURCE_MAX);
+    bridge->solver.out_last = calloc(sources, sizeof *bridge->solver.out_last);
+    if (bridge->solver.core_block == NULL || bridge->solver.edge_source == NULL ||
+        bridge->solver.edge_sequence == NULL || bridge->solver.source_last == NULL ||
+        bridge->solver.anchored == NULL || bridge->solver.user_fixed == NULL || bridge->solver.gauge_fixed == NULL ||
+        bridge->solver.component == NULL || bridge->solver.component_anchor == NULL || bridge->solver.raw == NULL || bridge->solver.part_edges == NULL ||
+        bridge->solver.out_ids == NULL || bridge->solver.out_last_anchor == NULL || bridge->solver.out_values == NULL ||
+        bridge->solver.out_rows == NULL || bridge->solver.out_loops == NULL || bridge->solver.out_sources == NULL ||
+        bridge->solver.out_names == NULL ||
+        bridge->solver.out_last == NULL || bridge->solver.compact_pose_map == NULL ||
+        bridge->solver.compact_edge_map == NULL || bridge->solver.compact_ids == NULL ||
+        bridge->solver.compact_anchors == NULL || bridge->solver.compact_relative == NULL ||
+        bridge->solver.compact_before == NULL ||
+        bridge->solver.compact_edges == NULL) {
         snprintf(message, message_size, "out of memory for %u poses and %u edges",
                  (unsigned)o->max_poses, (unsigned)o->max_edges);
         return -1;
     }
     for (size_t i = 0; i < poses; ++i) {
-        bridge->out_rows[i] = bridge->out_values + i * pose_size;
+        bridge->solver.out_rows[i] = bridge->solver.out_values + i * pose_size;
     }
     for (size_t s = 0; s < sources; ++s) {
-        bridge->source_last[s] = -1;
+        bridge->solver.source_last[s] = -1;
     }
     bridge_components_reset(bridge);
-    int status = pgem_init(&bridge->core, &bridge->core_config, bridge->core_block,
-                           bridge->core_block_size);
+    int status = pgem_init(&bridge->solver.core, &bridge->solver.core_config, bridge->solver.core_block,
+                           bridge->solver.core_block_size);
     if (status != PGEM_OK) {
         snprintf(message, message_size, "cannot initialise the core: %s",
                  pgem_error_name(status));
         return -1;
     }
-    bridge->pass_on = !o->full && !o->no_live_em && o->robust.kernel != PGEM_KERNEL_NONE;
-    if (bridge->pass_on && bridge_pass_init(&bridge->pass, &bridge->core_config, &o->robust,
-                                            &bridge->lock, &bridge->wake, message,
+    bridge->solver.pass_on = !o->full && !o->no_live_em && o->robust.kernel != PGEM_KERNEL_NONE;
+    if (bridge->solver.pass_on && bridge_pass_init(&bridge->solver.pass, &bridge->solver.core_config, &o->robust,
+                                            &bridge->handoff.lock, &bridge->handoff.wake, message,
                                             message_size) != 0) {
-        bridge->pass_on = 0;
+        bridge->solver.pass_on = 0;
         return -1;
     }
     if (!o->full) { /* the settle's way back: sized once, for the capacities */
-        bridge->settle_save_size = pgem_update_save_size(bridge->core);
-        bridge->settle_save = malloc(bridge->settle_save_size);
-        bridge->settle_anchored = malloc(poses + 1u);
-        bridge->settle_gauge = malloc(poses + 1u);
-        if (bridge->settle_save == NULL || bridge->settle_anchored == NULL ||
-            bridge->settle_gauge == NULL) {
+        bridge->solver.settle_save_size = pgem_update_save_size(bridge->solver.core);
+        bridge->solver.settle_save = malloc(bridge->solver.settle_save_size);
+        bridge->solver.settle_anchored = malloc(poses + 1u);
+        bridge->solver.settle_gauge = malloc(poses + 1u);
+        if (bridge->solver.settle_save == NULL || bridge->solver.settle_anchored == NULL ||
+            bridge->solver.settle_gauge == NULL) {
             snprintf(message, message_size, "out of memory for %u poses and %u edges",
                      (unsigned)o->max_poses, (unsigned)o->max_edges);
             return -1;
@@ -115,69 +118,70 @@ int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size)
 
 void bridge_graph_free(bridge_t *bridge)
 {
-    bridge_pass_free(&bridge->pass); /* before the core it copies from goes */
-    free(bridge->core_block);
-    free(bridge->edge_source);
-    free(bridge->edge_sequence);
-    free(bridge->source_last);
-    free(bridge->anchored);
-    free(bridge->user_fixed);
-    free(bridge->gauge_fixed);
-    free(bridge->component);
-    free(bridge->component_anchor);
-    free(bridge->raw);
-    free(bridge->part_edges);
-    free(bridge->compact_pose_map);
-    free(bridge->compact_edge_map);
-    free(bridge->compact_ids);
-    free(bridge->compact_anchors);
-    free(bridge->compact_relative);
-    free(bridge->compact_before);
-    free(bridge->compact_edges);
-    free(bridge->out_ids);
-    free(bridge->out_values);
-    free(bridge->out_rows);
-    free(bridge->out_loops);
-    free(bridge->out_sources);
-    free(bridge->out_last);
-    free(bridge->out_buffer);
-    free(bridge->out_last_anchor);
-    free(bridge->settle_save);
-    free(bridge->settle_anchored);
-    free(bridge->settle_gauge);
+    bridge_pass_free(&bridge->solver.pass); /* before the core it copies from goes */
+    free(bridge->solver.core_block);
+    free(bridge->solver.edge_source);
+    free(bridge->solver.edge_sequence);
+    free(bridge->solver.source_last);
+    free(bridge->solver.anchored);
+    free(bridge->solver.user_fixed);
+    free(bridge->solver.gauge_fixed);
+    free(bridge->solver.component);
+    free(bridge->solver.component_anchor);
+    free(bridge->solver.raw);
+    free(bridge->solver.part_edges);
+    free(bridge->solver.compact_pose_map);
+    free(bridge->solver.compact_edge_map);
+    free(bridge->solver.compact_ids);
+    free(bridge->solver.compact_anchors);
+    free(bridge->solver.compact_relative);
+    free(bridge->solver.compact_before);
+    free(bridge->solver.compact_edges);
+    free(bridge->solver.out_ids);
+    free(bridge->solver.out_values);
+    free(bridge->solver.out_rows);
+    free(bridge->solver.out_loops);
+    free(bridge->solver.out_sources);
+    free(bridge->solver.out_names);
+    free(bridge->solver.out_last);
+    free(bridge->solver.out_buffer);
+    free(bridge->solver.out_last_anchor);
+    free(bridge->solver.settle_save);
+    free(bridge->solver.settle_anchored);
+    free(bridge->solver.settle_gauge);
 }
 
 void bridge_graph_counts(bridge_t *bridge)
 {
-    pthread_mutex_lock(&bridge->lock);
-    bridge->graph_poses = (int32_t)pgem_pose_count(bridge->core);
-    bridge->graph_edges = (int32_t)pgem_edge_count(bridge->core);
-    bridge->graph_loops = (int32_t)bridge->loop_count;
-    bridge->graph_pruned = (int32_t)bridge->pruned_count;
-    pthread_mutex_unlock(&bridge->lock);
+    pthread_mutex_lock(&bridge->handoff.lock);
+    bridge->handoff.graph_poses = (int32_t)pgem_pose_count(bridge->solver.core);
+    bridge->handoff.graph_edges = (int32_t)pgem_edge_count(bridge->solver.core);
+    bridge->handoff.graph_loops = (int32_t)bridge->solver.loop_count;
+    bridge->handoff.graph_pruned = (int32_t)bridge->solver.pruned_count;
+    pthread_mutex_unlock(&bridge->handoff.lock);
 }
 
 static void core_refused(bridge_t *bridge, const char *what, int status)
 {
     if (status == PGEM_ERR_CAPACITY && bridge->options.compact) {
         /* admitted beyond the block while compaction could free nothing */
-        pthread_mutex_lock(&bridge->lock);
-        bridge->full_rejections++;
-        pthread_mutex_unlock(&bridge->lock);
+        pthread_mutex_lock(&bridge->handoff.lock);
+        bridge->handoff.full_rejections++;
+        pthread_mutex_unlock(&bridge->handoff.lock);
         bridge_note(bridge, "rejected (full): %s: the block is full and compaction can free "
-                            "nothing (%s)", what, pgem_last_error(bridge->core));
+                            "nothing (%s)", what, pgem_last_error(bridge->solver.core));
         return;
     }
-    pthread_mutex_lock(&bridge->lock);
-    bridge->core_rejections++;
-    pthread_mutex_unlock(&bridge->lock);
+    pthread_mutex_lock(&bridge->handoff.lock);
+    bridge->handoff.core_rejections++;
+    pthread_mutex_unlock(&bridge->handoff.lock);
     bridge_note(bridge, "the core refused %s: %s (%s)", what, pgem_error_name(status),
-                pgem_last_error(bridge->core));
+                pgem_last_error(bridge->solver.core));
 }
 
 static int pose_settled(const bridge_t *bridge, uint32_t index)
 {
-    return index < bridge->solved_poses || bridge->anchored[index] || bridge->gauge_fixed[index];
+    return index < bridge->solver.solved_poses || bridge->solver.anchored[index] || bridge->solver.gauge_fixed[index];
 }
 
 /* A pose that arrived after the last solve carries the front-end's estimate, in the front-end's
@@ -188,8 +192,8 @@ static void anchor(bridge_t *bridge, const pgem_item_t *item)
 {
     uint32_t from = 0;
     uint32_t to = 0;
-    if (bridge->solved_poses == 0 || pgem_pose_index(bridge->core, item->from, &from) != PGEM_OK ||
-        pgem_pose_index(bridge->core, item->to, &to) != PGEM_OK) {
+    if (bridge->solver.solved_poses == 0 || pgem_pose_index(bridge->solver.core, item->from, &from) != PGEM_OK ||
+        pgem_pose_index(bridge->solver.core, item->to, &to) != PGEM_OK) {
         return;
     }
     int dimension = bridge->options.dimension;
@@ -201,12 +205,12 @@ static void anchor(bridge_t *bridge, const pgem_item_t *item)
     if (pose_settled(bridge, from) && !pose_settled(bridge, to)) {
         target = to;
         target_id = item->to;
-        pgem_get_pose(bridge->core, item->from, base);
+        pgem_get_pose(bridge->solver.core, item->from, base);
         memcpy(step, item->value, sizeof step);
     } else if (pose_settled(bridge, to) && !pose_settled(bridge, from)) {
         target = from;
         target_id = item->from;
-        pgem_get_pose(bridge->core, item->to, base);
+        pgem_get_pose(bridge->solver.core, item->to, base);
         if (dimension == 3) {
             pgem_se3_inverse(item->value, step);
         } else {
@@ -216,7 +220,7 @@ static void anchor(bridge_t *bridge, const pgem_item_t *item)
         return;
     }
     int fixed = 0;
-    pgem_pose_at(bridge->core, target, NULL, NULL, &fixed);
+    pgem_pose_at(bridge->solver.core, target, NULL, NULL, &fixed);
     if (fixed) {
         return;
     }
@@ -225,8 +229,8 @@ static void anchor(bridge_t *bridge, const pgem_item_t *item)
     } else {
         pgem_se2_compose(base, step, placed);
     }
-    if (pgem_set_pose(bridge->core, target_id, placed) == PGEM_OK) {
-        bridge->anchored[target] = 1;
+    if (pgem_set_pose(bridge->solver.core, target_id, placed) == PGEM_OK) {
+        bridge->solver.anchored[target] = 1;
     }
 }
 
@@ -234,27 +238,27 @@ static void anchor(bridge_t *bridge, const pgem_item_t *item)
  * a pass of an older copy stops after its round and is dropped when it ends. */
 void bridge_graph_drop_pass(bridge_t *bridge)
 {
-    bridge->generation++;
-    bridge->pass.cancel = 1;
+    bridge->solver.generation++;
+    bridge->solver.pass.cancel = 1;
 }
 
 static void reset_graph(bridge_t *bridge)
 {
-    pgem_init(&bridge->core, &bridge->core_config, bridge->core_block, bridge->core_block_size);
-    memset(bridge->anchored, 0, bridge->options.max_poses);
-    memset(bridge->user_fixed, 0, bridge->options.max_poses);
-    memset(bridge->gauge_fixed, 0, bridge->options.max_poses);
+    pgem_init(&bridge->solver.core, &bridge->solver.core_config, bridge->solver.core_block, bridge->solver.core_block_size);
+    memset(bridge->solver.anchored, 0, bridge->options.max_poses);
+    memset(bridge->solver.user_fixed, 0, bridge->options.max_poses);
+    memset(bridge->solver.gauge_fixed, 0, bridge->options.max_poses);
     for (uint32_t s = 0; s < bridge->options.max_sources; ++s) {
-        bridge->source_last[s] = -1;
+        bridge->solver.source_last[s] = -1;
     }
-    bridge->solved_poses = 0;
-    bridge->restart_pending = 0;
+    bridge->solver.solved_poses = 0;
+    bridge->solver.restart_pending = 0;
     bridge_graph_drop_pass(bridge);
-    bridge->pass_loops = 0;
+    bridge->solver.pass_loops = 0;
     bridge_components_reset(bridge);
-    bridge->loop_count = 0;
-    bridge->pruned_count = 0;
-    bridge->counted_edges = 0;
+    bridge->solver.loop_count = 0;
+    bridge->solver.pruned_count = 0;
+    bridge->solver.counted_edges = 0;
     bridge_graph_counts(bridge);
 }
 
@@ -268,15 +272,15 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
         return 0;
     }
     if (item->type == PGEM_ITEM_POSE) {
-        int status = pgem_add_pose(bridge->core, item->from, item->value);
+        int status = pgem_add_pose(bridge->solver.core, item->from, item->value);
         if (status == PGEM_OK) {
             size_t pose_size = (size_t)PGEM_POSE_SIZE(bridge->options.dimension);
-            memcpy(bridge->raw + (pgem_pose_count(bridge->core) - 1) * pose_size, item->value,
+            memcpy(bridge->solver.raw + (pgem_pose_count(bridge->solver.core) - 1) * pose_size, item->value,
                    pose_size * sizeof(double));
         }
         if (status == PGEM_OK && item->kind) {
-            status = pgem_fix_pose(bridge->core, item->from, 1);
-            bridge->user_fixed[pgem_pose_count(bridge->core) - 1] = 1;
+            status = pgem_fix_pose(bridge->solver.core, item->from, 1);
+            bridge->solver.user_fixed[pgem_pose_count(bridge->solver.core) - 1] = 1;
         }
         if (status != PGEM_OK) {
             snprintf(what, sizeof what, "pose %llu", (unsigned long long)item->from);
@@ -290,17 +294,17 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
     double information[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     pgem_upper_to_full(item->information, n, information);
     uint32_t index = 0;
-    int status = pgem_add_edge(bridge->core, item->from, item->to, item->value, information,
+    int status = pgem_add_edge(bridge->solver.core, item->from, item->to, item->value, information,
                                (pgem_edge_kind_t)item->kind, &index);
     pgem_item_t moved;
     if (status == PGEM_ERR_UNKNOWN_ID && bridge->options.compact) {
         /* a pose compaction removed while the edge waited in the queue: onto its anchor */
         moved = *item;
-        pthread_mutex_lock(&bridge->lock);
-        const int anchored = pgem_ingest_reanchor(bridge->ingest, &moved);
-        pthread_mutex_unlock(&bridge->lock);
+        pthread_mutex_lock(&bridge->handoff.lock);
+        const int anchored = pgem_ingest_reanchor(bridge->handoff.ingest, &moved);
+        pthread_mutex_unlock(&bridge->handoff.lock);
         if (anchored) {
-            status = pgem_add_edge(bridge->core, moved.from, moved.to, moved.value, information,
+            status = pgem_add_edge(bridge->solver.core, moved.from, moved.to, moved.value, information,
                                    (pgem_edge_kind_t)moved.kind, &index);
             item = &moved;
         }
@@ -312,17 +316,17 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
         core_refused(bridge, what, status);
         return 0;
     }
-    bridge->edge_source[index] = item->source;
-    bridge->edge_sequence[index] = item->sequence;
+    bridge->solver.edge_source[index] = item->source;
+    bridge->solver.edge_sequence[index] = item->sequence;
     if (item->source < bridge->options.max_sources &&
-        item->sequence > bridge->source_last[item->source]) {
-        bridge->source_last[item->source] = item->sequence;
+        item->sequence > bridge->solver.source_last[item->source]) {
+        bridge->solver.source_last[item->source] = item->sequence;
     }
     if (item->kind == PGEM_EDGE_ODOMETRY) {
         anchor(bridge, item);
         return 0;
     }
-    bridge->loop_count++;
+    bridge->solver.loop_count++;
     return 1;
 }
 
@@ -330,7 +334,7 @@ int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item)
  * from it failed (a live estimate the solve cannot use: the front-end's is the way back). */
 static int restart_from_live(const bridge_t *bridge)
 {
-    return bridge->compactions > 0u && !bridge->live_failed;
+    return bridge->solver.compactions > 0u && !bridge->solver.live_failed;
 }
 
 /* Every pose back to the front-end's estimate and every loop closure back in: the solve that
@@ -340,31 +344,27 @@ static int restart_from_live(const bridge_t *bridge)
 static void restart_from_raw(bridge_t *bridge)
 {
     size_t pose_size = (size_t)PGEM_POSE_SIZE(bridge->options.dimension);
-    const uint32_t poses = restart_from_live(bridge) ? 0u : pgem_pose_count(bridge->core);
+    const uint32_t poses = restart_from_live(bridge) ? 0u : pgem_pose_count(bridge->solver.core);
     for (uint32_t i = 0; i < poses; ++i) {
         pgem_id_t id = 0;
-        pgem_pose_at(bridge->core, i, &id, NULL, NULL);
-        pgem_set_pose(bridge->core, id, bridge->raw + i * pose_size);
+        pgem_pose_at(bridge->solver.core, i, &id, NULL, NULL);
+        pgem_set_pose(bridge->solver.core, id, bridge->solver.raw + i * pose_size);
     }
-    pgem_robust_reset(bridge->core);
-    memset(bridge->anchored, 0, bridge->options.max_poses);
-    bridge->solved_poses = 0;
+    pgem_robust_reset(bridge->solver.core);
+    memset(bridge->solver.anchored, 0, bridge->options.max_poses);
+    bridge->solver.solved_poses = 0;
 }
 
 /* 1 when the solve under way should stop: the bridge is stopping, or a settle that gives way
  * sees items waiting in the queue. */
 static int should_stop(bridge_t *bridge)
 {
-    if (bridge->stopping) {
-        return 1;
-    }
-    if (!bridge->settle_yields) {
-        return 0;
-    }
-    pthread_mutex_lock(&bridge->lock);
-    const int arrived = bridge->visible != bridge->head;
-    pthread_mutex_unlock(&bridge->lock);
-    return arrived;
+    const int yields = bridge->solver.settle_yields;
+    pthread_mutex_lock(&bridge->handoff.lock);
+    const int stop = bridge->handoff.stopping ||
+                     (yields && bridge->handoff.visible != bridge->handoff.head);
+    pthread_mutex_unlock(&bridge->handoff.lock);
+    return stop;
 }
 
 /* Stops a robust solve after a round, or a settle after any Gauss-Newton iteration. */
@@ -384,9 +384,9 @@ static int keep_iterating(const pgem_iteration_t *iteration, void *user)
  * pgem_update_save's): the per-pose flags it changes, kept or (back) put back. */
 static void settle_flags(bridge_t *bridge, int back)
 {
-    const size_t poses = pgem_pose_count(bridge->core);
-    uint8_t *const live[2] = {bridge->anchored, bridge->gauge_fixed};
-    uint8_t *const kept[2] = {bridge->settle_anchored, bridge->settle_gauge};
+    const size_t poses = pgem_pose_count(bridge->solver.core);
+    uint8_t *const live[2] = {bridge->solver.anchored, bridge->solver.gauge_fixed};
+    uint8_t *const kept[2] = {bridge->solver.settle_anchored, bridge->solver.settle_gauge};
     for (int k = 0; k < 2; ++k) {
         memcpy(back ? live[k] : kept[k], back ? kept[k] : live[k], poses);
     }
@@ -394,17 +394,17 @@ static void settle_flags(bridge_t *bridge, int back)
 
 static void settle_save(bridge_t *bridge)
 {
-    pgem_update_save(bridge->core, bridge->settle_save, bridge->settle_save_size);
+    pgem_update_save(bridge->solver.core, bridge->solver.settle_save, bridge->solver.settle_save_size);
     settle_flags(bridge, 0);
-    bridge->settle_solved_poses = bridge->solved_poses;
+    bridge->solver.settle_solved_poses = bridge->solver.solved_poses;
 }
 
 static void settle_restore(bridge_t *bridge)
 {
-    pgem_update_restore(bridge->core, bridge->settle_save, bridge->settle_save_size);
+    pgem_update_restore(bridge->solver.core, bridge->solver.settle_save, bridge->solver.settle_save_size);
     settle_flags(bridge, 1);
-    bridge->solved_poses = bridge->settle_solved_poses;
-    bridge->restart_pending = 0;
+    bridge->solver.solved_poses = bridge->solver.settle_solved_poses;
+    bridge->solver.restart_pending = 0;
 }
 
 int bridge_graph_settle(bridge_t *bridge)
@@ -413,20 +413,20 @@ int bridge_graph_settle(bridge_t *bridge)
      * the next solve restarts anyway, and might as well be this one). */
     (void)bridge_components_hold(bridge); /* held before the save: a settle that gives way
                                            * puts back the holds with the estimate */
-    bridge->settle_yields = bridge->settle_save != NULL && !bridge->restart_pending;
-    if (bridge->settle_yields) {
+    bridge->solver.settle_yields = bridge->solver.settle_save != NULL && !bridge->solver.restart_pending;
+    if (bridge->solver.settle_yields) {
         settle_save(bridge);
     }
     bridge_log(bridge, "settle: EM on the whole graph (%u poses, %u edges) from %s%s",
-               pgem_pose_count(bridge->core), pgem_edge_count(bridge->core),
+               pgem_pose_count(bridge->solver.core), pgem_edge_count(bridge->solver.core),
                restart_from_live(bridge) ? "the live estimate (the graph is compacted)"
                                          : "the front-end's estimates",
-               bridge->settle_yields ? ", giving way to arriving items" : "");
-    bridge->restart_pending = 1; /* the solve starts from the front-end's estimates */
-    bridge->settle_gave_way = 0;
+               bridge->solver.settle_yields ? ", giving way to arriving items" : "");
+    bridge->solver.restart_pending = 1; /* the solve starts from the front-end's estimates */
+    bridge->solver.settle_gave_way = 0;
     bridge_graph_solve(bridge, "settle");
-    bridge->settle_yields = 0;
-    return !bridge->settle_gave_way;
+    bridge->solver.settle_yields = 0;
+    return !bridge->solver.settle_gave_way;
 }
 
 /* A successful solve's degenerate outcome in words (the graph's stats message and the
@@ -448,11 +448,11 @@ static void solved_or_not(bridge_t *bridge, int status, const pgem_robust_summar
                           char *why, size_t why_size)
 {
     if (status == PGEM_OK) {
-        bridge->solved_poses = pgem_pose_count(bridge->core);
-        memset(bridge->anchored, 0, bridge->solved_poses);
+        bridge->solver.solved_poses = pgem_pose_count(bridge->solver.core);
+        memset(bridge->solver.anchored, 0, bridge->solver.solved_poses);
         describe_outcome(summary, why, why_size);
     } else {
-        snprintf(why, why_size, "%s: %s", pgem_error_name(status), pgem_last_error(bridge->core));
+        snprintf(why, why_size, "%s: %s", pgem_error_name(status), pgem_last_error(bridge->solver.core));
     }
 }
 
@@ -472,19 +472,19 @@ static void update_options(const bridge_t *bridge, pgem_update_options_t *option
      * come within a second: a loop held back waits up to two passes, and passes slower than
      * that (a large map on a slow or busy machine) left the live map drifting for want of
      * the loops held back, and the bridge behind the stream. */
-    options->pending = bridge->pass_on && bridge->pass_took <= PASS_PENDING_SECONDS ? 10.0 : 0.0;
+    options->pending = bridge->solver.pass_on && bridge->solver.pass_took <= PASS_PENDING_SECONDS ? 10.0 : 0.0;
 }
 
 /* The pruned loop closures among the edges pruned_count has not seen yet, added to it. */
 static void count_new_pruned(bridge_t *bridge)
 {
-    const uint32_t edges = pgem_edge_count(bridge->core);
-    for (uint32_t k = bridge->counted_edges; k < edges; ++k) {
+    const uint32_t edges = pgem_edge_count(bridge->solver.core);
+    for (uint32_t k = bridge->solver.counted_edges; k < edges; ++k) {
         pgem_edge_view_t view;
-        pgem_edge_at(bridge->core, k, &view);
-        bridge->pruned_count += view.kind == PGEM_EDGE_LOOP && !view.active;
+        pgem_edge_at(bridge->solver.core, k, &view);
+        bridge->solver.pruned_count += view.kind == PGEM_EDGE_LOOP && !view.active;
     }
-    bridge->counted_edges = edges;
+    bridge->solver.counted_edges = edges;
 }
 
 /* The loop closures pruned after an update, from the count before it: the new loops it pruned,
@@ -492,9 +492,9 @@ static void count_new_pruned(bridge_t *bridge)
 static void count_pruned(bridge_t *bridge, const pgem_update_summary_t *update)
 {
     count_new_pruned(bridge);
-    bridge->pruned_count -= update->loops_readmitted < bridge->pruned_count
+    bridge->solver.pruned_count -= update->loops_readmitted < bridge->solver.pruned_count
                                 ? update->loops_readmitted
-                                : bridge->pruned_count;
+                                : bridge->solver.pruned_count;
 }
 
 static void recount_pruned(bridge_t *bridge);
@@ -511,20 +511,20 @@ static void recount_pruned(bridge_t *bridge);
 static void compact_pose_arrays(bridge_t *bridge, uint32_t before)
 {
     const size_t pose_size = (size_t)PGEM_POSE_SIZE(bridge->options.dimension);
-    const uint32_t *map = bridge->compact_pose_map;
+    const uint32_t *map = bridge->solver.compact_pose_map;
     uint32_t solved = 0;
     for (uint32_t i = 0; i < before; ++i) {
         const uint32_t j = map[i];
         if (j == UINT32_MAX) {
             continue;
         }
-        solved += i < bridge->solved_poses;
-        memmove(bridge->raw + j * pose_size, bridge->raw + i * pose_size, pose_size * sizeof(double));
-        bridge->anchored[j] = bridge->anchored[i];
-        bridge->user_fixed[j] = bridge->user_fixed[i];
-        bridge->gauge_fixed[j] = bridge->gauge_fixed[i];
+        solved += i < bridge->solver.solved_poses;
+        memmove(bridge->solver.raw + j * pose_size, bridge->solver.raw + i * pose_size, pose_size * sizeof(double));
+        bridge->solver.anchored[j] = bridge->solver.anchored[i];
+        bridge->solver.user_fixed[j] = bridge->solver.user_fixed[i];
+        bridge->solver.gauge_fixed[j] = bridge->solver.gauge_fixed[i];
     }
-    bridge->solved_poses = solved;
+    bridge->solver.solved_poses = solved;
 }
 
 /* pgem.compaction_t: the poses one compaction removed, each with its anchor and where it lies
@@ -535,22 +535,22 @@ static void publish_compaction(bridge_t *bridge, const pgem_compact_summary_t *s
     const int dimension = bridge->options.dimension;
     const size_t pose_size = (size_t)PGEM_POSE_SIZE(dimension);
     for (uint32_t i = 0; i < removed; ++i) {
-        const double *anchor_in_removed = bridge->compact_relative + i * pose_size;
+        const double *anchor_in_removed = bridge->solver.compact_relative + i * pose_size;
         (dimension == 3 ? pgem_se3_inverse : pgem_se2_inverse)(anchor_in_removed,
-                                                                bridge->out_rows[i]);
-        bridge->out_ids[i] = (int64_t)bridge->compact_ids[i];
-        bridge->out_last_anchor[i] = (int64_t)bridge->compact_anchors[i];
+                                                                bridge->solver.out_rows[i]);
+        bridge->solver.out_ids[i] = (int64_t)bridge->solver.compact_ids[i];
+        bridge->solver.out_last_anchor[i] = (int64_t)bridge->solver.compact_anchors[i];
     }
     pgem_compaction_t msg;
     memset(&msg, 0, sizeof msg);
     msg.utime = bridge_utime();
-    msg.compaction = (int64_t)bridge->compactions;
+    msg.compaction = (int64_t)bridge->solver.compactions;
     msg.dimension = (int8_t)dimension;
     msg.pose_size = (int32_t)pose_size;
     msg.num_removed = (int32_t)removed;
-    msg.ids = bridge->out_ids;
-    msg.anchors = bridge->out_last_anchor;
-    msg.relative = bridge->out_rows;
+    msg.ids = bridge->solver.out_ids;
+    msg.anchors = bridge->solver.out_last_anchor;
+    msg.relative = bridge->solver.out_rows;
     msg.poses_before = (int32_t)summary->poses_before;
     msg.poses_after = (int32_t)summary->poses_after;
     msg.edges_before = (int32_t)summary->edges_before;
@@ -563,7 +563,7 @@ static void publish_compaction(bridge_t *bridge, const pgem_compact_summary_t *s
     const int size = pgem_compaction_t_encoded_size(&msg);
     if (bridge_out_ready(bridge, size, "the compaction")) {
         bridge_out_publish(bridge, bridge->options.channels.compaction, "the compaction", size,
-                    pgem_compaction_t_encode(bridge->out_buffer, 0, size, &msg));
+                    pgem_compaction_t_encode(bridge->solver.out_buffer, 0, size, &msg));
     }
 }
 
@@ -573,7 +573,7 @@ static int compact_to(bridge_t *bridge, uint32_t target_poses);
 int bridge_graph_compact(bridge_t *bridge)
 {
     const pgem_bridge_options_t *o = &bridge->options;
-    const uint32_t poses = pgem_pose_count(bridge->core), edges = pgem_edge_count(bridge->core);
+    const uint32_t poses = pgem_pose_count(bridge->solver.core), edges = pgem_edge_count(bridge->solver.core);
     if (!o->compact || ((double)poses < COMPACT_HIGH * o->max_poses &&
                           (double)edges < COMPACT_HIGH * o->max_edges)) {
         return 0;
@@ -584,60 +584,60 @@ int bridge_graph_compact(bridge_t *bridge)
 static int compact_to(bridge_t *bridge, uint32_t target_poses)
 {
     const pgem_bridge_options_t *o = &bridge->options;
-    pgem_t *core = bridge->core;
+    pgem_t *core = bridge->solver.core;
     const uint32_t poses = pgem_pose_count(core), edges = pgem_edge_count(core);
     const double start = bridge_now();
     const size_t pose_size = (size_t)PGEM_POSE_SIZE(o->dimension);
     for (uint32_t i = 0; i < poses; ++i) { /* ids and estimates before: the ingest's anchors */
-        pgem_pose_at(core, i, &bridge->compact_ids[i], bridge->compact_before + i * pose_size, NULL);
+        pgem_pose_at(core, i, &bridge->solver.compact_ids[i], bridge->solver.compact_before + i * pose_size, NULL);
     }
     pgem_compact_options_t options;
     memset(&options, 0, sizeof options);
     options.tail = o->compact_tail != 0u ? o->compact_tail : COMPACT_TAIL;
-    options.pose_map = bridge->compact_pose_map;
-    options.edge_map = bridge->compact_edge_map;
+    options.pose_map = bridge->solver.compact_pose_map;
+    options.edge_map = bridge->solver.compact_edge_map;
     pgem_compact_summary_t summary;
     options.target_edges = (uint32_t)(COMPACT_LOW * o->max_edges);
     options.keep_pruned = 1; /* the gate's verdicts are provisional: a live EM pass decides */
     pgem_compact(core, target_poses, &options, &summary);
     uint32_t removed_ids = 0, removed_edges = 0, kept = UINT32_MAX;
     for (uint32_t i = 0; i < poses; ++i) { /* each removed pose's anchor: the kept one before */
-        if (bridge->compact_pose_map[i] != UINT32_MAX) {
+        if (bridge->solver.compact_pose_map[i] != UINT32_MAX) {
             kept = i;
             continue;
         }
         uint32_t anchor = kept;
         for (uint32_t j = i + 1; anchor == UINT32_MAX && j < poses; ++j) {
-            anchor = bridge->compact_pose_map[j] != UINT32_MAX ? j : UINT32_MAX;
+            anchor = bridge->solver.compact_pose_map[j] != UINT32_MAX ? j : UINT32_MAX;
         }
-        bridge->compact_anchors[removed_ids] = bridge->compact_ids[anchor];
+        bridge->solver.compact_anchors[removed_ids] = bridge->solver.compact_ids[anchor];
         (o->dimension == 3 ? pgem_se3_between : pgem_se2_between)(
-            bridge->compact_before + i * pose_size, bridge->compact_before + anchor * pose_size,
-            bridge->compact_relative + removed_ids * pose_size);
-        bridge->compact_ids[removed_ids++] = bridge->compact_ids[i];
+            bridge->solver.compact_before + i * pose_size, bridge->solver.compact_before + anchor * pose_size,
+            bridge->solver.compact_relative + removed_ids * pose_size);
+        bridge->solver.compact_ids[removed_ids++] = bridge->solver.compact_ids[i];
     }
     for (uint32_t k = 0; k < edges; ++k) {
-        const uint32_t j = bridge->compact_edge_map[k];
+        const uint32_t j = bridge->solver.compact_edge_map[k];
         if (j == UINT32_MAX) {
-            bridge->compact_edges[removed_edges].source = bridge->edge_source[k];
-            bridge->compact_edges[removed_edges++].sequence = bridge->edge_sequence[k];
+            bridge->solver.compact_edges[removed_edges].source = bridge->solver.edge_source[k];
+            bridge->solver.compact_edges[removed_edges++].sequence = bridge->solver.edge_sequence[k];
             continue;
         }
-        bridge->edge_source[j] = bridge->edge_source[k];
-        bridge->edge_sequence[j] = bridge->edge_sequence[k];
+        bridge->solver.edge_source[j] = bridge->solver.edge_source[k];
+        bridge->solver.edge_sequence[j] = bridge->solver.edge_sequence[k];
     }
     compact_pose_arrays(bridge, poses);
     /* the parts again from the kept poses and edges (the holds stay where they were) */
     bridge_components_reset(bridge);
     (void)bridge_components_hold(bridge);
     bridge_graph_drop_pass(bridge);
-    bridge->loop_count = 0;
+    bridge->solver.loop_count = 0;
     for (uint32_t k = 0; k < pgem_edge_count(core); ++k) {
         pgem_edge_view_t view;
         pgem_edge_at(core, k, &view);
-        bridge->loop_count += view.kind == PGEM_EDGE_LOOP;
+        bridge->solver.loop_count += view.kind == PGEM_EDGE_LOOP;
     }
-    bridge->pass_loops = 0;
+    bridge->solver.pass_loops = 0;
     recount_pruned(bridge);
     bridge_graph_counts(bridge);
     /* above the high mark still: nothing more can go, so the block is what the graph has */
@@ -647,30 +647,33 @@ static int compact_to(bridge_t *bridge, uint32_t target_poses)
     snprintf(why, sizeof why, "every pose is held, among the newest %u, or joined by other than "
              "two odometry edges; %u poses and %u edges in the graph", options.tail,
              summary.poses_after, summary.edges_after);
-    pthread_mutex_lock(&bridge->lock);
-    pgem_ingest_release(bridge->ingest, bridge->compact_ids, bridge->compact_anchors,
-                        bridge->compact_relative, removed_ids, bridge->compact_edges,
+    pthread_mutex_lock(&bridge->handoff.lock);
+    while (bridge->handoff.admitting) { /* not under a message the ingest is admitting */
+        pthread_cond_wait(&bridge->handoff.wake, &bridge->handoff.lock);
+    }
+    pgem_ingest_release(bridge->handoff.ingest, bridge->solver.compact_ids, bridge->solver.compact_anchors,
+                        bridge->solver.compact_relative, removed_ids, bridge->solver.compact_edges,
                         removed_edges);
     if (full) {
-        pgem_ingest_set_full(bridge->ingest, o->max_poses, o->max_edges, why);
+        pgem_ingest_set_full(bridge->handoff.ingest, o->max_poses, o->max_edges, why);
     } else {
-        pgem_ingest_set_full(bridge->ingest, 0u, 0u, NULL);
+        pgem_ingest_set_full(bridge->handoff.ingest, 0u, 0u, NULL);
     }
-    pthread_mutex_unlock(&bridge->lock);
-    bridge->compactions++;
+    pthread_mutex_unlock(&bridge->handoff.lock);
+    bridge->solver.compactions++;
     publish_compaction(bridge, &summary, removed_ids, full);
     bridge_log(bridge,
                "compaction %llu: %u -> %u poses, %u -> %u edges (%u odometry pairs composed, %u "
                "loop closures carried, %u pruned ones dropped) in %.1f ms; later edges to a "
                "removed pose enter on the kept pose before it",
-               (unsigned long long)bridge->compactions, summary.poses_before, summary.poses_after,
+               (unsigned long long)bridge->solver.compactions, summary.poses_before, summary.poses_after,
                summary.edges_before, summary.edges_after, summary.edges_composed,
                summary.loops_carried, summary.loops_dropped, 1e3 * (bridge_now() - start));
-    if (full && !bridge->compaction_full) {
+    if (full && !bridge->solver.compaction_full) {
         bridge_note(bridge, "compaction cannot bring the graph under 90 %% of its capacities (%s): "
                             "poses and edges beyond the block will be refused as full", why);
     }
-    bridge->compaction_full = full;
+    bridge->solver.compaction_full = full;
     return 1;
 }
 
@@ -680,7 +683,7 @@ static int update_run(bridge_t *bridge)
     pgem_update_options_t options;
     update_options(bridge, &options);
     pgem_update_summary_t update;
-    const int status = pgem_update(bridge->core, &options, &update);
+    const int status = pgem_update(bridge->solver.core, &options, &update);
     if (status == PGEM_OK) {
         count_pruned(bridge, &update);
     }
@@ -689,29 +692,29 @@ static int update_run(bridge_t *bridge)
 
 void bridge_graph_step(bridge_t *bridge)
 {
-    if (bridge->restart_pending) {
+    if (bridge->solver.restart_pending) {
         return; /* the next solve restarts: it decides */
     }
     (void)bridge_components_hold(bridge); /* each part held at its own gauge */
     int status = update_run(bridge);
     if (status == PGEM_ERR_FILL_BUDGET && bridge->options.compact &&
-        compact_to(bridge, (uint32_t)(COMPACT_LOW * pgem_pose_count(bridge->core)))) {
+        compact_to(bridge, (uint32_t)(COMPACT_LOW * pgem_pose_count(bridge->solver.core)))) {
         /* the graph fits its poses and edges but its factor has outgrown the fill budget
          * (carried loops concentrate on the poses kept): a smaller graph, then the update */
         bridge_log(bridge, "the incremental factor outgrew its fill budget: compacted to %u poses",
-                   pgem_pose_count(bridge->core));
+                   pgem_pose_count(bridge->solver.core));
         (void)bridge_components_hold(bridge);
         status = update_run(bridge);
     }
     if (status != PGEM_OK) {
-        bridge->restart_pending = 1; /* the next solve restarts from the front-end's estimates */
+        bridge->solver.restart_pending = 1; /* the next solve restarts from the front-end's estimates */
         bridge_log(bridge, "incremental update failed: %s (%s); the next solve restarts from the "
                            "front-end's estimates", pgem_error_name(status),
-                   pgem_last_error(bridge->core));
+                   pgem_last_error(bridge->solver.core));
         return;
     }
-    bridge->solved_poses = pgem_pose_count(bridge->core);
-    memset(bridge->anchored, 0, bridge->solved_poses);
+    bridge->solver.solved_poses = pgem_pose_count(bridge->solver.core);
+    memset(bridge->solver.anchored, 0, bridge->solver.solved_poses);
 }
 
 /* What a robust solve's summary would say of the loops, from the bridge's counts (loops,
@@ -719,8 +722,8 @@ void bridge_graph_step(bridge_t *bridge)
  * visits every edge, and an update's cost must not grow with the map. */
 static void counts_summary(const bridge_t *bridge, pgem_robust_summary_t *summary)
 {
-    summary->loops = bridge->loop_count;
-    summary->pruned = bridge->pruned_count;
+    summary->loops = bridge->solver.loop_count;
+    summary->pruned = bridge->solver.pruned_count;
     summary->rejected = summary->pruned;
     summary->final_chi2 = (double)NAN;
     summary->final_chi2_all = (double)NAN;
@@ -745,9 +748,9 @@ static int update_solve(bridge_t *bridge, pgem_robust_summary_t *summary)
 
 void bridge_graph_solve(bridge_t *bridge, const char *trigger)
 {
-    pthread_mutex_lock(&bridge->lock);
-    bridge->solving = 1;
-    pthread_mutex_unlock(&bridge->lock);
+    pthread_mutex_lock(&bridge->handoff.lock);
+    bridge->handoff.solving = 1;
+    pthread_mutex_unlock(&bridge->handoff.lock);
     pgem_robust_options_t robust = bridge->options.robust;
     robust.on_round = keep_going;
     robust.user = bridge;
@@ -755,10 +758,10 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     memset(&summary, 0, sizeof summary);
     double start = bridge_now();
     uint32_t parts = bridge_components_hold(bridge);
-    int restarted = bridge->restart_pending;
+    int restarted = bridge->solver.restart_pending;
     if (restarted) {
         restart_from_raw(bridge);
-        bridge->restart_pending = 0;
+        bridge->solver.restart_pending = 0;
     }
     const int incremental = !bridge->options.full && !restarted &&
                             strcmp(trigger, "settle") != 0 && strcmp(trigger, "command") != 0 &&
@@ -770,16 +773,16 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     memset(&give_way, 0, sizeof give_way);
     give_way.on_iteration = keep_iterating;
     give_way.user = bridge;
-    const pgem_solve_options_t *solve = bridge->settle_yields ? &give_way : NULL;
+    const pgem_solve_options_t *solve = bridge->solver.settle_yields ? &give_way : NULL;
     int status = incremental ? update_solve(bridge, &summary)
-                             : pgem_robust_optimize(bridge->core, &robust, solve, &summary);
-    if (bridge->settle_yields && status == PGEM_OK &&
-        summary.termination == PGEM_ROBUST_STOPPED && !bridge->stopping) {
+                             : pgem_robust_optimize(bridge->solver.core, &robust, solve, &summary);
+    if (bridge->solver.settle_yields && status == PGEM_OK &&
+        summary.termination == PGEM_ROBUST_STOPPED && !bridge_stopping(bridge)) {
         settle_restore(bridge); /* items arrived: the incremental map goes on from the last update */
-        bridge->settle_gave_way = 1;
-        pthread_mutex_lock(&bridge->lock);
-        bridge->solving = 0;
-        pthread_mutex_unlock(&bridge->lock);
+        bridge->solver.settle_gave_way = 1;
+        pthread_mutex_lock(&bridge->handoff.lock);
+        bridge->handoff.solving = 0;
+        pthread_mutex_unlock(&bridge->handoff.lock);
         bridge_log(bridge, "settle gave way to arriving items after %.1f ms (%u Gauss-Newton "
                            "iterations): the graph is as the last update left it, and the settle "
                            "waits for the next quiet time",
@@ -788,10 +791,10 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     }
     const int from_live = restarted && restart_from_live(bridge);
     if (restarted) { /* a failed restart from the live estimate: the next from the front-end's */
-        bridge->live_failed = status != PGEM_OK && from_live;
+        bridge->solver.live_failed = status != PGEM_OK && from_live;
     }
     if (status != PGEM_OK) {
-        bridge->restart_pending = 1;
+        bridge->solver.restart_pending = 1;
     }
     if (!incremental) { /* the estimate is the solve's */
         bridge_graph_drop_pass(bridge);
@@ -801,16 +804,16 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
     char why[256] = "";
     solved_or_not(bridge, status, &summary, why, sizeof why);
     if (!incremental) {
-        bridge->pruned_count = summary.pruned;
-        bridge->counted_edges = pgem_edge_count(bridge->core);
+        bridge->solver.pruned_count = summary.pruned;
+        bridge->solver.counted_edges = pgem_edge_count(bridge->solver.core);
     }
     bridge_graph_counts(bridge);
     bridge_graph_publish(bridge, trigger, &summary, status == PGEM_OK, why, micros);
     double published = bridge_now();
-    pthread_mutex_lock(&bridge->lock);
-    bridge->solving = 0;
-    bridge->solves++;
-    pthread_mutex_unlock(&bridge->lock);
+    pthread_mutex_lock(&bridge->handoff.lock);
+    bridge->handoff.solving = 0;
+    bridge->handoff.solves++;
+    pthread_mutex_unlock(&bridge->handoff.lock);
     if (status == PGEM_OK) { /* after the graph: it never waits for the covariance */
         bridge_covariance_publish(bridge, !incremental);
     }
@@ -818,21 +821,21 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
         bridge_log(bridge,
                    "solve %lld (%s%s): %u poses, %u loops, %u pruned, chi2 %.6g, %u rounds, "
                    "%.1f ms (publishing %.1f ms)%s",
-                   (long long)bridge->solve_id, trigger,
+                   (long long)bridge->solver.solve_id, trigger,
                    restarted   ? (from_live
                                       ? ", restarted from the live estimate, every loop back in"
                                       : ", restarted from the front-end's estimates")
                    : incremental ? ", incremental"
                                  : "",
-                   pgem_pose_count(bridge->core), summary.loops, summary.pruned,
+                   pgem_pose_count(bridge->solver.core), summary.loops, summary.pruned,
                    summary.final_chi2, summary.rounds, 1e-3 * (double)micros,
                    1e3 * (published - solved), parts > 1 ? " (graph in several parts: each held at its own gauge)" : "");
         if (why[0] != '\0') {
-            bridge_note(bridge, "solve %lld: %s", (long long)bridge->solve_id, why);
+            bridge_note(bridge, "solve %lld: %s", (long long)bridge->solver.solve_id, why);
         }
     } else {
-        bridge_note(bridge, "solve %lld (%s) failed: %s%s", (long long)bridge->solve_id, trigger,
-                    why, bridge->live_failed ? "; the next solve restarts from the front-end's "
+        bridge_note(bridge, "solve %lld (%s) failed: %s%s", (long long)bridge->solver.solve_id, trigger,
+                    why, bridge->solver.live_failed ? "; the next solve restarts from the front-end's "
                                                "estimates" : "");
     }
     bridge_publish_status(bridge);
@@ -842,8 +845,8 @@ void bridge_graph_solve(bridge_t *bridge, const char *trigger)
  * anywhere): O(edges), once per pass. */
 static void recount_pruned(bridge_t *bridge)
 {
-    bridge->pruned_count = 0;
-    bridge->counted_edges = 0;
+    bridge->solver.pruned_count = 0;
+    bridge->solver.counted_edges = 0;
     count_new_pruned(bridge);
 }
 
@@ -875,18 +878,18 @@ static int same_verdicts(const pgem_t *live, const pgem_t *pass)
  * verdicts is only logged and its graph published again. */
 static void adopt_pass(bridge_t *bridge)
 {
-    bridge_pass_t *pass = &bridge->pass;
+    bridge_pass_t *pass = &bridge->solver.pass;
     const double start = bridge_now();
     if (pass->status != PGEM_OK || pass->summary.termination == PGEM_ROBUST_STOPPED ||
-        pass->generation != bridge->generation || bridge->restart_pending) {
+        pass->generation != bridge->solver.generation || bridge->solver.restart_pending) {
         bridge_log(bridge, "live EM pass dropped (%s)",
                    pass->status != PGEM_OK ? pgem_error_name(pass->status)
-                   : pass->generation != bridge->generation ? "the graph was re-solved or reset since its copy"
+                   : pass->generation != bridge->solver.generation ? "the graph was re-solved or reset since its copy"
                    : pass->summary.termination == PGEM_ROBUST_STOPPED ? "stopped"
                                                                        : "a restart is owed");
         return;
     }
-    if (same_verdicts(bridge->core, pass->core)) {
+    if (same_verdicts(bridge->solver.core, pass->core)) {
         /* The live map holds what the pass found: no rebuild for nothing. Its graph goes out
          * again, so a consumer knows a pass confirmed the map up to then. */
         pass->agreed++;
@@ -908,9 +911,9 @@ static void adopt_pass(bridge_t *bridge)
         return;
     }
     pgem_adopt_summary_t adopted;
-    int status = pgem_update_adopt(bridge->core, pass->core, &adopted);
+    int status = pgem_update_adopt(bridge->solver.core, pass->core, &adopted);
     if (status != PGEM_OK) {
-        bridge_note(bridge, "live EM pass not adopted: %s", pgem_last_error(bridge->core));
+        bridge_note(bridge, "live EM pass not adopted: %s", pgem_last_error(bridge->solver.core));
         return;
     }
     pgem_robust_summary_t summary;
@@ -924,7 +927,7 @@ static void adopt_pass(bridge_t *bridge)
     char why[256] = "";
     solved_or_not(bridge, status, &summary, why, sizeof why);
     if (status != PGEM_OK) {
-        bridge->restart_pending = 1; /* the next solve says why, from the front-end's estimates */
+        bridge->solver.restart_pending = 1; /* the next solve says why, from the front-end's estimates */
     }
     pass->passes++;
     const int64_t micros = (int64_t)((bridge_now() - start) * 1e6);
@@ -940,7 +943,7 @@ static void adopt_pass(bridge_t *bridge)
                (unsigned long long)pass->passes, adopted.poses_adopted, pass->loops_at_copy,
                pass->summary.pruned, pass->summary.rounds, 1e3 * pass->solve_took,
                1e3 * pass->took, adopted.loops_changed, adopted.poses_carried,
-               bridge->pruned_count, bridge->loop_count,
+               bridge->solver.pruned_count, bridge->solver.loop_count,
                1e-3 * (double)micros, 1e3 * (adopted_at - start), 1e3 * (updated_at - adopted_at));
     if (status != PGEM_OK) {
         bridge_note(bridge, "the update after live EM pass %llu failed: %s",
@@ -951,60 +954,60 @@ static void adopt_pass(bridge_t *bridge)
 
 double bridge_graph_pass_due(const bridge_t *bridge)
 {
-    return bridge->pass_on && bridge->pass.state == BRIDGE_PASS_IDLE &&
-                   bridge->loop_count != bridge->pass_loops
-               ? bridge->pass_next
+    return bridge->solver.pass_on && bridge->solver.pass.state == BRIDGE_PASS_IDLE &&
+                   bridge->solver.loop_count != bridge->solver.pass_loops
+               ? bridge->solver.pass_next
                : (double)INFINITY;
 }
 
 void bridge_graph_pass(bridge_t *bridge)
 {
-    if (!bridge->pass_on) {
+    if (!bridge->solver.pass_on) {
         return;
     }
-    const int state = bridge_pass_state(&bridge->pass);
+    const int state = bridge_pass_state(&bridge->solver.pass);
     if (state == BRIDGE_PASS_RUNNING) {
         return;
     }
     const double now = bridge_now();
     if (state == BRIDGE_PASS_DONE) {
         adopt_pass(bridge);
-        bridge->pass_took = bridge->pass.took;
-        bridge->pass_next = now + bridge->pass_took; /* at most half the time in passes */
-        bridge_pass_release(&bridge->pass);
+        bridge->solver.pass_took = bridge->solver.pass.took;
+        bridge->solver.pass_next = now + bridge->solver.pass_took; /* at most half the time in passes */
+        bridge_pass_release(&bridge->solver.pass);
     }
     /* The next one: when loop closures arrived since the last copy, the map is up to date (no
      * restart owed), and the last pass's time has passed since it ended. */
-    if (now < bridge->pass_next || bridge->loop_count == bridge->pass_loops) {
+    if (now < bridge->solver.pass_next || bridge->solver.loop_count == bridge->solver.pass_loops) {
         return;
     }
     (void)bridge_components_hold(bridge); /* the copy holds each part where the live map does */
-    if (bridge->restart_pending || bridge->solved_poses != pgem_pose_count(bridge->core)) {
-        bridge->pass_next = now + 0.05; /* not now: look again a little later */
+    if (bridge->solver.restart_pending || bridge->solver.solved_poses != pgem_pose_count(bridge->solver.core)) {
+        bridge->solver.pass_next = now + 0.05; /* not now: look again a little later */
         return;
     }
-    if (bridge_pass_start(&bridge->pass, bridge->core,
-                          bridge->compactions == 0u ? bridge->raw : NULL, bridge->generation, now) != 0) {
+    if (bridge_pass_start(&bridge->solver.pass, bridge->solver.core,
+                          bridge->solver.compactions == 0u ? bridge->solver.raw : NULL, bridge->solver.generation, now) != 0) {
         bridge_note(bridge, "live EM pass: cannot copy the graph: %s",
-                    pgem_last_error(bridge->pass.core));
-        bridge->pass_on = 0;
+                    pgem_last_error(bridge->solver.pass.core));
+        bridge->solver.pass_on = 0;
         return;
     }
-    bridge->pass_loops = bridge->loop_count;
+    bridge->solver.pass_loops = bridge->solver.loop_count;
 }
 
 int bridge_out_ready(bridge_t *bridge, int size, const char *what)
 {
-    if (size > 0 && (size_t)size <= bridge->out_buffer_size) {
+    if (size > 0 && (size_t)size <= bridge->solver.out_buffer_size) {
         return 1;
     }
-    unsigned char *grown = size > 0 ? realloc(bridge->out_buffer, (size_t)size) : NULL;
+    unsigned char *grown = size > 0 ? realloc(bridge->solver.out_buffer, (size_t)size) : NULL;
     if (grown == NULL) {
         bridge_note(bridge, "cannot encode %s (%d bytes)", what, size);
         return 0;
     }
-    bridge->out_buffer = grown;
-    bridge->out_buffer_size = (size_t)size;
+    bridge->solver.out_buffer = grown;
+    bridge->solver.out_buffer_size = (size_t)size;
     return 1;
 }
 
@@ -1015,7 +1018,7 @@ void bridge_out_publish(bridge_t *bridge, const char *channel, const char *what,
         bridge_note(bridge, "cannot encode %s (%d bytes)", what, size);
         return;
     }
-    if (lcm_publish(bridge->lcm, channel, bridge->out_buffer, (unsigned)size) != 0) {
+    if (lcm_publish(bridge->lcm, channel, bridge->solver.out_buffer, (unsigned)size) != 0) {
         bridge_note(bridge, "LCM refused to publish %s (%d bytes) on %s", what, size, channel);
     }
 }
@@ -1024,22 +1027,22 @@ void bridge_graph_publish(bridge_t *bridge, const char *trigger,
                           const pgem_robust_summary_t *summary, int usable, const char *why,
                           int64_t solve_time_us)
 {
-    pgem_t *core = bridge->core;
+    pgem_t *core = bridge->solver.core;
     int dimension = bridge->options.dimension;
     pgem_graph_t msg;
     memset(&msg, 0, sizeof msg);
     msg.utime = bridge_utime();
-    bridge->graph_utime = msg.utime;
+    bridge->solver.graph_utime = msg.utime;
     msg.dimension = (int8_t)dimension;
     msg.num_poses = (int32_t)pgem_pose_count(core);
     msg.pose_size = PGEM_POSE_SIZE(dimension);
     for (uint32_t i = 0; i < (uint32_t)msg.num_poses; ++i) {
         pgem_id_t id = 0;
-        pgem_pose_at(core, i, &id, bridge->out_rows[i], NULL);
-        bridge->out_ids[i] = (int64_t)id;
+        pgem_pose_at(core, i, &id, bridge->solver.out_rows[i], NULL);
+        bridge->solver.out_ids[i] = (int64_t)id;
     }
-    msg.ids = bridge->out_ids;
-    msg.poses = bridge->out_rows;
+    msg.ids = bridge->solver.out_ids;
+    msg.poses = bridge->solver.out_rows;
     uint32_t loops = 0;
     for (uint32_t k = 0; k < pgem_edge_count(core); ++k) {
         pgem_edge_view_t view;
@@ -1047,34 +1050,36 @@ void bridge_graph_publish(bridge_t *bridge, const char *trigger,
         if (view.kind != PGEM_EDGE_LOOP) {
             continue;
         }
-        pgem_loop_t *loop = &bridge->out_loops[loops++];
-        loop->source_index = bridge->edge_source[k];
-        loop->sequence = bridge->edge_sequence[k];
+        pgem_loop_t *loop = &bridge->solver.out_loops[loops++];
+        loop->source_index = bridge->solver.edge_source[k];
+        loop->sequence = bridge->solver.edge_sequence[k];
         loop->from = (int64_t)view.from;
         loop->to = (int64_t)view.to;
         loop->weight = view.weight;
         loop->state = view.active ? PGEM_LOOP_T_ACCEPTED : PGEM_LOOP_T_PRUNED;
     }
     msg.num_loops = (int32_t)loops;
-    msg.loops = bridge->out_loops;
-    /* Source names are append-only inside the ingest: entries below the count never change. */
-    pthread_mutex_lock(&bridge->lock);
-    uint32_t sources = pgem_ingest_source_count(bridge->ingest);
+    msg.loops = bridge->solver.out_loops;
+    /* The source names, copied under the lock: the reception thread may free a slot (a
+     * source whose last waiting edge expired) or give it to a new name meanwhile. */
+    pthread_mutex_lock(&bridge->handoff.lock);
+    uint32_t sources = pgem_ingest_source_count(bridge->handoff.ingest);
     for (uint32_t s = 0; s < sources; ++s) {
-        /* lcm-gen's struct wants char *; the encoder only reads the names */
-        bridge->out_sources[s] = (char *)(uintptr_t)pgem_ingest_source_name(bridge->ingest, s); // NOLINT(performance-no-int-to-ptr)
-        bridge->out_last[s] = bridge->source_last[s];
+        char *name = bridge->solver.out_names + (size_t)s * PGEM_SOURCE_MAX;
+        snprintf(name, PGEM_SOURCE_MAX, "%s", pgem_ingest_source_name(bridge->handoff.ingest, s));
+        bridge->solver.out_sources[s] = name;
+        bridge->solver.out_last[s] = bridge->solver.source_last[s];
     }
-    pthread_mutex_unlock(&bridge->lock);
+    pthread_mutex_unlock(&bridge->handoff.lock);
     msg.num_sources = (int32_t)sources;
-    msg.sources = bridge->out_sources;
-    msg.last_sequence = bridge->out_last;
+    msg.sources = bridge->solver.out_sources;
+    msg.last_sequence = bridge->solver.out_last;
     msg.edges_included = pgem_edge_count(core);
     char trigger_text[32];
     char why_text[256];
     snprintf(trigger_text, sizeof trigger_text, "%s", trigger);
     snprintf(why_text, sizeof why_text, "%s", why != NULL ? why : "");
-    msg.stats.solve_id = ++bridge->solve_id;
+    msg.stats.solve_id = ++bridge->solver.solve_id;
     msg.stats.trigger = trigger_text;
     msg.stats.usable = (int8_t)usable;
     msg.stats.message = why_text;
@@ -1093,7 +1098,7 @@ void bridge_graph_publish(bridge_t *bridge, const char *trigger,
     const int size = pgem_graph_t_encoded_size(&msg);
     if (bridge_out_ready(bridge, size, "the graph")) {
         bridge_out_publish(bridge, bridge->options.channels.graph, "the graph", size,
-                    pgem_graph_t_encode(bridge->out_buffer, 0, size, &msg));
+                    pgem_graph_t_encode(bridge->solver.out_buffer, 0, size, &msg));
     }
 }
 
@@ -1134,7 +1139,7 @@ static int snapshot_temporary(const bridge_t *bridge, const char *name,
     }
     FILE *stream = fdopen(fd, "w");
     struct stat info;
-    int failed = stream == NULL || writer(stream, bridge->core) != PGEM_OK ||
+    int failed = stream == NULL || writer(stream, bridge->solver.core) != PGEM_OK ||
                  fflush(stream) != 0 || fsync(fd) != 0 || fstat(fd, &info) != 0;
     int saved = errno;
     if (stream != NULL ? fclose(stream) != 0 : close(fd) != 0) {
@@ -1206,12 +1211,12 @@ void bridge_graph_snapshot(bridge_t *bridge, const char *name)
         done = 0;
     }
     if (done) {
-        pthread_mutex_lock(&bridge->lock);
+        pthread_mutex_lock(&bridge->handoff.lock);
         bridge_snapshot_written(bridge, graph_bytes + weights_bytes);
-        pthread_mutex_unlock(&bridge->lock);
+        pthread_mutex_unlock(&bridge->handoff.lock);
         bridge_note(bridge, "snapshot: %s/%s (%u poses, %u edges) and %s, %.1f MiB",
-                    bridge->options.snapshot_dir, name, pgem_pose_count(bridge->core),
-                    pgem_edge_count(bridge->core), weights,
+                    bridge->options.snapshot_dir, name, pgem_pose_count(bridge->solver.core),
+                    pgem_edge_count(bridge->solver.core), weights,
                     (double)(graph_bytes + weights_bytes) / 1048576.0);
     } else {
         bridge_note(bridge, "snapshot failed, nothing written: %s/%s",
