@@ -1,19 +1,15 @@
-/* Reception state machine: decode, validate, deduplicate, hold edges for missing poses (ageing
- * them out), offer changes to the admit hook, emit. */
+/* The admission state machine: each decoded message (wire.c) checked, deduplicated, its
+ * capacity reserved, edges held for missing poses (and aged out), changes offered to the admit
+ * hook, items emitted; the ids compaction removed and their anchors. */
 #include "ingest.h"
 
-#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "pgem/geometry.h"
-#include "pgem_command_t.h"
-#include "pgem_edge2_t.h"
-#include "pgem_edge3_t.h"
-#include "pgem_pose2_t.h"
-#include "pgem_pose3_t.h"
 #include "utf8.h"
+#include "wire.h"
 
 #define DEFAULT_MAX_PENDING 4096u
 #define DEFAULT_MAX_SOURCES 64u
@@ -329,28 +325,6 @@ const char *pgem_ingest_last_odometry_note(const pgem_ingest_t *ingest)
     return ingest->last_odometry;
 }
 
-void pgem_upper_to_full(const double *upper, int n, double *full)
-{
-    int k = 0;
-    for (int i = 0; i < n; ++i) {
-        for (int j = i; j < n; ++j) {
-            full[i * n + j] = upper[k];
-            full[j * n + i] = upper[k];
-            ++k;
-        }
-    }
-}
-
-int pgem_snapshot_name_ok(const char *name)
-{
-    size_t length = name != NULL ? strlen(name) : 0;
-    if (length == 0 || length > PGEM_SNAPSHOT_NAME_MAX || name[0] == '.') {
-        return 0;
-    }
-    return strspn(name, "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789._-") ==
-           length;
-}
-
 static void reject(pgem_ingest_t *ingest, pgem_ingest_result_t *result, pgem_reject_t reason)
 {
     result->verdict = PGEM_VERDICT_REJECTED;
@@ -376,38 +350,12 @@ static int admitted(pgem_ingest_t *ingest, const char *what, pgem_ingest_result_
 
 /* ---- checks shared by poses and edges ---------------------------------------------------- */
 
-static const char *const value_names_2d[] = {"x", "y", "theta"};
-static const char *const value_names_3d[] = {"x", "y", "z", "qx", "qy", "qz", "qw"};
-
-/* A number as the fewest digits that read back as it (1e+160, not 1.0000000000000001e+160). */
-static void shortest(char *out, size_t size, double value)
-{
-    for (int digits = 1; digits <= 17; ++digits) {
-        snprintf(out, size, "%.*g", digits, value);
-        if (strtod(out, NULL) == value) {
-            return;
-        }
-    }
-}
-
 /* The index of a source name: a known source's, or for a new one the slot it will take if its
  * edge is admitted (a rejected message must not use up the source table). -1 (result filled)
  * when the name is refused or the table is full. */
 static int source_index(pgem_ingest_t *ingest, const char *name, pgem_ingest_result_t *result)
 {
-    size_t length = name != NULL ? strlen(name) : 0;
-    size_t bad = 0;
-    char shown[128];
-    if (length == 0 || length >= PGEM_SOURCE_MAX) {
-        snprintf(result->message, sizeof result->message,
-                 "source name must have 1 to %d bytes, got %zu", PGEM_SOURCE_MAX - 1, length);
-        return -1;
-    }
-    if (!pgem_utf8_text_printable(name, &bad)) {
-        snprintf(result->message, sizeof result->message,
-                 "source name '%s' is not printable UTF-8 (byte %zu, 0x%02x): names appear in "
-                 "logs and JSON", pgem_utf8_escape(shown, sizeof shown, name), bad,
-                 (unsigned)(unsigned char)name[bad]);
+    if (!pgem_wire_source_ok(name, result->message, sizeof result->message)) {
         return -1;
     }
     int free_slot = -1;
@@ -467,35 +415,14 @@ static void source_release(pgem_ingest_t *ingest, uint32_t index)
     }
 }
 
-/* A pose estimate or a measurement: the core's pose check (finite, translation within
- * PGEM_TRANSLATION_LIMIT, in 3D a unit quaternion). Returns 1, or 0 with the message and the
- * rejection filled. */
+/* A pose estimate or a measurement (wire.c's check): 1, or 0 with the rejection filled. */
 static int values_ok(pgem_ingest_t *ingest, const double *values, const char *what,
                      const char *noun, pgem_ingest_result_t *result)
 {
-    int dimension = ingest->config.dimension;
-    int bad = -1;
-    int status = pgem_pose_check(values, dimension, &bad);
-    const char *field = bad < 0 ? "" : dimension == 3 ? value_names_3d[bad] : value_names_2d[bad];
-    if (status == PGEM_ERR_NOT_FINITE) {
-        snprintf(result->message, sizeof result->message, "%s: NaN or Inf in the %s (field %s)",
-                 what, noun, field);
-        reject(ingest, result, PGEM_REJECT_NOT_FINITE);
-        return 0;
-    }
-    if (status == PGEM_ERR_OUT_OF_RANGE) {
-        char value[32];
-        shortest(value, sizeof value, values[bad]);
-        snprintf(result->message, sizeof result->message,
-                 "%s: the %s's %s is %s m, beyond the translation limit of 1e8 m", what, noun,
-                 field, value);
-        reject(ingest, result, PGEM_REJECT_RANGE);
-        return 0;
-    }
-    if (status != PGEM_OK) {
-        snprintf(result->message, sizeof result->message,
-                 "%s: quaternion norm off 1 by more than %g", what, PGEM_QUAT_NORM_TOLERANCE);
-        reject(ingest, result, PGEM_REJECT_ROTATION);
+    const pgem_reject_t reason = pgem_wire_check_values(
+        ingest->config.dimension, values, what, noun, result->message, sizeof result->message);
+    if (reason != PGEM_REJECT_COUNT) {
+        reject(ingest, result, reason);
         return 0;
     }
     return 1;
@@ -976,53 +903,16 @@ static void explain_conflict(const pgem_ingest_t *ingest, uint32_t source, const
              (long long)last, (long long)last + 1);
 }
 
-/* The checks of an edge's own values: 1, or 0 with the rejection filled. wire_kind is the
- * int8 of the message (an item holds it as unsigned). */
+/* The checks of an edge's own values (wire.c's): 1, or 0 with the rejection filled. wire_kind
+ * is the int8 of the message (an item holds it as unsigned). */
 static int edge_values_ok(pgem_ingest_t *ingest, const pgem_item_t *item, int wire_kind,
                           const char *what, pgem_ingest_result_t *result)
 {
-    int n = PGEM_TANGENT_SIZE(ingest->config.dimension);
-    if (item->from == item->to) {
-        snprintf(result->message, sizeof result->message, "%s: a self-loop", what);
-        reject(ingest, result, PGEM_REJECT_SELF_LOOP);
-        return 0;
-    }
-    if (wire_kind != PGEM_EDGE_ODOMETRY && wire_kind != PGEM_EDGE_LOOP) {
-        snprintf(result->message, sizeof result->message,
-                 "%s: kind %d is neither ODOMETRY (0) nor LOOP (1)", what, wire_kind);
-        reject(ingest, result, PGEM_REJECT_KIND);
-        return 0;
-    }
-    if (!values_ok(ingest, item->value, what, "measurement", result)) {
-        return 0;
-    }
-    double full[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    pgem_upper_to_full(item->information, n, full);
-    int entry = 0;
-    int check = pgem_information_check(full, n, &entry);
-    if (check == PGEM_ERR_OUT_OF_RANGE) {
-        char value[32];
-        shortest(value, sizeof value, full[entry]);
-        snprintf(result->message, sizeof result->message,
-                 "%s: information entry %d,%d is %s, beyond the information limit of 1e15", what,
-                 entry / n, entry % n, value);
-        reject(ingest, result, PGEM_REJECT_RANGE);
-        return 0;
-    }
-    if (check == PGEM_ERR_INFORMATION && pgem_information_positive(full, n)) {
-        snprintf(result->message, sizeof result->message,
-                 "%s: information is positive definite but too badly conditioned to factor in "
-                 "double precision (entry %d,%d: a condition number beyond about 1e15)", what,
-                 entry / n, entry % n);
-        reject(ingest, result, PGEM_REJECT_INFORMATION);
-        return 0;
-    }
-    if (check != PGEM_OK) {
-        int not_finite = check == PGEM_ERR_NOT_FINITE;
-        snprintf(result->message, sizeof result->message, "%s: information %s (entry %d,%d)",
-                 what, not_finite ? "has NaN or Inf" : "is not positive definite", entry / n,
-                 entry % n);
-        reject(ingest, result, not_finite ? PGEM_REJECT_NOT_FINITE : PGEM_REJECT_INFORMATION);
+    const pgem_reject_t reason =
+        pgem_wire_check_edge(ingest->config.dimension, item, wire_kind, what, result->message,
+                             sizeof result->message);
+    if (reason != PGEM_REJECT_COUNT) {
+        reject(ingest, result, reason);
         return 0;
     }
     return 1;
@@ -1120,53 +1010,6 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
     }
 }
 
-/* ---- decoding ---------------------------------------------------------------------------- */
-
-static int64_t fingerprint(const void *data, size_t size)
-{
-    if (size < 8) {
-        return 0;
-    }
-    const unsigned char *b = data;
-    uint64_t value = 0;
-    for (int i = 0; i < 8; ++i) {
-        value = value << 8 | b[i];
-    }
-    return (int64_t)value;
-}
-
-/* lcm-gen's decoders trust a string's length field (they malloc it and never check the
- * terminating NUL), so every message is first checked against its exact layout: the type's
- * fingerprint, one string at string_offset (length 1 .. 64 KiB including a NUL that is its
- * only zero byte) and `tail` bytes after it, nothing more or less. */
-static int wire_ok(const void *data, size_t size, int64_t type, size_t string_offset,
-                   size_t tail)
-{
-    const unsigned char *bytes = data;
-    if (fingerprint(data, size) != type || size < string_offset + 4) {
-        return 0;
-    }
-    const unsigned char *p = bytes + string_offset;
-    uint32_t length = (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
-    if (length == 0 || length > 65536 || size != string_offset + 4 + length + tail) {
-        return 0;
-    }
-    const unsigned char *text = p + 4;
-    return text[length - 1] == 0 && memchr(text, 0, length - 1) == NULL;
-}
-
-/* Byte sizes of the fields after the string in each input type (see types/ *.lcm). */
-#define POSE2_TAIL (8 + 3 * 8 + 1)
-#define POSE3_TAIL (8 + 7 * 8 + 1)
-#define EDGE2_TAIL (3 * 8 + 3 * 8 + 6 * 8 + 1)
-#define EDGE3_TAIL (3 * 8 + 7 * 8 + 21 * 8 + 1)
-#define STRING_AFTER_UTIME 16  /* fingerprint, utime */
-#define COMMAND_STRING 17      /* fingerprint, utime, command */
-
-#define DECODE(type, data, size, offset, tail, msg)                                  \
-    (wire_ok(data, size, __##type##_get_hash(), offset, tail) &&                      \
-     type##_decode(data, 0, (int)(size), msg) == (int)(size))
-
 static void reset(pgem_ingest_t *ingest)
 {
     table_clear(&ingest->poses);
@@ -1213,168 +1056,31 @@ static int snapshot_ok(pgem_ingest_t *ingest, const char *name, pgem_ingest_resu
     return 0;
 }
 
-static void handle_command(pgem_ingest_t *ingest, const void *data, size_t size,
+/* ---- the message ------------------------------------------------------------------------- */
+
+static void handle_command(pgem_ingest_t *ingest, const pgem_wire_message_t *command,
                            pgem_ingest_result_t *result)
 {
-    pgem_command_t command;
-    if (!DECODE(pgem_command_t, data, size, COMMAND_STRING, 0, &command)) {
-        snprintf(result->message, sizeof result->message,
-                 "a %zu-byte message on the command channel is not a pgem.command_t", size);
-        reject(ingest, result, PGEM_REJECT_DECODE);
-        return;
-    }
     ingest->counts.commands++;
-    result->command = (int)command.command; /* a signed 8-bit code on the wire */
-    const char *path = command.path != NULL ? command.path : "";
-    if (command.command == PGEM_COMMAND_T_SNAPSHOT) {
+    result->command = command->command;
+    const char *path = command->path;
+    if (command->command == PGEM_COMMAND_T_SNAPSHOT) {
         if (snapshot_ok(ingest, path, result)) {
             result->verdict = PGEM_VERDICT_COMMAND;
             memcpy(result->path, path, strlen(path) + 1);
         }
-    } else if (command.command == PGEM_COMMAND_T_RESET) {
+    } else if (command->command == PGEM_COMMAND_T_RESET) {
         if (admitted(ingest, "RESET", result)) {
             result->verdict = PGEM_VERDICT_COMMAND;
             reset(ingest);
         }
-    } else if (command.command == PGEM_COMMAND_T_OPTIMIZE) {
+    } else if (command->command == PGEM_COMMAND_T_OPTIMIZE) {
         result->verdict = PGEM_VERDICT_COMMAND;
     } else {
         snprintf(result->message, sizeof result->message,
-                 "unknown command %d (OPTIMIZE 1, RESET 2, SNAPSHOT 3)", (int)command.command);
+                 "unknown command %d (OPTIMIZE 1, RESET 2, SNAPSHOT 3)", command->command);
         reject(ingest, result, PGEM_REJECT_COMMAND);
     }
-    pgem_command_t_decode_cleanup(&command);
-}
-
-/* A message on the pose or edge channel that did not decode: of the other dimension, or not
- * the channel's type at all. */
-static void reject_undecoded(pgem_ingest_t *ingest, const void *data, size_t size,
-                             int64_t other_dimension, const char *noun,
-                             pgem_ingest_result_t *result)
-{
-    int dimension = ingest->config.dimension;
-    if (fingerprint(data, size) == other_dimension) {
-        snprintf(result->message, sizeof result->message, "a %dD %s reached a %dD bridge",
-                 5 - dimension, noun, dimension);
-        reject(ingest, result, PGEM_REJECT_DIMENSION);
-    } else {
-        snprintf(result->message, sizeof result->message,
-                 "a %zu-byte message on the %s channel is not a pgem.%s%d_t", size, noun, noun,
-                 dimension);
-        reject(ingest, result, PGEM_REJECT_DECODE);
-    }
-}
-
-/* The fields an edge2_t and an edge3_t share, into an item (the kind is checked as the int8
- * it is on the wire before it is stored). */
-#define EDGE_INTO_ITEM(edge, item)                                              \
-    do {                                                                        \
-        (item).from = (pgem_id_t)(edge).from;                                   \
-        (item).to = (pgem_id_t)(edge).to;                                       \
-        (item).sequence = (edge).sequence;                                      \
-        memcpy((item).value, (edge).measurement, sizeof (edge).measurement);    \
-        memcpy((item).information, (edge).information, sizeof (edge).information); \
-    } while (0)
-
-static void pose_what(char *what, size_t size, pgem_id_t id, int dimension)
-{
-    snprintf(what, size, "%dD pose %llu", dimension, (unsigned long long)id);
-}
-
-static void handle_pose(pgem_ingest_t *ingest, const void *data, size_t size,
-                        pgem_ingest_result_t *result)
-{
-    pgem_item_t item;
-    memset(&item, 0, sizeof item);
-    item.type = PGEM_ITEM_POSE;
-    char what[64];
-    if (ingest->config.dimension == 2) {
-        pgem_pose2_t pose;
-        if (DECODE(pgem_pose2_t, data, size, STRING_AFTER_UTIME, POSE2_TAIL, &pose)) {
-            item.from = (pgem_id_t)pose.id;
-            item.kind = pose.fixed ? 1 : 0;
-            memcpy(item.value, pose.pose, sizeof pose.pose);
-            pgem_pose2_t_decode_cleanup(&pose);
-            pose_what(what, sizeof what, item.from, 2);
-            admit_pose(ingest, &item, what, result);
-            return;
-        }
-    } else {
-        pgem_pose3_t pose;
-        if (DECODE(pgem_pose3_t, data, size, STRING_AFTER_UTIME, POSE3_TAIL, &pose)) {
-            item.from = (pgem_id_t)pose.id;
-            item.kind = pose.fixed ? 1 : 0;
-            memcpy(item.value, pose.pose, sizeof pose.pose);
-            pgem_pose3_t_decode_cleanup(&pose);
-            pose_what(what, sizeof what, item.from, 3);
-            admit_pose(ingest, &item, what, result);
-            return;
-        }
-    }
-    reject_undecoded(ingest, data, size,
-                     ingest->config.dimension == 2 ? __pgem_pose3_t_get_hash()
-                                                   : __pgem_pose2_t_get_hash(),
-                     "pose", result);
-}
-
-static void handle_edge(pgem_ingest_t *ingest, const void *data, size_t size, int64_t utime,
-                        pgem_ingest_result_t *result)
-{
-    pgem_item_t item;
-    memset(&item, 0, sizeof item);
-    item.type = PGEM_ITEM_EDGE;
-    if (ingest->config.dimension == 2) {
-        pgem_edge2_t edge;
-        if (DECODE(pgem_edge2_t, data, size, STRING_AFTER_UTIME, EDGE2_TAIL, &edge)) {
-            EDGE_INTO_ITEM(edge, item);
-            admit_edge(ingest, &item, edge.source, edge.kind, utime, result);
-            pgem_edge2_t_decode_cleanup(&edge);
-            return;
-        }
-    } else {
-        pgem_edge3_t edge;
-        if (DECODE(pgem_edge3_t, data, size, STRING_AFTER_UTIME, EDGE3_TAIL, &edge)) {
-            EDGE_INTO_ITEM(edge, item);
-            admit_edge(ingest, &item, edge.source, edge.kind, utime, result);
-            pgem_edge3_t_decode_cleanup(&edge);
-            return;
-        }
-    }
-    reject_undecoded(ingest, data, size,
-                     ingest->config.dimension == 2 ? __pgem_edge3_t_get_hash()
-                                                   : __pgem_edge2_t_get_hash(),
-                     "edge", result);
-}
-
-static pgem_role_t role_of(const void *data, size_t size)
-{
-    int64_t type = fingerprint(data, size);
-    if (type == __pgem_pose2_t_get_hash() || type == __pgem_pose3_t_get_hash()) {
-        return PGEM_ROLE_POSE;
-    }
-    if (type == __pgem_edge2_t_get_hash() || type == __pgem_edge3_t_get_hash()) {
-        return PGEM_ROLE_EDGE;
-    }
-    if (type == __pgem_command_t_get_hash()) {
-        return PGEM_ROLE_COMMAND;
-    }
-    return PGEM_ROLE_ANY;
-}
-
-pgem_role_t pgem_ingest_wire_role(const void *data, size_t size)
-{
-    if (wire_ok(data, size, __pgem_pose2_t_get_hash(), STRING_AFTER_UTIME, POSE2_TAIL) ||
-        wire_ok(data, size, __pgem_pose3_t_get_hash(), STRING_AFTER_UTIME, POSE3_TAIL)) {
-        return PGEM_ROLE_POSE;
-    }
-    if (wire_ok(data, size, __pgem_edge2_t_get_hash(), STRING_AFTER_UTIME, EDGE2_TAIL) ||
-        wire_ok(data, size, __pgem_edge3_t_get_hash(), STRING_AFTER_UTIME, EDGE3_TAIL)) {
-        return PGEM_ROLE_EDGE;
-    }
-    if (wire_ok(data, size, __pgem_command_t_get_hash(), COMMAND_STRING, 0)) {
-        return PGEM_ROLE_COMMAND;
-    }
-    return PGEM_ROLE_ANY;
 }
 
 void pgem_ingest_message(pgem_ingest_t *ingest, pgem_role_t role, const void *data, size_t size,
@@ -1383,24 +1089,36 @@ void pgem_ingest_message(pgem_ingest_t *ingest, pgem_role_t role, const void *da
     memset(result, 0, sizeof *result);
     pgem_ingest_expire(ingest, utime);
     if (role == PGEM_ROLE_ANY) {
-        role = role_of(data, size);
+        role = pgem_wire_role(data, size);
         if (role == PGEM_ROLE_ANY) {
             result->verdict = PGEM_VERDICT_IGNORED;
             return;
         }
     }
+    if (role != PGEM_ROLE_COMMAND) {
+        ingest->counts.received++;
+    }
+    const int dimension = ingest->config.dimension;
+    pgem_wire_message_t message;
+    pgem_reject_t reason = PGEM_REJECT_DECODE;
+    if (!pgem_wire_decode(dimension, role, data, size, &message, &reason, result->message,
+                          sizeof result->message)) {
+        reject(ingest, result, reason);
+        return;
+    }
     ingest->data = data;
     ingest->size = size;
     if (role == PGEM_ROLE_COMMAND) {
-        handle_command(ingest, data, size, result);
+        handle_command(ingest, &message, result);
+    } else if (role == PGEM_ROLE_POSE) {
+        char what[64];
+        snprintf(what, sizeof what, "%dD pose %llu", dimension,
+                 (unsigned long long)message.item.from);
+        admit_pose(ingest, &message.item, what, result);
     } else {
-        ingest->counts.received++;
-        if (role == PGEM_ROLE_POSE) {
-            handle_pose(ingest, data, size, result);
-        } else {
-            handle_edge(ingest, data, size, utime, result);
-        }
+        admit_edge(ingest, &message.item, message.source, message.wire_kind, utime, result);
     }
+    pgem_wire_release(&message);
     ingest->data = NULL;
     ingest->size = 0;
 }
