@@ -68,7 +68,7 @@ static int start(bridge_t *bridge, char *message, size_t message_size)
     if (bridge_reception_init(bridge, message, message_size) != 0) {
         return -1;
     }
-    if (bridge_graph_init(bridge, message, message_size) != 0) {
+    if (bridge_solver_init(bridge, message, message_size) != 0) {
         return -1;
     }
     if (o->snapshot_dir != NULL) {
@@ -119,7 +119,7 @@ static void finish(bridge_t *bridge)
         lcm_destroy(bridge->lcm);
     }
     bridge_reception_free(bridge);
-    bridge_graph_free(bridge);
+    bridge_solver_free(bridge);
     free(bridge->handoff.snapshots);
     pthread_cond_destroy(&bridge->handoff.wake);
     pthread_mutex_destroy(&bridge->handoff.lock);

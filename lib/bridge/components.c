@@ -141,7 +141,7 @@ static void join_edge(bridge_t *bridge, uint32_t k)
         const uint32_t own = anchor_of[s == 0 ? root_a : root_b];
         if (own != anchor && own != UINT32_MAX && bridge->solver.gauge_fixed[own]) {
             move_part(bridge, s == 0 ? root_a : root_b, &view, s == 1);
-            bridge_graph_drop_pass(bridge); /* a pass's copy holds it where it was */
+            bridge_pass_drop(bridge); /* a pass's copy holds it where it was */
             bridge_log(bridge, "odometry %llu -> %llu joined a part held at its own gauge to "
                                "another: the part moved as one onto it",
                        (unsigned long long)view.from, (unsigned long long)view.to);

@@ -1,14 +1,169 @@
-/* The solver thread's loop: waits for work, drains the queue in batches into the graph,
- * steps the incremental updates, decides when to solve (the schedule), writes snapshots and
- * runs the live EM passes. */
+/* The solver thread: its state (allocated at start from the capacities) and its loop, which
+ * waits for work, drains the queue in batches into the graph (apply.c), steps the incremental
+ * updates and decides when to solve (the schedule; solve.c), writes snapshots (snapshot.c) and
+ * tends the live EM passes (pass_adopt.c). */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
 #include "bridge_internal.h"
 
 #define OPTIMIZE_INTERVAL 1.0     /* s from the end of a command solve to the next (issue 31) */
+
+/* ---- the solver thread's state ------------------------------------------------------------ */
+
+int bridge_solver_init(bridge_t *bridge, char *message, size_t message_size)
+{
+    const pgem_bridge_options_t *o = &bridge->options;
+    memset(&bridge->solver.core_config, 0, sizeof bridge->solver.core_config);
+    bridge->solver.core_config.dimension = o->dimension;
+    bridge->solver.core_config.max_poses = o->max_poses;
+    bridge->solver.core_config.max_edges = o->max_edges;
+    bridge->solver.core_config.fill_budget = o->fill_budget;
+    if (!o->full) { /* the incremental factor's room: twice the core's default fill */
+        const uint64_t b = (uint64_t)PGEM_TANGENT_SIZE(o->dimension);
+        const uint64_t fill = 2u * (uint64_t)PGEM_DEFAULT_FILL_PER_POSE * b * b * o->max_poses;
+        bridge->solver.core_config.online_fill = fill > (uint64_t)INT32_MAX ? (uint32_t)INT32_MAX
+                                                                       : (uint32_t)fill;
+    }
+    bridge->solver.core_block_size = pgem_memory_size(&bridge->solver.core_config);
+    if (bridge->solver.core_block_size == 0) {
+        snprintf(message, message_size, "invalid capacities (%u poses, %u edges, fill %u)",
+                 (unsigned)o->max_poses, (unsigned)o->max_edges, (unsigned)o->fill_budget);
+        return -1;
+    }
+    bridge->solver.core_block = malloc(bridge->solver.core_block_size);
+    size_t poses = o->max_poses;
+    size_t edges = o->max_edges;
+    size_t sources = o->max_sources;
+    size_t pose_size = (size_t)PGEM_POSE_SIZE(o->dimension);
+    bridge->solver.edge_source = calloc(edges, sizeof *bridge->solver.edge_source);
+    bridge->solver.edge_sequence = calloc(edges, sizeof *bridge->solver.edge_sequence);
+    bridge->solver.source_last = calloc(sources, sizeof *bridge->solver.source_last);
+    bridge->solver.anchored = calloc(poses, 1);
+    bridge->solver.user_fixed = calloc(poses, 1);
+    bridge->solver.gauge_fixed = calloc(poses, 1);
+    bridge->solver.component = calloc(poses, sizeof *bridge->solver.component);
+    bridge->solver.component_anchor = calloc(poses, sizeof *bridge->solver.component_anchor);
+    bridge->solver.raw = calloc(poses * pose_size, sizeof *bridge->solver.raw);
+    bridge->solver.part_edges = calloc(poses, 1);
+    bridge->solver.compact_pose_map = calloc(poses, sizeof *bridge->solver.compact_pose_map);
+    bridge->solver.compact_edge_map = calloc(edges, sizeof *bridge->solver.compact_edge_map);
+    bridge->solver.compact_ids = calloc(poses, sizeof *bridge->solver.compact_ids);
+    bridge->solver.compact_anchors = calloc(poses, sizeof *bridge->solver.compact_anchors);
+    bridge->solver.compact_relative = calloc(poses * pose_size, sizeof *bridge->solver.compact_relative);
+    bridge->solver.compact_before = calloc(poses * pose_size, sizeof *bridge->solver.compact_before);
+    bridge->solver.compact_edges = calloc(edges, sizeof *bridge->solver.compact_edges);
+    bridge->solver.out_ids = calloc(poses, sizeof *bridge->solver.out_ids);
+    bridge->solver.out_last_anchor = calloc(poses, sizeof *bridge->solver.out_last_anchor);
+    bridge->solver.out_values = calloc(poses * pose_size, sizeof *bridge->solver.out_values);
+    bridge->solver.out_rows = calloc(poses, sizeof *bridge->solver.out_rows);
+    bridge->solver.out_loops = calloc(edges, sizeof *bridge->solver.out_loops);
+    bridge->solver.out_sources = calloc(sources, sizeof *bridge->solver.out_sources);
+    bridge->solver.out_names = calloc(sources, PGEM_SOURCE_MAX);
+    bridge->solver.out_last = calloc(sources, sizeof *bridge->solver.out_last);
+    if (bridge->solver.core_block == NULL || bridge->solver.edge_source == NULL ||
+        bridge->solver.edge_sequence == NULL || bridge->solver.source_last == NULL ||
+        bridge->solver.anchored == NULL || bridge->solver.user_fixed == NULL || bridge->solver.gauge_fixed == NULL ||
+        bridge->solver.component == NULL || bridge->solver.component_anchor == NULL || bridge->solver.raw == NULL || bridge->solver.part_edges == NULL ||
+        bridge->solver.out_ids == NULL || bridge->solver.out_last_anchor == NULL || bridge->solver.out_values == NULL ||
+        bridge->solver.out_rows == NULL || bridge->solver.out_loops == NULL || bridge->solver.out_sources == NULL ||
+        bridge->solver.out_names == NULL ||
+        bridge->solver.out_last == NULL || bridge->solver.compact_pose_map == NULL ||
+        bridge->solver.compact_edge_map == NULL || bridge->solver.compact_ids == NULL ||
+        bridge->solver.compact_anchors == NULL || bridge->solver.compact_relative == NULL ||
+        bridge->solver.compact_before == NULL ||
+        bridge->solver.compact_edges == NULL) {
+        snprintf(message, message_size, "out of memory for %u poses and %u edges",
+                 (unsigned)o->max_poses, (unsigned)o->max_edges);
+        return -1;
+    }
+    for (size_t i = 0; i < poses; ++i) {
+        bridge->solver.out_rows[i] = bridge->solver.out_values + i * pose_size;
+    }
+    for (size_t s = 0; s < sources; ++s) {
+        bridge->solver.source_last[s] = -1;
+    }
+    bridge_components_reset(bridge);
+    int status = pgem_init(&bridge->solver.core, &bridge->solver.core_config, bridge->solver.core_block,
+                           bridge->solver.core_block_size);
+    if (status != PGEM_OK) {
+        snprintf(message, message_size, "cannot initialise the core: %s",
+                 pgem_error_name(status));
+        return -1;
+    }
+    bridge->solver.pass_on = !o->full && !o->no_live_em && o->robust.kernel != PGEM_KERNEL_NONE;
+    if (bridge->solver.pass_on && bridge_pass_init(&bridge->solver.pass, &bridge->solver.core_config, &o->robust,
+                                            &bridge->handoff.lock, &bridge->handoff.wake, message,
+                                            message_size) != 0) {
+        bridge->solver.pass_on = 0;
+        return -1;
+    }
+    if (!o->full) { /* the settle's way back: sized once, for the capacities */
+        bridge->solver.settle_save_size = pgem_update_save_size(bridge->solver.core);
+        bridge->solver.settle_save = malloc(bridge->solver.settle_save_size);
+        bridge->solver.settle_anchored = malloc(poses + 1u);
+        bridge->solver.settle_gauge = malloc(poses + 1u);
+        if (bridge->solver.settle_save == NULL || bridge->solver.settle_anchored == NULL ||
+            bridge->solver.settle_gauge == NULL) {
+            snprintf(message, message_size, "out of memory for %u poses and %u edges",
+                     (unsigned)o->max_poses, (unsigned)o->max_edges);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+void bridge_solver_free(bridge_t *bridge)
+{
+    bridge_pass_free(&bridge->solver.pass); /* before the core it copies from goes */
+    free(bridge->solver.core_block);
+    free(bridge->solver.edge_source);
+    free(bridge->solver.edge_sequence);
+    free(bridge->solver.source_last);
+    free(bridge->solver.anchored);
+    free(bridge->solver.user_fixed);
+    free(bridge->solver.gauge_fixed);
+    free(bridge->solver.component);
+    free(bridge->solver.component_anchor);
+    free(bridge->solver.raw);
+    free(bridge->solver.part_edges);
+    free(bridge->solver.compact_pose_map);
+    free(bridge->solver.compact_edge_map);
+    free(bridge->solver.compact_ids);
+    free(bridge->solver.compact_anchors);
+    free(bridge->solver.compact_relative);
+    free(bridge->solver.compact_before);
+    free(bridge->solver.compact_edges);
+    free(bridge->solver.out_ids);
+    free(bridge->solver.out_values);
+    free(bridge->solver.out_rows);
+    free(bridge->solver.out_loops);
+    free(bridge->solver.out_sources);
+    free(bridge->solver.out_names);
+    free(bridge->solver.out_last);
+    free(bridge->solver.out_buffer);
+    free(bridge->solver.out_last_anchor);
+    free(bridge->solver.settle_save);
+    free(bridge->solver.settle_anchored);
+    free(bridge->solver.settle_gauge);
+}
+
+void bridge_solver_counts(bridge_t *bridge)
+{
+    pthread_mutex_lock(&bridge->handoff.lock);
+    bridge->handoff.graph_poses = (int32_t)pgem_pose_count(bridge->solver.core);
+    bridge->handoff.graph_edges = (int32_t)pgem_edge_count(bridge->solver.core);
+    bridge->handoff.graph_loops = (int32_t)bridge->solver.loop_count;
+    bridge->handoff.graph_pruned = (int32_t)bridge->solver.pruned_count;
+    pthread_mutex_unlock(&bridge->handoff.lock);
+}
+
+
+/* ---- the loop ------------------------------------------------------------------------------ */
 
 typedef struct schedule {
     int unsolved;         /* items added since the last solve */
@@ -74,7 +229,7 @@ static void wait_for_work(bridge_t *bridge, const schedule_t *s)
     bridge_handoff_t *const h = &bridge->handoff;
     while (!h->stopping && h->visible == h->head && !h->optimize_requested &&
            !h->snapshot_requested && bridge->solver.pass.state != BRIDGE_PASS_DONE) {
-        const double pass_due = bridge_graph_pass_due(bridge);
+        const double pass_due = bridge_pass_due(bridge);
         if (solve_owed(s) || isfinite(pass_due)) {
             const double due = fmin(solve_owed(s) ? solve_due(bridge, s) : (double)INFINITY, pass_due);
             if (bridge_now() >= due) {
@@ -145,7 +300,7 @@ void *bridge_solver_main(void *user)
         for (int i = 0; i < count; ++i) {
             if (!bridge->options.full && !replaying && !behind && s.stepped &&
                 batch[i].type == PGEM_ITEM_POSE) {
-                bridge_graph_step(bridge); /* the edges of the poses before this one */
+                bridge_solve_step(bridge); /* the edges of the poses before this one */
                 s.stepped = 0;
             }
             s.stepped |= batch[i].type == PGEM_ITEM_EDGE;
@@ -155,7 +310,7 @@ void *bridge_solver_main(void *user)
                 s.unsolved = 0;
                 s.unsettled = 0;
             }
-            if (bridge_graph_apply(bridge, &batch[i])) {
+            if (bridge_apply(bridge, &batch[i])) {
                 if (!s.dirty) {
                     s.first_loop = now;
                     s.trigger = "loops";
@@ -165,11 +320,11 @@ void *bridge_solver_main(void *user)
             }
         }
         if (behind && !bridge->options.full && !replaying && s.stepped) {
-            bridge_graph_step(bridge);
+            bridge_solve_step(bridge);
             s.stepped = 0;
         }
         if (count > 0) {
-            bridge_graph_counts(bridge);
+            bridge_solver_counts(bridge);
         }
         now = bridge_now();
         int due = solve_owed(&s) && now >= solve_due(bridge, &s);
@@ -193,12 +348,12 @@ void *bridge_solver_main(void *user)
                 }
             }
             if (settle) {
-                settle = bridge_graph_settle(bridge); /* 0: it gave way, and is still owed */
+                settle = bridge_solve_settle(bridge); /* 0: it gave way, and is still owed */
             } else {
-                bridge_graph_solve(bridge, optimize ? "command"
-                                           : recovery ? "recovery"
-                                           : s.dirty  ? s.trigger
-                                                      : "idle");
+                bridge_solve(bridge, optimize   ? "command"
+                                     : recovery ? "recovery"
+                                     : s.dirty  ? s.trigger
+                                                : "idle");
             }
             s.last_end = bridge_now();
             if (optimize) {
@@ -215,10 +370,10 @@ void *bridge_solver_main(void *user)
             s.command = 0;
         }
         if (snapshot) {
-            bridge_graph_snapshot(bridge, path);
+            bridge_snapshot_write(bridge, path);
         }
         if (!bridge->options.full && !replaying) {
-            bridge_graph_pass(bridge); /* adopt a finished live EM pass, start the next */
+            bridge_pass_schedule(bridge); /* adopt a finished live EM pass, start the next */
         }
     }
     return NULL;

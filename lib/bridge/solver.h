@@ -106,55 +106,84 @@ typedef struct bridge_solver {
     uint64_t covariance_failures;
 } bridge_solver_t;
 
-/* solver.c: the thread's loop (drain, apply, decide, solve, snapshot, pass). */
+/* solver.c: the state, allocated at start from the capacities (0, or -1 with message), and
+ * freed at the end; the thread's loop (drain, apply, decide, solve, snapshot, pass). */
+int bridge_solver_init(bridge_t *bridge, char *message, size_t message_size);
+void bridge_solver_free(bridge_t *bridge);
 void *bridge_solver_main(void *user);
+/* Copies the graph's counts into the hand-off for the status (takes the lock). */
+void bridge_solver_counts(bridge_t *bridge);
 
-/* graph.c. */
-int bridge_graph_init(bridge_t *bridge, char *message, size_t message_size);
-void bridge_graph_free(bridge_t *bridge);
-/* Copies the graph's counts for the status (takes the lock). */
-void bridge_graph_counts(bridge_t *bridge);
-/* Adds one item to the graph; returns 1 if it was a new loop closure. */
-int bridge_graph_apply(bridge_t *bridge, const pgem_item_t *item);
+/* apply.c: adds one item to the graph; returns 1 if it was a new loop closure. */
+int bridge_apply(bridge_t *bridge, const pgem_item_t *item);
+
+/* solve.c. */
 /* Solves and publishes; trigger names why ("loops", "command", "recovery"). */
-void bridge_graph_solve(bridge_t *bridge, const char *trigger);
+void bridge_solve(bridge_t *bridge, const char *trigger);
 /* One incremental update, not published: while a batch of items is applied, one per pose
  * that got edges, so each pose's loop closures are gated under a map that already holds the
  * loop closures before them (one update for a long batch would test them all against the
  * estimate from before it, and reject the ones that agree with an earlier correction).
- * Nothing when the next solve must restart or hold several parts. */
-void bridge_graph_step(bridge_t *bridge);
-/* The live EM pass, after each batch: adopts a finished pass (an update at its estimate and
- * verdicts, published as "em-pass") and starts the next one when loop closures arrived since
- * the last copy. Nothing when passes are off. */
-void bridge_graph_pass(bridge_t *bridge);
-/* (Lock held) When the next pass is owed (loop closures arrived since the last copy and the
- * pass is idle): its earliest start; +inf when none is. */
-double bridge_graph_pass_due(const bridge_t *bridge);
+ * Nothing when the next solve must restart. */
+void bridge_solve_step(bridge_t *bridge);
 /* The settle solve: every pose back to the front-end's estimate, every loop closure back in,
  * EM on the whole graph (trigger "settle"); run once the stream has been quiet for idle_solve
  * after incremental solves, so a paused robot's map is the one the offline tools compute.
  * With incremental updates it gives way to items that arrive while it runs: it stops after
  * the Gauss-Newton iteration under way, the graph is put back as the last update left it
  * (nothing is published), and it returns 0, still owed; else 1. */
-int bridge_graph_settle(bridge_t *bridge);
-/* Publishes the graph as it is, without solving (after a reset). */
-void bridge_graph_publish(bridge_t *bridge, const char *trigger,
-                          const pgem_robust_summary_t *summary, int usable, const char *why,
-                          int64_t solve_time_us);
-void bridge_graph_snapshot(bridge_t *bridge, const char *path);
-/* Every message the solver thread publishes is encoded into the out buffer.
+int bridge_solve_settle(bridge_t *bridge);
+/* One incremental update; the summary gets what a robust solve's would say of the loops
+ * (bridge_solve_loops). */
+int bridge_solve_update(bridge_t *bridge, pgem_robust_summary_t *summary);
+/* What a robust solve's summary would say of the loops, from the bridge's counts (loops,
+ * pruned, the outcome a robust solve would give for them); chi2 not computed (NaN). */
+void bridge_solve_loops(const bridge_t *bridge, pgem_robust_summary_t *summary);
+/* A successful solve's degenerate outcome in words, empty when loop closures were accepted. */
+void bridge_solve_describe(const pgem_robust_summary_t *summary, char *text, size_t size);
+/* After a solve or an update: the poses it solved (none re-anchored since) and the outcome
+ * in words, or why it failed. */
+void bridge_solve_done(bridge_t *bridge, int status, const pgem_robust_summary_t *summary,
+                       char *why, size_t why_size);
+/* The pruned loop closures counted again over the whole graph. O(edges). */
+void bridge_solve_recount_pruned(bridge_t *bridge);
+
+/* pass_adopt.c: the live EM pass, after each batch: adopts a finished pass (an update at its
+ * estimate and verdicts, published as "em-pass") and starts the next one when loop closures
+ * arrived since the last copy. Nothing when passes are off. */
+void bridge_pass_schedule(bridge_t *bridge);
+/* (Lock held) When the next pass is owed (loop closures arrived since the last copy and the
+ * pass is idle): its earliest start; +inf when none is. */
+double bridge_pass_due(const bridge_t *bridge);
+/* The estimate was replaced other than by an update or a pass: a pass of an older copy is
+ * dropped when it ends. */
+void bridge_pass_drop(bridge_t *bridge);
+
+/* compaction.c: poses removed (pgem_compact) when the graph nears its capacities; 1 if it
+ * did. bridge_compact_further: to 70 % of the poses it has (an incremental factor that outgrew
+ * its fill budget). */
+int bridge_compact(bridge_t *bridge);
+int bridge_compact_further(bridge_t *bridge);
+
+/* publish.c: every message the solver thread publishes is encoded into the out buffer.
  * bridge_out_ready: 1 when it has room for `size` bytes (grown if need be), else 0, noted,
  * naming `what`; bridge_out_publish: the buffer's message (`encoded`: what its encoder
- * returned) published on channel, a failed encoding or a refusal noted. */
+ * returned) published on channel, a failed encoding or a refusal noted. A new message is an
+ * encoder between the two. */
 int bridge_out_ready(bridge_t *bridge, int size, const char *what);
 void bridge_out_publish(bridge_t *bridge, const char *channel, const char *what, int size,
                         int encoded);
-/* Poses removed (pgem_compact) when the graph nears its capacities; 1 if it did. */
-int bridge_graph_compact(bridge_t *bridge);
-/* The estimate was replaced other than by an update or a pass: a pass of an older copy is
- * dropped when it ends. */
-void bridge_graph_drop_pass(bridge_t *bridge);
+/* graph_t: the graph as it is, with the solve's summary (NULL after a reset). */
+void bridge_publish_graph(bridge_t *bridge, const char *trigger,
+                          const pgem_robust_summary_t *summary, int usable, const char *why,
+                          int64_t solve_time_us);
+/* compaction_t: the poses one compaction removed, their anchors and where they lay. */
+void bridge_publish_compaction(bridge_t *bridge, const pgem_compact_summary_t *summary,
+                               uint32_t removed, int full);
+
+/* snapshot.c: the graph and its weights written to NAME and NAME.weights in the snapshot
+ * folder, whole or not at all; noted either way. */
+void bridge_snapshot_write(bridge_t *bridge, const char *name);
 
 /* components.c: the parts joined by odometry that have edges, each held at its smallest pose
  * id (or by a pose the front-end fixed); returns how many there are. Visits only what arrived
