@@ -27,7 +27,8 @@ static void core_refused(bridge_t *bridge, const char *what, int status)
 
 static int pose_settled(const bridge_t *bridge, uint32_t index)
 {
-    return index < bridge->solver.solved_poses || bridge->solver.anchored[index] || bridge->solver.gauge_fixed[index];
+    return index < bridge->solver.solved_poses || bridge->solver.anchored[index] ||
+           bridge->solver.gauge_fixed[index];
 }
 
 /* A pose that arrived after the last solve carries the front-end's estimate, in the front-end's
@@ -38,7 +39,8 @@ static void anchor(bridge_t *bridge, const pgem_item_t *item)
 {
     uint32_t from = 0;
     uint32_t to = 0;
-    if (bridge->solver.solved_poses == 0 || pgem_pose_index(bridge->solver.core, item->from, &from) != PGEM_OK ||
+    if (bridge->solver.solved_poses == 0 ||
+        pgem_pose_index(bridge->solver.core, item->from, &from) != PGEM_OK ||
         pgem_pose_index(bridge->solver.core, item->to, &to) != PGEM_OK) {
         return;
     }
@@ -83,7 +85,8 @@ static void anchor(bridge_t *bridge, const pgem_item_t *item)
 
 static void reset_graph(bridge_t *bridge)
 {
-    pgem_init(&bridge->solver.core, &bridge->solver.core_config, bridge->solver.core_block, bridge->solver.core_block_size);
+    pgem_init(&bridge->solver.core, &bridge->solver.core_config, bridge->solver.core_block,
+              bridge->solver.core_block_size);
     memset(bridge->solver.anchored, 0, bridge->options.max_poses);
     memset(bridge->solver.user_fixed, 0, bridge->options.max_poses);
     memset(bridge->solver.gauge_fixed, 0, bridge->options.max_poses);
@@ -93,7 +96,7 @@ static void reset_graph(bridge_t *bridge)
     bridge->solver.solved_poses = 0;
     bridge->solver.restart_pending = 0;
     bridge_pass_drop(bridge);
-    bridge->solver.pass_loops = 0;
+    bridge->solver.live_em.loops = 0;
     bridge_components_reset(bridge);
     bridge->solver.loop_count = 0;
     bridge->solver.pruned_count = 0;
@@ -114,8 +117,8 @@ int bridge_apply(bridge_t *bridge, const pgem_item_t *item)
         int status = pgem_add_pose(bridge->solver.core, item->from, item->value);
         if (status == PGEM_OK) {
             size_t pose_size = (size_t)PGEM_POSE_SIZE(bridge->options.dimension);
-            memcpy(bridge->solver.raw + (pgem_pose_count(bridge->solver.core) - 1) * pose_size, item->value,
-                   pose_size * sizeof(double));
+            memcpy(bridge->solver.raw + (pgem_pose_count(bridge->solver.core) - 1) * pose_size,
+                   item->value, pose_size * sizeof(double));
         }
         if (status == PGEM_OK && item->kind) {
             status = pgem_fix_pose(bridge->solver.core, item->from, 1);
@@ -143,8 +146,8 @@ int bridge_apply(bridge_t *bridge, const pgem_item_t *item)
         const int anchored = pgem_ingest_reanchor(bridge->handoff.ingest, &moved);
         pthread_mutex_unlock(&bridge->handoff.lock);
         if (anchored) {
-            status = pgem_add_edge(bridge->solver.core, moved.from, moved.to, moved.value, information,
-                                   (pgem_edge_kind_t)moved.kind, &index);
+            status = pgem_add_edge(bridge->solver.core, moved.from, moved.to, moved.value,
+                                   information, (pgem_edge_kind_t)moved.kind, &index);
             item = &moved;
         }
     }

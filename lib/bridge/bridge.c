@@ -94,7 +94,8 @@ static int start(bridge_t *bridge, char *message, size_t message_size)
     bridge->lcm = o->lcm != NULL ? o->lcm : lcm_create(o->url);
     if (bridge->lcm == NULL) {
         const char *url = o->url != NULL ? o->url : getenv("LCM_DEFAULT_URL");
-        snprintf(message, message_size, "cannot open LCM at %s", url != NULL ? url : "LCM's default URL");
+        snprintf(message, message_size, "cannot open LCM at %s",
+                 url != NULL ? url : "LCM's default URL");
         return -1;
     }
     const char *channels[3] = {o->channels.pose, o->channels.edge, o->channels.command};
@@ -146,8 +147,8 @@ int pgem_bridge_run(const pgem_bridge_options_t *options, int (*stop)(void), cha
     int status = start(bridge, message, message_size);
     /* What the first lines say of the solver thread's blocks, read before it runs. */
     const double core_mib = (double)bridge->solver.core_block_size / 1048576.0;
-    const int pass_on = bridge->solver.pass_on;
-    const double pass_mib = (double)bridge->solver.pass.block_size / 1048576.0;
+    const int pass_on = bridge->solver.live_em.on;
+    const double pass_mib = (double)bridge->solver.live_em.pass.block_size / 1048576.0;
     pthread_t solver;
     if (status == 0 && pthread_create(&solver, NULL, bridge_solver_main, bridge) != 0) {
         snprintf(message, message_size, "cannot start the solver thread");

@@ -7,10 +7,10 @@
 
 void bridge_components_reset(bridge_t *bridge)
 {
-    bridge->solver.parts_poses = 0;
-    bridge->solver.parts_edges = 0;
-    bridge->solver.parts_with_edges = 0;
-    bridge->solver.main_anchor = UINT32_MAX;
+    bridge->solver.parts.poses = 0;
+    bridge->solver.parts.edges = 0;
+    bridge->solver.parts.with_edges = 0;
+    bridge->solver.parts.main_anchor = UINT32_MAX;
 }
 
 /* The id of pose index i. */
@@ -46,13 +46,15 @@ static void hold_part(bridge_t *bridge, uint32_t anchor)
     if (anchor == UINT32_MAX) {
         return;
     }
-    if (bridge->solver.main_anchor == UINT32_MAX ||
-        (anchor != bridge->solver.main_anchor && id_of(bridge, anchor) < id_of(bridge, bridge->solver.main_anchor))) {
-        const uint32_t before = bridge->solver.main_anchor;
-        bridge->solver.main_anchor = anchor;
+    if (bridge->solver.parts.main_anchor == UINT32_MAX ||
+        (anchor != bridge->solver.parts.main_anchor &&
+         id_of(bridge, anchor) < id_of(bridge, bridge->solver.parts.main_anchor))) {
+        const uint32_t before = bridge->solver.parts.main_anchor;
+        bridge->solver.parts.main_anchor = anchor;
         hold_gauge(bridge, before, BRIDGE_HOLD_GAUGE);
     }
-    hold_gauge(bridge, anchor, anchor == bridge->solver.main_anchor ? BRIDGE_HOLD_FIXED : BRIDGE_HOLD_GAUGE);
+    hold_gauge(bridge, anchor,
+               anchor == bridge->solver.parts.main_anchor ? BRIDGE_HOLD_FIXED : BRIDGE_HOLD_GAUGE);
 }
 
 /* The anchor of two joined parts: none (UINT32_MAX) if the front-end fixed a pose in either,
@@ -68,9 +70,9 @@ static uint32_t merged_anchor(const bridge_t *bridge, uint32_t a, uint32_t b)
 /* Marks the part rooted at root as having an edge (counted once). */
 static void part_has_edge(bridge_t *bridge, uint32_t root)
 {
-    if (!bridge->solver.part_edges[root]) {
-        bridge->solver.part_edges[root] = 1;
-        bridge->solver.parts_with_edges++;
+    if (!bridge->solver.parts.has_edge[root]) {
+        bridge->solver.parts.has_edge[root] = 1;
+        bridge->solver.parts.with_edges++;
     }
 }
 
@@ -105,8 +107,8 @@ static void move_part(bridge_t *bridge, uint32_t root, const pgem_edge_view_t *v
         (three ? pgem_se3_inverse : pgem_se2_inverse)(from, inverse);
     }
     (three ? pgem_se3_compose : pgem_se2_compose)(want, inverse, step);
-    for (uint32_t i = 0; i < bridge->solver.parts_poses; ++i) {
-        if (pgem_part_root(bridge->solver.component, i) != root) {
+    for (uint32_t i = 0; i < bridge->solver.parts.poses; ++i) {
+        if (pgem_part_root(bridge->solver.parts.parent, i) != root) {
             continue;
         }
         pgem_id_t id = 0;
@@ -127,7 +129,7 @@ static void join_edge(bridge_t *bridge, uint32_t k)
     }
     const uint32_t a = ends[0];
     const uint32_t b = ends[1];
-    uint32_t *parent = bridge->solver.component;
+    uint32_t *parent = bridge->solver.parts.parent;
     const uint32_t root_a = pgem_part_root(parent, a);
     const uint32_t root_b = pgem_part_root(parent, b);
     part_has_edge(bridge, root_a);
@@ -135,7 +137,7 @@ static void join_edge(bridge_t *bridge, uint32_t k)
     if (view.kind != PGEM_EDGE_ODOMETRY || root_a == root_b) {
         return;
     }
-    uint32_t *anchor_of = bridge->solver.component_anchor;
+    uint32_t *anchor_of = bridge->solver.parts.anchor;
     const uint32_t anchor = merged_anchor(bridge, anchor_of[root_a], anchor_of[root_b]);
     for (int s = 0; s < 2; ++s) { /* a part held at its own gauge that loses it moves */
         const uint32_t own = anchor_of[s == 0 ? root_a : root_b];
@@ -148,12 +150,13 @@ static void join_edge(bridge_t *bridge, uint32_t k)
         }
     }
     const uint32_t root = pgem_part_join(parent, root_a, root_b);
-    bridge->solver.parts_with_edges--; /* two parts with edges became one */
+    bridge->solver.parts.with_edges--; /* two parts with edges became one */
     for (int s = 0; s < 2; ++s) {
         const uint32_t own = anchor_of[s == 0 ? root_a : root_b];
         if (own != anchor) {
             hold_gauge(bridge, own, 0);
-            bridge->solver.main_anchor = own == bridge->solver.main_anchor ? anchor : bridge->solver.main_anchor;
+            bridge->solver.parts.main_anchor =
+                own == bridge->solver.parts.main_anchor ? anchor : bridge->solver.parts.main_anchor;
         }
     }
     anchor_of[root] = anchor;
@@ -176,18 +179,18 @@ static void join_edge(bridge_t *bridge, uint32_t k)
 uint32_t bridge_components_hold(bridge_t *bridge)
 {
     const uint32_t poses = pgem_pose_count(bridge->solver.core);
-    for (uint32_t i = bridge->solver.parts_poses; i < poses; ++i) {
-        bridge->solver.component[i] = i;
-        bridge->solver.component_anchor[i] = bridge->solver.user_fixed[i] ? UINT32_MAX : i;
-        bridge->solver.part_edges[i] = 0;
+    for (uint32_t i = bridge->solver.parts.poses; i < poses; ++i) {
+        bridge->solver.parts.parent[i] = i;
+        bridge->solver.parts.anchor[i] = bridge->solver.user_fixed[i] ? UINT32_MAX : i;
+        bridge->solver.parts.has_edge[i] = 0;
     }
-    bridge->solver.parts_poses = poses;
-    const uint32_t first = bridge->solver.parts_edges;
+    bridge->solver.parts.poses = poses;
+    const uint32_t first = bridge->solver.parts.edges;
     const uint32_t edges = pgem_edge_count(bridge->solver.core);
     for (uint32_t k = first; k < edges; ++k) {
         join_edge(bridge, k);
     }
-    bridge->solver.parts_edges = edges;
+    bridge->solver.parts.edges = edges;
     for (uint32_t j = first; j < edges; ++j) { /* the parts that got an edge: their gauge */
         pgem_edge_view_t view;
         uint32_t ends[2] = {0, 0};
@@ -195,19 +198,21 @@ uint32_t bridge_components_hold(bridge_t *bridge)
             continue;
         }
         for (int s = 0; s < 2; ++s) {
-            hold_part(bridge, bridge->solver.component_anchor[pgem_part_root(bridge->solver.component, ends[s])]);
+            hold_part(
+                bridge,
+                bridge->solver.parts.anchor[pgem_part_root(bridge->solver.parts.parent, ends[s])]);
         }
     }
-    return bridge->solver.parts_with_edges;
+    return bridge->solver.parts.with_edges;
 }
 
 /* Before a whole-graph solve: every part without edges (a pose whose edges have not arrived)
  * held too, or its block of the normal equations would be empty. O(poses). */
 void bridge_components_hold_lone(bridge_t *bridge)
 {
-    for (uint32_t i = 0; i < bridge->solver.parts_poses; ++i) {
-        const uint32_t root = pgem_part_root(bridge->solver.component, i);
-        if (!bridge->solver.part_edges[root] && bridge->solver.component_anchor[root] == i) {
+    for (uint32_t i = 0; i < bridge->solver.parts.poses; ++i) {
+        const uint32_t root = pgem_part_root(bridge->solver.parts.parent, i);
+        if (!bridge->solver.parts.has_edge[root] && bridge->solver.parts.anchor[root] == i) {
             hold_gauge(bridge, i, BRIDGE_HOLD_FIXED); /* no edge: nothing to place it */
         }
     }

@@ -13,8 +13,8 @@
 /* The newest pose an edge reaches (its part has edges): its index, or 0 when there is none. */
 static int newest_pose(bridge_t *bridge, uint32_t *index)
 {
-    for (uint32_t i = bridge->solver.parts_poses; i-- > 0u;) {
-        if (bridge->solver.part_edges[pgem_part_root(bridge->solver.component, i)]) {
+    for (uint32_t i = bridge->solver.parts.poses; i-- > 0u;) {
+        if (bridge->solver.parts.has_edge[pgem_part_root(bridge->solver.parts.parent, i)]) {
             *index = i;
             return 1;
         }
@@ -59,7 +59,7 @@ void bridge_covariance_publish(bridge_t *bridge, int whole)
     int current = 0;
     const int status = newest_covariance(bridge, id, whole, values, &current);
     if (status != PGEM_OK) {
-        if (bridge->solver.covariance_failures++ < COVARIANCE_FAILURES_LOGGED) {
+        if (bridge->solver.covariance.failures++ < COVARIANCE_FAILURES_LOGGED) {
             bridge_log(bridge, "no covariance for pose %llu after graph %lld: %s (%s)",
                        (unsigned long long)id, (long long)bridge->solver.solve_id,
                        pgem_error_name(status), pgem_last_error(bridge->solver.core));
@@ -74,7 +74,7 @@ void bridge_covariance_publish(bridge_t *bridge, int whole)
     }
     pgem_covariance_t msg;
     memset(&msg, 0, sizeof msg);
-    msg.utime = bridge->solver.graph_utime;
+    msg.utime = bridge->solver.out.graph_utime;
     msg.solve_id = bridge->solver.solve_id;
     msg.id = (int64_t)id;
     msg.dimension = (int8_t)dimension;
@@ -86,18 +86,19 @@ void bridge_covariance_publish(bridge_t *bridge, int whole)
     const int size = pgem_covariance_t_encoded_size(&msg);
     if (bridge_out_ready(bridge, size, "the covariance")) {
         bridge_out_publish(bridge, bridge->options.channels.covariance, "the covariance", size,
-                           pgem_covariance_t_encode(bridge->solver.out_buffer, 0, size, &msg));
+                           pgem_covariance_t_encode(bridge->solver.out.buffer, 0, size, &msg));
     }
     const double took = bridge_now() - start;
-    bridge->solver.covariance_count[whole != 0]++;
-    bridge->solver.covariance_seconds[whole != 0] += took;
+    bridge->solver.covariance.count[whole != 0]++;
+    bridge->solver.covariance.seconds[whole != 0] += took;
     if (whole) {
-        const uint64_t updates = bridge->solver.covariance_count[0];
+        const uint64_t updates = bridge->solver.covariance.count[0];
         bridge_log(bridge,
                    "covariance of pose %llu (graph %lld) in %.2f ms from a factor at the estimate; "
                    "%llu from the incremental factor so far, %.1f us each",
                    (unsigned long long)id, (long long)bridge->solver.solve_id, 1e3 * took,
                    (unsigned long long)updates,
-                   updates > 0u ? 1e6 * bridge->solver.covariance_seconds[0] / (double)updates : 0.0);
+                   updates > 0u ? 1e6 * bridge->solver.covariance.seconds[0] / (double)updates
+                                : 0.0);
     }
 }

@@ -104,7 +104,8 @@ static uint64_t snapshots_recent(bridge_t *bridge, double now)
 {
     const uint32_t limit = bridge->options.snapshot_limit;
     while (bridge->handoff.snapshot_count > 0 &&
-           now - bridge->handoff.snapshots[bridge->handoff.snapshot_first].accepted >= BRIDGE_SNAPSHOT_PERIOD) {
+           now - bridge->handoff.snapshots[bridge->handoff.snapshot_first].accepted >=
+               BRIDGE_SNAPSHOT_PERIOD) {
         bridge->handoff.snapshot_first = (bridge->handoff.snapshot_first + 1) % limit;
         bridge->handoff.snapshot_count--;
     }
@@ -125,10 +126,11 @@ static int snapshot_allowed(bridge_t *bridge, const char *name, char *message,
     const double now = bridge_now();
     const uint64_t bytes = snapshots_recent(bridge, now);
     const double budget = o->snapshot_budget * 1048576.0;
-    const double wait = bridge->handoff.snapshot_count > 0
-                            ? BRIDGE_SNAPSHOT_PERIOD -
-                                  (now - bridge->handoff.snapshots[bridge->handoff.snapshot_first].accepted)
-                            : 0.0;
+    const double wait =
+        bridge->handoff.snapshot_count > 0
+            ? BRIDGE_SNAPSHOT_PERIOD -
+                  (now - bridge->handoff.snapshots[bridge->handoff.snapshot_first].accepted)
+            : 0.0;
     if (bridge->handoff.snapshot_count >= o->snapshot_limit) {
         snprintf(message, message_size,
                  "SNAPSHOT %s refused: %u snapshots in the last minute (--snapshot-limit %u "
@@ -136,7 +138,8 @@ static int snapshot_allowed(bridge_t *bridge, const char *name, char *message,
                  (unsigned)bridge->handoff.snapshot_count, (unsigned)o->snapshot_limit, wait);
         return -1;
     }
-    if (bridge->handoff.snapshot_count > 0 && (double)(bytes + bridge->handoff.snapshot_last_size) > budget) {
+    if (bridge->handoff.snapshot_count > 0 &&
+        (double)(bytes + bridge->handoff.snapshot_last_size) > budget) {
         snprintf(message, message_size,
                  "SNAPSHOT %s refused: snapshots wrote %.1f MiB in the last minute and the "
                  "last took %.1f MiB, past --snapshot-budget %g MiB per minute; the next is "
@@ -144,7 +147,8 @@ static int snapshot_allowed(bridge_t *bridge, const char *name, char *message,
                  (double)bridge->handoff.snapshot_last_size / 1048576.0, o->snapshot_budget, wait);
         return -1;
     }
-    const uint32_t entry = (bridge->handoff.snapshot_first + bridge->handoff.snapshot_count) % o->snapshot_limit;
+    const uint32_t entry =
+        (bridge->handoff.snapshot_first + bridge->handoff.snapshot_count) % o->snapshot_limit;
     bridge->handoff.snapshots[entry].accepted = now;
     bridge->handoff.snapshots[entry].bytes = 0;
     bridge->handoff.snapshot_count++;
@@ -157,7 +161,8 @@ void bridge_snapshot_written(bridge_t *bridge, uint64_t bytes)
     bridge->handoff.snapshot_last_size = bytes;
     /* the entry of the request written, if it is still in the window */
     const uint32_t limit = bridge->options.snapshot_limit;
-    const uint32_t from_first = (bridge->handoff.snapshot_latest + limit - bridge->handoff.snapshot_first) % limit;
+    const uint32_t from_first =
+        (bridge->handoff.snapshot_latest + limit - bridge->handoff.snapshot_first) % limit;
     if (from_first < bridge->handoff.snapshot_count) {
         bridge->handoff.snapshots[bridge->handoff.snapshot_latest].bytes = bytes;
     }

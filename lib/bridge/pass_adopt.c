@@ -10,8 +10,8 @@
  * a pass of an older copy stops after its round and is dropped when it ends. */
 void bridge_pass_drop(bridge_t *bridge)
 {
-    bridge->solver.generation++;
-    bridge->solver.pass.cancel = 1;
+    bridge->solver.live_em.generation++;
+    bridge->solver.live_em.pass.cancel = 1;
 }
 
 
@@ -43,15 +43,16 @@ static int same_verdicts(const pgem_t *live, const pgem_t *pass)
  * verdicts is only logged and its graph published again. */
 static void adopt_pass(bridge_t *bridge)
 {
-    bridge_pass_t *pass = &bridge->solver.pass;
+    bridge_pass_t *pass = &bridge->solver.live_em.pass;
     const double start = bridge_now();
     if (pass->status != PGEM_OK || pass->summary.termination == PGEM_ROBUST_STOPPED ||
-        pass->generation != bridge->solver.generation || bridge->solver.restart_pending) {
+        pass->generation != bridge->solver.live_em.generation || bridge->solver.restart_pending) {
         bridge_log(bridge, "live EM pass dropped (%s)",
                    pass->status != PGEM_OK ? pgem_error_name(pass->status)
-                   : pass->generation != bridge->solver.generation ? "the graph was re-solved or reset since its copy"
+                   : pass->generation != bridge->solver.live_em.generation
+                       ? "the graph was re-solved or reset since its copy"
                    : pass->summary.termination == PGEM_ROBUST_STOPPED ? "stopped"
-                                                                       : "a restart is owed");
+                                                                      : "a restart is owed");
         return;
     }
     if (same_verdicts(bridge->solver.core, pass->core)) {
@@ -92,7 +93,8 @@ static void adopt_pass(bridge_t *bridge)
     char why[256] = "";
     bridge_solve_done(bridge, status, &summary, why, sizeof why);
     if (status != PGEM_OK) {
-        bridge->solver.restart_pending = 1; /* the next solve says why, from the front-end's estimates */
+        bridge->solver.restart_pending =
+            1; /* the next solve says why, from the front-end's estimates */
     }
     pass->passes++;
     const int64_t micros = (int64_t)((bridge_now() - start) * 1e6);
@@ -119,44 +121,48 @@ static void adopt_pass(bridge_t *bridge)
 
 double bridge_pass_due(const bridge_t *bridge)
 {
-    return bridge->solver.pass_on && bridge->solver.pass.state == BRIDGE_PASS_IDLE &&
-                   bridge->solver.loop_count != bridge->solver.pass_loops
-               ? bridge->solver.pass_next
+    return bridge->solver.live_em.on && bridge->solver.live_em.pass.state == BRIDGE_PASS_IDLE &&
+                   bridge->solver.loop_count != bridge->solver.live_em.loops
+               ? bridge->solver.live_em.next
                : (double)INFINITY;
 }
 
 void bridge_pass_schedule(bridge_t *bridge)
 {
-    if (!bridge->solver.pass_on) {
+    if (!bridge->solver.live_em.on) {
         return;
     }
-    const int state = bridge_pass_state(&bridge->solver.pass);
+    const int state = bridge_pass_state(&bridge->solver.live_em.pass);
     if (state == BRIDGE_PASS_RUNNING) {
         return;
     }
     const double now = bridge_now();
     if (state == BRIDGE_PASS_DONE) {
         adopt_pass(bridge);
-        bridge->solver.pass_took = bridge->solver.pass.took;
-        bridge->solver.pass_next = now + bridge->solver.pass_took; /* at most half the time in passes */
-        bridge_pass_release(&bridge->solver.pass);
+        bridge->solver.live_em.took = bridge->solver.live_em.pass.took;
+        bridge->solver.live_em.next =
+            now + bridge->solver.live_em.took; /* at most half the time in passes */
+        bridge_pass_release(&bridge->solver.live_em.pass);
     }
     /* The next one: when loop closures arrived since the last copy, the map is up to date (no
      * restart owed), and the last pass's time has passed since it ended. */
-    if (now < bridge->solver.pass_next || bridge->solver.loop_count == bridge->solver.pass_loops) {
+    if (now < bridge->solver.live_em.next ||
+        bridge->solver.loop_count == bridge->solver.live_em.loops) {
         return;
     }
     (void)bridge_components_hold(bridge); /* the copy holds each part where the live map does */
-    if (bridge->solver.restart_pending || bridge->solver.solved_poses != pgem_pose_count(bridge->solver.core)) {
-        bridge->solver.pass_next = now + 0.05; /* not now: look again a little later */
+    if (bridge->solver.restart_pending ||
+        bridge->solver.solved_poses != pgem_pose_count(bridge->solver.core)) {
+        bridge->solver.live_em.next = now + 0.05; /* not now: look again a little later */
         return;
     }
-    if (bridge_pass_start(&bridge->solver.pass, bridge->solver.core,
-                          bridge->solver.compactions == 0u ? bridge->solver.raw : NULL, bridge->solver.generation, now) != 0) {
+    if (bridge_pass_start(&bridge->solver.live_em.pass, bridge->solver.core,
+                          bridge->solver.compaction.count == 0u ? bridge->solver.raw : NULL,
+                          bridge->solver.live_em.generation, now) != 0) {
         bridge_note(bridge, "live EM pass: cannot copy the graph: %s",
-                    pgem_last_error(bridge->solver.pass.core));
-        bridge->solver.pass_on = 0;
+                    pgem_last_error(bridge->solver.live_em.pass.core));
+        bridge->solver.live_em.on = 0;
         return;
     }
-    bridge->solver.pass_loops = bridge->solver.loop_count;
+    bridge->solver.live_em.loops = bridge->solver.loop_count;
 }

@@ -231,8 +231,8 @@ static void on_journal_record(void *user, const char *channel, const void *data,
     }
     bridge->reception.replay_refused[result.reason]++;
     if (refused == 0) {
-        snprintf(bridge->reception.replay_first, sizeof bridge->reception.replay_first, "%s: %.320s",
-                 pgem_reject_name(result.reason), result.message);
+        snprintf(bridge->reception.replay_first, sizeof bridge->reception.replay_first,
+                 "%s: %.320s", pgem_reject_name(result.reason), result.message);
     }
     if (refused < REJECTIONS_LOGGED) {
         bridge_log(bridge, "journal record refused on replay (%s): %s",

@@ -12,7 +12,7 @@
  * from it failed (a live estimate the solve cannot use: the front-end's is the way back). */
 static int restart_from_live(const bridge_t *bridge)
 {
-    return bridge->solver.compactions > 0u && !bridge->solver.live_failed;
+    return bridge->solver.compaction.count > 0u && !bridge->solver.live_failed;
 }
 
 /* Every pose back to the front-end's estimate and every loop closure back in: the solve that
@@ -37,7 +37,7 @@ static void restart_from_raw(bridge_t *bridge)
  * sees items waiting in the queue. */
 static int should_stop(bridge_t *bridge)
 {
-    const int yields = bridge->solver.settle_yields;
+    const int yields = bridge->solver.settle.yields;
     pthread_mutex_lock(&bridge->handoff.lock);
     const int stop = bridge->handoff.stopping ||
                      (yields && bridge->handoff.visible != bridge->handoff.head);
@@ -64,7 +64,7 @@ static void settle_flags(bridge_t *bridge, int back)
 {
     const size_t poses = pgem_pose_count(bridge->solver.core);
     uint8_t *const live[2] = {bridge->solver.anchored, bridge->solver.gauge_fixed};
-    uint8_t *const kept[2] = {bridge->solver.settle_anchored, bridge->solver.settle_gauge};
+    uint8_t *const kept[2] = {bridge->solver.settle.anchored, bridge->solver.settle.gauge};
     for (int k = 0; k < 2; ++k) {
         memcpy(back ? live[k] : kept[k], back ? kept[k] : live[k], poses);
     }
@@ -72,16 +72,18 @@ static void settle_flags(bridge_t *bridge, int back)
 
 static void settle_save(bridge_t *bridge)
 {
-    pgem_update_save(bridge->solver.core, bridge->solver.settle_save, bridge->solver.settle_save_size);
+    pgem_update_save(bridge->solver.core, bridge->solver.settle.save,
+                     bridge->solver.settle.save_size);
     settle_flags(bridge, 0);
-    bridge->solver.settle_solved_poses = bridge->solver.solved_poses;
+    bridge->solver.settle.solved_poses = bridge->solver.solved_poses;
 }
 
 static void settle_restore(bridge_t *bridge)
 {
-    pgem_update_restore(bridge->solver.core, bridge->solver.settle_save, bridge->solver.settle_save_size);
+    pgem_update_restore(bridge->solver.core, bridge->solver.settle.save,
+                        bridge->solver.settle.save_size);
     settle_flags(bridge, 1);
-    bridge->solver.solved_poses = bridge->solver.settle_solved_poses;
+    bridge->solver.solved_poses = bridge->solver.settle.solved_poses;
     bridge->solver.restart_pending = 0;
 }
 
@@ -91,20 +93,21 @@ int bridge_solve_settle(bridge_t *bridge)
      * the next solve restarts anyway, and might as well be this one). */
     (void)bridge_components_hold(bridge); /* held before the save: a settle that gives way
                                            * puts back the holds with the estimate */
-    bridge->solver.settle_yields = bridge->solver.settle_save != NULL && !bridge->solver.restart_pending;
-    if (bridge->solver.settle_yields) {
+    bridge->solver.settle.yields =
+        bridge->solver.settle.save != NULL && !bridge->solver.restart_pending;
+    if (bridge->solver.settle.yields) {
         settle_save(bridge);
     }
     bridge_log(bridge, "settle: EM on the whole graph (%u poses, %u edges) from %s%s",
                pgem_pose_count(bridge->solver.core), pgem_edge_count(bridge->solver.core),
                restart_from_live(bridge) ? "the live estimate (the graph is compacted)"
                                          : "the front-end's estimates",
-               bridge->solver.settle_yields ? ", giving way to arriving items" : "");
+               bridge->solver.settle.yields ? ", giving way to arriving items" : "");
     bridge->solver.restart_pending = 1; /* the solve starts from the front-end's estimates */
-    bridge->solver.settle_gave_way = 0;
+    bridge->solver.settle.gave_way = 0;
     bridge_solve(bridge, "settle");
-    bridge->solver.settle_yields = 0;
-    return !bridge->solver.settle_gave_way;
+    bridge->solver.settle.yields = 0;
+    return !bridge->solver.settle.gave_way;
 }
 
 /* A successful solve's degenerate outcome in words (the graph's stats message and the
@@ -130,7 +133,8 @@ void bridge_solve_done(bridge_t *bridge, int status, const pgem_robust_summary_t
         memset(bridge->solver.anchored, 0, bridge->solver.solved_poses);
         bridge_solve_describe(summary, why, why_size);
     } else {
-        snprintf(why, why_size, "%s: %s", pgem_error_name(status), pgem_last_error(bridge->solver.core));
+        snprintf(why, why_size, "%s: %s", pgem_error_name(status),
+                 pgem_last_error(bridge->solver.core));
     }
 }
 
@@ -150,7 +154,9 @@ static void update_options(const bridge_t *bridge, pgem_update_options_t *option
      * come within a second: a loop held back waits up to two passes, and passes slower than
      * that (a large map on a slow or busy machine) left the live map drifting for want of
      * the loops held back, and the bridge behind the stream. */
-    options->pending = bridge->solver.pass_on && bridge->solver.pass_took <= PASS_PENDING_SECONDS ? 10.0 : 0.0;
+    options->pending =
+        bridge->solver.live_em.on && bridge->solver.live_em.took <= PASS_PENDING_SECONDS ? 10.0
+                                                                                         : 0.0;
 }
 
 /* The pruned loop closures among the edges pruned_count has not seen yet, added to it. */
@@ -205,7 +211,8 @@ void bridge_solve_step(bridge_t *bridge)
         status = update_run(bridge);
     }
     if (status != PGEM_OK) {
-        bridge->solver.restart_pending = 1; /* the next solve restarts from the front-end's estimates */
+        bridge->solver.restart_pending =
+            1; /* the next solve restarts from the front-end's estimates */
         bridge_log(bridge, "incremental update failed: %s (%s); the next solve restarts from the "
                            "front-end's estimates", pgem_error_name(status),
                    pgem_last_error(bridge->solver.core));
@@ -271,13 +278,14 @@ void bridge_solve(bridge_t *bridge, const char *trigger)
     memset(&give_way, 0, sizeof give_way);
     give_way.on_iteration = keep_iterating;
     give_way.user = bridge;
-    const pgem_solve_options_t *solve = bridge->solver.settle_yields ? &give_way : NULL;
+    const pgem_solve_options_t *solve = bridge->solver.settle.yields ? &give_way : NULL;
     int status = incremental ? bridge_solve_update(bridge, &summary)
                              : pgem_robust_optimize(bridge->solver.core, &robust, solve, &summary);
-    if (bridge->solver.settle_yields && status == PGEM_OK &&
+    if (bridge->solver.settle.yields && status == PGEM_OK &&
         summary.termination == PGEM_ROBUST_STOPPED && !bridge_stopping(bridge)) {
-        settle_restore(bridge); /* items arrived: the incremental map goes on from the last update */
-        bridge->solver.settle_gave_way = 1;
+        settle_restore(
+            bridge); /* items arrived: the incremental map goes on from the last update */
+        bridge->solver.settle.gave_way = 1;
         pthread_mutex_lock(&bridge->handoff.lock);
         bridge->handoff.solving = 0;
         pthread_mutex_unlock(&bridge->handoff.lock);
@@ -320,21 +328,23 @@ void bridge_solve(bridge_t *bridge, const char *trigger)
                    "solve %lld (%s%s): %u poses, %u loops, %u pruned, chi2 %.6g, %u rounds, "
                    "%.1f ms (publishing %.1f ms)%s",
                    (long long)bridge->solver.solve_id, trigger,
-                   restarted   ? (from_live
-                                      ? ", restarted from the live estimate, every loop back in"
-                                      : ", restarted from the front-end's estimates")
+                   restarted ? (from_live ? ", restarted from the live estimate, every loop back in"
+                                          : ", restarted from the front-end's estimates")
                    : incremental ? ", incremental"
                                  : "",
                    pgem_pose_count(bridge->solver.core), summary.loops, summary.pruned,
                    summary.final_chi2, summary.rounds, 1e-3 * (double)micros,
-                   1e3 * (published - solved), parts > 1 ? " (graph in several parts: each held at its own gauge)" : "");
+                   1e3 * (published - solved),
+                   parts > 1 ? " (graph in several parts: each held at its own gauge)" : "");
         if (why[0] != '\0') {
             bridge_note(bridge, "solve %lld: %s", (long long)bridge->solver.solve_id, why);
         }
     } else {
-        bridge_note(bridge, "solve %lld (%s) failed: %s%s", (long long)bridge->solver.solve_id, trigger,
-                    why, bridge->solver.live_failed ? "; the next solve restarts from the front-end's "
-                                               "estimates" : "");
+        bridge_note(bridge, "solve %lld (%s) failed: %s%s", (long long)bridge->solver.solve_id,
+                    trigger, why,
+                    bridge->solver.live_failed ? "; the next solve restarts from the front-end's "
+                                                 "estimates"
+                                               : "");
     }
     bridge_publish_status(bridge);
 }

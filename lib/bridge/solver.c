@@ -17,98 +17,103 @@
 
 int bridge_solver_init(bridge_t *bridge, char *message, size_t message_size)
 {
+    bridge_solver_t *const solver = &bridge->solver;
     const pgem_bridge_options_t *o = &bridge->options;
-    memset(&bridge->solver.core_config, 0, sizeof bridge->solver.core_config);
-    bridge->solver.core_config.dimension = o->dimension;
-    bridge->solver.core_config.max_poses = o->max_poses;
-    bridge->solver.core_config.max_edges = o->max_edges;
-    bridge->solver.core_config.fill_budget = o->fill_budget;
+    memset(&solver->core_config, 0, sizeof solver->core_config);
+    solver->core_config.dimension = o->dimension;
+    solver->core_config.max_poses = o->max_poses;
+    solver->core_config.max_edges = o->max_edges;
+    solver->core_config.fill_budget = o->fill_budget;
     if (!o->full) { /* the incremental factor's room: twice the core's default fill */
         const uint64_t b = (uint64_t)PGEM_TANGENT_SIZE(o->dimension);
         const uint64_t fill = 2u * (uint64_t)PGEM_DEFAULT_FILL_PER_POSE * b * b * o->max_poses;
-        bridge->solver.core_config.online_fill = fill > (uint64_t)INT32_MAX ? (uint32_t)INT32_MAX
+        solver->core_config.online_fill = fill > (uint64_t)INT32_MAX ? (uint32_t)INT32_MAX
                                                                        : (uint32_t)fill;
     }
-    bridge->solver.core_block_size = pgem_memory_size(&bridge->solver.core_config);
-    if (bridge->solver.core_block_size == 0) {
+    solver->core_block_size = pgem_memory_size(&solver->core_config);
+    if (solver->core_block_size == 0) {
         snprintf(message, message_size, "invalid capacities (%u poses, %u edges, fill %u)",
                  (unsigned)o->max_poses, (unsigned)o->max_edges, (unsigned)o->fill_budget);
         return -1;
     }
-    bridge->solver.core_block = malloc(bridge->solver.core_block_size);
+    solver->core_block = malloc(solver->core_block_size);
     size_t poses = o->max_poses;
     size_t edges = o->max_edges;
     size_t sources = o->max_sources;
     size_t pose_size = (size_t)PGEM_POSE_SIZE(o->dimension);
-    bridge->solver.edge_source = calloc(edges, sizeof *bridge->solver.edge_source);
-    bridge->solver.edge_sequence = calloc(edges, sizeof *bridge->solver.edge_sequence);
-    bridge->solver.source_last = calloc(sources, sizeof *bridge->solver.source_last);
-    bridge->solver.anchored = calloc(poses, 1);
-    bridge->solver.user_fixed = calloc(poses, 1);
-    bridge->solver.gauge_fixed = calloc(poses, 1);
-    bridge->solver.component = calloc(poses, sizeof *bridge->solver.component);
-    bridge->solver.component_anchor = calloc(poses, sizeof *bridge->solver.component_anchor);
-    bridge->solver.raw = calloc(poses * pose_size, sizeof *bridge->solver.raw);
-    bridge->solver.part_edges = calloc(poses, 1);
-    bridge->solver.compact_pose_map = calloc(poses, sizeof *bridge->solver.compact_pose_map);
-    bridge->solver.compact_edge_map = calloc(edges, sizeof *bridge->solver.compact_edge_map);
-    bridge->solver.compact_ids = calloc(poses, sizeof *bridge->solver.compact_ids);
-    bridge->solver.compact_anchors = calloc(poses, sizeof *bridge->solver.compact_anchors);
-    bridge->solver.compact_relative = calloc(poses * pose_size, sizeof *bridge->solver.compact_relative);
-    bridge->solver.compact_before = calloc(poses * pose_size, sizeof *bridge->solver.compact_before);
-    bridge->solver.compact_edges = calloc(edges, sizeof *bridge->solver.compact_edges);
-    bridge->solver.out_ids = calloc(poses, sizeof *bridge->solver.out_ids);
-    bridge->solver.out_last_anchor = calloc(poses, sizeof *bridge->solver.out_last_anchor);
-    bridge->solver.out_values = calloc(poses * pose_size, sizeof *bridge->solver.out_values);
-    bridge->solver.out_rows = calloc(poses, sizeof *bridge->solver.out_rows);
-    bridge->solver.out_loops = calloc(edges, sizeof *bridge->solver.out_loops);
-    bridge->solver.out_sources = calloc(sources, sizeof *bridge->solver.out_sources);
-    bridge->solver.out_names = calloc(sources, PGEM_SOURCE_MAX);
-    bridge->solver.out_last = calloc(sources, sizeof *bridge->solver.out_last);
-    if (bridge->solver.core_block == NULL || bridge->solver.edge_source == NULL ||
-        bridge->solver.edge_sequence == NULL || bridge->solver.source_last == NULL ||
-        bridge->solver.anchored == NULL || bridge->solver.user_fixed == NULL || bridge->solver.gauge_fixed == NULL ||
-        bridge->solver.component == NULL || bridge->solver.component_anchor == NULL || bridge->solver.raw == NULL || bridge->solver.part_edges == NULL ||
-        bridge->solver.out_ids == NULL || bridge->solver.out_last_anchor == NULL || bridge->solver.out_values == NULL ||
-        bridge->solver.out_rows == NULL || bridge->solver.out_loops == NULL || bridge->solver.out_sources == NULL ||
-        bridge->solver.out_names == NULL ||
-        bridge->solver.out_last == NULL || bridge->solver.compact_pose_map == NULL ||
-        bridge->solver.compact_edge_map == NULL || bridge->solver.compact_ids == NULL ||
-        bridge->solver.compact_anchors == NULL || bridge->solver.compact_relative == NULL ||
-        bridge->solver.compact_before == NULL ||
-        bridge->solver.compact_edges == NULL) {
+    solver->edge_source = calloc(edges, sizeof *solver->edge_source);
+    solver->edge_sequence = calloc(edges, sizeof *solver->edge_sequence);
+    solver->source_last = calloc(sources, sizeof *solver->source_last);
+    solver->anchored = calloc(poses, 1);
+    solver->user_fixed = calloc(poses, 1);
+    solver->gauge_fixed = calloc(poses, 1);
+    solver->parts.parent = calloc(poses, sizeof *solver->parts.parent);
+    solver->parts.anchor = calloc(poses, sizeof *solver->parts.anchor);
+    solver->raw = calloc(poses * pose_size, sizeof *solver->raw);
+    solver->parts.has_edge = calloc(poses, 1);
+    solver->compaction.pose_map = calloc(poses, sizeof *solver->compaction.pose_map);
+    solver->compaction.edge_map = calloc(edges, sizeof *solver->compaction.edge_map);
+    solver->compaction.ids = calloc(poses, sizeof *solver->compaction.ids);
+    solver->compaction.anchors = calloc(poses, sizeof *solver->compaction.anchors);
+    solver->compaction.relative =
+        calloc(poses * pose_size, sizeof *solver->compaction.relative);
+    solver->compaction.before =
+        calloc(poses * pose_size, sizeof *solver->compaction.before);
+    solver->compaction.edges = calloc(edges, sizeof *solver->compaction.edges);
+    solver->out.ids = calloc(poses, sizeof *solver->out.ids);
+    solver->out.anchors = calloc(poses, sizeof *solver->out.anchors);
+    solver->out.values = calloc(poses * pose_size, sizeof *solver->out.values);
+    solver->out.rows = calloc(poses, sizeof *solver->out.rows);
+    solver->out.loops = calloc(edges, sizeof *solver->out.loops);
+    solver->out.sources = calloc(sources, sizeof *solver->out.sources);
+    solver->out.names = calloc(sources, PGEM_SOURCE_MAX);
+    solver->out.last = calloc(sources, sizeof *solver->out.last);
+    if (solver->core_block == NULL || solver->edge_source == NULL ||
+        solver->edge_sequence == NULL || solver->source_last == NULL ||
+        solver->anchored == NULL || solver->user_fixed == NULL ||
+        solver->gauge_fixed == NULL || solver->parts.parent == NULL ||
+        solver->parts.anchor == NULL || solver->raw == NULL ||
+        solver->parts.has_edge == NULL || solver->out.ids == NULL ||
+        solver->out.anchors == NULL || solver->out.values == NULL ||
+        solver->out.rows == NULL || solver->out.loops == NULL ||
+        solver->out.sources == NULL || solver->out.names == NULL ||
+        solver->out.last == NULL || solver->compaction.pose_map == NULL ||
+        solver->compaction.edge_map == NULL || solver->compaction.ids == NULL ||
+        solver->compaction.anchors == NULL || solver->compaction.relative == NULL ||
+        solver->compaction.before == NULL || solver->compaction.edges == NULL) {
         snprintf(message, message_size, "out of memory for %u poses and %u edges",
                  (unsigned)o->max_poses, (unsigned)o->max_edges);
         return -1;
     }
     for (size_t i = 0; i < poses; ++i) {
-        bridge->solver.out_rows[i] = bridge->solver.out_values + i * pose_size;
+        solver->out.rows[i] = solver->out.values + i * pose_size;
     }
     for (size_t s = 0; s < sources; ++s) {
-        bridge->solver.source_last[s] = -1;
+        solver->source_last[s] = -1;
     }
     bridge_components_reset(bridge);
-    int status = pgem_init(&bridge->solver.core, &bridge->solver.core_config, bridge->solver.core_block,
-                           bridge->solver.core_block_size);
+    int status = pgem_init(&solver->core, &solver->core_config,
+                           solver->core_block, solver->core_block_size);
     if (status != PGEM_OK) {
         snprintf(message, message_size, "cannot initialise the core: %s",
                  pgem_error_name(status));
         return -1;
     }
-    bridge->solver.pass_on = !o->full && !o->no_live_em && o->robust.kernel != PGEM_KERNEL_NONE;
-    if (bridge->solver.pass_on && bridge_pass_init(&bridge->solver.pass, &bridge->solver.core_config, &o->robust,
-                                            &bridge->handoff.lock, &bridge->handoff.wake, message,
-                                            message_size) != 0) {
-        bridge->solver.pass_on = 0;
+    solver->live_em.on = !o->full && !o->no_live_em && o->robust.kernel != PGEM_KERNEL_NONE;
+    if (solver->live_em.on &&
+        bridge_pass_init(&solver->live_em.pass, &solver->core_config, &o->robust,
+                         &bridge->handoff.lock, &bridge->handoff.wake, message,
+                         message_size) != 0) {
+        solver->live_em.on = 0;
         return -1;
     }
     if (!o->full) { /* the settle's way back: sized once, for the capacities */
-        bridge->solver.settle_save_size = pgem_update_save_size(bridge->solver.core);
-        bridge->solver.settle_save = malloc(bridge->solver.settle_save_size);
-        bridge->solver.settle_anchored = malloc(poses + 1u);
-        bridge->solver.settle_gauge = malloc(poses + 1u);
-        if (bridge->solver.settle_save == NULL || bridge->solver.settle_anchored == NULL ||
-            bridge->solver.settle_gauge == NULL) {
+        solver->settle.save_size = pgem_update_save_size(solver->core);
+        solver->settle.save = malloc(solver->settle.save_size);
+        solver->settle.anchored = malloc(poses + 1u);
+        solver->settle.gauge = malloc(poses + 1u);
+        if (solver->settle.save == NULL || solver->settle.anchored == NULL ||
+            solver->settle.gauge == NULL) {
             snprintf(message, message_size, "out of memory for %u poses and %u edges",
                      (unsigned)o->max_poses, (unsigned)o->max_edges);
             return -1;
@@ -119,37 +124,38 @@ int bridge_solver_init(bridge_t *bridge, char *message, size_t message_size)
 
 void bridge_solver_free(bridge_t *bridge)
 {
-    bridge_pass_free(&bridge->solver.pass); /* before the core it copies from goes */
-    free(bridge->solver.core_block);
-    free(bridge->solver.edge_source);
-    free(bridge->solver.edge_sequence);
-    free(bridge->solver.source_last);
-    free(bridge->solver.anchored);
-    free(bridge->solver.user_fixed);
-    free(bridge->solver.gauge_fixed);
-    free(bridge->solver.component);
-    free(bridge->solver.component_anchor);
-    free(bridge->solver.raw);
-    free(bridge->solver.part_edges);
-    free(bridge->solver.compact_pose_map);
-    free(bridge->solver.compact_edge_map);
-    free(bridge->solver.compact_ids);
-    free(bridge->solver.compact_anchors);
-    free(bridge->solver.compact_relative);
-    free(bridge->solver.compact_before);
-    free(bridge->solver.compact_edges);
-    free(bridge->solver.out_ids);
-    free(bridge->solver.out_values);
-    free(bridge->solver.out_rows);
-    free(bridge->solver.out_loops);
-    free(bridge->solver.out_sources);
-    free(bridge->solver.out_names);
-    free(bridge->solver.out_last);
-    free(bridge->solver.out_buffer);
-    free(bridge->solver.out_last_anchor);
-    free(bridge->solver.settle_save);
-    free(bridge->solver.settle_anchored);
-    free(bridge->solver.settle_gauge);
+    bridge_solver_t *const solver = &bridge->solver;
+    bridge_pass_free(&solver->live_em.pass); /* before the core it copies from goes */
+    free(solver->core_block);
+    free(solver->edge_source);
+    free(solver->edge_sequence);
+    free(solver->source_last);
+    free(solver->anchored);
+    free(solver->user_fixed);
+    free(solver->gauge_fixed);
+    free(solver->parts.parent);
+    free(solver->parts.anchor);
+    free(solver->raw);
+    free(solver->parts.has_edge);
+    free(solver->compaction.pose_map);
+    free(solver->compaction.edge_map);
+    free(solver->compaction.ids);
+    free(solver->compaction.anchors);
+    free(solver->compaction.relative);
+    free(solver->compaction.before);
+    free(solver->compaction.edges);
+    free(solver->out.ids);
+    free(solver->out.values);
+    free(solver->out.rows);
+    free(solver->out.loops);
+    free(solver->out.sources);
+    free(solver->out.names);
+    free(solver->out.last);
+    free(solver->out.buffer);
+    free(solver->out.anchors);
+    free(solver->settle.save);
+    free(solver->settle.anchored);
+    free(solver->settle.gauge);
 }
 
 void bridge_solver_counts(bridge_t *bridge)
@@ -228,10 +234,11 @@ static void wait_for_work(bridge_t *bridge, const schedule_t *s)
 {
     bridge_handoff_t *const h = &bridge->handoff;
     while (!h->stopping && h->visible == h->head && !h->optimize_requested &&
-           !h->snapshot_requested && bridge->solver.pass.state != BRIDGE_PASS_DONE) {
+           !h->snapshot_requested && bridge->solver.live_em.pass.state != BRIDGE_PASS_DONE) {
         const double pass_due = bridge_pass_due(bridge);
         if (solve_owed(s) || isfinite(pass_due)) {
-            const double due = fmin(solve_owed(s) ? solve_due(bridge, s) : (double)INFINITY, pass_due);
+            const double due =
+                fmin(solve_owed(s) ? solve_due(bridge, s) : (double)INFINITY, pass_due);
             if (bridge_now() >= due) {
                 return;
             }

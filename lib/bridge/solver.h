@@ -19,7 +19,77 @@
 #define BRIDGE_HOLD_FIXED 1u /* pgem_fix_pose: the main part's */
 #define BRIDGE_HOLD_GAUGE 2u /* pgem_hold_gauge: any other part's */
 
+/* The parts of the graph joined by odometry (components.c), kept up to date from what
+ * arrived since the last look. */
+typedef struct bridge_parts {
+    uint32_t *parent;           /* per core pose: union-find parent over the odometry */
+    uint32_t *anchor;           /* per root: index of the part's smallest pose id, UINT32_MAX
+                                   if the front-end fixed a pose in it */
+    uint8_t *has_edge;          /* per root: 1 if an edge touches the part */
+    uint32_t poses;             /* poses already in the parts */
+    uint32_t edges;             /* edges already in the parts */
+    uint32_t with_edges;        /* parts that have an edge */
+    uint32_t main_anchor;       /* the held pose of the part with the smallest pose id: fixed
+                                   (the other parts hold their gauge), UINT32_MAX if none */
+} bridge_parts_t;
+
+/* Compaction (--compact, compaction.c): pgem_compact's maps and what the ingest is told. */
+typedef struct bridge_compaction {
+    uint32_t *pose_map;         /* pgem_compact's maps of old to new indices */
+    uint32_t *edge_map;
+    pgem_id_t *ids;             /* the removed poses' ids, for the ingest */
+    pgem_id_t *anchors;         /* each one's anchor: the kept pose before it */
+    double *relative;           /* the anchor in the removed pose's frame */
+    double *before;             /* every pose's estimate before the compaction */
+    pgem_ingest_released_t *edges; /* the removed edges' keys, for the ingest */
+    uint64_t count;             /* compactions so far */
+    int full;                   /* the last one left the graph above its high mark */
+} bridge_compaction_t;
+
+/* The settle's way back (incremental bridges, solve.c): the core's estimate and loop states
+ * (pgem_update_save) and the bridge's per-pose flags from before it, so a settle that gives
+ * way to arriving items is undone and the incremental updates go on. */
+typedef struct bridge_settle {
+    unsigned char *save;
+    size_t save_size;
+    uint8_t *anchored;
+    uint8_t *gauge;
+    uint32_t solved_poses;
+    int yields;                 /* the settle under way gives way to arriving items */
+    int gave_way;               /* and it did */
+} bridge_settle_t;
+
+/* The live EM pass (incremental bridges): whole-graph EM on a copy while the updates go on
+ * (pass.c, its own thread), adopted when done (pass_adopt.c). */
+typedef struct bridge_live_em {
+    bridge_pass_t pass;
+    int on;                     /* the bridge runs passes */
+    uint64_t generation;        /* +1 when the estimate is replaced other than by an update or
+                                   a pass (reset, a whole-graph solve): an older copy is dropped */
+    uint32_t loops;             /* loop closures the last pass's copy held */
+    double next;                /* no pass starts before this (the last one's end plus its
+                                   time: passes take at most half the time) */
+    double took;                /* the last pass's time, copy to result (s) */
+} bridge_live_em_t;
+
+/* Publication (publish.c, covariance.c): buffers sized for the capacities. */
+typedef struct bridge_out {
+    int64_t *ids;
+    double *values;
+    double **rows;
+    pgem_loop_t *loops;
+    char **sources;
+    char *names;                /* the source names, copied under the lock (PGEM_SOURCE_MAX
+                                   bytes each) */
+    int64_t *last;
+    int64_t *anchors;           /* a compaction's anchors, for pgem.compaction_t */
+    unsigned char *buffer;      /* every message is encoded here */
+    size_t buffer_size;
+    int64_t graph_utime;        /* the last graph_t's utime, for pgem.covariance_t */
+} bridge_out_t;
+
 typedef struct bridge_solver {
+    /* The graph: the core instance and the bridge's per-edge and per-pose arrays. */
     pgem_config_t core_config;
     void *core_block;
     size_t core_block_size;
@@ -32,6 +102,7 @@ typedef struct bridge_solver {
     uint8_t *gauge_fixed;       /* per core pose: held by the bridge for its component
                                    (BRIDGE_HOLD_FIXED, BRIDGE_HOLD_GAUGE) or 0 */
     double *raw;                /* per core pose: the front-end's estimate, as received */
+    /* What the solves left. */
     uint32_t solved_poses;      /* poses that took part in the last successful solve */
     uint32_t loop_count;        /* loop closures in the core */
     uint32_t pruned_count;      /* of them pruned after the last solve or update */
@@ -42,68 +113,18 @@ typedef struct bridge_solver {
                                    the next restart starts from the front-end's estimates */
     int64_t solve_id;
 
-    /* The parts joined by odometry (components.c). */
-    uint32_t *component;        /* per core pose: union-find parent over the odometry */
-    uint32_t *component_anchor; /* per root: index of the part's smallest pose id, UINT32_MAX
-                                   if the front-end fixed a pose in it */
-    uint8_t *part_edges;        /* per root: 1 if an edge touches the part */
-    uint32_t parts_poses;       /* poses already in the parts */
-    uint32_t parts_edges;       /* edges already in the parts */
-    uint32_t parts_with_edges;  /* parts that have an edge */
-    uint32_t main_anchor;       /* the held pose of the part with the smallest pose id: fixed
-                                   (the other parts hold their gauge), UINT32_MAX if none */
-
-    /* Compaction (--compact): pgem_compact's maps and what the ingest is told. */
-    uint32_t *compact_pose_map; /* pgem_compact's maps of old to new indices */
-    uint32_t *compact_edge_map;
-    pgem_id_t *compact_ids;     /* the removed poses' ids, for the ingest */
-    pgem_id_t *compact_anchors; /* each one's anchor: the kept pose before it */
-    double *compact_relative;   /* the anchor in the removed pose's frame */
-    double *compact_before;     /* every pose's estimate before the compaction */
-    pgem_ingest_released_t *compact_edges; /* the removed edges' keys, for the ingest */
-    uint64_t compactions;
-    int compaction_full;        /* the last compaction left the graph above its high mark */
-
-    /* The settle's way back (incremental bridges): the core's estimate and loop states
-     * (pgem_update_save) and the bridge's per-pose flags from before it, so a settle that
-     * gives way to arriving items is undone and the incremental updates go on. */
-    unsigned char *settle_save;
-    size_t settle_save_size;
-    uint8_t *settle_anchored;
-    uint8_t *settle_gauge;
-    uint32_t settle_solved_poses;
-    int settle_yields;          /* the settle under way gives way to arriving items */
-    int settle_gave_way;        /* and it did */
-
-    /* The live EM pass (incremental bridges, pass.c): whole-graph EM on a copy while the
-     * updates go on, adopted when done. */
-    bridge_pass_t pass;
-    int pass_on;                /* the bridge runs passes */
-    uint64_t generation;        /* +1 when the estimate is replaced other than by an update or
-                                   a pass (reset, a whole-graph solve): an older copy is dropped */
-    uint32_t pass_loops;        /* loop closures the last pass's copy held */
-    double pass_next;           /* no pass starts before this (the last one's end plus its
-                                   time: passes take at most half the time) */
-    double pass_took;           /* the last pass's time, copy to result (s) */
-
-    /* Publication buffers, sized for the capacities. */
-    int64_t *out_ids;
-    double *out_values;
-    double **out_rows;
-    pgem_loop_t *out_loops;
-    char **out_sources;
-    char *out_names;            /* the source names, copied under the lock (PGEM_SOURCE_MAX
-                                   bytes each) */
-    int64_t *out_last;
-    int64_t *out_last_anchor;   /* a compaction's anchors, for pgem.compaction_t */
-    unsigned char *out_buffer;
-    size_t out_buffer_size;
-    int64_t graph_utime;        /* the last graph_t's utime, for pgem.covariance_t */
+    bridge_parts_t parts;
+    bridge_compaction_t compaction;
+    bridge_settle_t settle;
+    bridge_live_em_t live_em;
+    bridge_out_t out;
     /* The newest pose's covariances published (covariance.c), [0] from the incremental
      * factor, [1] from a factor at the estimate, and the seconds they took; failures. */
-    uint64_t covariance_count[2];
-    double covariance_seconds[2];
-    uint64_t covariance_failures;
+    struct {
+        uint64_t count[2];
+        double seconds[2];
+        uint64_t failures;
+    } covariance;
 } bridge_solver_t;
 
 /* solver.c: the state, allocated at start from the capacities (0, or -1 with message), and

@@ -81,14 +81,16 @@ void bridge_publish_status(bridge_t *bridge)
     status.solving = (int8_t)bridge->handoff.solving;
     status.recovered = bridge->handoff.recovered;
     status.journal_records = bridge->handoff.journal_records;
-    counts.rejected[PGEM_REJECT_CORE] += bridge->handoff.core_rejections + bridge->handoff.queue_overflows;
+    counts.rejected[PGEM_REJECT_CORE] +=
+        bridge->handoff.core_rejections + bridge->handoff.queue_overflows;
     counts.rejected[PGEM_REJECT_FULL] += bridge->handoff.full_rejections;
     memcpy(message, bridge->handoff.last_message, sizeof message);
     pthread_mutex_unlock(&bridge->handoff.lock);
 
     for (int r = 0; r < PGEM_REJECT_COUNT; ++r) {
         /* lcm-gen's struct wants char *; the encoder only reads the names */
-        reasons[r] = (char *)(uintptr_t)pgem_reject_name((pgem_reject_t)r); // NOLINT(performance-no-int-to-ptr)
+        reasons[r] = (char *)(uintptr_t)pgem_reject_name(
+            (pgem_reject_t)r); // NOLINT(performance-no-int-to-ptr)
         rejected[r] = counts.rejected[r];
     }
     status.utime = bridge_utime();
