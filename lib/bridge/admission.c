@@ -1,7 +1,7 @@
 /* The admission state machine: each decoded message (wire.c) checked, deduplicated, its
  * capacity reserved, edges held for missing poses (and aged out), changes offered to the admit
- * hook, items emitted; the ids compaction removed and their anchors. */
-#include "ingest.h"
+ * hook, items emitted. The poses compaction removed: removed.c. */
+#include "admission.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,17 +13,6 @@
 
 #define DEFAULT_MAX_PENDING 4096u
 #define DEFAULT_MAX_SOURCES 64u
-#define NONE UINT32_MAX /* end of a waiting list */
-/* Removed poses remembered with their anchors, per pose of capacity: a long mission's later
- * edges to poses removed long ago still find their anchor (80 bytes each, 1.5 MiB per 1000
- * poses of capacity in 3D). */
-#define REMOVED_PER_POSE 4u
-/* Removed ids the ring has forgotten, kept as id ranges: an edge naming an unknown id inside one
- * is refused as forgotten rather than left to wait for a pose that will never come. Ids closer
- * than the pose capacity join one range (the kept poses between them are known); past 64
- * ranges the two closest merge. */
-#define FORGOTTEN_RANGES 64u
-
 static const char *const reject_names[PGEM_REJECT_COUNT] = {
     "decode", "dimension", "not_finite", "information", "rotation", "self_loop", "kind",
     "source", "conflict", "capacity", "pending_full", "command", "core", "range", "journal",
@@ -32,146 +21,6 @@ static const char *const reject_names[PGEM_REJECT_COUNT] = {
 const char *pgem_reject_name(pgem_reject_t reason)
 {
     return (unsigned)reason < PGEM_REJECT_COUNT ? reject_names[reason] : "unknown";
-}
-
-/* Open-addressing tables keyed by a 64-bit pair; `used` marks live slots. */
-typedef struct slot {
-    uint64_t key_a;
-    uint64_t key_b;
-    uint64_t content;
-    uint8_t used;
-} slot_t;
-
-typedef struct table {
-    slot_t *slots;
-    size_t mask;
-} table_t;
-
-/* An edge waiting for its poses: in the list of every waiting edge and in its source's, both
- * in arrival order (doubly linked through slot indices, NONE at the ends). */
-typedef struct waiting {
-    pgem_item_t item;
-    int64_t since;          /* when it arrived (the message's utime) */
-    uint32_t prev;
-    uint32_t next;
-    uint32_t source_prev;
-    uint32_t source_next;
-} waiting_t;
-
-/* One front-end. A slot is free when its name is empty. */
-typedef struct source {
-    char name[PGEM_SOURCE_MAX];
-    int64_t last;            /* highest sequence admitted since the last reset, -1 none
-                                (named in conflict messages) */
-    uint32_t waiting;        /* its edges in the pending list */
-    uint32_t oldest;         /* the first of them, NONE */
-    uint32_t newest;         /* the last of them, NONE */
-    uint8_t emitted;         /* an edge of it went into the graph: its slot stays */
-} source_t;
-
-struct pgem_ingest {
-    pgem_ingest_config_t config;
-    pgem_emit_fn emit;
-    void *user;
-    pgem_admit_fn admit;
-    void *admit_user;
-    pgem_snapshot_check_fn snapshot_check;
-    void *snapshot_user;
-    table_t poses;            /* key (id, 0) */
-    table_t edges;            /* key (source, sequence) */
-    table_t removed;          /* ids compaction removed: key (id, 0) */
-    pgem_id_t *removed_ring;  /* the same ids in the order removed (max_poses), to forget the
-                                 oldest when full */
-    pgem_id_t *anchor_ring;   /* each one's anchor (a pose kept when it went) */
-    double *relative_ring;    /* the anchor in the removed pose's frame (pose_size each) */
-    int64_t reanchored;
-    uint32_t removed_head;    /* the oldest */
-    uint32_t removed_count;
-    pgem_id_t forgotten_low[FORGOTTEN_RANGES]; /* ranges of ids the ring forgot */
-    pgem_id_t forgotten_high[FORGOTTEN_RANGES];
-    uint32_t forgotten_count;
-    table_t steps;            /* odometry in the graph: key (the smaller of two consecutive
-                                 pose ids, 0), content the source index that made the step */
-    waiting_t *pending;       /* max_pending slots */
-    uint32_t *free_slots;     /* stack of unused pending slots */
-    uint32_t free_count;
-    uint32_t oldest;          /* first waiting edge in arrival order, NONE */
-    uint32_t newest;          /* last, NONE */
-    uint32_t pending_count;
-    uint32_t full_poses;      /* nonzero: compaction can free nothing, poses beyond this many
-                                 are refused as full (pgem_ingest_set_full) */
-    uint32_t full_edges;
-    char full_why[160];
-    uint32_t admitted_poses;  /* capacity reserved since the last reset */
-    uint32_t admitted_edges;  /* includes pending edges */
-    source_t *sources;
-    uint32_t source_count;    /* slots in use or freed below the highest in use */
-    const void *data;         /* the message being handled, for the admit hook */
-    size_t size;
-    pgem_ingest_counts_t counts;
-    char last_expiry[384];
-    char last_odometry[384];  /* pgem_ingest_last_odometry_note */
-};
-
-static int table_init(table_t *table, uint32_t capacity)
-{
-    size_t size = 16;
-    while (size < 2 * (size_t)capacity) {
-        size *= 2;
-    }
-    table->slots = calloc(size, sizeof *table->slots);
-    table->mask = size - 1;
-    return table->slots != NULL;
-}
-
-static void table_clear(table_t *table)
-{
-    memset(table->slots, 0, (table->mask + 1) * sizeof *table->slots);
-}
-
-static uint64_t mix(uint64_t a, uint64_t b)
-{
-    uint64_t h = a * 0x9E3779B97F4A7C15ull ^ (b + 0xBF58476D1CE4E5B9ull + (a << 6) + (a >> 2));
-    h ^= h >> 31;
-    h *= 0x94D049BB133111EBull;
-    return h ^ (h >> 29);
-}
-
-/* The slot holding the key, or the empty slot where it would go. Never full: capacity is
- * reserved before insertion and the table has twice the slots. */
-static slot_t *table_find(const table_t *table, uint64_t a, uint64_t b)
-{
-    size_t index = (size_t)mix(a, b) & table->mask;
-    for (;;) {
-        slot_t *slot = &table->slots[index];
-        if (!slot->used || (slot->key_a == a && slot->key_b == b)) {
-            return slot;
-        }
-        index = (index + 1) & table->mask;
-    }
-}
-
-/* Removes a used slot, moving later keys of its probe run back so every key stays reachable
- * from its home slot (linear probing's deletion, no tombstones). */
-static void table_remove(table_t *table, slot_t *slot)
-{
-    size_t hole = (size_t)(slot - table->slots);
-    size_t next = hole;
-    for (;;) {
-        next = (next + 1) & table->mask;
-        slot_t *candidate = &table->slots[next];
-        if (!candidate->used) {
-            break;
-        }
-        size_t home = (size_t)mix(candidate->key_a, candidate->key_b) & table->mask;
-        /* it stays when its home lies cyclically in (hole, next] */
-        int stays = hole <= next ? (hole < home && home <= next) : (hole < home || home <= next);
-        if (!stays) {
-            table->slots[hole] = *candidate;
-            hole = next;
-        }
-    }
-    table->slots[hole].used = 0;
 }
 
 /* FNV-1a over the bytes of the fields that make an item's content. */
@@ -250,10 +99,10 @@ pgem_ingest_t *pgem_ingest_create(const pgem_ingest_config_t *config, pgem_emit_
     ingest->pending = calloc(ingest->config.max_pending, sizeof *ingest->pending);
     ingest->free_slots = calloc(ingest->config.max_pending, sizeof *ingest->free_slots);
     ingest->sources = calloc(ingest->config.max_sources, sizeof *ingest->sources);
-    if (!table_init(&ingest->poses, config->max_poses) ||
-        !table_init(&ingest->edges, config->max_edges) ||
-        !table_init(&ingest->steps, config->max_poses) ||
-        !table_init(&ingest->removed, REMOVED_PER_POSE * config->max_poses) ||
+    if (!key_table_init(&ingest->poses, config->max_poses) ||
+        !key_table_init(&ingest->edges, config->max_edges) ||
+        !key_table_init(&ingest->steps, config->max_poses) ||
+        !key_table_init(&ingest->removed, REMOVED_PER_POSE * config->max_poses) ||
         (ingest->removed_ring = calloc((size_t)REMOVED_PER_POSE * config->max_poses,
                                        sizeof *ingest->removed_ring)) == NULL ||
         (ingest->anchor_ring = calloc((size_t)REMOVED_PER_POSE * config->max_poses,
@@ -435,7 +284,7 @@ static slot_t *claim(pgem_ingest_t *ingest, table_t *table, uint64_t a, uint64_t
                      uint64_t content, uint32_t admitted_count, uint32_t limit, const char *what,
                      const char *conflict, const char *items, pgem_ingest_result_t *result)
 {
-    slot_t *slot = table_find(table, a, b);
+    slot_t *slot = key_table_find(table, a, b);
     if (slot->used) {
         if (slot->content == content) {
             result->verdict = PGEM_VERDICT_REPLAY;
@@ -467,24 +316,11 @@ static slot_t *claim(pgem_ingest_t *ingest, table_t *table, uint64_t a, uint64_t
     return slot;
 }
 
-static void take(slot_t *slot, uint64_t a, uint64_t b, uint64_t content)
-{
-    slot->used = 1;
-    slot->key_a = a;
-    slot->key_b = b;
-    slot->content = content;
-}
-
-static int pose_known(const pgem_ingest_t *ingest, pgem_id_t id)
-{
-    return table_find(&ingest->poses, id, 0)->used;
-}
-
 /* 1 (the message refused, naming the pose) if a pose message's id is one compaction removed. */
 static int refuse_removed(pgem_ingest_t *ingest, pgem_id_t id, const char *what,
                           pgem_ingest_result_t *result)
 {
-    if (!table_find(&ingest->removed, id, 0)->used) {
+    if (!ingest_removed(ingest, id)) {
         return 0;
     }
     snprintf(result->message, sizeof result->message,
@@ -495,174 +331,11 @@ static int refuse_removed(pgem_ingest_t *ingest, pgem_id_t id, const char *what,
     return 1;
 }
 
-/* An edge end on a removed pose moves to its anchor (following anchors removed since): the
- * measurement composed with where the anchor lies in the removed pose's frame, on the side
- * of that end. Returns 1 if it moved. */
-static int reanchor_end(pgem_ingest_t *ingest, pgem_item_t *item, int to_end)
-{
-    const int three = ingest->config.dimension == 3;
-    int moved = 0;
-    for (int hops = 0; hops < 64; ++hops) {
-        pgem_id_t *end = to_end ? &item->to : &item->from;
-        const slot_t *slot = table_find(&ingest->removed, *end, 0);
-        if (!slot->used) {
-            break;
-        }
-        const double *relative = ingest->relative_ring + slot->content * PGEM_POSE_SIZE_MAX;
-        double step[PGEM_POSE_SIZE_MAX], out[PGEM_POSE_SIZE_MAX];
-        if (to_end) { /* z' = z T */
-            (three ? pgem_se3_compose : pgem_se2_compose)(item->value, relative, out);
-        } else { /* z' = T^-1 z */
-            (three ? pgem_se3_inverse : pgem_se2_inverse)(relative, step);
-            (three ? pgem_se3_compose : pgem_se2_compose)(step, item->value, out);
-        }
-        memcpy(item->value, out, sizeof(double) * (size_t)PGEM_POSE_SIZE(ingest->config.dimension));
-        *end = ingest->anchor_ring[slot->content];
-        moved = 1;
-    }
-    return moved;
-}
-
-/* Whether id lies within gap of [low, high] (no overflow at either end of the id space). */
-static int id_near(pgem_id_t id, pgem_id_t low, pgem_id_t high, pgem_id_t gap)
-{
-    return (id >= low || low - id <= gap) && (id <= high || id - high <= gap);
-}
-
-/* A removed id the ring no longer remembers joins the forgotten ranges. */
-static void forget(pgem_ingest_t *ingest, pgem_id_t id)
-{
-    const pgem_id_t gap = ingest->config.max_poses;
-    for (uint32_t r = 0; r < ingest->forgotten_count; ++r) {
-        if (id_near(id, ingest->forgotten_low[r], ingest->forgotten_high[r], gap)) {
-            ingest->forgotten_low[r] = id < ingest->forgotten_low[r] ? id : ingest->forgotten_low[r];
-            ingest->forgotten_high[r] =
-                id > ingest->forgotten_high[r] ? id : ingest->forgotten_high[r];
-            return;
-        }
-    }
-    if (ingest->forgotten_count == FORGOTTEN_RANGES) { /* the two closest ranges become one */
-        uint32_t a = 0, b = 1;
-        pgem_id_t best = UINT64_MAX;
-        for (uint32_t i = 0; i < FORGOTTEN_RANGES; ++i) {
-            for (uint32_t j = i + 1; j < FORGOTTEN_RANGES; ++j) {
-                const pgem_id_t li = ingest->forgotten_low[i], hi = ingest->forgotten_high[i];
-                const pgem_id_t lj = ingest->forgotten_low[j], hj = ingest->forgotten_high[j];
-                const pgem_id_t distance = lj > hi ? lj - hi : li > hj ? li - hj : 0u;
-                if (distance < best) {
-                    best = distance;
-                    a = i;
-                    b = j;
-                }
-            }
-        }
-        if (ingest->forgotten_low[b] < ingest->forgotten_low[a]) {
-            ingest->forgotten_low[a] = ingest->forgotten_low[b];
-        }
-        if (ingest->forgotten_high[b] > ingest->forgotten_high[a]) {
-            ingest->forgotten_high[a] = ingest->forgotten_high[b];
-        }
-        ingest->forgotten_count--;
-        ingest->forgotten_low[b] = ingest->forgotten_low[ingest->forgotten_count];
-        ingest->forgotten_high[b] = ingest->forgotten_high[ingest->forgotten_count];
-    }
-    ingest->forgotten_low[ingest->forgotten_count] = id;
-    ingest->forgotten_high[ingest->forgotten_count++] = id;
-}
-
-/* An id in a forgotten range that is no pose the ingest knows: removed long ago. */
-static int forgotten(const pgem_ingest_t *ingest, pgem_id_t id)
-{
-    if (pose_known(ingest, id)) {
-        return 0;
-    }
-    for (uint32_t r = 0; r < ingest->forgotten_count; ++r) {
-        if (id >= ingest->forgotten_low[r] && id <= ingest->forgotten_high[r]) {
-            return 1;
-        }
-    }
-    return 0;
-}
-
-void pgem_ingest_release(pgem_ingest_t *ingest, const pgem_id_t *ids, const pgem_id_t *anchors,
-                         const double *relative, uint32_t id_count,
-                         const pgem_ingest_released_t *edges, uint32_t edge_count)
-{
-    const uint32_t capacity = REMOVED_PER_POSE * ingest->config.max_poses;
-    const size_t size = (size_t)PGEM_POSE_SIZE(ingest->config.dimension);
-    for (uint32_t i = 0; i < id_count; ++i) {
-        slot_t *slot = table_find(&ingest->poses, ids[i], 0);
-        if (slot->used) {
-            table_remove(&ingest->poses, slot);
-            ingest->admitted_poses -= ingest->admitted_poses > 0u;
-        }
-        for (int low = 0; low < 2; ++low) { /* its steps: (id - 1, id) and (id, id + 1) */
-            slot_t *step = table_find(&ingest->steps, ids[i] - (pgem_id_t)(1 - low), 0);
-            if (step->used) {
-                table_remove(&ingest->steps, step);
-            }
-        }
-        if (ingest->removed_count == capacity) { /* forget the oldest */
-            forget(ingest, ingest->removed_ring[ingest->removed_head]);
-            table_remove(&ingest->removed,
-                         table_find(&ingest->removed, ingest->removed_ring[ingest->removed_head], 0));
-            ingest->removed_head = (ingest->removed_head + 1u) % capacity;
-            ingest->removed_count--;
-        }
-        slot_t *removed = table_find(&ingest->removed, ids[i], 0);
-        if (!removed->used) {
-            const uint32_t at = (ingest->removed_head + ingest->removed_count) % capacity;
-            take(removed, ids[i], 0, at);
-            ingest->removed_ring[at] = ids[i];
-            ingest->anchor_ring[at] = anchors[i];
-            memcpy(ingest->relative_ring + (size_t)at * PGEM_POSE_SIZE_MAX, relative + i * size,
-                   size * sizeof(double));
-            ingest->removed_count++;
-        }
-    }
-    for (uint32_t k = 0; k < edge_count; ++k) {
-        slot_t *slot = table_find(&ingest->edges, edges[k].source, (uint64_t)edges[k].sequence);
-        if (slot->used) {
-            table_remove(&ingest->edges, slot);
-            ingest->admitted_edges -= ingest->admitted_edges > 0u;
-        }
-    }
-}
-
-/* Both ends of an edge onto their anchors; 1 if either moved. */
-static int reanchor(pgem_ingest_t *ingest, pgem_item_t *item)
-{
-    const int moved_from = reanchor_end(ingest, item, 0);
-    return reanchor_end(ingest, item, 1) | moved_from;
-}
-
-/* A re-anchored edge that goes in: counted, and a loop closure (a step of the chain no more:
- * the robust layer weighs it). */
-static void reanchored_goes_in(pgem_ingest_t *ingest, pgem_item_t *item)
-{
-    ingest->reanchored++;
-    item->kind = PGEM_EDGE_LOOP;
-}
-
-int pgem_ingest_reanchor(pgem_ingest_t *ingest, pgem_item_t *item)
-{
-    if (!reanchor(ingest, item) || item->from == item->to) {
-        return 0;
-    }
-    reanchored_goes_in(ingest, item);
-    return 1;
-}
-
 void pgem_ingest_set_full(pgem_ingest_t *ingest, uint32_t poses, uint32_t edges, const char *why)
 {
     ingest->full_poses = poses;
     ingest->full_edges = edges;
     snprintf(ingest->full_why, sizeof ingest->full_why, "%s", why != NULL ? why : "");
-}
-
-int64_t pgem_ingest_reanchored(const pgem_ingest_t *ingest)
-{
-    return ingest->reanchored;
 }
 
 /* ---- the pending list ------------------------------------------------------------------- */
@@ -746,7 +419,7 @@ static void pending_expire(pgem_ingest_t *ingest, uint32_t k, const char *why)
     char what[200];
     edge_what(what, sizeof what, &entry->item, ingest->sources[source].name);
     snprintf(ingest->last_expiry, sizeof ingest->last_expiry, "%s expired: %s", what, why);
-    table_remove(&ingest->edges, table_find(&ingest->edges, source, (uint64_t)entry->item.sequence));
+    key_table_remove(&ingest->edges, key_table_find(&ingest->edges, source, (uint64_t)entry->item.sequence));
     pending_remove(ingest, k);
     ingest->admitted_edges--;
     ingest->counts.accepted_edges--;
@@ -769,7 +442,7 @@ uint32_t pgem_ingest_expire(pgem_ingest_t *ingest, int64_t utime)
         char why[160];
         snprintf(why, sizeof why, "it waited %.1f s for pose %llu (--pending-timeout %.0f s)",
                  (double)age(ingest->pending[ingest->oldest].since, utime) * 1e-6,
-                 (unsigned long long)(pose_known(ingest, item->from) ? item->to : item->from),
+                 (unsigned long long)(ingest_pose_known(ingest, item->from) ? item->to : item->from),
                  (double)ingest->config.pending_timeout * 1e-6);
         pending_expire(ingest, ingest->oldest, why);
         expired++;
@@ -823,13 +496,13 @@ static void emit_edge(pgem_ingest_t *ingest, pgem_item_t *item)
             snprintf(why, sizeof why, "poses %llu and %llu are not consecutive ids", from, to);
         } else {
             pgem_id_t low = item->from < item->to ? item->from : item->to;
-            slot_t *slot = table_find(&ingest->steps, low, 0);
+            slot_t *slot = key_table_find(&ingest->steps, low, 0);
             if (slot->used) {
                 snprintf(why, sizeof why,
                          "poses %llu and %llu are already joined by odometry of source '%s'",
                          from, to, ingest->sources[slot->content].name);
             } else {
-                take(slot, low, 0, item->source); /* at most max_poses - 1 steps */
+                key_table_take(slot, low, 0, item->source); /* at most max_poses - 1 steps */
             }
         }
         if (why[0] != '\0') {
@@ -851,7 +524,7 @@ static void release_pending(pgem_ingest_t *ingest)
     while (k != NONE) {
         uint32_t next = ingest->pending[k].next;
         pgem_item_t *item = &ingest->pending[k].item;
-        if (pose_known(ingest, item->from) && pose_known(ingest, item->to)) {
+        if (ingest_pose_known(ingest, item->from) && ingest_pose_known(ingest, item->to)) {
             emit_edge(ingest, item);
             pending_remove(ingest, k);
         }
@@ -875,7 +548,7 @@ static void admit_pose(pgem_ingest_t *ingest, const pgem_item_t *item, const cha
     if (slot == NULL || !admitted(ingest, what, result)) {
         return;
     }
-    take(slot, item->from, 0, content);
+    key_table_take(slot, item->from, 0, content);
     ingest->admitted_poses++;
     ingest->counts.accepted_poses++;
     ingest->emit(ingest->user, item);
@@ -949,7 +622,7 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
     }
     /* an end on a pose compaction removed goes to its anchor (the key and its content stay
      * the message's: a resend is still a replay) */
-    const int moved = reanchor(ingest, item);
+    const int moved = ingest_reanchor(ingest, item);
     if (moved && item->from == item->to) {
         snprintf(result->message, sizeof result->message,
                  "%s: its poses were removed from the map and both lie on pose %llu now", what,
@@ -957,8 +630,8 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
         reject(ingest, result, PGEM_REJECT_REMOVED);
         return;
     }
-    const int from_lost = forgotten(ingest, item->from);
-    if (from_lost || forgotten(ingest, item->to)) {
+    const int from_lost = ingest_forgotten(ingest, item->from);
+    if (from_lost || ingest_forgotten(ingest, item->to)) {
         snprintf(result->message, sizeof result->message,
                  "%s: pose %llu was removed from the map long ago and the bridge no longer "
                  "remembers its anchor (it remembers the last %u removed poses)", what,
@@ -967,7 +640,7 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
         reject(ingest, result, PGEM_REJECT_FORGOTTEN);
         return;
     }
-    int ready = pose_known(ingest, item->from) && pose_known(ingest, item->to);
+    int ready = ingest_pose_known(ingest, item->from) && ingest_pose_known(ingest, item->to);
     uint32_t victim = NONE;
     if (!ready && ingest->pending_count >= ingest->config.max_pending) {
         victim = pending_victim(ingest, item->source);
@@ -993,14 +666,14 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
         pending_expire(ingest, victim, why);
         /* the expiry may have freed a source slot and moved keys: look both up again */
         item->source = (uint16_t)source_index(ingest, source, result);
-        slot = table_find(&ingest->edges, item->source, (uint64_t)item->sequence);
+        slot = key_table_find(&ingest->edges, item->source, (uint64_t)item->sequence);
     }
-    take(slot, item->source, (uint64_t)item->sequence, content);
+    key_table_take(slot, item->source, (uint64_t)item->sequence, content);
     source_admit(ingest, item->source, source, item->sequence);
     ingest->admitted_edges++;
     ingest->counts.accepted_edges++;
     if (moved) {
-        reanchored_goes_in(ingest, item);
+        ingest_reanchored_goes_in(ingest, item);
     }
     if (ready) {
         emit_edge(ingest, item);
@@ -1012,13 +685,10 @@ static void admit_edge(pgem_ingest_t *ingest, pgem_item_t *item, const char *sou
 
 static void reset(pgem_ingest_t *ingest)
 {
-    table_clear(&ingest->poses);
-    table_clear(&ingest->edges);
-    table_clear(&ingest->steps);
-    table_clear(&ingest->removed);
-    ingest->removed_head = 0;
-    ingest->removed_count = 0;
-    ingest->forgotten_count = 0;
+    key_table_clear(&ingest->poses);
+    key_table_clear(&ingest->edges);
+    key_table_clear(&ingest->steps);
+    ingest_removed_clear(ingest);
     pending_clear(ingest);
     ingest->admitted_poses = 0;
     ingest->admitted_edges = 0;
