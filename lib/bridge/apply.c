@@ -12,14 +12,14 @@ static void core_refused(bridge_t *bridge, const char *what, int status)
     if (status == PGEM_ERR_CAPACITY && bridge->options.compact) {
         /* admitted beyond the block while compaction could free nothing */
         pthread_mutex_lock(&bridge->handoff.lock);
-        bridge->handoff.full_rejections++;
+        bridge->handoff.graph.full_rejections++;
         pthread_mutex_unlock(&bridge->handoff.lock);
         bridge_note(bridge, "rejected (full): %s: the block is full and compaction can free "
                             "nothing (%s)", what, pgem_last_error(bridge->solver.core));
         return;
     }
     pthread_mutex_lock(&bridge->handoff.lock);
-    bridge->handoff.core_rejections++;
+    bridge->handoff.graph.core_rejections++;
     pthread_mutex_unlock(&bridge->handoff.lock);
     bridge_note(bridge, "the core refused %s: %s (%s)", what, pgem_error_name(status),
                 pgem_last_error(bridge->solver.core));

@@ -72,8 +72,9 @@ static int start(bridge_t *bridge, char *message, size_t message_size)
         return -1;
     }
     if (o->snapshot_dir != NULL) {
-        bridge->handoff.snapshots = calloc(o->snapshot_limit, sizeof *bridge->handoff.snapshots);
-        if (bridge->handoff.snapshots == NULL) {
+        bridge->handoff.snapshots.ring =
+            calloc(o->snapshot_limit, sizeof *bridge->handoff.snapshots.ring);
+        if (bridge->handoff.snapshots.ring == NULL) {
             snprintf(message, message_size, "out of memory for --snapshot-limit %u",
                      (unsigned)o->snapshot_limit);
             return -1;
@@ -121,7 +122,7 @@ static void finish(bridge_t *bridge)
     }
     bridge_reception_free(bridge);
     bridge_solver_free(bridge);
-    free(bridge->handoff.snapshots);
+    free(bridge->handoff.snapshots.ring);
     pthread_cond_destroy(&bridge->handoff.wake);
     pthread_mutex_destroy(&bridge->handoff.lock);
 }

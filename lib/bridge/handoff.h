@@ -51,38 +51,48 @@ typedef struct bridge_handoff {
 
     /* Queue of admitted items: [head, visible) may be taken by the solver; [visible, tail)
      * are being journaled. Indices grow forever; slot = index % capacity. */
-    pgem_item_t *queue;
-    uint64_t queue_capacity;
-    uint64_t head;
-    uint64_t visible;
-    uint64_t tail;
-    int64_t queue_overflows;
+    struct {
+        pgem_item_t *items;
+        uint64_t capacity;
+        uint64_t head;
+        uint64_t visible;
+        uint64_t tail;
+        int64_t overflows;
+    } queue;
 
     /* Requests for the solver thread. */
-    int64_t optimize_commands; /* OPTIMIZE received since the last command solve began */
-    int optimize_requested;
-    int recovery_pending;      /* the journal's replay owes one whole-graph solve */
-    int snapshot_requested;
-    char snapshot_path[PGEM_PATH_MAX];
+    struct {
+        int64_t optimize_commands; /* OPTIMIZE received since the last command solve began */
+        int optimize;
+        int recovery;              /* the journal's replay owes one whole-graph solve */
+        int snapshot;
+        char snapshot_path[PGEM_PATH_MAX];
+    } requests;
+
     /* The SNAPSHOTs accepted in the last minute, oldest first (a ring of snapshot_limit
-     * entries from snapshot_first): when, and what the write they asked for wrote (0 until
-     * written, and for one a later request replaced). The reception thread admits them, the
+     * entries from `first`): when, and what the write they asked for wrote (0 until written,
+     * and for one a later request replaced). The reception thread admits them (held.c), the
      * solver thread writes them. */
-    bridge_snapshot_t *snapshots;
-    uint64_t snapshot_last_size; /* bytes of the last snapshot written (both files) */
-    uint32_t snapshot_first;
-    uint32_t snapshot_count;
-    uint32_t snapshot_latest;  /* the entry of the request the solver will write */
+    struct {
+        bridge_snapshot_t *ring;
+        uint64_t last_size;        /* bytes of the last snapshot written (both files) */
+        uint32_t first;
+        uint32_t count;
+        uint32_t latest;           /* the entry of the request the solver will write */
+    } snapshots;
 
     /* What the solver thread last did, for the status. */
-    int32_t graph_poses;
-    int32_t graph_edges;
-    int32_t graph_loops;
-    int32_t graph_pruned;
-    int64_t solves;
-    int solving;
-    int64_t core_rejections;
-    int64_t full_rejections;    /* admitted items the full block could not take (--compact) */
+    struct {
+        int32_t poses;
+        int32_t edges;
+        int32_t loops;
+        int32_t pruned;
+        int64_t solves;
+        int solving;
+        int64_t core_rejections;
+        int64_t full_rejections; /* admitted items the full block could not take (--compact) */
+    } graph;
+
     /* The status's message: the latest note of either thread. */
     char last_message[384];
 } bridge_handoff_t;

@@ -103,15 +103,16 @@ static const char *held(const bridge_t *bridge, const char *name)
 static uint64_t snapshots_recent(bridge_t *bridge, double now)
 {
     const uint32_t limit = bridge->options.snapshot_limit;
-    while (bridge->handoff.snapshot_count > 0 &&
-           now - bridge->handoff.snapshots[bridge->handoff.snapshot_first].accepted >=
+    while (bridge->handoff.snapshots.count > 0 &&
+           now - bridge->handoff.snapshots.ring[bridge->handoff.snapshots.first].accepted >=
                BRIDGE_SNAPSHOT_PERIOD) {
-        bridge->handoff.snapshot_first = (bridge->handoff.snapshot_first + 1) % limit;
-        bridge->handoff.snapshot_count--;
+        bridge->handoff.snapshots.first = (bridge->handoff.snapshots.first + 1) % limit;
+        bridge->handoff.snapshots.count--;
     }
     uint64_t bytes = 0;
-    for (uint32_t k = 0; k < bridge->handoff.snapshot_count; ++k) {
-        bytes += bridge->handoff.snapshots[(bridge->handoff.snapshot_first + k) % limit].bytes;
+    for (uint32_t k = 0; k < bridge->handoff.snapshots.count; ++k) {
+        bytes +=
+            bridge->handoff.snapshots.ring[(bridge->handoff.snapshots.first + k) % limit].bytes;
     }
     return bytes;
 }
@@ -127,44 +128,44 @@ static int snapshot_allowed(bridge_t *bridge, const char *name, char *message,
     const uint64_t bytes = snapshots_recent(bridge, now);
     const double budget = o->snapshot_budget * 1048576.0;
     const double wait =
-        bridge->handoff.snapshot_count > 0
+        bridge->handoff.snapshots.count > 0
             ? BRIDGE_SNAPSHOT_PERIOD -
-                  (now - bridge->handoff.snapshots[bridge->handoff.snapshot_first].accepted)
+                  (now - bridge->handoff.snapshots.ring[bridge->handoff.snapshots.first].accepted)
             : 0.0;
-    if (bridge->handoff.snapshot_count >= o->snapshot_limit) {
+    if (bridge->handoff.snapshots.count >= o->snapshot_limit) {
         snprintf(message, message_size,
                  "SNAPSHOT %s refused: %u snapshots in the last minute (--snapshot-limit %u "
                  "per minute); the next is allowed in %.1f s", name,
-                 (unsigned)bridge->handoff.snapshot_count, (unsigned)o->snapshot_limit, wait);
+                 (unsigned)bridge->handoff.snapshots.count, (unsigned)o->snapshot_limit, wait);
         return -1;
     }
-    if (bridge->handoff.snapshot_count > 0 &&
-        (double)(bytes + bridge->handoff.snapshot_last_size) > budget) {
+    if (bridge->handoff.snapshots.count > 0 &&
+        (double)(bytes + bridge->handoff.snapshots.last_size) > budget) {
         snprintf(message, message_size,
                  "SNAPSHOT %s refused: snapshots wrote %.1f MiB in the last minute and the "
                  "last took %.1f MiB, past --snapshot-budget %g MiB per minute; the next is "
                  "allowed in %.1f s at the latest", name, (double)bytes / 1048576.0,
-                 (double)bridge->handoff.snapshot_last_size / 1048576.0, o->snapshot_budget, wait);
+                 (double)bridge->handoff.snapshots.last_size / 1048576.0, o->snapshot_budget, wait);
         return -1;
     }
     const uint32_t entry =
-        (bridge->handoff.snapshot_first + bridge->handoff.snapshot_count) % o->snapshot_limit;
-    bridge->handoff.snapshots[entry].accepted = now;
-    bridge->handoff.snapshots[entry].bytes = 0;
-    bridge->handoff.snapshot_count++;
-    bridge->handoff.snapshot_latest = entry;
+        (bridge->handoff.snapshots.first + bridge->handoff.snapshots.count) % o->snapshot_limit;
+    bridge->handoff.snapshots.ring[entry].accepted = now;
+    bridge->handoff.snapshots.ring[entry].bytes = 0;
+    bridge->handoff.snapshots.count++;
+    bridge->handoff.snapshots.latest = entry;
     return 0;
 }
 
 void bridge_snapshot_written(bridge_t *bridge, uint64_t bytes)
 {
-    bridge->handoff.snapshot_last_size = bytes;
+    bridge->handoff.snapshots.last_size = bytes;
     /* the entry of the request written, if it is still in the window */
     const uint32_t limit = bridge->options.snapshot_limit;
     const uint32_t from_first =
-        (bridge->handoff.snapshot_latest + limit - bridge->handoff.snapshot_first) % limit;
-    if (from_first < bridge->handoff.snapshot_count) {
-        bridge->handoff.snapshots[bridge->handoff.snapshot_latest].bytes = bytes;
+        (bridge->handoff.snapshots.latest + limit - bridge->handoff.snapshots.first) % limit;
+    if (from_first < bridge->handoff.snapshots.count) {
+        bridge->handoff.snapshots.ring[bridge->handoff.snapshots.latest].bytes = bytes;
     }
 }
 

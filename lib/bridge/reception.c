@@ -18,12 +18,12 @@ static void emit(void *user, const pgem_item_t *item)
 {
     bridge_t *bridge = user;
     bridge_handoff_t *const h = &bridge->handoff;
-    if (h->tail - h->head >= h->queue_capacity) {
-        h->queue_overflows++; /* cannot happen: capacity is reserved on admission */
+    if (h->queue.tail - h->queue.head >= h->queue.capacity) {
+        h->queue.overflows++; /* cannot happen: capacity is reserved on admission */
         return;
     }
-    h->queue[h->tail % h->queue_capacity] = *item;
-    h->tail++;
+    h->queue.items[h->queue.tail % h->queue.capacity] = *item;
+    h->queue.tail++;
 }
 
 /* ---- start and end ------------------------------------------------------------------------ */
@@ -43,9 +43,9 @@ int bridge_reception_init(bridge_t *bridge, char *message, size_t message_size)
                                           o->snapshot_dir != NULL, o->compact};
     bridge_handoff_t *h = &bridge->handoff;
     h->ingest = pgem_ingest_create(&ingest_config, emit, bridge);
-    h->queue_capacity = (uint64_t)admit_poses + admit_edges + BRIDGE_BATCH;
-    h->queue = calloc((size_t)h->queue_capacity, sizeof *h->queue);
-    if (h->ingest == NULL || h->queue == NULL) {
+    h->queue.capacity = (uint64_t)admit_poses + admit_edges + BRIDGE_BATCH;
+    h->queue.items = calloc((size_t)h->queue.capacity, sizeof *h->queue.items);
+    if (h->ingest == NULL || h->queue.items == NULL) {
         snprintf(message, message_size, "out of memory for %u poses and %u edges",
                  (unsigned)o->max_poses, (unsigned)o->max_edges);
         return -1;
@@ -57,7 +57,7 @@ void bridge_reception_free(bridge_t *bridge)
 {
     pgem_journal_close(bridge->reception.journal);
     pgem_ingest_destroy(bridge->handoff.ingest);
-    free(bridge->handoff.queue);
+    free(bridge->handoff.queue.items);
 }
 
 /* ---- messages ------------------------------------------------------------------------------ */
@@ -173,7 +173,7 @@ void bridge_reception_message(const lcm_recv_buf_t *buffer, const char *channel,
     bridge->reception.utime = buffer->recv_utime;
     pgem_ingest_message(h->ingest, role, buffer->data, buffer->data_size,
                         buffer->recv_utime, &result);
-    h->visible = h->tail;
+    h->queue.visible = h->queue.tail;
     pgem_ingest_counts(h->ingest, &h->counts);
     if (bridge->reception.journal != NULL) {
         h->journal_records = pgem_journal_records(bridge->reception.journal);
@@ -191,11 +191,11 @@ void bridge_reception_message(const lcm_recv_buf_t *buffer, const char *channel,
                  pgem_reject_name(result.reason), result.message);
     } else if (result.verdict == PGEM_VERDICT_COMMAND) {
         if (result.command == PGEM_COMMAND_T_OPTIMIZE) {
-            h->optimize_requested = 1;
-            h->optimize_commands++;
+            h->requests.optimize = 1;
+            h->requests.optimize_commands++;
         } else if (result.command == PGEM_COMMAND_T_SNAPSHOT) {
-            h->snapshot_requested = 1;
-            memcpy(h->snapshot_path, result.path, sizeof h->snapshot_path);
+            h->requests.snapshot = 1;
+            memcpy(h->requests.snapshot_path, result.path, sizeof h->requests.snapshot_path);
         }
     }
     pthread_cond_signal(&h->wake);
@@ -298,8 +298,8 @@ int bridge_reception_open_journal(bridge_t *bridge, char *message, size_t messag
         return -1;
     }
     bridge->handoff.recovered = info.records;
-    bridge->handoff.visible = bridge->handoff.tail;
-    bridge->handoff.recovery_pending = info.records > 0;
+    bridge->handoff.queue.visible = bridge->handoff.queue.tail;
+    bridge->handoff.requests.recovery = info.records > 0;
     pgem_ingest_counts(bridge->handoff.ingest, &bridge->handoff.counts);
     bridge->handoff.journal_records = info.records;
     if (journal_report(bridge, &info, message, message_size) != 0) {

@@ -40,7 +40,7 @@ static int should_stop(bridge_t *bridge)
     const int yields = bridge->solver.settle.yields;
     pthread_mutex_lock(&bridge->handoff.lock);
     const int stop = bridge->handoff.stopping ||
-                     (yields && bridge->handoff.visible != bridge->handoff.head);
+                     (yields && bridge->handoff.queue.visible != bridge->handoff.queue.head);
     pthread_mutex_unlock(&bridge->handoff.lock);
     return stop;
 }
@@ -254,7 +254,7 @@ int bridge_solve_update(bridge_t *bridge, pgem_robust_summary_t *summary)
 void bridge_solve(bridge_t *bridge, const char *trigger)
 {
     pthread_mutex_lock(&bridge->handoff.lock);
-    bridge->handoff.solving = 1;
+    bridge->handoff.graph.solving = 1;
     pthread_mutex_unlock(&bridge->handoff.lock);
     pgem_robust_options_t robust = bridge->options.robust;
     robust.on_round = keep_going;
@@ -287,7 +287,7 @@ void bridge_solve(bridge_t *bridge, const char *trigger)
             bridge); /* items arrived: the incremental map goes on from the last update */
         bridge->solver.settle.gave_way = 1;
         pthread_mutex_lock(&bridge->handoff.lock);
-        bridge->handoff.solving = 0;
+        bridge->handoff.graph.solving = 0;
         pthread_mutex_unlock(&bridge->handoff.lock);
         bridge_log(bridge, "settle gave way to arriving items after %.1f ms (%u Gauss-Newton "
                            "iterations): the graph is as the last update left it, and the settle "
@@ -317,8 +317,8 @@ void bridge_solve(bridge_t *bridge, const char *trigger)
     bridge_publish_graph(bridge, trigger, &summary, status == PGEM_OK, why, micros);
     double published = bridge_now();
     pthread_mutex_lock(&bridge->handoff.lock);
-    bridge->handoff.solving = 0;
-    bridge->handoff.solves++;
+    bridge->handoff.graph.solving = 0;
+    bridge->handoff.graph.solves++;
     pthread_mutex_unlock(&bridge->handoff.lock);
     if (status == PGEM_OK) { /* after the graph: it never waits for the covariance */
         bridge_covariance_publish(bridge, !incremental);

@@ -161,10 +161,10 @@ void bridge_solver_free(bridge_t *bridge)
 void bridge_solver_counts(bridge_t *bridge)
 {
     pthread_mutex_lock(&bridge->handoff.lock);
-    bridge->handoff.graph_poses = (int32_t)pgem_pose_count(bridge->solver.core);
-    bridge->handoff.graph_edges = (int32_t)pgem_edge_count(bridge->solver.core);
-    bridge->handoff.graph_loops = (int32_t)bridge->solver.loop_count;
-    bridge->handoff.graph_pruned = (int32_t)bridge->solver.pruned_count;
+    bridge->handoff.graph.poses = (int32_t)pgem_pose_count(bridge->solver.core);
+    bridge->handoff.graph.edges = (int32_t)pgem_edge_count(bridge->solver.core);
+    bridge->handoff.graph.loops = (int32_t)bridge->solver.loop_count;
+    bridge->handoff.graph.pruned = (int32_t)bridge->solver.pruned_count;
     pthread_mutex_unlock(&bridge->handoff.lock);
 }
 
@@ -233,8 +233,8 @@ static void wait_until(bridge_t *bridge, double when)
 static void wait_for_work(bridge_t *bridge, const schedule_t *s)
 {
     bridge_handoff_t *const h = &bridge->handoff;
-    while (!h->stopping && h->visible == h->head && !h->optimize_requested &&
-           !h->snapshot_requested && bridge->solver.live_em.pass.state != BRIDGE_PASS_DONE) {
+    while (!h->stopping && h->queue.visible == h->queue.head && !h->requests.optimize &&
+           !h->requests.snapshot && bridge->solver.live_em.pass.state != BRIDGE_PASS_DONE) {
         const double pass_due = bridge_pass_due(bridge);
         if (solve_owed(s) || isfinite(pass_due)) {
             const double due =
@@ -266,27 +266,27 @@ void *bridge_solver_main(void *user)
             break;
         }
         int count = 0;
-        while (count < BRIDGE_BATCH && h->head < h->visible) {
-            batch[count++] = h->queue[h->head % h->queue_capacity];
-            h->head++;
+        while (count < BRIDGE_BATCH && h->queue.head < h->queue.visible) {
+            batch[count++] = h->queue.items[h->queue.head % h->queue.capacity];
+            h->queue.head++;
         }
-        int drained = h->head == h->visible;
+        int drained = h->queue.head == h->queue.visible;
         /* Behind: more than a batch waits. Then the batch's poses are stepped once, at its
          * end, not one by one: a solver thread that falls behind a burst (a dense graph, a
          * loaded machine) catches up instead of the queue outgrowing its room. */
-        const int behind = h->visible - h->head > BRIDGE_BATCH;
-        int optimize = h->optimize_requested; /* taken below when due */
-        int recovery = h->recovery_pending && drained;
-        const int replaying = h->recovery_pending; /* one full solve follows: no steps */
-        int snapshot = h->snapshot_requested && drained;
+        const int behind = h->queue.visible - h->queue.head > BRIDGE_BATCH;
+        int optimize = h->requests.optimize; /* taken below when due */
+        int recovery = h->requests.recovery && drained;
+        const int replaying = h->requests.recovery; /* one full solve follows: no steps */
+        int snapshot = h->requests.snapshot && drained;
         char path[PGEM_PATH_MAX];
         if (snapshot) {
-            memcpy(path, h->snapshot_path, sizeof path);
-            h->snapshot_requested = 0;
+            memcpy(path, h->requests.snapshot_path, sizeof path);
+            h->requests.snapshot = 0;
         }
-        h->optimize_requested = 0;
+        h->requests.optimize = 0;
         if (recovery) {
-            h->recovery_pending = 0;
+            h->requests.recovery = 0;
         }
         pthread_mutex_unlock(&h->lock);
 
@@ -342,8 +342,8 @@ void *bridge_solver_main(void *user)
             s.last_start = now;
             if (optimize) {
                 pthread_mutex_lock(&h->lock);
-                const int64_t commands = h->optimize_commands;
-                h->optimize_commands = 0;
+                const int64_t commands = h->requests.optimize_commands;
+                h->requests.optimize_commands = 0;
                 pthread_mutex_unlock(&h->lock);
                 if (commands > 1) {
                     bridge_log(bridge, "OPTIMIZE: one whole-graph solve for %lld OPTIMIZE "

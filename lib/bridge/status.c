@@ -72,25 +72,24 @@ void bridge_publish_status(bridge_t *bridge)
 
     pthread_mutex_lock(&bridge->handoff.lock);
     counts = bridge->handoff.counts;
-    status.queued = (int32_t)(bridge->handoff.tail - bridge->handoff.head);
-    status.poses = bridge->handoff.graph_poses;
-    status.edges = bridge->handoff.graph_edges;
-    status.loops = bridge->handoff.graph_loops;
-    status.pruned = bridge->handoff.graph_pruned;
-    status.solves = bridge->handoff.solves;
-    status.solving = (int8_t)bridge->handoff.solving;
+    status.queued = (int32_t)(bridge->handoff.queue.tail - bridge->handoff.queue.head);
+    status.poses = bridge->handoff.graph.poses;
+    status.edges = bridge->handoff.graph.edges;
+    status.loops = bridge->handoff.graph.loops;
+    status.pruned = bridge->handoff.graph.pruned;
+    status.solves = bridge->handoff.graph.solves;
+    status.solving = (int8_t)bridge->handoff.graph.solving;
     status.recovered = bridge->handoff.recovered;
     status.journal_records = bridge->handoff.journal_records;
     counts.rejected[PGEM_REJECT_CORE] +=
-        bridge->handoff.core_rejections + bridge->handoff.queue_overflows;
-    counts.rejected[PGEM_REJECT_FULL] += bridge->handoff.full_rejections;
+        bridge->handoff.graph.core_rejections + bridge->handoff.queue.overflows;
+    counts.rejected[PGEM_REJECT_FULL] += bridge->handoff.graph.full_rejections;
     memcpy(message, bridge->handoff.last_message, sizeof message);
     pthread_mutex_unlock(&bridge->handoff.lock);
 
     for (int r = 0; r < PGEM_REJECT_COUNT; ++r) {
         /* lcm-gen's struct wants char *; the encoder only reads the names */
-        reasons[r] = (char *)(uintptr_t)pgem_reject_name(
-            (pgem_reject_t)r); // NOLINT(performance-no-int-to-ptr)
+        reasons[r] = (char *)(uintptr_t)pgem_reject_name((pgem_reject_t)r); // NOLINT(performance-no-int-to-ptr)
         rejected[r] = counts.rejected[r];
     }
     status.utime = bridge_utime();
