@@ -13,8 +13,8 @@
 /* The newest pose an edge reaches (its part has edges): its index, or 0 when there is none. */
 static int newest_pose(bridge_t *bridge, uint32_t *index)
 {
-    for (uint32_t i = bridge->parts_poses; i-- > 0u;) {
-        if (bridge->part_edges[pgem_part_root(bridge->component, i)]) {
+    for (uint32_t i = bridge->solver.parts.poses; i-- > 0u;) {
+        if (bridge->solver.parts.has_edge[pgem_part_root(bridge->solver.parts.parent, i)]) {
             *index = i;
             return 1;
         }
@@ -31,15 +31,15 @@ static int newest_covariance(bridge_t *bridge, pgem_id_t id, int whole, double *
 {
     *current = 1;
     if (!whole) {
-        const int status = pgem_update_covariance(bridge->core, id, values);
+        const int status = pgem_update_covariance(bridge->solver.core, id, values);
         if (status != PGEM_ERR_NO_FACTOR) {
             *current = 0;
             return status;
         }
-        return pgem_covariance(bridge->core, id, values);
+        return pgem_covariance(bridge->solver.core, id, values);
     }
-    const int status = pgem_covariance_prepare(bridge->core);
-    return status == PGEM_OK ? pgem_covariance(bridge->core, id, values) : status;
+    const int status = pgem_covariance_prepare(bridge->solver.core);
+    return status == PGEM_OK ? pgem_covariance(bridge->solver.core, id, values) : status;
 }
 
 void bridge_covariance_publish(bridge_t *bridge, int whole)
@@ -55,14 +55,14 @@ void bridge_covariance_publish(bridge_t *bridge, int whole)
     double values[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double *rows[PGEM_TANGENT_SIZE_MAX];
     pgem_id_t id = 0;
-    pgem_pose_at(bridge->core, index, &id, pose, NULL);
+    pgem_pose_at(bridge->solver.core, index, &id, pose, NULL);
     int current = 0;
     const int status = newest_covariance(bridge, id, whole, values, &current);
     if (status != PGEM_OK) {
-        if (bridge->covariance_failures++ < COVARIANCE_FAILURES_LOGGED) {
+        if (bridge->solver.covariance.failures++ < COVARIANCE_FAILURES_LOGGED) {
             bridge_log(bridge, "no covariance for pose %llu after graph %lld: %s (%s)",
-                       (unsigned long long)id, (long long)bridge->solve_id,
-                       pgem_error_name(status), pgem_last_error(bridge->core));
+                       (unsigned long long)id, (long long)bridge->solver.solve_id,
+                       pgem_error_name(status), pgem_last_error(bridge->solver.core));
         }
         return;
     }
@@ -74,8 +74,8 @@ void bridge_covariance_publish(bridge_t *bridge, int whole)
     }
     pgem_covariance_t msg;
     memset(&msg, 0, sizeof msg);
-    msg.utime = bridge->graph_utime;
-    msg.solve_id = bridge->solve_id;
+    msg.utime = bridge->solver.out.graph_utime;
+    msg.solve_id = bridge->solver.solve_id;
     msg.id = (int64_t)id;
     msg.dimension = (int8_t)dimension;
     msg.pose_size = PGEM_POSE_SIZE(dimension);
@@ -86,18 +86,19 @@ void bridge_covariance_publish(bridge_t *bridge, int whole)
     const int size = pgem_covariance_t_encoded_size(&msg);
     if (bridge_out_ready(bridge, size, "the covariance")) {
         bridge_out_publish(bridge, bridge->options.channels.covariance, "the covariance", size,
-                           pgem_covariance_t_encode(bridge->out_buffer, 0, size, &msg));
+                           pgem_covariance_t_encode(bridge->solver.out.buffer, 0, size, &msg));
     }
     const double took = bridge_now() - start;
-    bridge->covariance_count[whole != 0]++;
-    bridge->covariance_seconds[whole != 0] += took;
+    bridge->solver.covariance.count[whole != 0]++;
+    bridge->solver.covariance.seconds[whole != 0] += took;
     if (whole) {
-        const uint64_t updates = bridge->covariance_count[0];
+        const uint64_t updates = bridge->solver.covariance.count[0];
         bridge_log(bridge,
                    "covariance of pose %llu (graph %lld) in %.2f ms from a factor at the estimate; "
                    "%llu from the incremental factor so far, %.1f us each",
-                   (unsigned long long)id, (long long)bridge->solve_id, 1e3 * took,
+                   (unsigned long long)id, (long long)bridge->solver.solve_id, 1e3 * took,
                    (unsigned long long)updates,
-                   updates > 0u ? 1e6 * bridge->covariance_seconds[0] / (double)updates : 0.0);
+                   updates > 0u ? 1e6 * bridge->solver.covariance.seconds[0] / (double)updates
+                                : 0.0);
     }
 }

@@ -63,10 +63,10 @@ int bridge_journal_recognise(void *user, const char *channel, const void *data, 
 void bridge_journal_watch(bridge_t *bridge, int *away)
 {
     char message[512];
-    if (bridge->journal == NULL) {
+    if (bridge->reception.journal == NULL) {
         return;
     }
-    int now = pgem_journal_check(bridge->journal, message, sizeof message) != 0;
+    int now = pgem_journal_check(bridge->reception.journal, message, sizeof message) != 0;
     if (now && !*away) {
         bridge_note(bridge, "journal: %s; nothing is accepted meanwhile", message);
     } else if (!now && *away) {
@@ -79,8 +79,8 @@ void bridge_journal_watch(bridge_t *bridge, int *away)
  * standard output or error goes to; "" when nothing. */
 static const char *held(const bridge_t *bridge, const char *name)
 {
-    if (bridge->journal != NULL &&
-        pgem_journal_is_named(bridge->journal, bridge->snapshot_dir, name)) {
+    if (bridge->reception.journal != NULL &&
+        pgem_journal_is_named(bridge->reception.journal, bridge->snapshot_dir, name)) {
         return "the bridge's journal";
     }
     struct stat target;
@@ -103,14 +103,16 @@ static const char *held(const bridge_t *bridge, const char *name)
 static uint64_t snapshots_recent(bridge_t *bridge, double now)
 {
     const uint32_t limit = bridge->options.snapshot_limit;
-    while (bridge->snapshot_count > 0 &&
-           now - bridge->snapshots[bridge->snapshot_first].accepted >= BRIDGE_SNAPSHOT_PERIOD) {
-        bridge->snapshot_first = (bridge->snapshot_first + 1) % limit;
-        bridge->snapshot_count--;
+    while (bridge->handoff.snapshots.count > 0 &&
+           now - bridge->handoff.snapshots.ring[bridge->handoff.snapshots.first].accepted >=
+               BRIDGE_SNAPSHOT_PERIOD) {
+        bridge->handoff.snapshots.first = (bridge->handoff.snapshots.first + 1) % limit;
+        bridge->handoff.snapshots.count--;
     }
     uint64_t bytes = 0;
-    for (uint32_t k = 0; k < bridge->snapshot_count; ++k) {
-        bytes += bridge->snapshots[(bridge->snapshot_first + k) % limit].bytes;
+    for (uint32_t k = 0; k < bridge->handoff.snapshots.count; ++k) {
+        bytes +=
+            bridge->handoff.snapshots.ring[(bridge->handoff.snapshots.first + k) % limit].bytes;
     }
     return bytes;
 }
@@ -125,41 +127,45 @@ static int snapshot_allowed(bridge_t *bridge, const char *name, char *message,
     const double now = bridge_now();
     const uint64_t bytes = snapshots_recent(bridge, now);
     const double budget = o->snapshot_budget * 1048576.0;
-    const double wait = bridge->snapshot_count > 0
-                            ? BRIDGE_SNAPSHOT_PERIOD -
-                                  (now - bridge->snapshots[bridge->snapshot_first].accepted)
-                            : 0.0;
-    if (bridge->snapshot_count >= o->snapshot_limit) {
+    const double wait =
+        bridge->handoff.snapshots.count > 0
+            ? BRIDGE_SNAPSHOT_PERIOD -
+                  (now - bridge->handoff.snapshots.ring[bridge->handoff.snapshots.first].accepted)
+            : 0.0;
+    if (bridge->handoff.snapshots.count >= o->snapshot_limit) {
         snprintf(message, message_size,
                  "SNAPSHOT %s refused: %u snapshots in the last minute (--snapshot-limit %u "
                  "per minute); the next is allowed in %.1f s", name,
-                 (unsigned)bridge->snapshot_count, (unsigned)o->snapshot_limit, wait);
+                 (unsigned)bridge->handoff.snapshots.count, (unsigned)o->snapshot_limit, wait);
         return -1;
     }
-    if (bridge->snapshot_count > 0 && (double)(bytes + bridge->snapshot_last_size) > budget) {
+    if (bridge->handoff.snapshots.count > 0 &&
+        (double)(bytes + bridge->handoff.snapshots.last_size) > budget) {
         snprintf(message, message_size,
                  "SNAPSHOT %s refused: snapshots wrote %.1f MiB in the last minute and the "
                  "last took %.1f MiB, past --snapshot-budget %g MiB per minute; the next is "
                  "allowed in %.1f s at the latest", name, (double)bytes / 1048576.0,
-                 (double)bridge->snapshot_last_size / 1048576.0, o->snapshot_budget, wait);
+                 (double)bridge->handoff.snapshots.last_size / 1048576.0, o->snapshot_budget, wait);
         return -1;
     }
-    const uint32_t entry = (bridge->snapshot_first + bridge->snapshot_count) % o->snapshot_limit;
-    bridge->snapshots[entry].accepted = now;
-    bridge->snapshots[entry].bytes = 0;
-    bridge->snapshot_count++;
-    bridge->snapshot_latest = entry;
+    const uint32_t entry =
+        (bridge->handoff.snapshots.first + bridge->handoff.snapshots.count) % o->snapshot_limit;
+    bridge->handoff.snapshots.ring[entry].accepted = now;
+    bridge->handoff.snapshots.ring[entry].bytes = 0;
+    bridge->handoff.snapshots.count++;
+    bridge->handoff.snapshots.latest = entry;
     return 0;
 }
 
 void bridge_snapshot_written(bridge_t *bridge, uint64_t bytes)
 {
-    bridge->snapshot_last_size = bytes;
+    bridge->handoff.snapshots.last_size = bytes;
     /* the entry of the request written, if it is still in the window */
     const uint32_t limit = bridge->options.snapshot_limit;
-    const uint32_t from_first = (bridge->snapshot_latest + limit - bridge->snapshot_first) % limit;
-    if (from_first < bridge->snapshot_count) {
-        bridge->snapshots[bridge->snapshot_latest].bytes = bytes;
+    const uint32_t from_first =
+        (bridge->handoff.snapshots.latest + limit - bridge->handoff.snapshots.first) % limit;
+    if (from_first < bridge->handoff.snapshots.count) {
+        bridge->handoff.snapshots.ring[bridge->handoff.snapshots.latest].bytes = bytes;
     }
 }
 

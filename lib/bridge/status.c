@@ -42,41 +42,50 @@ void bridge_log(bridge_t *bridge, const char *format, ...)
 
 void bridge_note(bridge_t *bridge, const char *format, ...)
 {
-    char text[sizeof bridge->last_message];
+    char text[sizeof bridge->handoff.last_message];
     va_list args;
     va_start(args, format);
     vsnprintf(text, sizeof text, format, args);
     va_end(args);
-    pthread_mutex_lock(&bridge->lock);
-    memcpy(bridge->last_message, text, sizeof text);
-    pthread_mutex_unlock(&bridge->lock);
+    pthread_mutex_lock(&bridge->handoff.lock);
+    memcpy(bridge->handoff.last_message, text, sizeof text);
+    pthread_mutex_unlock(&bridge->handoff.lock);
     bridge_log(bridge, "%s", text);
+}
+
+int bridge_stopping(bridge_t *bridge)
+{
+    pthread_mutex_lock(&bridge->handoff.lock);
+    const int stopping = bridge->handoff.stopping;
+    pthread_mutex_unlock(&bridge->handoff.lock);
+    return stopping;
 }
 
 void bridge_publish_status(bridge_t *bridge)
 {
     char *reasons[PGEM_REJECT_COUNT];
     int64_t rejected[PGEM_REJECT_COUNT];
-    char message[sizeof bridge->last_message];
+    char message[sizeof bridge->handoff.last_message];
     pgem_status_t status;
     memset(&status, 0, sizeof status);
     pgem_ingest_counts_t counts;
 
-    pthread_mutex_lock(&bridge->lock);
-    counts = bridge->counts;
-    status.queued = (int32_t)(bridge->tail - bridge->head);
-    status.poses = bridge->graph_poses;
-    status.edges = bridge->graph_edges;
-    status.loops = bridge->graph_loops;
-    status.pruned = bridge->graph_pruned;
-    status.solves = bridge->solves;
-    status.solving = (int8_t)bridge->solving;
-    status.recovered = bridge->recovered;
-    status.journal_records = bridge->journal_records;
-    counts.rejected[PGEM_REJECT_CORE] += bridge->core_rejections + bridge->queue_overflows;
-    counts.rejected[PGEM_REJECT_FULL] += bridge->full_rejections;
-    memcpy(message, bridge->last_message, sizeof message);
-    pthread_mutex_unlock(&bridge->lock);
+    pthread_mutex_lock(&bridge->handoff.lock);
+    counts = bridge->handoff.counts;
+    status.queued = (int32_t)(bridge->handoff.queue.tail - bridge->handoff.queue.head);
+    status.poses = bridge->handoff.graph.poses;
+    status.edges = bridge->handoff.graph.edges;
+    status.loops = bridge->handoff.graph.loops;
+    status.pruned = bridge->handoff.graph.pruned;
+    status.solves = bridge->handoff.graph.solves;
+    status.solving = (int8_t)bridge->handoff.graph.solving;
+    status.recovered = bridge->handoff.recovered;
+    status.journal_records = bridge->handoff.journal_records;
+    counts.rejected[PGEM_REJECT_CORE] +=
+        bridge->handoff.graph.core_rejections + bridge->handoff.queue.overflows;
+    counts.rejected[PGEM_REJECT_FULL] += bridge->handoff.graph.full_rejections;
+    memcpy(message, bridge->handoff.last_message, sizeof message);
+    pthread_mutex_unlock(&bridge->handoff.lock);
 
     for (int r = 0; r < PGEM_REJECT_COUNT; ++r) {
         /* lcm-gen's struct wants char *; the encoder only reads the names */

@@ -1,4 +1,4 @@
-/* Fuzz target: the bridge's reception state machine (lib/bridge/ingest.c), no threads or
+/* Fuzz target: the bridge's reception state machine (lib/bridge/ingest.h), no threads or
  * network. A header chooses the dimension and small capacities; then each record is one
  * message on a channel (pose, edge, command, or any, as a journal replays): raw bytes, a
  * message built from fields in the input and encoded with the lcm-gen encoders (ids, values,

@@ -1,0 +1,168 @@
+/* The solver thread's side of the live EM pass (pass.c runs it): when the next one starts,
+ * and a finished one adopted into the live map or dropped. */
+#define _POSIX_C_SOURCE 200809L
+#include <math.h>
+#include <string.h>
+
+#include "bridge_internal.h"
+
+/* The estimate was replaced other than by an update or a pass (a reset, a whole-graph solve):
+ * a pass of an older copy stops after its round and is dropped when it ends. */
+void bridge_pass_drop(bridge_t *bridge)
+{
+    bridge->solver.live_em.generation++;
+    bridge->solver.live_em.pass.cancel = 1;
+}
+
+
+/* 1 when every loop closure the pass judged has the same verdict in the live map (accepted or
+ * pruned): adopting it would change only the estimate, by EM's soft weights, and cost the
+ * update a rebuild. O(edges of the pass). */
+static int same_verdicts(const pgem_t *live, const pgem_t *pass)
+{
+    const uint32_t edges = pgem_edge_count(pass);
+    if (edges > pgem_edge_count(live)) {
+        return 0;
+    }
+    for (uint32_t k = 0; k < edges; ++k) {
+        pgem_edge_view_t a, b;
+        pgem_edge_at(live, k, &a);
+        pgem_edge_at(pass, k, &b);
+        /* accepted: in, above the prune threshold's default (pgem eval's --reject-below) */
+        const int in_live = a.active && a.weight >= 0.01, in_pass = b.active && b.weight >= 0.01;
+        if (a.kind == PGEM_EDGE_LOOP && in_live != in_pass) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* A finished pass into the live map, when the graph it copied is still the live one's prefix:
+ * its estimate and verdicts (pgem_update_adopt), then an update at them (a rebuild; loops
+ * that arrived since keep the gate's verdicts), published; a pass that agrees with the live
+ * verdicts is only logged and its graph published again. */
+static void adopt_pass(bridge_t *bridge)
+{
+    bridge_pass_t *pass = &bridge->solver.live_em.pass;
+    const double start = bridge_now();
+    if (pass->status != PGEM_OK || pass->summary.termination == PGEM_ROBUST_STOPPED ||
+        pass->generation != bridge->solver.live_em.generation || bridge->solver.restart_pending) {
+        bridge_log(bridge, "live EM pass dropped (%s)",
+                   pass->status != PGEM_OK ? pgem_error_name(pass->status)
+                   : pass->generation != bridge->solver.live_em.generation
+                       ? "the graph was re-solved or reset since its copy"
+                   : pass->summary.termination == PGEM_ROBUST_STOPPED ? "stopped"
+                                                                      : "a restart is owed");
+        return;
+    }
+    if (same_verdicts(bridge->solver.core, pass->core)) {
+        /* The live map holds what the pass found: no rebuild for nothing. Its graph goes out
+         * again, so a consumer knows a pass confirmed the map up to then. */
+        pass->agreed++;
+        pass->passes++;
+        pgem_robust_summary_t same;
+        memset(&same, 0, sizeof same);
+        bridge_solve_loops(bridge, &same);
+        same.rounds = pass->summary.rounds;
+        char why[256] = "";
+        bridge_solve_describe(&same, why, sizeof why);
+        bridge_publish_graph(bridge, "em-pass", &same, 1, why, 0);
+        bridge_covariance_publish(bridge, 0);
+        bridge_log(bridge,
+                   "live EM pass %llu: EM on %u poses and %u loops (%u pruned, %u rounds) in "
+                   "%.0f ms: the live map has the same verdicts, nothing to adopt",
+                   (unsigned long long)pass->passes, pgem_pose_count(pass->core),
+                   pass->loops_at_copy, pass->summary.pruned, pass->summary.rounds,
+                   1e3 * pass->solve_took);
+        return;
+    }
+    pgem_adopt_summary_t adopted;
+    int status = pgem_update_adopt(bridge->solver.core, pass->core, &adopted);
+    if (status != PGEM_OK) {
+        bridge_note(bridge, "live EM pass not adopted: %s", pgem_last_error(bridge->solver.core));
+        return;
+    }
+    pgem_robust_summary_t summary;
+    memset(&summary, 0, sizeof summary);
+    const double adopted_at = bridge_now();
+    status = bridge_solve_update(bridge, &summary);
+    const double updated_at = bridge_now();
+    bridge_solve_recount_pruned(bridge);
+    bridge_solve_loops(bridge, &summary);
+    summary.rounds = pass->summary.rounds;
+    char why[256] = "";
+    bridge_solve_done(bridge, status, &summary, why, sizeof why);
+    if (status != PGEM_OK) {
+        bridge->solver.restart_pending =
+            1; /* the next solve says why, from the front-end's estimates */
+    }
+    pass->passes++;
+    const int64_t micros = (int64_t)((bridge_now() - start) * 1e6);
+    bridge_solver_counts(bridge);
+    bridge_publish_graph(bridge, "em-pass", &summary, status == PGEM_OK, why, micros);
+    if (status == PGEM_OK) {
+        bridge_covariance_publish(bridge, 0);
+    }
+    bridge_log(bridge,
+               "live EM pass %llu: EM on %u poses and %u loops (%u pruned, %u rounds) in %.0f ms, "
+               "%.0f ms after its copy; adopted: %u verdicts changed, %u later poses carried; "
+               "now %u of %u loops pruned (%.1f ms: adopt %.1f, update %.1f)",
+               (unsigned long long)pass->passes, adopted.poses_adopted, pass->loops_at_copy,
+               pass->summary.pruned, pass->summary.rounds, 1e3 * pass->solve_took,
+               1e3 * pass->took, adopted.loops_changed, adopted.poses_carried,
+               bridge->solver.pruned_count, bridge->solver.loop_count,
+               1e-3 * (double)micros, 1e3 * (adopted_at - start), 1e3 * (updated_at - adopted_at));
+    if (status != PGEM_OK) {
+        bridge_note(bridge, "the update after live EM pass %llu failed: %s",
+                    (unsigned long long)pass->passes, why);
+    }
+    bridge_publish_status(bridge);
+}
+
+double bridge_pass_due(const bridge_t *bridge)
+{
+    return bridge->solver.live_em.on && bridge->solver.live_em.pass.state == BRIDGE_PASS_IDLE &&
+                   bridge->solver.loop_count != bridge->solver.live_em.loops
+               ? bridge->solver.live_em.next
+               : (double)INFINITY;
+}
+
+void bridge_pass_schedule(bridge_t *bridge)
+{
+    if (!bridge->solver.live_em.on) {
+        return;
+    }
+    const int state = bridge_pass_state(&bridge->solver.live_em.pass);
+    if (state == BRIDGE_PASS_RUNNING) {
+        return;
+    }
+    const double now = bridge_now();
+    if (state == BRIDGE_PASS_DONE) {
+        adopt_pass(bridge);
+        bridge->solver.live_em.took = bridge->solver.live_em.pass.took;
+        bridge->solver.live_em.next =
+            now + bridge->solver.live_em.took; /* at most half the time in passes */
+        bridge_pass_release(&bridge->solver.live_em.pass);
+    }
+    /* The next one: when loop closures arrived since the last copy, the map is up to date (no
+     * restart owed), and the last pass's time has passed since it ended. */
+    if (now < bridge->solver.live_em.next ||
+        bridge->solver.loop_count == bridge->solver.live_em.loops) {
+        return;
+    }
+    (void)bridge_components_hold(bridge); /* the copy holds each part where the live map does */
+    if (bridge->solver.restart_pending ||
+        bridge->solver.solved_poses != pgem_pose_count(bridge->solver.core)) {
+        bridge->solver.live_em.next = now + 0.05; /* not now: look again a little later */
+        return;
+    }
+    if (bridge_pass_start(&bridge->solver.live_em.pass, bridge->solver.core,
+                          bridge->solver.compaction.count == 0u ? bridge->solver.raw : NULL,
+                          bridge->solver.live_em.generation, now) != 0) {
+        bridge_note(bridge, "live EM pass: cannot copy the graph: %s",
+                    pgem_last_error(bridge->solver.live_em.pass.core));
+        bridge->solver.live_em.on = 0;
+        return;
+    }
+    bridge->solver.live_em.loops = bridge->solver.loop_count;
+}
