@@ -1,4 +1,4 @@
-/* pgem I/O instance: copies the poses, edges and fixed poses of an instance into a file graph. */
+/* pgem_io_from_instance: the poses, edges and fixed poses of an instance into a file graph. */
 #include <string.h>
 
 #include "io_internal.h"
