@@ -96,7 +96,7 @@ static int io_load_fixed(const pgem_io_graph_t *graph, pgem_t *instance, char *m
 static int io_load_fits(const pgem_io_graph_t *graph, const pgem_t *instance, char *message,
                         size_t message_size)
 {
-    const pgem_config_t *config = pgem_get_config(instance);
+    const pgem_config_t *config = pgem_resolved_config(instance);
     const size_t free_poses = config->max_poses - pgem_pose_count(instance);
     const size_t free_edges = config->max_edges - pgem_edge_count(instance);
     if (graph->pose_count > free_poses) {
