@@ -92,7 +92,7 @@ int main(void)
     printf("false loop closures pruned: %u of %d, true loop closures pruned: %u of %u\n",
            false_pruned, FALSE_LOOPS, true_pruned, true_loops);
     double end[3];
-    pgem_get_pose(graph, POSES - 1, end);
+    pgem_pose(graph, POSES - 1, end);
     printf("last pose: x %.3f  y %.3f  (truth: 0, 0)\n", end[0], end[1]);
     pgem_destroy(graph);
     return false_pruned == FALSE_LOOPS && true_pruned == 0 ? 0 : 1;

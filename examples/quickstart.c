@@ -38,7 +38,7 @@ int main(void)
            summary.final_chi2, summary.iterations, pgem_termination_name(summary.termination));
     for (pgem_id_t id = 0; id <= 4; id++) {
         double pose[3];
-        pgem_get_pose(graph, id, pose);
+        pgem_pose(graph, id, pose);
         printf("pose %u: x %6.3f  y %6.3f  theta %6.3f\n", (unsigned)id, pose[0], pose[1], pose[2]);
     }
     return summary.final_chi2 < 1e-9 ? 0 : 1;

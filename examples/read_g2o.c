@@ -63,11 +63,11 @@ int main(int argc, char **argv)
     if (status == PGEM_OK) {
         status = pgem_io_load(&file, graph, message, sizeof message);
     } else {
-        snprintf(message, sizeof message, "%s", pgem_error_description(status));
+        snprintf(message, sizeof message, "%s", pgem_io_error_description(status));
     }
     pgem_io_graph_free(&file); /* the instance holds its own copy now */
     if (status != PGEM_OK) {
-        fprintf(stderr, "%s: %s\n", pgem_error_name(status), message);
+        fprintf(stderr, "%s: %s\n", pgem_io_error_name(status), message);
         pgem_destroy(graph);
         return 1;
     }
@@ -82,7 +82,7 @@ int main(int argc, char **argv)
         return 1;
     }
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     printf("initial chi2 %.5f, final chi2 %.5f after %u iterations (%s)\n", summary.initial_chi2,
            summary.final_chi2, summary.iterations, pgem_termination_name(summary.termination));
     printf("memory: block %zu bytes, factor %u of %u nonzeros budgeted\n", stats.block_bytes,

@@ -8,7 +8,7 @@
  *   3D: 997 bytes per pose + 695 per edge + 8.1 per factor nonzero
  * Either way pgem_init checks at run time: it refuses a block smaller than the configuration
  * needs (PGEM_ERR_BUFFER_TOO_SMALL), so a config change that outgrows the block is caught there.
- * How to size fill_budget: after a solve, pgem_get_memory_stats() reports the factor's nonzeros
+ * How to size fill_budget: after a solve, pgem_memory_use() reports the factor's nonzeros
  * (a solve that needs more fails with PGEM_ERR_FILL_BUDGET and the message gives the number).
  *
  * One caveat with the system CSparse: its symbolic analysis (first solve after the graph
@@ -85,7 +85,7 @@ int main(void)
         return 1;
     }
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     printf("%u poses, %u edges: chi2 %.3f -> %.6f after %u iterations (%s, %s)\n",
            pgem_pose_count(graph), pgem_edge_count(graph), summary.initial_chi2,
            summary.final_chi2, summary.iterations, pgem_method_name(options.method),
@@ -94,7 +94,7 @@ int main(void)
            stats.factor_nonzeros, stats.factor_budget, stats.used_bytes, stats.block_bytes);
     const int corner = at(SIDE - 1, SIDE - 1); /* the far corner */
     double pose[3];
-    pgem_get_pose(graph, (pgem_id_t)corner, pose);
+    pgem_pose(graph, (pgem_id_t)corner, pose);
     printf("pose %d: x %.3f  y %.3f  (truth: %.0f, %.0f)\n", corner, pose[0], pose[1],
            truth[corner][0], truth[corner][1]);
     return summary.final_chi2 < 1e-9 ? 0 : 1;

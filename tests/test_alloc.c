@@ -42,7 +42,7 @@ static void build(pgem_t *graph, double *truth, int dimension)
 static void check_analysis_allocations(const pgem_t *graph, long before, long released)
 {
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     if (stats.csparse_pool_bytes == 0) {
         assert_true(allocations > before); /* the counters see CSparse's calls */
         assert_int_equal(allocations - before, releases - released);
@@ -110,12 +110,12 @@ static void check_no_allocation(int dimension, pgem_method_t method)
     test_diagonal_information(dimension == 2 ? 3 : 6, 100.0, information);
     assert_int_equal(pgem_add_edge(graph, 3, 40, far, information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     const uint32_t analyses = stats.analyses;
     long robust_allocations = allocations, robust_releases = releases;
     assert_int_equal(pgem_robust_optimize(graph, &robust, &options, &robust_summary), PGEM_OK);
     assert_int_equal(robust_summary.pruned, 1);
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     assert_true(stats.analyses > analyses);
     check_analysis_allocations(graph, robust_allocations, robust_releases);
 }

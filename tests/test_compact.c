@@ -16,7 +16,7 @@ static double kept_difference(const pgem_t *small, const pgem_t *whole, double *
         pgem_id_t id = 0;
         double a[7], b[7];
         assert_int_equal(pgem_pose_at(small, i, &id, a, NULL), PGEM_OK);
-        assert_int_equal(pgem_get_pose(whole, id, b), PGEM_OK);
+        assert_int_equal(pgem_pose(whole, id, b), PGEM_OK);
         const int three = pgem_dimension(small) == 3;
         double d2 = (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]);
         d2 += three ? (a[2] - b[2]) * (a[2] - b[2]) : 0.0;
@@ -142,7 +142,7 @@ static void test_verdicts_ids_and_update(void **state)
     uint32_t kept = 0, carried = 0;
     for (uint32_t i = 0; i < 400; i++) {
         double pose[3];
-        const int status = pgem_get_pose(graph, (pgem_id_t)(1000 + i), pose);
+        const int status = pgem_pose(graph, (pgem_id_t)(1000 + i), pose);
         assert_int_equal(status, pose_map[i] == UINT32_MAX ? PGEM_ERR_UNKNOWN_ID : PGEM_OK);
         if (pose_map[i] != UINT32_MAX) {
             pgem_id_t id = 0;
@@ -182,7 +182,7 @@ static void test_verdicts_ids_and_update(void **state)
     assert_int_equal(update.rebuilt, 1);
     double last[3], next[3], z[3] = {0.3, 0.0, 0.05}, information[9];
     test_diagonal_information(3, 1e4, information);
-    assert_int_equal(pgem_get_pose(graph, 1399, last), PGEM_OK);
+    assert_int_equal(pgem_pose(graph, 1399, last), PGEM_OK);
     pgem_se2_compose(last, z, next);
     assert_int_equal(pgem_add_pose(graph, 1400, next), PGEM_OK);
     assert_int_equal(pgem_add_edge(graph, 1399, 1400, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);

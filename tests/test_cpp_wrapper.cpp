@@ -246,7 +246,7 @@ void test_conversions_3d(void **)
     assert_true(graph.pose(20).isApprox(b, 1e-14));
     // the C layout: [x y z qx qy qz qw]
     double raw[7];
-    assert_int_equal(pgem_get_pose(graph.c_handle(), 10, raw), PGEM_OK);
+    assert_int_equal(pgem_pose(graph.c_handle(), 10, raw), PGEM_OK);
     const Eigen::Quaterniond q(a.linear());
     assert_near(raw[2], 3.0, 1e-15);
     const double dot = raw[3] * q.x() + raw[4] * q.y() + raw[5] * q.z() + raw[6] * q.w();
@@ -578,7 +578,7 @@ void test_solve_allocates_nothing(void **)
     // which also shows the counters see the C library's calls), or from the block when CSparse
     // is built from source
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(graph.c_handle(), &stats);
+    pgem_memory_use(graph.c_handle(), &stats);
     if (stats.csparse_pool_bytes == 0) {
         assert_true(allocations > analysis_allocations);
         assert_int_equal(allocations - analysis_allocations, releases - analysis_releases);

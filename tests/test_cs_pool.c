@@ -37,7 +37,7 @@ static int pool_available(void)
 {
     pgem_t *graph = test_create(2, 4, 4);
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     pgem_destroy(graph);
     return stats.csparse_pool_bytes > 0;
 }
@@ -72,7 +72,7 @@ static void check_full(int dimension, uint32_t poses, uint32_t edges, pick_fn pi
     }
     assert_int_equal(pgem_analyze(graph), PGEM_OK);
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     assert_true(stats.csparse_pool_peak > 0);
     assert_true(stats.csparse_pool_peak <= stats.csparse_pool_bytes);
     print_message("%dD %u poses %u edges: CSparse pool peak %zu of %zu bytes\n", dimension,

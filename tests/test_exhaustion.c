@@ -70,7 +70,7 @@ static void check_usable(pgem_t *graph)
     assert_int_equal(pgem_add_edge(graph, 1, 2, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
     assert_int_equal(pgem_optimize(graph, NULL, NULL), PGEM_OK);
     double solved[7];
-    assert_int_equal(pgem_get_pose(graph, 2, solved), PGEM_OK);
+    assert_int_equal(pgem_pose(graph, 2, solved), PGEM_OK);
     assert_near(solved[0], 1.0, 1e-9);
 }
 
@@ -104,7 +104,7 @@ static void test_block_one_byte_short(void **state)
             assert_string_equal(message, "");
             assert_true((unsigned char *)graph >= block && (unsigned char *)graph < block + need);
             pgem_memory_stats_t stats;
-            pgem_get_memory_stats(graph, &stats);
+            pgem_memory_use(graph, &stats);
             assert_true(stats.used_bytes <= need);
             assert_true(untouched(buffer, block));
             assert_true(untouched(block + need, buffer + need + 32u));
@@ -258,7 +258,7 @@ static void build_graph(pgem_t *graph, int dimension, int poses, double *truth)
         if (k == 0) {
             memcpy(estimate, truth, sizeof estimate);
         } else {
-            assert_int_equal(pgem_get_pose(graph, (pgem_id_t)(k - 1), estimate), PGEM_OK);
+            assert_int_equal(pgem_pose(graph, (pgem_id_t)(k - 1), estimate), PGEM_OK);
             pgem_se3_compose(estimate, z, estimate);
         }
         assert_int_equal(pgem_add_pose(graph, (pgem_id_t)k, estimate), PGEM_OK);
@@ -380,7 +380,7 @@ typedef enum fault_source {
 static fault_source_t source_of(const pgem_t *graph)
 {
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     return stats.csparse_pool_bytes > 0 ? FAULT_POOL : FAULT_HEAP;
 }
 
@@ -447,10 +447,10 @@ static long sweep(const scenario_t *s)
     /* the twin never fails: what the call must give */
     pgem_t *twin = prepare(s, twin_block, need);
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(twin, &stats);
+    pgem_memory_use(twin, &stats);
     const uint32_t analyses = stats.analyses;
     assert_int_equal(swept_call(twin, s), PGEM_OK);
-    pgem_get_memory_stats(twin, &stats);
+    pgem_memory_use(twin, &stats);
     const uint32_t call_analyses = stats.analyses - analyses;
     look(twin, &expected);
 
@@ -588,7 +588,7 @@ static void test_fill_budget_too_small(void **state)
         build_graph(graph, dimension, poses, truth);
         assert_int_equal(pgem_analyze(graph), PGEM_OK);
         pgem_memory_stats_t stats;
-        pgem_get_memory_stats(graph, &stats);
+        pgem_memory_use(graph, &stats);
         pgem_destroy(graph);
 
         config.fill_budget = stats.factor_nonzeros; /* exactly what the first graph needs */
@@ -606,7 +606,7 @@ static void test_fill_budget_too_small(void **state)
         assert_false(summary.usable);
         assert_contains(pgem_last_error(graph), "the Cholesky factor needs ");
         assert_contains(pgem_last_error(graph), expected);
-        pgem_get_memory_stats(graph, &stats);
+        pgem_memory_use(graph, &stats);
         assert_true(stats.factor_nonzeros > config.fill_budget);
         look(graph, &now);
         assert_true(same(&now, &before));

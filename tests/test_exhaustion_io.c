@@ -136,7 +136,7 @@ static long sweep_read(const char *path, const char *label, int from_path)
             open_failures++;
         } else {
             if (status != PGEM_ERR_OUT_OF_MEMORY) {
-                fail_msg("%s, fault %ld: %s (%s)", label, k, pgem_error_name(status), message);
+                fail_msg("%s, fault %ld: %s (%s)", label, k, pgem_io_error_name(status), message);
             }
             assert_contains(message, expected);
             assert_contains(message, "out of memory");

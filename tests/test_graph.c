@@ -2,6 +2,7 @@
 #include <stdio.h>
 
 #include "test_util.h"
+#include "pgem/io.h" /* lib/io's error codes (header only: test_graph links the core alone) */
 
 static const double identity_2d[3] = {0.0, 0.0, 0.0};
 static const double identity_3d[7] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0};
@@ -48,7 +49,7 @@ static void test_init_in_static_buffer(void **state)
     assert_int_equal(pgem_add_pose(graph, 7, identity_2d), PGEM_OK);
     assert_int_equal(pgem_pose_count(graph), 1);
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     assert_int_equal(stats.block_bytes, need);
     assert_true(stats.used_bytes <= need);
     assert_int_equal(pgem_init(NULL, &config, buffer, need), PGEM_ERR_INVALID_ARGUMENT);
@@ -63,8 +64,8 @@ static void test_pose_ids_64bit(void **state)
     assert_int_equal(pgem_add_pose(graph, top, identity_3d), PGEM_OK);
     assert_int_equal(pgem_add_pose(graph, 0, identity_3d), PGEM_OK);
     double pose[7];
-    assert_int_equal(pgem_get_pose(graph, top, pose), PGEM_OK);
-    assert_int_equal(pgem_get_pose(graph, big + 1u, pose), PGEM_ERR_UNKNOWN_ID);
+    assert_int_equal(pgem_pose(graph, top, pose), PGEM_OK);
+    assert_int_equal(pgem_pose(graph, big + 1u, pose), PGEM_ERR_UNKNOWN_ID);
     pgem_id_t id;
     assert_int_equal(pgem_pose_at(graph, 1, &id, NULL, NULL), PGEM_OK);
     assert_true(id == top);
@@ -125,7 +126,7 @@ static void test_pose_errors_change_nothing(void **state)
     double inf_pose[3] = {0.0, 0.0, -(double)INFINITY}, stored[3];
     assert_int_equal(pgem_set_pose(graph, 2, inf_pose), PGEM_ERR_NOT_FINITE);
     assert_string_equal(pgem_last_error(graph), "pose: field theta is not finite (pose id 2)");
-    assert_int_equal(pgem_get_pose(graph, 2, stored), PGEM_OK);
+    assert_int_equal(pgem_pose(graph, 2, stored), PGEM_OK);
     assert_memory_equal(stored, identity_2d, sizeof stored);
     pgem_destroy(graph);
 }
@@ -137,7 +138,7 @@ static void test_quaternion_checks(void **state)
     double slightly_off[7] = {1, 2, 3, 0, 0, 0, 1.001};
     assert_int_equal(pgem_add_pose(graph, 1, slightly_off), PGEM_OK);
     double stored[7];
-    assert_int_equal(pgem_get_pose(graph, 1, stored), PGEM_OK);
+    assert_int_equal(pgem_pose(graph, 1, stored), PGEM_OK);
     assert_near(stored[6], 1.0, 1e-15); /* normalised */
     double zero_quaternion[7] = {0, 0, 0, 0, 0, 0, 0};
     assert_int_equal(pgem_add_pose(graph, 2, zero_quaternion), PGEM_ERR_ROTATION);
@@ -209,7 +210,7 @@ static void test_magnitude_limits(void **state)
     assert_int_equal(pgem_add_pose(graph, 9, at_limit), PGEM_OK); /* angles are wrapped */
     const double moved[3] = {past, 0.0, 0.0};
     assert_int_equal(pgem_set_pose(graph, 9, moved), PGEM_ERR_OUT_OF_RANGE);
-    assert_int_equal(pgem_get_pose(graph, 9, stored), PGEM_OK);
+    assert_int_equal(pgem_pose(graph, 9, stored), PGEM_OK);
     assert_true(stored[0] == at_limit[0] && stored[1] == at_limit[1]);
     pgem_destroy(graph);
 
@@ -292,9 +293,29 @@ static void test_error_names(void **state)
     assert_string_equal(pgem_error_name(PGEM_ERR_CAPACITY), "PGEM_ERR_CAPACITY");
     assert_string_equal(pgem_error_name(12345), "PGEM_ERR_UNKNOWN_CODE");
     for (int code = 0; code >= PGEM_ERR_NO_FACTOR; code--) {
+        if (code == PGEM_ERR_IO || code == PGEM_ERR_PARSE) {
+            continue; /* lib/io's codes, below */
+        }
         assert_string_not_equal(pgem_error_name(code), "PGEM_ERR_UNKNOWN_CODE");
         assert_true(strlen(pgem_error_description(code)) > 3);
+        assert_string_equal(pgem_io_error_name(code), pgem_error_name(code));
     }
+}
+
+/* The core's enum holds only what the core returns: lib/io's two codes kept their values
+ * (-17, -18) in pgem_io_error_t, and only pgem_io_error_name knows them. */
+static void test_io_error_codes(void **state)
+{
+    (void)state;
+    assert_int_equal(PGEM_ERR_IO, -17);
+    assert_int_equal(PGEM_ERR_PARSE, -18);
+    assert_string_equal(pgem_error_name(PGEM_ERR_IO), "PGEM_ERR_UNKNOWN_CODE");
+    assert_string_equal(pgem_error_name(PGEM_ERR_PARSE), "PGEM_ERR_UNKNOWN_CODE");
+    assert_string_equal(pgem_io_error_name(PGEM_ERR_IO), "PGEM_ERR_IO");
+    assert_string_equal(pgem_io_error_name(PGEM_ERR_PARSE), "PGEM_ERR_PARSE");
+    assert_string_equal(pgem_io_error_description(PGEM_ERR_PARSE),
+                        "a line of a graph file is malformed");
+    assert_string_equal(pgem_io_error_name(12345), "PGEM_ERR_UNKNOWN_CODE");
 }
 
 static void test_chi2_of_edges(void **state)
@@ -353,7 +374,7 @@ static void test_memory_parts(void **state)
     (void)state;
     pgem_config_t config = {2, 1000, 1500, 90000, 1, 0};
     pgem_memory_parts_t parts, more_poses, more_fill;
-    assert_int_equal(pgem_get_memory_parts(&config, &parts), PGEM_OK);
+    assert_int_equal(pgem_memory_layout(&config, &parts), PGEM_OK);
     assert_int_equal(parts.total, pgem_memory_size(&config));
     assert_int_equal(parts.total, parts.instance + parts.graph + parts.solver + parts.robust +
                                       parts.linalg);
@@ -364,20 +385,20 @@ static void test_memory_parts(void **state)
     assert_true(parts.robust >= 1000u * 3u * sizeof(double) + 1500u * 18u);
     pgem_config_t bigger = config;
     bigger.max_poses = 2000;
-    assert_int_equal(pgem_get_memory_parts(&bigger, &more_poses), PGEM_OK);
+    assert_int_equal(pgem_memory_layout(&bigger, &more_poses), PGEM_OK);
     assert_true(more_poses.graph > parts.graph && more_poses.solver == 2u * parts.solver);
     assert_true(more_poses.linalg > parts.linalg);
     assert_int_equal(more_poses.factor, parts.factor);
     pgem_config_t fuller = config;
     fuller.fill_budget = 90000u + 9u * 1600u;
-    assert_int_equal(pgem_get_memory_parts(&fuller, &more_fill), PGEM_OK);
+    assert_int_equal(pgem_memory_layout(&fuller, &more_fill), PGEM_OK);
     assert_int_equal(more_fill.factor - parts.factor, 9u * 1600u * 8u + 1600u * 4u);
     assert_int_equal(more_fill.linalg - parts.linalg, more_fill.factor - parts.factor);
     assert_int_equal(more_fill.graph, parts.graph);
     pgem_config_t invalid = config;
     invalid.dimension = 4;
-    assert_int_equal(pgem_get_memory_parts(&invalid, &parts), PGEM_ERR_CONFIG);
-    assert_int_equal(pgem_get_memory_parts(NULL, &parts), PGEM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pgem_memory_layout(&invalid, &parts), PGEM_ERR_CONFIG);
+    assert_int_equal(pgem_memory_layout(NULL, &parts), PGEM_ERR_INVALID_ARGUMENT);
 }
 
 static void test_memory_bound(void **state)
@@ -454,6 +475,7 @@ int main(void)
         cmocka_unit_test(test_magnitude_limits),
         cmocka_unit_test(test_pose_and_information_checks),
         cmocka_unit_test(test_error_names),
+        cmocka_unit_test(test_io_error_codes),
         cmocka_unit_test(test_chi2_of_edges),
         cmocka_unit_test(test_information_check),
         cmocka_unit_test(test_information_badly_conditioned),

@@ -49,7 +49,7 @@ static void read_ok_as(const char *name, const char *text, pgem_format_t format,
     char message[512];
     int status = read_text_as(name, text, format, graph, message, sizeof message);
     if (status != PGEM_OK) {
-        fail_msg("%s: status %d (%s): %s", name, status, pgem_error_name(status), message);
+        fail_msg("%s: status %d (%s): %s", name, status, pgem_io_error_name(status), message);
     }
 }
 
@@ -78,7 +78,7 @@ static void expect_error(const char *name, const char *text, int code, const cha
     int status = read_text(name, text, &graph, message, sizeof message);
     if (status != code) {
         fail_msg("%s: status %d (%s), expected %d; message \"%s\"", name, status,
-                 pgem_error_name(status), code, message);
+                 pgem_io_error_name(status), code, message);
     }
     assert_contains(message, where);
     assert_contains(message, what);

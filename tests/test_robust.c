@@ -128,7 +128,7 @@ static void check_outliers_found(pgem_kernel_t kernel, int literal)
     /* the map is the ground truth up to noise (EM: outliers gone; IRLS: nearly ignored) */
     for (int k = 0; kernel == PGEM_KERNEL_EM && k < RING; k++) {
         double pose[3];
-        assert_int_equal(pgem_get_pose(graph, (pgem_id_t)k, pose), PGEM_OK);
+        assert_int_equal(pgem_pose(graph, (pgem_id_t)k, pose), PGEM_OK);
         assert_near(pose[0], truth[3 * k], 0.5);
         assert_near(pose[1], truth[3 * k + 1], 0.5);
     }
@@ -450,7 +450,7 @@ static void test_em_weights_are_cauchy_weights(void **state)
     for (pgem_id_t id = 1; id < RING; id += 17) {
         for (int d = 0; d < 3; d++) {
             double pose[3], moved[3];
-            pgem_get_pose(graph, id, pose);
+            pgem_pose(graph, id, pose);
             for (int sign = -1; sign <= 1; sign += 2) {
                 memcpy(moved, pose, sizeof pose);
                 moved[d] += sign * 1e-4;
@@ -502,20 +502,20 @@ static void test_pruned_loops_leave_the_structure(void **state)
     pgem_t *graph = ring(33, truth);
     pgem_memory_stats_t clean, corrupted, after, reset;
     assert_int_equal(pgem_analyze(graph), PGEM_OK);
-    pgem_get_memory_stats(graph, &clean);
+    pgem_memory_use(graph, &clean);
     add_false_loops(graph, FALSE_LOOPS, 77, false_loops);
     assert_int_equal(pgem_analyze(graph), PGEM_OK);
-    pgem_get_memory_stats(graph, &corrupted);
+    pgem_memory_use(graph, &corrupted);
     assert_true(corrupted.factor_nonzeros > clean.factor_nonzeros);
     pgem_robust_options_t options = em_options();
     pgem_robust_summary_t summary;
     assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
     assert_int_equal(summary.pruned, FALSE_LOOPS);
-    pgem_get_memory_stats(graph, &after);
+    pgem_memory_use(graph, &after);
     assert_int_equal(after.factor_nonzeros, clean.factor_nonzeros);
     pgem_robust_reset(graph);
     assert_int_equal(pgem_analyze(graph), PGEM_OK);
-    pgem_get_memory_stats(graph, &reset);
+    pgem_memory_use(graph, &reset);
     assert_int_equal(reset.factor_nonzeros, corrupted.factor_nonzeros);
     pgem_destroy(graph);
 }
@@ -543,10 +543,10 @@ static void test_dormant_loops_keep_the_factor_sparse(void **state)
     pgem_memory_stats_t clean, corrupted;
     pgem_t *probe = ring(33, truth);
     assert_int_equal(pgem_analyze(probe), PGEM_OK);
-    pgem_get_memory_stats(probe, &clean);
+    pgem_memory_use(probe, &clean);
     add_false_loops(probe, FALSE_LOOPS, 77, false_loops);
     assert_int_equal(pgem_analyze(probe), PGEM_OK);
-    pgem_get_memory_stats(probe, &corrupted);
+    pgem_memory_use(probe, &corrupted);
     pgem_destroy(probe);
     assert_true(corrupted.factor_nonzeros > clean.factor_nonzeros + clean.factor_nonzeros / 5);
     const uint32_t tight_budget = clean.factor_nonzeros + (corrupted.factor_nonzeros - clean.factor_nonzeros) / 4;

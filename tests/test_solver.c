@@ -48,7 +48,7 @@ static void test_gn_and_lm_agree_on_noisy_ring(void **state)
     assert_near(pgem_total_chi2(gn), gn_summary.final_chi2, 1e-9 * gn_summary.final_chi2);
     /* the optimum is a minimum: perturbing any pose raises chi2 */
     double pose[3];
-    assert_int_equal(pgem_get_pose(gn, 17, pose), PGEM_OK);
+    assert_int_equal(pgem_pose(gn, 17, pose), PGEM_OK);
     pose[0] += 1e-3;
     assert_int_equal(pgem_set_pose(gn, 17, pose), PGEM_OK);
     assert_true(pgem_total_chi2(gn) > gn_summary.final_chi2);
@@ -147,7 +147,7 @@ static void test_singular_restores_estimate(void **state)
     assert_int_equal(pgem_fix_pose(graph, 77, 1), PGEM_OK);
     assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_OK);
     double held[3];
-    assert_int_equal(pgem_get_pose(graph, 100, held), PGEM_OK);
+    assert_int_equal(pgem_pose(graph, 100, held), PGEM_OK);
     assert_memory_equal(held, p, sizeof p);
     pgem_destroy(graph);
 }
@@ -175,7 +175,7 @@ static void test_non_finite_chi2_fails_cleanly(void **state)
     assert_int_equal(summary.usable, 0);
     assert_non_null(strstr(pgem_last_error(graph), "not finite"));
     double pose[3];
-    assert_int_equal(pgem_get_pose(graph, 1, pose), PGEM_OK);
+    assert_int_equal(pgem_pose(graph, 1, pose), PGEM_OK);
     assert_memory_equal(pose, b, sizeof b);
     pgem_destroy(graph);
 }
@@ -226,7 +226,7 @@ static void test_fill_budget_reports_need(void **state)
     assert_int_equal(summary.termination, PGEM_TERM_FILL_BUDGET);
     assert_non_null(strstr(pgem_last_error(graph), "fill_budget is 50"));
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     assert_true(stats.factor_nonzeros > 50);
     test_snapshot(graph, after);
     assert_memory_equal(before, after, sizeof before);
@@ -258,7 +258,7 @@ static void test_fill_needed(void **state)
     assert_string_equal(pgem_last_error(probe), "");
     assert_int_equal(pgem_analyze(probe), PGEM_ERR_FILL_BUDGET);
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(probe, &stats);
+    pgem_memory_use(probe, &stats);
     assert_int_equal(stats.factor_nonzeros, needed);
     assert_int_equal(pgem_fill_needed(probe, &needed), PGEM_OK);
     assert_int_equal(stats.factor_nonzeros, needed);
@@ -273,7 +273,7 @@ static void test_fill_needed(void **state)
     uint32_t again = 0;
     assert_int_equal(pgem_fill_needed(graph, &again), PGEM_OK);
     assert_int_equal(again, needed);
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     assert_int_equal(stats.analyses, 1); /* the solve's analysis answered it */
     pgem_destroy(graph);
     config.fill_budget = needed - 1u;
@@ -320,13 +320,13 @@ static void test_analysis_once_per_topology(void **state)
     pgem_memory_stats_t stats;
     assert_int_equal(pgem_optimize(graph, NULL, NULL), PGEM_OK);
     assert_int_equal(pgem_optimize(graph, NULL, NULL), PGEM_OK);
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     assert_int_equal(stats.analyses, 1);
     double z[3];
     pgem_se2_between(truth + 3, truth + 3 * 40, z);
     assert_int_equal(pgem_add_edge(graph, 1, 40, z, information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
     assert_int_equal(pgem_optimize(graph, NULL, NULL), PGEM_OK);
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     assert_int_equal(stats.analyses, 2);
     pgem_destroy(graph);
 }

@@ -1,6 +1,6 @@
-/* The tools' one JSON writer (tools/pgem/cli_json.c): numbers at the precision each output
- * uses, null for what JSON cannot hold, strings escaped so that any bytes make valid JSON; and
- * the escaping of names for log lines (pgem_utf8_escape) beside it. */
+/* The private support library (lib/support): the one JSON writer (json.c): numbers at the
+ * precision each output uses, null for what JSON cannot hold, strings escaped so that any bytes
+ * make valid JSON; the escaping of names for log lines (utf8.c); the union-find (union_find.c). */
 #define _POSIX_C_SOURCE 200809L
 #include <stdio.h>
 #include <stdlib.h>

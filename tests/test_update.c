@@ -75,7 +75,7 @@ static void stream_add(pgem_t *graph, stream_t *s, int k)
     }
     stream_measure(s, k - 1, k, 0.05, z);
     double previous[7];
-    assert_int_equal(pgem_get_pose(graph, (pgem_id_t)(k - 1), previous), PGEM_OK);
+    assert_int_equal(pgem_pose(graph, (pgem_id_t)(k - 1), previous), PGEM_OK);
     if (s->dimension == 2) {
         pgem_se2_compose(previous, z, guess);
     } else {
@@ -128,7 +128,7 @@ static void check_stream(int dimension, int poses, int robust)
     const int size = PGEM_POSE_SIZE(dimension);
     for (int k = 0; k < poses; k++) {
         stream_add(graph, &s, k);
-        assert_int_equal(pgem_get_pose(graph, (pgem_id_t)k, guesses + size * k), PGEM_OK);
+        assert_int_equal(pgem_pose(graph, (pgem_id_t)k, guesses + size * k), PGEM_OK);
         if (k == 0) {
             continue;
         }
@@ -238,7 +238,7 @@ static void test_no_allocation(void **state)
     static stream_t s;
     pgem_t *graph = stream_to(&s, 2, 60);
     pgem_memory_stats_t before;
-    pgem_get_memory_stats(graph, &before);
+    pgem_memory_use(graph, &before);
     int incremental = 0;
     for (int k = 60; k < 300; k++) {
         stream_add(graph, &s, k);
@@ -255,7 +255,7 @@ static void test_no_allocation(void **state)
     }
     assert_true(incremental > 200);
     pgem_memory_stats_t after;
-    pgem_get_memory_stats(graph, &after);
+    pgem_memory_use(graph, &after);
     assert_int_equal(after.used_bytes, before.used_bytes);
     assert_int_equal(after.block_bytes, before.block_bytes);
     pgem_destroy(graph);
@@ -555,8 +555,8 @@ static void test_adopt_pass(void **state)
     const uint32_t n = pgem_pose_count(pass), m = pgem_edge_count(pass);
     assert_int_equal(n, 151);
     double newest[3], carried[3], before[3], after[3];
-    assert_int_equal(pgem_get_pose(live, 150, newest), PGEM_OK);
-    assert_int_equal(pgem_get_pose(live, 190, carried), PGEM_OK);
+    assert_int_equal(pgem_pose(live, 150, newest), PGEM_OK);
+    assert_int_equal(pgem_pose(live, 190, carried), PGEM_OK);
     pgem_se2_between(newest, carried, before);
 
     /* not a prefix: refused, nothing changes */
@@ -597,8 +597,8 @@ static void test_adopt_pass(void **state)
         assert_memory_equal(&a.weight, &b.weight, sizeof a.weight);
         assert_int_equal(a.active, !is_false_loop(live, k)); /* EM got them all right */
     }
-    assert_int_equal(pgem_get_pose(live, 150, newest), PGEM_OK);
-    assert_int_equal(pgem_get_pose(live, 190, carried), PGEM_OK);
+    assert_int_equal(pgem_pose(live, 150, newest), PGEM_OK);
+    assert_int_equal(pgem_pose(live, 190, carried), PGEM_OK);
     pgem_se2_between(newest, carried, after);
     for (int d = 0; d < 3; d++) {
         assert_true(fabs(after[d] - before[d]) < 1e-9);
@@ -634,7 +634,7 @@ static void drift_stream(pgem_t *graph, stream_t *s)
         }
         stream_measure(s, k - 1, k, 0.05, z);
         double previous[3];
-        assert_int_equal(pgem_get_pose(graph, (pgem_id_t)(k - 1), previous), PGEM_OK);
+        assert_int_equal(pgem_pose(graph, (pgem_id_t)(k - 1), previous), PGEM_OK);
         pgem_se2_compose(previous, z, guess);
         assert_int_equal(pgem_add_pose(graph, (pgem_id_t)k, guess), PGEM_OK);
         assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(k - 1), (pgem_id_t)k, z, information,
@@ -719,7 +719,7 @@ static void test_island_held_without_rebuild(void **state)
     assert_int_equal(summary.rebuilt, 0);
     assert_int_equal(summary.columns, 100); /* 99 of the walk, 1001 */
     pgem_se2_compose(far, z, want);
-    assert_int_equal(pgem_get_pose(graph, 1001, got), PGEM_OK);
+    assert_int_equal(pgem_pose(graph, 1001, got), PGEM_OK);
     assert_true(fabs(got[0] - want[0]) < 1e-9 && fabs(got[1] - want[1]) < 1e-9);
     /* island 2: poses, edge and hold in one go; the walk goes on beside it */
     assert_int_equal(pgem_add_pose(graph, 2000, far), PGEM_OK);
@@ -736,7 +736,7 @@ static void test_island_held_without_rebuild(void **state)
     assert_int_equal(pgem_update(graph, NULL, &summary), PGEM_OK);
     assert_int_equal(summary.rebuilt, 1);
     pgem_se2_compose(far, z, want);
-    assert_int_equal(pgem_get_pose(graph, 1001, got), PGEM_OK);
+    assert_int_equal(pgem_pose(graph, 1001, got), PGEM_OK);
     assert_true(fabs(got[0] - want[0]) < 1e-6 && fabs(got[1] - want[1]) < 1e-6);
     /* freed (joined by odometry to the walk): rebuilt with a column for it */
     assert_int_equal(pgem_add_edge(graph, 100, 2000, z, information, PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
@@ -794,13 +794,13 @@ static void test_gauge_hold(void **state)
     /* no loop: refused without a hold, solved in place with one */
     pgem_t *graph = two_chains(&s, 3.0, 0);
     assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_ERR_NOT_POSITIVE_DEFINITE);
-    assert_int_equal(pgem_get_pose(graph, 100, want), PGEM_OK);
+    assert_int_equal(pgem_pose(graph, 100, want), PGEM_OK);
     assert_int_equal(pgem_hold_gauge(graph, 100, 1), PGEM_OK);
     int fixed = -1;
     assert_int_equal(pgem_pose_at(graph, 40, NULL, NULL, &fixed), PGEM_OK);
     assert_int_equal(fixed, 0);
     assert_int_equal(pgem_optimize(graph, NULL, &summary), PGEM_OK);
-    assert_int_equal(pgem_get_pose(graph, 100, got), PGEM_OK);
+    assert_int_equal(pgem_pose(graph, 100, got), PGEM_OK);
     assert_true(fabs(got[0] - want[0]) < 1e-6 && fabs(got[1] - want[1]) < 1e-6);
     pgem_destroy(graph);
     /* joined by loops: the same solution as without a hold; a fixed pose bends the loops */
@@ -815,8 +815,8 @@ static void test_gauge_hold(void **state)
     assert_int_equal(pgem_optimize(gauge, NULL, &summary), PGEM_OK);
     assert_int_equal(pgem_optimize(fixed_graph, NULL, &fixed_summary), PGEM_OK);
     for (pgem_id_t id = 100; id < 140; id++) {
-        assert_int_equal(pgem_get_pose(free_graph, id, want), PGEM_OK);
-        assert_int_equal(pgem_get_pose(gauge, id, got), PGEM_OK);
+        assert_int_equal(pgem_pose(free_graph, id, want), PGEM_OK);
+        assert_int_equal(pgem_pose(gauge, id, got), PGEM_OK);
         assert_true(fabs(got[0] - want[0]) < 1e-6 && fabs(got[1] - want[1]) < 1e-6 &&
                     fabs(got[2] - want[2]) < 1e-6);
     }
@@ -854,8 +854,8 @@ static void test_gauge_hold(void **state)
     free_graph = two_chains(&s, 3.0, 6);
     assert_int_equal(pgem_optimize(free_graph, NULL, &free_summary), PGEM_OK);
     for (pgem_id_t id = 100; id < 140; id += 13) {
-        assert_int_equal(pgem_get_pose(free_graph, id, want), PGEM_OK);
-        assert_int_equal(pgem_get_pose(graph, id, got), PGEM_OK);
+        assert_int_equal(pgem_pose(free_graph, id, want), PGEM_OK);
+        assert_int_equal(pgem_pose(graph, id, got), PGEM_OK);
         assert_true(fabs(got[0] - want[0]) < 1e-6 && fabs(got[1] - want[1]) < 1e-6);
     }
     pgem_destroy(free_graph);

@@ -84,7 +84,7 @@ static void end_line(report_t *r)
 static void put_pose_line(report_t *r, const char *label, const pgem_t *graph, pgem_id_t id)
 {
     double pose[3];
-    (void)pgem_get_pose(graph, id, pose);
+    (void)pgem_pose(graph, id, pose);
     put_text(r, label);
     put_text(r, ": x ");
     put_fixed(r, pose[0], 6);
@@ -222,7 +222,7 @@ static int batch_run(report_t *r, void *block, size_t size)
         end_line(r);
     }
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     const char *const memory_texts[] = {"# factor nonzeros: ", " of ", ", CSparse pool peak ",
                                         " of ", " bytes, block used ", ""};
     const uint64_t memory_values[] = {stats.factor_nonzeros, stats.factor_budget,
@@ -508,7 +508,7 @@ static int stream_run(report_t *r, void *block, size_t size)
             }
             if (edge->kind == 0) { /* the new pose where the odometry from the last one puts it */
                 double from[3], guess[3];
-                (void)pgem_get_pose(graph, edge->from, from);
+                (void)pgem_pose(graph, edge->from, from);
                 pgem_se2_compose(from, edge->z, guess);
                 status = pgem_add_pose(graph, pose, guess);
                 if (status != PGEM_OK) {
@@ -614,7 +614,7 @@ static int stream_run(report_t *r, void *block, size_t size)
     stream_error(r, graph, "after EM on the block");
     stream_loops(r, s, graph);
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     const char *const memory_texts[] = {"# stream factor nonzeros: ", " of ", ", block used ", ""};
     const uint64_t memory_values[] = {stats.factor_nonzeros, stats.factor_budget,
                                       stats.used_bytes};

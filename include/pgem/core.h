@@ -63,7 +63,7 @@ int pgem_config_resolve(const pgem_config_t *config, pgem_config_t *resolved);
 size_t pgem_memory_size(const pgem_config_t *config);
 
 /** The block of a configuration by part: what each layer carves from it, alignment padding
- * included (pgem_get_memory_parts). */
+ * included (pgem_memory_layout). */
 typedef struct pgem_memory_parts {
     size_t instance;      /**< the instance struct, and the 16 bytes an unaligned block start
                                may cost */
@@ -84,7 +84,7 @@ typedef struct pgem_memory_parts {
 /** The bytes of pgem_memory_size(config) by part, measured by the same carving code. Errors:
  * INVALID_ARGUMENT (a NULL pointer), CONFIG (where pgem_memory_size returns 0); nothing is
  * written then. */
-int pgem_get_memory_parts(const pgem_config_t *config, pgem_memory_parts_t *parts);
+int pgem_memory_layout(const pgem_config_t *config, pgem_memory_parts_t *parts);
 
 /** A compile-time upper bound of pgem_memory_size() for explicit capacities (none 0) and one
  * worker (threads 0 or 1), for static blocks:
@@ -132,33 +132,35 @@ int pgem_get_memory_parts(const pgem_config_t *config, pgem_memory_parts_t *part
     PGEM_WORK_MIN_((share) < (least) ? (least) : (share), (size_t)49152u)
 
 /** Initialises an instance inside buffer (size bytes, at least pgem_memory_size(config)).
- * On success *instance points into buffer; nothing is allocated, now or later (with the
+ * On success *graph points into buffer; nothing is allocated, now or later (with the
  * system CSparse, its symbolic analysis mallocs and frees workspace: see
  * docs/design/csparse-and-exhaustion.md). There is no teardown: the caller owns the buffer.
  * pgem_init_message() below is the same call, saying why it failed. */
-int pgem_init(pgem_t **instance, const pgem_config_t *config, void *buffer, size_t size);
+int pgem_init(pgem_t **graph, const pgem_config_t *config, void *buffer, size_t size);
 
 /** pgem_init that says why it failed (there is no instance yet for pgem_last_error): on
  * failure writes one line into message (message_size bytes, always NUL-terminated; NULL for
  * none), e.g. "the memory block is too small: 4095 bytes given, this configuration needs 4096
- * (pgem_memory_size)", and leaves *instance as it was. "" on success.
- * Errors: INVALID_ARGUMENT (a NULL instance, config or buffer), CONFIG (names the field),
+ * (pgem_memory_size)", and leaves *graph as it was. "" on success.
+ * Errors: INVALID_ARGUMENT (a NULL graph, config or buffer), CONFIG (names the field),
  * BUFFER_TOO_SMALL. The block may start at any address: pgem_memory_size() includes the
  * 15 bytes an unaligned start can cost. */
-int pgem_init_message(pgem_t **instance, const pgem_config_t *config, void *buffer, size_t size,
+int pgem_init_message(pgem_t **graph, const pgem_config_t *config, void *buffer, size_t size,
                       char *message, size_t message_size);
 
+#ifndef PGEM_NO_MALLOC
 /** Hosted convenience: mallocs one block of pgem_memory_size(config) and initialises it.
- * Release with pgem_destroy(). Not available when PGEM_NO_MALLOC is defined. */
-int pgem_create(pgem_t **instance, const pgem_config_t *config);
-void pgem_destroy(pgem_t *instance);
+ * Release with pgem_destroy(). Not declared (nor built) when PGEM_NO_MALLOC is defined. */
+int pgem_create(pgem_t **graph, const pgem_config_t *config);
+void pgem_destroy(pgem_t *graph);
+#endif
 
 /** The resolved configuration of an instance. */
-const pgem_config_t *pgem_get_config(const pgem_t *instance);
+const pgem_config_t *pgem_resolved_config(const pgem_t *graph);
 
 /** The message of the last failed call on this instance ("" if none): names the ids, the
  * field or the number that was wrong. Valid until the next call on the instance. */
-const char *pgem_last_error(const pgem_t *instance);
+const char *pgem_last_error(const pgem_t *graph);
 
 /** Work a factorisation hands to several threads: called once for every worker, numbered
  * from 0 to workers - 1, with that worker's number. */
@@ -179,7 +181,7 @@ typedef struct pgem_executor {
  * executor->workers may not exceed config.threads (the workers the block holds workspace
  * for). The results are bit-identical for every number of workers. Errors: INVALID_ARGUMENT
  * (no run function, 0 workers or more than config.threads; the executor is left as it was). */
-int pgem_set_executor(pgem_t *instance, const pgem_executor_t *executor);
+int pgem_set_executor(pgem_t *graph, const pgem_executor_t *executor);
 
 /** Orders the free poses of a graph's factorisation, for an analysis to weigh against its own
  * orderings: the block graph of `blocks` free poses comes as its upper pattern in compressed
@@ -209,14 +211,14 @@ typedef enum pgem_order_choice {
  * NULL: none); the next analysis orders anew (set it before pgem_copy, which hands over an
  * ordering already made). Errors: INVALID_ARGUMENT (an unknown choice, an orderer without an order function,
  * ORDERER without an orderer; nothing changed). */
-int pgem_set_ordering(pgem_t *instance, pgem_order_choice_t choice, const pgem_orderer_t *orderer);
+int pgem_set_ordering(pgem_t *graph, pgem_order_choice_t choice, const pgem_orderer_t *orderer);
 
 /** Copies the poses (estimates, held flags), edges (with their robust weights and states) of
  * `from` into `to`, an instance of the same dimension with no poses yet and room for them,
  * and hands over from's fill-reducing ordering when from was analysed for the graph it holds,
  * so to's first analysis does not order again (the result is the same as ordering anew). The
  * use: size a block exactly - analyse in an instance of any fill budget (PGEM_ERR_FILL_BUDGET
- * still reports the nonzeros needed in pgem_get_memory_stats), init a block of exactly that
+ * still reports the nonzeros needed in pgem_memory_use), init a block of exactly that
  * budget, copy. Errors: INVALID_ARGUMENT, DIMENSION, CAPACITY (nothing copied). */
 int pgem_copy(pgem_t *to, const pgem_t *from);
 
@@ -232,7 +234,15 @@ typedef struct pgem_memory_stats {
     size_t csparse_pool_peak;  /**< most of that part in use at once so far */
 } pgem_memory_stats_t;
 
-void pgem_get_memory_stats(const pgem_t *instance, pgem_memory_stats_t *stats);
+void pgem_memory_use(const pgem_t *graph, pgem_memory_stats_t *stats);
+
+#ifndef PGEM_NO_FORMER_NAMES
+/* The former names of the getters, which lost their get_ prefix (docs/API.md, "Changes to the
+ * API"); define PGEM_NO_FORMER_NAMES to check that a program no longer uses them. */
+#define pgem_get_config pgem_resolved_config
+#define pgem_get_memory_stats pgem_memory_use
+#define pgem_get_memory_parts pgem_memory_layout
+#endif
 
 #ifdef __cplusplus
 }

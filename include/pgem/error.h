@@ -7,8 +7,10 @@
 extern "C" {
 #endif
 
-/** Every pgem call that can fail returns one of these (0 = success). A failed call changes
- * nothing in the graph; pgem_last_error() on the instance says which input was wrong. */
+/** Every call of the core that can fail returns one of these (0 = success), and only these. A
+ * failed call changes nothing in the graph; pgem_last_error() on the instance says which input
+ * was wrong. -17 and -18 are not the core's: they are lib/io's PGEM_ERR_IO and PGEM_ERR_PARSE
+ * (pgem/io.h), which kept the values they had here. */
 typedef enum pgem_error {
     PGEM_OK = 0,
     PGEM_ERR_INVALID_ARGUMENT = -1,  /**< NULL pointer or out-of-range argument */
@@ -27,8 +29,6 @@ typedef enum pgem_error {
     PGEM_ERR_EMPTY = -14,            /**< nothing to optimize (no free pose or no edge) */
     PGEM_ERR_OUT_OF_MEMORY = -15,    /**< symbolic analysis could not get workspace */
     PGEM_ERR_WRONG_KIND = -16,       /**< edge is not a loop closure / value of wrong kind */
-    PGEM_ERR_IO = -17,               /**< a file could not be opened, read or written */
-    PGEM_ERR_PARSE = -18,            /**< a line of a graph file is malformed */
     PGEM_ERR_DIMENSION = -19,        /**< 2D and 3D mixed, or the wrong dimension for the call */
     PGEM_ERR_OUT_OF_RANGE = -20,     /**< a translation or information entry beyond the limits
                                           of graph.h (PGEM_TRANSLATION_LIMIT, ...) */
@@ -36,10 +36,11 @@ typedef enum pgem_error {
                                           (pgem/covariance.h: pgem_covariance_prepare first) */
 } pgem_error_t;
 
-/** A short constant name for an error code ("PGEM_ERR_CAPACITY"); never NULL. */
+/** A short constant name for an error code of the core ("PGEM_ERR_CAPACITY"); never NULL:
+ * "PGEM_ERR_UNKNOWN_CODE" for any other (pgem_io_error_name names lib/io's too). */
 const char *pgem_error_name(int code);
 
-/** One sentence describing an error code; never NULL. */
+/** One sentence describing an error code of the core; never NULL ("unknown error code"). */
 const char *pgem_error_description(int code);
 
 #ifdef __cplusplus

@@ -109,8 +109,11 @@ int pgem_hold_gauge(pgem_t *graph, pgem_id_t id, int on);
 
 /** Reads or overwrites a pose estimate. Errors: UNKNOWN_ID (and for set: NOT_FINITE,
  * OUT_OF_RANGE, ROTATION). */
-int pgem_get_pose(const pgem_t *graph, pgem_id_t id, double *pose);
+int pgem_pose(const pgem_t *graph, pgem_id_t id, double *pose);
 int pgem_set_pose(pgem_t *graph, pgem_id_t id, const double *pose);
+#ifndef PGEM_NO_FORMER_NAMES
+#define pgem_get_pose pgem_pose /* the former name (getters lost get_: docs/API.md) */
+#endif
 
 /** Counts and enumeration in insertion order. */
 int pgem_dimension(const pgem_t *graph);

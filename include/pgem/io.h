@@ -38,6 +38,29 @@ typedef struct pgem_io_edge {
     unsigned long line;                  /**< line it came from (0 = not from a file) */
 } pgem_io_edge_t;
 
+/** lib/io's own error codes, beside the core's pgem_error_t (which the reader and the loader
+ * also return): the values the core leaves free, the ones these codes had when they were part
+ * of pgem_error_t. */
+typedef enum pgem_io_error {
+    PGEM_ERR_IO = -17,   /**< a file could not be opened, read or written */
+    PGEM_ERR_PARSE = -18 /**< a line of a graph file is malformed */
+} pgem_io_error_t;
+
+/** pgem_error_name and pgem_error_description for a status of lib/io: its own codes, and the
+ * core's through those (header only, so a program that names codes links nothing more). */
+static inline const char *pgem_io_error_name(int code)
+{
+    return code == PGEM_ERR_IO      ? "PGEM_ERR_IO"
+           : code == PGEM_ERR_PARSE ? "PGEM_ERR_PARSE"
+                                    : pgem_error_name(code);
+}
+static inline const char *pgem_io_error_description(int code)
+{
+    return code == PGEM_ERR_IO      ? "a file could not be opened, read or written"
+           : code == PGEM_ERR_PARSE ? "a line of a graph file is malformed"
+                                    : pgem_error_description(code);
+}
+
 /** A whole graph file in memory (heap-allocated; release with pgem_io_graph_free). */
 typedef struct pgem_io_graph {
     int dimension;                       /**< 2 or 3 (0 while empty) */
@@ -77,8 +100,8 @@ typedef struct pgem_io_graph {
  * returns PGEM_ERR_IO / PGEM_ERR_PARSE / PGEM_ERR_DIMENSION / PGEM_ERR_UNKNOWN_ID /
  * PGEM_ERR_DUPLICATE_ID / PGEM_ERR_OUT_OF_RANGE (or PGEM_ERR_OUT_OF_MEMORY), writes
  * "FILE:LINE: what is wrong" into
- * message, and leaves *graph empty.
- * - *graph is overwritten, not freed: release a graph read earlier with pgem_io_graph_free.
+ * message, and leaves *file empty.
+ * - *file is overwritten, not freed: release a graph read earlier with pgem_io_graph_free.
  * - An empty file (or one with only blank, comment or unknown lines) is a valid empty graph
  *   with dimension 0.
  * - With PGEM_FORMAT_AUTO every tag below is accepted; with PGEM_FORMAT_G2O only the g2o tags
@@ -97,7 +120,7 @@ typedef struct pgem_io_graph {
  *   PGEM_INFORMATION_LIMIT (pgem/graph.h) is PGEM_ERR_OUT_OF_RANGE, naming the field: a graph
  *   that reads loads (capacity and the core's other checks aside) with a finite chi2.
  * FORMATS.md at the repository root lists every accepted line. */
-int pgem_io_read(const char *path, pgem_format_t format, pgem_io_graph_t *graph,
+int pgem_io_read(const char *path, pgem_format_t format, pgem_io_graph_t *file,
                  char *message, size_t message_size);
 
 /** Progress of a long read, for a tool that shows it: bytes and lines read so far. */
@@ -108,7 +131,7 @@ typedef void (*pgem_io_progress_fn)(uint64_t bytes, unsigned long lines, void *u
 
 /** As pgem_io_read, calling progress (if not NULL) each time another PGEM_IO_PROGRESS_BYTES
  * have been read. */
-int pgem_io_read_progress(const char *path, pgem_format_t format, pgem_io_graph_t *graph,
+int pgem_io_read_progress(const char *path, pgem_format_t format, pgem_io_graph_t *file,
                           char *message, size_t message_size, pgem_io_progress_fn progress,
                           void *user);
 
@@ -128,13 +151,13 @@ typedef struct pgem_io_read_options {
 
 /** pgem_io_read with options (NULL: the defaults, exactly pgem_io_read). */
 int pgem_io_read_with(const char *path, const pgem_io_read_options_t *options,
-                      pgem_io_graph_t *graph, char *message, size_t message_size);
+                      pgem_io_graph_t *file, char *message, size_t message_size);
 
 /** As pgem_io_read, from an open stream; name is used in messages. */
 int pgem_io_read_stream(FILE *stream, const char *name, pgem_format_t format,
-                        pgem_io_graph_t *graph, char *message, size_t message_size);
+                        pgem_io_graph_t *file, char *message, size_t message_size);
 
-void pgem_io_graph_free(pgem_io_graph_t *graph);
+void pgem_io_graph_free(pgem_io_graph_t *file);
 
 /** A pose id and where its pose is in a file graph's poses (or, inside the reader, the line it
  * came from): what pgem_io_index_poses sorts, by id and then index. */
@@ -148,14 +171,14 @@ typedef struct pgem_io_pose_index {
 
 /** The poses of a file graph sorted by id, in a new array of pose_count entries (free it); NULL
  * when out of memory. */
-pgem_io_pose_index_t *pgem_io_index_poses(const pgem_io_graph_t *graph);
+pgem_io_pose_index_t *pgem_io_index_poses(const pgem_io_graph_t *file);
 
 /** The index in the file graph of the pose with this id, from its sorted index (count
  * entries), or PGEM_IO_NO_POSE. */
 size_t pgem_io_find_pose(const pgem_io_pose_index_t *sorted, size_t count, pgem_id_t id);
 
 /** A config whose capacities fit the graph exactly (dimension, max_poses, max_edges). */
-void pgem_io_config(const pgem_io_graph_t *graph, pgem_config_t *config);
+void pgem_io_config(const pgem_io_graph_t *file, pgem_config_t *config);
 
 /** Adds every pose, edge and FIX of the file graph to an empty instance. On error the message
  * names the file line of the offending pose or edge and the instance's message is appended.
@@ -163,12 +186,12 @@ void pgem_io_config(const pgem_io_graph_t *graph, pgem_config_t *config);
  * A graph larger than the instance's free capacity is PGEM_ERR_CAPACITY with nothing added;
  * after any other error the instance holds the poses and edges added before the offending
  * one: discard it (the core cannot take them back). */
-int pgem_io_load(const pgem_io_graph_t *graph, pgem_t *instance, char *message,
+int pgem_io_load(const pgem_io_graph_t *file, pgem_t *graph, char *message,
                  size_t message_size);
 
-/** Copies an instance (poses, edges, fixed poses) into a file graph (*graph is overwritten, as
+/** Copies an instance (poses, edges, fixed poses) into a file graph (*file is overwritten, as
  * for pgem_io_read). Edge kinds are copied as the instance has them. */
-int pgem_io_from_instance(const pgem_t *instance, pgem_io_graph_t *graph);
+int pgem_io_from_instance(const pgem_t *graph, pgem_io_graph_t *file);
 
 /** Writes a file graph (g2o or TORO 2D) with round-trip precision (%.17g): vertices, then the
  * FIX lines (g2o only; TORO has no way to say a pose is fixed, so they are not written), then
@@ -176,14 +199,14 @@ int pgem_io_from_instance(const pgem_t *instance, pgem_io_graph_t *graph);
  * the loop closures, so reading the file back gives every edge its kind (the formats have no
  * kind field; FORMATS.md). TORO for a 3D graph is PGEM_ERR_DIMENSION; a failed write is
  * PGEM_ERR_IO, no memory for that order PGEM_ERR_OUT_OF_MEMORY. */
-int pgem_io_write(const char *path, pgem_format_t format, const pgem_io_graph_t *graph,
+int pgem_io_write(const char *path, pgem_format_t format, const pgem_io_graph_t *file,
                   char *message, size_t message_size);
-int pgem_io_write_stream(FILE *stream, pgem_format_t format, const pgem_io_graph_t *graph);
+int pgem_io_write_stream(FILE *stream, pgem_format_t format, const pgem_io_graph_t *file);
 
 /** Writes the loop closures of an instance, one line each in edge order: "from to weight
  * state" (state "accepted" or "pruned"), after a "#" header line. The format `pgem optimize
  * --weights` writes and `pgem eval --weights` reads. PGEM_ERR_IO if a write failed. */
-int pgem_io_write_weights(FILE *stream, const pgem_t *instance);
+int pgem_io_write_weights(FILE *stream, const pgem_t *graph);
 
 #ifdef __cplusplus
 }

@@ -12,8 +12,8 @@ extern "C" {
  * analysis's upper pattern; METIS's default options). Link pgem::metis. */
 pgem_orderer_t pgem_metis_orderer(void);
 
-/** pgem_set_ordering(instance, choice, the METIS orderer). */
-int pgem_metis_use(pgem_t *instance, pgem_order_choice_t choice);
+/** pgem_set_ordering(graph, choice, the METIS orderer). */
+int pgem_metis_use(pgem_t *graph, pgem_order_choice_t choice);
 
 #ifdef __cplusplus
 }

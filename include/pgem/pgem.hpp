@@ -142,6 +142,25 @@ struct Config {
     std::uint32_t threads = 0;     /**< workers a factorisation can use (pgem_config_t); 0 means 1 */
 };
 
+namespace detail {
+/* The name and description of a status: the core's codes, and in a hosted build lib/io's too
+ * (PGEM_ERR_IO, PGEM_ERR_PARSE: pgem/io.h, header only). */
+inline const char *error_name(int code) noexcept {
+#ifndef PGEM_NO_MALLOC
+    return pgem_io_error_name(code);
+#else
+    return pgem_error_name(code);
+#endif
+}
+inline const char *error_description(int code) noexcept {
+#ifndef PGEM_NO_MALLOC
+    return pgem_io_error_description(code);
+#else
+    return pgem_error_description(code);
+#endif
+}
+} // namespace detail
+
 /**
  * Outcome of a call: PGEM_OK, or a negative pgem error code with a message.
  * The message is never NULL; see the header's comment for how long it stays valid.
@@ -155,7 +174,7 @@ class [[nodiscard]] Status {
         : code_(code),
           message_(message != nullptr && message[0] != '\0'
                        ? message
-                       : (code == PGEM_OK ? "" : pgem_error_description(code))) {}
+                       : (code == PGEM_OK ? "" : detail::error_description(code))) {}
 
     /** True on success. */
     bool ok() const noexcept { return code_ == PGEM_OK; }
@@ -164,7 +183,7 @@ class [[nodiscard]] Status {
     /** PGEM_OK (0) or a negative pgem_error_t value. */
     int code() const noexcept { return code_; }
     /** The code's constant name ("PGEM_ERR_CAPACITY"). */
-    const char *name() const noexcept { return pgem_error_name(code_); }
+    const char *name() const noexcept { return detail::error_name(code_); }
     /** What was wrong ("" on success). */
     const char *message() const noexcept { return message_; }
 
@@ -183,12 +202,12 @@ class Error : public std::runtime_error {
           code_(status.code()) {}
     /** A code with a message of the caller's. */
     Error(int code, const std::string &message)
-        : std::runtime_error(std::string(pgem_error_name(code)) + ": " + message), code_(code) {}
+        : std::runtime_error(std::string(detail::error_name(code)) + ": " + message), code_(code) {}
 
     /** The negative pgem_error_t value. */
     int code() const noexcept { return code_; }
     /** The code's constant name ("PGEM_ERR_CAPACITY"). */
-    const char *name() const noexcept { return pgem_error_name(code_); }
+    const char *name() const noexcept { return detail::error_name(code_); }
 
   private:
     int code_;
@@ -629,15 +648,15 @@ class Graph {
 
     /** Wraps an instance made by C code, without owning it. Error: DIMENSION if the instance
      * is not Dim-dimensional, INVALID_ARGUMENT for NULL. */
-    static Result<Graph> borrow(pgem_t *instance) noexcept {
-        if (instance == nullptr) {
+    static Result<Graph> borrow(pgem_t *graph) noexcept {
+        if (graph == nullptr) {
             return Status(PGEM_ERR_INVALID_ARGUMENT, nullptr);
         }
-        if (pgem_dimension(instance) != Dim) {
+        if (pgem_dimension(graph) != Dim) {
             return Status(PGEM_ERR_DIMENSION, Dim == 2 ? "the instance is not 2D"
                                                        : "the instance is not 3D");
         }
-        return Graph(instance, false);
+        return Graph(graph, false);
     }
 
 #ifndef PGEM_NO_MALLOC
@@ -711,7 +730,7 @@ class Graph {
     /** The current estimate of a pose. Error: UNKNOWN_ID. */
     Result<Pose> try_pose(Id id) const noexcept {
         double values[PGEM_POSE_SIZE_MAX];
-        const int code = pgem_get_pose(handle_, id, values);
+        const int code = pgem_pose(handle_, id, values);
         if (code != PGEM_OK) {
             return Status(code, nullptr);
         }
@@ -761,12 +780,12 @@ class Graph {
     /** Memory diagnostics: block size, factor nonzeros against the budget, analyses run. */
     MemoryStats memory_stats() const noexcept {
         MemoryStats stats{};
-        pgem_get_memory_stats(handle_, &stats);
+        pgem_memory_use(handle_, &stats);
         return stats;
     }
     /** The resolved configuration (defaults filled in). */
     pgem_config_t config() const noexcept {
-        const pgem_config_t *c = pgem_get_config(handle_);
+        const pgem_config_t *c = pgem_resolved_config(handle_);
         return c != nullptr ? *c : pgem_config_t{};
     }
     /** The message of the last failed call ("" if none). */

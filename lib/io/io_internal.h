@@ -107,11 +107,11 @@ int io_write_order(const pgem_io_graph_t *graph, size_t **order);
 /* layout.c: the identity pose of a dimension. */
 void io_identity_pose(int dimension, double *pose);
 
-/* graph.c: appends one zeroed element of element_size bytes to *array (*count used of
+/* file_graph.c: appends one zeroed element of element_size bytes to *array (*count used of
  * *capacity, grown by doubling from 64) and returns it with *count bumped; NULL (nothing
  * changed) when out of memory. */
 void *io_append(void **array, size_t *count, size_t *capacity, size_t element_size);
-/* graph.c: io_append on a graph's arrays (NULL / PGEM_ERR_OUT_OF_MEMORY when out of memory). */
+/* file_graph.c: io_append on a graph's arrays (NULL, PGEM_ERR_OUT_OF_MEMORY: out of memory). */
 pgem_io_pose_t *io_graph_new_pose(pgem_io_graph_t *graph);
 pgem_io_edge_t *io_graph_new_edge(pgem_io_graph_t *graph);
 pgem_io_edge_t *io_graph_new_self_loop(pgem_io_graph_t *graph);

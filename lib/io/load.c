@@ -96,7 +96,7 @@ static int io_load_fixed(const pgem_io_graph_t *graph, pgem_t *instance, char *m
 static int io_load_fits(const pgem_io_graph_t *graph, const pgem_t *instance, char *message,
                         size_t message_size)
 {
-    const pgem_config_t *config = pgem_get_config(instance);
+    const pgem_config_t *config = pgem_resolved_config(instance);
     const size_t free_poses = config->max_poses - pgem_pose_count(instance);
     const size_t free_edges = config->max_edges - pgem_edge_count(instance);
     if (graph->pose_count > free_poses) {
@@ -114,37 +114,37 @@ static int io_load_fits(const pgem_io_graph_t *graph, const pgem_t *instance, ch
     return PGEM_OK;
 }
 
-int pgem_io_load(const pgem_io_graph_t *graph, pgem_t *instance, char *message,
+int pgem_io_load(const pgem_io_graph_t *file, pgem_t *graph, char *message,
                  size_t message_size)
 {
     int status;
     io_message(message, message_size, "%s", "");
-    if (graph == NULL || instance == NULL) {
+    if (file == NULL || graph == NULL) {
         io_message(message, message_size, "pgem_io_load: NULL graph or instance");
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    if (graph->dimension != 0 && graph->dimension != pgem_dimension(instance)) {
-        return io_load_failed(graph, 0, PGEM_ERR_DIMENSION, message, message_size,
-                              "the graph is %dD but the instance is %dD", graph->dimension,
-                              pgem_dimension(instance));
+    if (file->dimension != 0 && file->dimension != pgem_dimension(graph)) {
+        return io_load_failed(file, 0, PGEM_ERR_DIMENSION, message, message_size,
+                              "the graph is %dD but the instance is %dD", file->dimension,
+                              pgem_dimension(graph));
     }
-    if (graph->foreign_edges > 0) { /* checked first: nothing is added */
-        return io_load_failed(graph, graph->first_foreign_line, PGEM_ERR_UNKNOWN_ID, message,
+    if (file->foreign_edges > 0) { /* checked first: nothing is added */
+        return io_load_failed(file, file->first_foreign_line, PGEM_ERR_UNKNOWN_ID, message,
                               message_size, "%zu edge%s name%s an id with no pose in the graph "
                               "(read with foreign ids, for a sender): a graph to load needs "
-                              "every pose", graph->foreign_edges,
-                              graph->foreign_edges == 1u ? "" : "s",
-                              graph->foreign_edges == 1u ? "s" : "");
+                              "every pose", file->foreign_edges,
+                              file->foreign_edges == 1u ? "" : "s",
+                              file->foreign_edges == 1u ? "s" : "");
     }
-    status = io_load_fits(graph, instance, message, message_size);
+    status = io_load_fits(file, graph, message, message_size);
     if (status == PGEM_OK) {
-        status = io_load_poses(graph, instance, message, message_size);
-    }
-    if (status == PGEM_OK) {
-        status = io_load_edges(graph, instance, message, message_size);
+        status = io_load_poses(file, graph, message, message_size);
     }
     if (status == PGEM_OK) {
-        status = io_load_fixed(graph, instance, message, message_size);
+        status = io_load_edges(file, graph, message, message_size);
+    }
+    if (status == PGEM_OK) {
+        status = io_load_fixed(file, graph, message, message_size);
     }
     return status;
 }

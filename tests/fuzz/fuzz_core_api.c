@@ -175,7 +175,7 @@ static void end_call(run_t *run, int status)
     take_snapshot(run->graph, &run->after);
 
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(run->graph, &stats);
+    pgem_memory_use(run->graph, &stats);
     FUZZ_CHECK(stats.used_bytes <= stats.block_bytes);
     /* after a successful analysis the factor fits its budget (a failed one reports the need) */
     FUZZ_CHECK(status != PGEM_OK || run->after_solve == 0 ||
@@ -191,7 +191,7 @@ static void end_call(run_t *run, int status)
         uint32_t index = UINT32_MAX;
         double pose[PGEM_POSE_SIZE_MAX];
         FUZZ_CHECK(pgem_pose_index(run->graph, run->after.id[i], &index) == PGEM_OK && index == i);
-        FUZZ_CHECK(pgem_get_pose(run->graph, run->after.id[i], pose) == PGEM_OK);
+        FUZZ_CHECK(pgem_pose(run->graph, run->after.id[i], pose) == PGEM_OK);
         FUZZ_CHECK(memcmp(pose, run->after.pose[i], run->pose_bytes) == 0);
     }
     for (uint32_t k = 0; k < run->after.edges; ++k) {

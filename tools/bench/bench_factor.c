@@ -328,7 +328,7 @@ static int bench_load(const char *path, int analyse, uint32_t threads, pgem_t **
             status = pgem_analyze(*graph);
         }
         pgem_memory_stats_t stats;
-        pgem_get_memory_stats(*graph, &stats);
+        pgem_memory_use(*graph, &stats);
         if (attempt == 0 && (status == PGEM_OK || status == PGEM_ERR_FILL_BUDGET)) {
             config.fill_budget = stats.factor_nonzeros; /* the exact size, as the CLI does */
             pgem_destroy(*graph);
@@ -340,7 +340,7 @@ static int bench_load(const char *path, int analyse, uint32_t threads, pgem_t **
     pgem_io_graph_free(&file);
     if (status != PGEM_OK) {
         fprintf(stderr, "bench_factor: %s: %s\n", path,
-                *graph != NULL ? pgem_last_error(*graph) : pgem_error_description(status));
+                *graph != NULL ? pgem_last_error(*graph) : pgem_io_error_description(status));
     }
     return status;
 }
@@ -406,7 +406,7 @@ static int bench_pgem(const bench_args_t *args)
     }
     free(saved);
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     pgem_factor_hook_figures_t factor;
     pgem_factor_hook_figures(graph, &factor);
     printf("{\"mode\":\"pgem\",\"input\":\"%s\",\"poses\":%u,\"edges\":%u,\"unknowns\":%d,"

@@ -256,7 +256,7 @@ static void online_update_line(const online_stream_t *stream, const online_state
 {
     const pgem_robust_summary_t *s = &run->last;
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(state->core, &stats);
+    pgem_memory_use(state->core, &stats);
     printf("{\"type\":\"update\",\"update\":%u,\"pose\":%zu,\"id\":%llu,\"poses\":%u,"
            "\"edges\":%u,\"added\":%zu,\"loops_added\":%zu,\"seconds\":%.9f,\"status\":\"%s\","
            "\"outcome\":\"%s\",\"loops\":%u,\"pruned\":%u,\"rejected\":%u,\"rounds\":%u,"
@@ -281,7 +281,7 @@ static void online_summary_line(const online_args_t *args, const online_stream_t
 {
     const pgem_robust_summary_t *s = &run->last;
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(state->core, &stats);
+    pgem_memory_use(state->core, &stats);
     printf("{\"type\":\"summary\",\"input\":");
     pgem_json_string(stdout, args->input);
     printf(",\"mode\":\"%s\",\"every\":%u,\"guess\":\"%s\",\"poses\":%zu,\"poses_total\":%zu,"
@@ -348,7 +348,7 @@ static void online_update(const online_args_t *args, const online_stream_t *stre
     run->failed += run->status != PGEM_OK;
     run->update_seconds += seconds;
     pgem_memory_stats_t stats;
-    pgem_get_memory_stats(state->core, &stats);
+    pgem_memory_use(state->core, &stats);
     run->factor_peak = stats.factor_nonzeros > run->factor_peak ? stats.factor_nonzeros
                                                                 : run->factor_peak;
     online_update_line(stream, state, run, pose, seconds);

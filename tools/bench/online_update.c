@@ -86,7 +86,7 @@ static void online_place(online_state_t *state, const pgem_io_edge_t *edge)
     double base[PGEM_POSE_SIZE_MAX], step[PGEM_POSE_SIZE_MAX], pose[PGEM_POSE_SIZE_MAX];
     const int forward = from_settled; /* place `to` from `from`, else `from` from `to` */
     const int three = state->dimension == 3;
-    pgem_get_pose(state->core, forward ? edge->from : edge->to, base);
+    pgem_pose(state->core, forward ? edge->from : edge->to, base);
     if (forward) {
         memcpy(step, edge->measurement, (size_t)PGEM_POSE_SIZE(state->dimension) * sizeof(double));
     } else if (three) {

@@ -374,7 +374,7 @@ int pgem_cli_write(const pgem_t *instance, pgem_io_graph_t *file, const char *pa
     if (status == PGEM_OK) {
         status = pgem_cli_write_graph("pgem", &out, path);
     } else {
-        fprintf(stderr, "pgem: cannot copy the graph for writing: %s\n", pgem_error_description(status));
+        fprintf(stderr, "pgem: cannot copy the graph for writing: %s\n", pgem_io_error_description(status));
         status = PGEM_EXIT_IO;
     }
     pgem_io_graph_free(&out);

@@ -334,7 +334,7 @@ static size_t pgem_capacity_cost(const pgem_config_t *config, size_t size, int e
 
 static void pgem_block_parts(const pgem_t *graph, uint32_t fill_budget, pgem_block_parts_t *parts)
 {
-    const pgem_config_t config = *pgem_get_config(graph);
+    const pgem_config_t config = *pgem_resolved_config(graph);
     const size_t size = pgem_memory_size(&config);
     parts->per_pose = pgem_capacity_cost(&config, size, 0);
     parts->per_edge = pgem_capacity_cost(&config, size, 1);
@@ -402,7 +402,7 @@ static void pgem_print_summary(FILE *out, const pgem_optimize_args_t *args, cons
 {
     pgem_memory_stats_t stats;
     pgem_block_parts_t parts;
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     pgem_block_parts(graph, stats.factor_budget, &parts);
     if (args->json) {
         printf("{\"input\":");
@@ -546,7 +546,7 @@ static void pgem_print_robust_summary(FILE *out, const pgem_optimize_args_t *arg
 {
     pgem_memory_stats_t stats;
     pgem_block_parts_t parts;
-    pgem_get_memory_stats(graph, &stats);
+    pgem_memory_use(graph, &stats);
     pgem_block_parts(graph, stats.factor_budget, &parts);
     if (args->json) {
         printf("{\"input\":");

@@ -27,8 +27,6 @@ static const pgem_error_entry_t pgem_errors[] = {
     {PGEM_ERR_EMPTY, "PGEM_ERR_EMPTY", "there is nothing to optimize"},
     {PGEM_ERR_OUT_OF_MEMORY, "PGEM_ERR_OUT_OF_MEMORY", "the symbolic analysis could not get workspace"},
     {PGEM_ERR_WRONG_KIND, "PGEM_ERR_WRONG_KIND", "the value is of the wrong kind for this call"},
-    {PGEM_ERR_IO, "PGEM_ERR_IO", "a file could not be opened, read or written"},
-    {PGEM_ERR_PARSE, "PGEM_ERR_PARSE", "a line of a graph file is malformed"},
     {PGEM_ERR_DIMENSION, "PGEM_ERR_DIMENSION", "2D and 3D are mixed, or the dimension is wrong for the call"},
     {PGEM_ERR_OUT_OF_RANGE, "PGEM_ERR_OUT_OF_RANGE", "a translation or information entry is beyond pgem's magnitude limits"},
     {PGEM_ERR_NO_FACTOR, "PGEM_ERR_NO_FACTOR", "no factor is current for the covariance calls (call pgem_covariance_prepare after the last change)"},

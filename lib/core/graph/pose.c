@@ -181,7 +181,7 @@ int pgem_pose_index(const pgem_t *graph, pgem_id_t id, uint32_t *index)
     return PGEM_OK;
 }
 
-int pgem_get_pose(const pgem_t *graph, pgem_id_t id, double *pose)
+int pgem_pose(const pgem_t *graph, pgem_id_t id, double *pose)
 {
     if (graph == NULL || pose == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;

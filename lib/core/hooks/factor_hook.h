@@ -13,7 +13,7 @@ extern "C" {
 #endif
 
 /* What the last analysis and factorisation made (the values the factor stores are
- * pgem_get_memory_stats's factor_nonzeros). */
+ * pgem_memory_use's factor_nonzeros). */
 typedef struct pgem_factor_hook_figures {
     int unknowns;           /* scalar unknowns: free poses times 3 or 6 */
     int exact_nonzeros;     /* nonzeros of the exact pattern of L */

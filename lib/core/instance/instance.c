@@ -124,7 +124,7 @@ size_t pgem_memory_size(const pgem_config_t *config)
     return bytes + 16u; /* room to align an arbitrary buffer start */
 }
 
-int pgem_get_memory_parts(const pgem_config_t *config, pgem_memory_parts_t *parts)
+int pgem_memory_layout(const pgem_config_t *config, pgem_memory_parts_t *parts)
 {
     if (config == NULL || parts == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
@@ -277,7 +277,7 @@ int pgem_set_ordering(pgem_t *instance, pgem_order_choice_t choice, const pgem_o
     return PGEM_OK;
 }
 
-const pgem_config_t *pgem_get_config(const pgem_t *instance)
+const pgem_config_t *pgem_resolved_config(const pgem_t *instance)
 {
     return instance != NULL ? &instance->config : NULL;
 }
@@ -287,7 +287,7 @@ const char *pgem_last_error(const pgem_t *instance)
     return instance != NULL ? instance->message : "no instance";
 }
 
-void pgem_get_memory_stats(const pgem_t *instance, pgem_memory_stats_t *stats)
+void pgem_memory_use(const pgem_t *instance, pgem_memory_stats_t *stats)
 {
     if (instance == NULL || stats == NULL) {
         return;

@@ -28,7 +28,7 @@ nb::object error_class; // pgem._error.Error, looked up at import
 // Raises pgem.Error(code, name, message).
 [[noreturn]] void raise_error(int code, const std::string &message)
 {
-    nb::object error = error_class(code, pgem_error_name(code), message);
+    nb::object error = error_class(code, pgem_io_error_name(code), message); // the core's and lib/io's
     PyErr_SetObject(error_class.ptr(), error.ptr());
     throw nb::python_error();
 }
@@ -158,7 +158,7 @@ public:
         if (status == PGEM_OK) {
             status = pgem_io_write(path.c_str(), PGEM_FORMAT_G2O, &file, message, sizeof message);
         } else {
-            std::snprintf(message, sizeof message, "%s", pgem_error_description(status));
+            std::snprintf(message, sizeof message, "%s", pgem_io_error_description(status));
         }
         pgem_io_graph_free(&file);
         if (status != PGEM_OK) {
@@ -187,7 +187,7 @@ public:
     {
         Hold hold(mutex_);
         Output<double> out = make_array<double>({pose_size()});
-        check(pgem_get_pose(instance_, id, out.data()));
+        check(pgem_pose(instance_, id, out.data()));
         return out;
     }
 

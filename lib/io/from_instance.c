@@ -1,4 +1,4 @@
-/* pgem I/O instance: copies the poses, edges and fixed poses of an instance into a file graph. */
+/* pgem_io_from_instance: the poses, edges and fixed poses of an instance into a file graph. */
 #include <string.h>
 
 #include "io_internal.h"
@@ -49,23 +49,23 @@ static int io_copy_edges(const pgem_t *instance, pgem_io_graph_t *graph)
     return PGEM_OK;
 }
 
-int pgem_io_from_instance(const pgem_t *instance, pgem_io_graph_t *graph)
+int pgem_io_from_instance(const pgem_t *graph, pgem_io_graph_t *file)
 {
     int status;
+    if (file == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    memset(file, 0, sizeof *file);
     if (graph == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    memset(graph, 0, sizeof *graph);
-    if (instance == NULL) {
-        return PGEM_ERR_INVALID_ARGUMENT;
-    }
-    graph->dimension = pgem_dimension(instance);
-    status = io_copy_poses(instance, graph);
+    file->dimension = pgem_dimension(graph);
+    status = io_copy_poses(graph, file);
     if (status == PGEM_OK) {
-        status = io_copy_edges(instance, graph);
+        status = io_copy_edges(graph, file);
     }
     if (status != PGEM_OK) {
-        pgem_io_graph_free(graph);
+        pgem_io_graph_free(file);
     }
     return status;
 }

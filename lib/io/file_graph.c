@@ -1,4 +1,4 @@
-/* pgem I/O graph: growing arrays of a file graph and their release. */
+/* pgem I/O file graph: growing arrays of a pgem_io_graph_t and their release. */
 #include <stdlib.h>
 #include <string.h>
 
