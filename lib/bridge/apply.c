@@ -53,12 +53,12 @@ static void anchor(bridge_t *bridge, const pgem_item_t *item)
     if (pose_settled(bridge, from) && !pose_settled(bridge, to)) {
         target = to;
         target_id = item->to;
-        pgem_get_pose(bridge->solver.core, item->from, base);
+        pgem_pose(bridge->solver.core, item->from, base);
         memcpy(step, item->value, sizeof step);
     } else if (pose_settled(bridge, to) && !pose_settled(bridge, from)) {
         target = from;
         target_id = item->from;
-        pgem_get_pose(bridge->solver.core, item->to, base);
+        pgem_pose(bridge->solver.core, item->to, base);
         if (dimension == 3) {
             pgem_se3_inverse(item->value, step);
         } else {

@@ -96,8 +96,8 @@ static void move_part(bridge_t *bridge, uint32_t root, const pgem_edge_view_t *v
     double from[PGEM_POSE_SIZE_MAX], to[PGEM_POSE_SIZE_MAX], want[PGEM_POSE_SIZE_MAX];
     double inverse[PGEM_POSE_SIZE_MAX], step[PGEM_POSE_SIZE_MAX], moved[PGEM_POSE_SIZE_MAX];
     double pose[PGEM_POSE_SIZE_MAX];
-    pgem_get_pose(bridge->solver.core, view->from, from);
-    pgem_get_pose(bridge->solver.core, view->to, to);
+    pgem_pose(bridge->solver.core, view->from, from);
+    pgem_pose(bridge->solver.core, view->to, to);
     if (moving_to) { /* want = from z; T = want to^-1 */
         (three ? pgem_se3_compose : pgem_se2_compose)(from, view->measurement, want);
         (three ? pgem_se3_inverse : pgem_se2_inverse)(to, inverse);
