@@ -221,3 +221,26 @@ def test_em_holds_a_part_its_pruned_loops_leave_alone():
     assert summary.outcome == "all_rejected"
     assert summary.termination == "converged"
     assert summary.held_poses == (100,)
+    assert summary.frames_placed == 0  # two loops that disagree place nothing
+
+
+def test_em_places_a_robot_in_the_frame_its_loops_agree_on():
+    # a second robot from its own origin, its true frame (30, -20, 2): three agreeing loop
+    # closures place it before EM judges them
+    graph = pgem.Graph(2, 20, 30)
+    information = np.diag([400.0, 400.0, 1e4])
+    frame = np.array([30.0, -20.0, 2.0])
+    c, s = np.cos(frame[2]), np.sin(frame[2])
+    for robot in range(2):
+        for k in range(10):
+            graph.add_pose(robot * 100 + k, [k, 0.0, 0.0])
+        for k in range(9):
+            graph.add_edge(robot * 100 + k, robot * 100 + k + 1, [1.0, 0.0, 0.0], information)
+    for a, b in ((2, 3), (5, 7), (8, 1)):
+        world_b = frame[:2] + np.array([c * b, s * b])  # robot 1's pose b in robot 0's frame
+        delta = world_b - np.array([a, 0.0])
+        graph.add_edge(a, 100 + b, [delta[0], delta[1], frame[2]], information, loop=True)
+    summary = graph.optimize(robust="em")
+    assert summary.frames_placed == 1 and summary.rejected == 0 and summary.held_poses == ()
+    ids, poses = graph.poses()
+    assert np.allclose(poses[list(ids).index(100)], frame, atol=1e-6)

@@ -460,13 +460,15 @@ uint32_t pgem_robust_frames(pgem_t *graph, const pgem_robust_options_t *options,
     f.inflation = options->odometry_inflation;
     f.gate = pgem_em_gate_value(graph, options);
     pgem_frames_parts(&f, with_loops);
-    /* the parts that hold a pose the caller holds are placed; the others are to place */
+    /* the parts that hold a fixed pose (or the first pose, when none is fixed) are placed; the
+     * others are to place, those held at a damped gauge too (pgem_hold_gauge: loop closures
+     * may place them; the bridge holds its robots so) */
     uint32_t placed = 0, unplaced = 0;
     for (uint32_t p = 0; p < store->pose_count; p++) {
         f.state[p] = PGEM_FRAMES_UNPLACED;
     }
     for (uint32_t p = 0; p < store->pose_count; p++) {
-        if (PGEM_POSE_HELD(store, p) || store->pose_fixed[p] == PGEM_POSE_GAUGE) {
+        if (PGEM_POSE_HELD(store, p)) {
             f.state[f.part[p]] = PGEM_FRAMES_PLACED;
         }
     }
@@ -484,7 +486,7 @@ uint32_t pgem_robust_frames(pgem_t *graph, const pgem_robust_options_t *options,
         f.state[p] = PGEM_FRAMES_UNPLACED;
     }
     for (uint32_t p = 0; p < store->pose_count; p++) {
-        if (PGEM_POSE_HELD(store, p) || store->pose_fixed[p] == PGEM_POSE_GAUGE) {
+        if (PGEM_POSE_HELD(store, p)) {
             f.state[f.part[p]] = PGEM_FRAMES_PLACED;
         }
     }

@@ -51,7 +51,9 @@ class Summary:
     ``loops`` the loop closures in the graph (robust solves), ``outcome`` (robust) and
     ``termination`` why it ended (robust: ``converged``, ``round_limit``, ``oscillated`` ...),
     ``held_poses`` (robust) the poses holding the parts that rejected loop closures left
-    without a held pose, each at its own gauge."""
+    without a held pose, each at its own gauge; ``frames_placed`` (EM) the parts (a team's
+    robots, each from its own origin) moved into the frame their agreeing loop closures
+    imply."""
 
     initial_chi2: float
     final_chi2: float
@@ -64,6 +66,7 @@ class Summary:
     outcome: str = ""
     termination: str = ""
     held_poses: Tuple[int, ...] = ()
+    frames_placed: int = 0
     usable: bool = True
 
 

@@ -265,6 +265,7 @@ public:
             held.append(id);
         }
         out["held_poses"] = held;
+        out["frames_placed"] = summary.frames_placed;
         out["usable"] = summary.usable != 0;
         return out;
     }
