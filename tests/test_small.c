@@ -47,7 +47,7 @@ static void test_cholesky_pivots(void **state)
     assert_int_equal(pgem_small_cholesky(indefinite, 2, 0.0, 1), 1); /* 1 - 4 < 0 */
     double tiny[4] = {1.0, 0.0, 0.0, 1e-20};
     assert_int_equal(pgem_small_cholesky(tiny, 2, 1e-10, 1), 1); /* not above the floor */
-    double infinite[4] = {INFINITY, 0.0, 0.0, 1.0};
+    double infinite[4] = {(double)INFINITY, 0.0, 0.0, 1.0};
     assert_int_equal(pgem_small_cholesky(infinite, 2, 0.0, 1), 0);
     /* not strict: a pivot below `least` is raised to it; a zero root zeroes its row */
     double raised[4] = {0.25, 3.0, 3.0, 9.0};

@@ -250,7 +250,7 @@ static uint32_t pgem_frames_vote(const pgem_frames_t *f, uint32_t first, uint32_
     const uint32_t count = end - first;
     const uint32_t stride = count > PGEM_FRAMES_HYPOTHESES ? (count + PGEM_FRAMES_HYPOTHESES - 1u) / PGEM_FRAMES_HYPOTHESES : 1u;
     uint32_t best_votes = 0;
-    double best_cost = INFINITY;
+    double best_cost = (double)INFINITY;
     for (uint32_t i = first; i < end; i += stride) {
         pgem_frames_loop_t h, l;
         (void)pgem_frames_side(f, (uint32_t)f->next[i], &h);
