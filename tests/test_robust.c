@@ -1045,6 +1045,27 @@ static void test_cauchy_weight_of_an_exact_fit(void **state)
     assert_near(pgem_kernel_weight(PGEM_KERNEL_EM, 1e-300, 1e-200), 0.0, 0.0);
 }
 
+/* A chain of odometry through the poses of truth (3 doubles each): each step measured with
+ * N(0, sigma^2) noise on x and y and N(0, heading_sigma^2) on the heading, the poses added at
+ * the odometry-composed estimate (into estimate), pose 0 at the origin; rng goes on from there. */
+static void add_noisy_odometry(pgem_t *graph, const double *truth, int poses, const double *information,
+                               double sigma, double heading_sigma, test_rng_t *rng, double *estimate)
+{
+    memset(estimate, 0, 3 * sizeof(double));
+    assert_int_equal(pgem_add_pose(graph, 0, estimate), PGEM_OK);
+    for (int i = 1; i < poses; i++) {
+        double z[3];
+        pgem_se2_between(truth + 3 * (i - 1), truth + 3 * i, z);
+        z[0] += sigma * test_gaussian(rng);
+        z[1] += sigma * test_gaussian(rng);
+        z[2] += heading_sigma * test_gaussian(rng);
+        pgem_se2_compose(estimate + 3 * (i - 1), z, estimate + 3 * i);
+        assert_int_equal(pgem_add_pose(graph, (pgem_id_t)i, estimate + 3 * i), PGEM_OK);
+        assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(i - 1), (pgem_id_t)i, z, information,
+                                       PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+    }
+}
+
 /* A corridor walked out and back (N poses each way, 1 m apart, the way back 2 m to the side),
  * odometry whose stated information is four times too confident (standard deviations half
  * the real ones, as real front-ends report them), and two true loop closures at the end of
@@ -1066,19 +1087,7 @@ static pgem_t *corridor(uint64_t seed, double *truth, uint32_t *loops)
         truth[3 * back + 2] = 3.141592653589793;
     }
     test_rng_t rng = {seed};
-    memset(estimate, 0, 3 * sizeof(double));
-    assert_int_equal(pgem_add_pose(graph, 0, estimate), PGEM_OK);
-    for (int i = 1; i < poses; i++) {
-        double z[3];
-        pgem_se2_between(truth + 3 * (i - 1), truth + 3 * i, z);
-        z[0] += sigma * test_gaussian(&rng);
-        z[1] += sigma * test_gaussian(&rng);
-        z[2] += heading_sigma * test_gaussian(&rng);
-        pgem_se2_compose(estimate + 3 * (i - 1), z, estimate + 3 * i);
-        assert_int_equal(pgem_add_pose(graph, (pgem_id_t)i, estimate + 3 * i), PGEM_OK);
-        assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(i - 1), (pgem_id_t)i, z, information,
-                                       PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
-    }
+    add_noisy_odometry(graph, truth, poses, information, sigma, heading_sigma, &rng, estimate);
     for (int m = 0; m < 2; m++) {
         const int from = poses - 1 - m, to = m;
         double z[3];
@@ -1370,23 +1379,13 @@ static pgem_t *square_walk(uint64_t seed, int run, int group, uint32_t *run_loop
     double information[9], truth[3 * SQUARE_POSES], estimate[3 * SQUARE_POSES];
     test_diagonal_information(3, 1.0 / (sigma * sigma * stated * stated), information);
     information[8] = 1.0 / (heading_sigma * heading_sigma * stated * stated);
-    test_rng_t rng = {seed};
     memset(truth, 0, 3 * sizeof(double));
-    memset(estimate, 0, 3 * sizeof(double));
-    assert_int_equal(pgem_add_pose(graph, 0, estimate), PGEM_OK);
     for (int i = 1; i < SQUARE_POSES; i++) {
         const double step[3] = {1.0, 0.0, i % SQUARE_SIDE == 0 ? 1.5707963267948966 : 0.0};
-        double z[3];
         pgem_se2_compose(truth + 3 * (i - 1), step, truth + 3 * i);
-        pgem_se2_between(truth + 3 * (i - 1), truth + 3 * i, z);
-        z[0] += sigma * test_gaussian(&rng);
-        z[1] += sigma * test_gaussian(&rng);
-        z[2] += heading_sigma * test_gaussian(&rng);
-        pgem_se2_compose(estimate + 3 * (i - 1), z, estimate + 3 * i);
-        assert_int_equal(pgem_add_pose(graph, (pgem_id_t)i, estimate + 3 * i), PGEM_OK);
-        assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(i - 1), (pgem_id_t)i, z, information,
-                                       PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
     }
+    test_rng_t rng = {seed};
+    add_noisy_odometry(graph, truth, SQUARE_POSES, information, sigma, heading_sigma, &rng, estimate);
     for (int i = SQUARE_LAP; i < SQUARE_POSES; i++) {
         const int place = i - SQUARE_LAP;
         const int single = place % SQUARE_EVERY == 0, in_run = run && place >= 20 && place < 20 + SQUARE_RUN;

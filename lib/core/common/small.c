@@ -31,15 +31,25 @@ void pgem_small_apply(const double *a, int transpose, const double *v, double *o
     }
 }
 
-int pgem_small_inverse(const double *a, double *out, int n)
+/* The start of an elimination on [a | I]: a into work, the identity into out; 0 if n is out of
+ * range. */
+static int pgem_small_inverse_start(const double *a, double *work, double *out, int n)
 {
-    double work[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
     if (n < 1 || n > PGEM_SMALL_MAX) {
         return 0;
     }
     for (int q = 0; q < n * n; q++) {
         work[q] = a[q];
         out[q] = q / n == q % n ? 1.0 : 0.0;
+    }
+    return 1;
+}
+
+int pgem_small_inverse(const double *a, double *out, int n)
+{
+    double work[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
+    if (!pgem_small_inverse_start(a, work, out, n)) {
+        return 0;
     }
     for (int c = 0; c < n; c++) { /* Gauss-Jordan, the largest pivot of the column */
         int pivot = c;
@@ -83,12 +93,8 @@ int pgem_small_inverse(const double *a, double *out, int n)
 int pgem_small_inverse_definite(const double *a, double *out, int n)
 {
     double work[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
-    if (n < 1 || n > PGEM_SMALL_MAX) {
+    if (!pgem_small_inverse_start(a, work, out, n)) {
         return 0;
-    }
-    for (int q = 0; q < n * n; q++) {
-        work[q] = a[q];
-        out[q] = q / n == q % n ? 1.0 : 0.0;
     }
     for (int c = 0; c < n; c++) {
         const double pivot = work[c * n + c];

@@ -62,7 +62,7 @@ int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
  * and the next pass if it pruned a run or group (bounded by max_rounds passes). Ends polished. No EM rounds run between passes: the test decides each
  * loop against the leave-one-out prediction of the polished map, which is what the rounds'
  * innovation E-steps converged to, at a tenth of their cost (docs/design/robust-em.md). */
-static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *later,
+static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *options,
                           const pgem_solve_options_t *solve, pgem_robust_summary_t *summary, double gate)
 {
     int status = PGEM_OK;
@@ -74,16 +74,16 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *later,
             break;
         }
         pgem_pass_mark_t mark;
-        pgem_pass_mark(graph, later->scale, &mark);
+        pgem_pass_mark(graph, options->scale, &mark);
         if (pgem_settle_pass(&settle, &mark)) {
             pgem_robust_ended(summary, PGEM_ROBUST_OSCILLATED);
             break;
         }
-        if (pass == later->max_rounds) {
+        if (pass == options->max_rounds) {
             pgem_robust_ended(summary, settle.cycling ? PGEM_ROBUST_OSCILLATED : PGEM_ROBUST_ROUND_LIMIT);
             break;
         }
-        if (pgem_em_gate(graph, later, gate, summary) == 0u &&
+        if (pgem_em_gate(graph, options, gate, summary) == 0u &&
             (pgem_most_rejected(graph) ? pgem_em_leave_run_out(graph, summary, &status)
                                        : pgem_em_leave_group_out(graph, summary, &status)) == 0u) {
             pgem_robust_ended(summary, PGEM_ROBUST_CONVERGED);
