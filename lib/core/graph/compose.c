@@ -9,7 +9,6 @@
 #include <string.h>
 
 #include "graph/graph.h"
-#include "instance.h"
 
 /* The error of an edge from xi to xj with measurement z (into error unless NULL), and its
  * Jacobians. */
@@ -112,13 +111,12 @@ static int pgem_compose_edge(int three, const double *x1, const double *x2, cons
     return pgem_information_check(information, n, NULL) == PGEM_OK;
 }
 
-int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t kb,
+int pgem_edge_compose(const pgem_store_t *store, uint32_t ka, double share_a, uint32_t kb,
                       double share_b, uint32_t p, uint32_t *from, uint32_t *to,
-                      double *measurement, double *information)
+                      double *measurement, double *information, int tangent)
 {
-    const pgem_store_t *store = &graph->store;
-    const int three = graph->config.dimension == 3, n = graph->tangent;
-    const size_t size = (size_t)graph->pose_size, nn = (size_t)n * (size_t)n;
+    const int three = tangent == 6, n = tangent;
+    const size_t size = pgem_pose_doubles(tangent), nn = (size_t)n * (size_t)n;
     const int a_ends_at_p = store->edge_to[ka] == p;  /* ka: other -> p */
     const int b_starts_at_p = store->edge_from[kb] == p; /* kb: p -> other */
     *from = a_ends_at_p ? store->edge_from[ka] : store->edge_to[ka];
@@ -216,12 +214,11 @@ int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t
     return pgem_compose_edge(three, x1, x2, z, h22, n, size, measurement, information);
 }
 
-int pgem_edge_fuse(const pgem_t *graph, uint32_t ka, double weight_a, uint32_t kb,
-                   double weight_b, double *measurement, double *information)
+int pgem_edge_fuse(const pgem_store_t *store, uint32_t ka, double weight_a, uint32_t kb,
+                   double weight_b, double *measurement, double *information, int tangent)
 {
-    const pgem_store_t *store = &graph->store;
-    const int three = graph->config.dimension == 3, n = graph->tangent;
-    const size_t size = (size_t)graph->pose_size, nn = (size_t)n * (size_t)n;
+    const int three = tangent == 6, n = tangent;
+    const size_t size = pgem_pose_doubles(tangent), nn = (size_t)n * (size_t)n;
     const int reversed = store->edge_from[kb] != store->edge_from[ka]; /* kb: to -> from */
     const double *za = store->edge_measurement + (size_t)ka * size;
     const double *zb = store->edge_measurement + (size_t)kb * size;

@@ -1,122 +1,127 @@
-/* Adding and reading edges, each input checked before anything changes. */
+/* Adding and reading edges, each input checked before anything changes (pgem_add_edge and
+ * pgem_edge_at are these over the instance's store, instance/graph.c). */
 #include <string.h>
 
 #include "graph/graph.h"
-#include "instance.h"
 
-static int pgem_edge_fail_ids(pgem_t *graph, int code, pgem_id_t from, pgem_id_t to)
+static void pgem_edge_note(char *message, const char *text)
 {
-    pgem_message_text(graph, " (edge ");
-    pgem_message_u64(graph, from);
-    pgem_message_text(graph, " -> ");
-    pgem_message_u64(graph, to);
-    pgem_message_text(graph, ")");
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, text);
+}
+
+static int pgem_edge_fail_ids(char *message, int code, pgem_id_t from, pgem_id_t to)
+{
+    pgem_edge_note(message, " (edge ");
+    pgem_text_u64(message, PGEM_MESSAGE_SIZE, from);
+    pgem_edge_note(message, " -> ");
+    pgem_text_u64(message, PGEM_MESSAGE_SIZE, to);
+    pgem_edge_note(message, ")");
     return code;
 }
 
-static int pgem_edge_check_ends(pgem_t *graph, pgem_id_t from, pgem_id_t to, int64_t *from_index,
-                                int64_t *to_index)
+static int pgem_edge_check_ends(const pgem_store_t *store, pgem_id_t from, pgem_id_t to,
+                                int64_t *from_index, int64_t *to_index, char *message)
 {
-    *from_index = pgem_map_find(&graph->store, from);
-    *to_index = pgem_map_find(&graph->store, to);
+    *from_index = pgem_map_find(store, from);
+    *to_index = pgem_map_find(store, to);
     if (*from_index < 0 || *to_index < 0) {
-        pgem_message_clear(graph);
-        pgem_message_text(graph, "no pose with id ");
-        pgem_message_u64(graph, *from_index < 0 ? from : to);
-        return pgem_edge_fail_ids(graph, PGEM_ERR_UNKNOWN_ID, from, to);
+        message[0] = '\0';
+        pgem_edge_note(message, "no pose with id ");
+        pgem_text_u64(message, PGEM_MESSAGE_SIZE, *from_index < 0 ? from : to);
+        return pgem_edge_fail_ids(message, PGEM_ERR_UNKNOWN_ID, from, to);
     }
     if (from == to) {
-        pgem_message_clear(graph);
-        pgem_message_text(graph, "an edge must join two different poses");
-        return pgem_edge_fail_ids(graph, PGEM_ERR_SELF_LOOP, from, to);
+        message[0] = '\0';
+        pgem_edge_note(message, "an edge must join two different poses");
+        return pgem_edge_fail_ids(message, PGEM_ERR_SELF_LOOP, from, to);
     }
     return PGEM_OK;
 }
 
-static int pgem_edge_capacity(pgem_t *graph, pgem_id_t from, pgem_id_t to)
+static int pgem_edge_capacity(uint32_t max_edges, pgem_id_t from, pgem_id_t to, char *message)
 {
-    pgem_message_clear(graph);
-    pgem_message_text(graph, "edge exceeds the edge capacity (max_edges = ");
-    pgem_message_u64(graph, graph->config.max_edges);
-    pgem_message_text(graph, ")");
-    return pgem_edge_fail_ids(graph, PGEM_ERR_CAPACITY, from, to);
+    message[0] = '\0';
+    pgem_edge_note(message, "edge exceeds the edge capacity (max_edges = ");
+    pgem_text_u64(message, PGEM_MESSAGE_SIZE, max_edges);
+    pgem_edge_note(message, ")");
+    return pgem_edge_fail_ids(message, PGEM_ERR_CAPACITY, from, to);
 }
 
-int pgem_add_edge(pgem_t *graph, pgem_id_t from, pgem_id_t to, const double *measurement,
-                  const double *information, pgem_edge_kind_t kind, uint32_t *edge_index)
+int pgem_store_add_edge(pgem_store_t *store, const pgem_config_t *config, pgem_id_t from,
+                        pgem_id_t to, const double *measurement, const double *information,
+                        pgem_edge_kind_t kind, uint32_t *edge_index, char *message)
 {
     double checked[PGEM_POSE_SIZE_MAX];
     int64_t from_index, to_index;
-    if (graph == NULL || measurement == NULL || information == NULL) {
+    if (measurement == NULL || information == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
     if (kind != PGEM_EDGE_ODOMETRY && kind != PGEM_EDGE_LOOP) {
-        pgem_message_clear(graph);
-        pgem_message_text(graph, "edge kind must be odometry or loop");
-        return pgem_edge_fail_ids(graph, PGEM_ERR_INVALID_ARGUMENT, from, to);
+        message[0] = '\0';
+        pgem_edge_note(message, "edge kind must be odometry or loop");
+        return pgem_edge_fail_ids(message, PGEM_ERR_INVALID_ARGUMENT, from, to);
     }
-    if (graph->store.edge_count >= graph->config.max_edges) {
-        return pgem_edge_capacity(graph, from, to);
+    if (store->edge_count >= config->max_edges) {
+        return pgem_edge_capacity(config->max_edges, from, to, message);
     }
-    int status = pgem_edge_check_ends(graph, from, to, &from_index, &to_index);
+    const int tangent = PGEM_TANGENT_SIZE(config->dimension);
+    int status = pgem_edge_check_ends(store, from, to, &from_index, &to_index, message);
     if (status == PGEM_OK) {
-        status = pgem_check_pose(graph, measurement, checked, "measurement");
+        status = pgem_check_pose(message, config->dimension, measurement, checked, "measurement");
     }
     if (status == PGEM_OK) {
-        status = pgem_check_information(graph->message, graph->tangent, information);
+        status = pgem_check_information(message, tangent, information);
     }
     if (status != PGEM_OK) {
         return status == PGEM_ERR_UNKNOWN_ID || status == PGEM_ERR_SELF_LOOP
                    ? status
-                   : pgem_edge_fail_ids(graph, status, from, to);
+                   : pgem_edge_fail_ids(message, status, from, to);
     }
-    const uint32_t k = graph->store.edge_count;
-    const size_t info_size = (size_t)graph->tangent * (size_t)graph->tangent;
-    graph->store.edge_from[k] = (uint32_t)from_index;
-    graph->store.edge_to[k] = (uint32_t)to_index;
-    memcpy(graph->store.edge_measurement + (size_t)k * (size_t)graph->pose_size, checked,
-           (size_t)graph->pose_size * sizeof(double));
-    memcpy(graph->store.edge_information + (size_t)k * info_size, information, info_size * sizeof(double));
-    graph->store.edge_kind[k] = (uint8_t)kind;
-    graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
-    graph->store.edge_weight[k] = 1.0;
-    graph->store.edge_count++;
-    graph->store.topology++;
-    pgem_message_clear(graph);
+    const uint32_t k = store->edge_count;
+    const size_t pose_size = pgem_pose_doubles(tangent);
+    const size_t info_size = (size_t)tangent * (size_t)tangent;
+    store->edge_from[k] = (uint32_t)from_index;
+    store->edge_to[k] = (uint32_t)to_index;
+    memcpy(store->edge_measurement + (size_t)k * pose_size, checked, pose_size * sizeof(double));
+    memcpy(store->edge_information + (size_t)k * info_size, information,
+           info_size * sizeof(double));
+    store->edge_kind[k] = (uint8_t)kind;
+    store->edge_active[k] = PGEM_EDGE_ACTIVE;
+    store->edge_weight[k] = 1.0;
+    store->edge_count++;
+    store->topology++;
+    message[0] = '\0';
     if (edge_index != NULL) {
         *edge_index = k;
     }
     return PGEM_OK;
 }
 
-uint32_t pgem_edge_count(const pgem_t *graph)
+int pgem_store_edge_at(const pgem_store_t *store, uint32_t index, pgem_edge_view_t *view,
+                       int tangent)
 {
-    return graph != NULL ? graph->store.edge_count : 0u;
-}
-
-int pgem_edge_at(const pgem_t *graph, uint32_t index, pgem_edge_view_t *view)
-{
-    if (graph == NULL || view == NULL || index >= graph->store.edge_count) {
+    if (view == NULL || index >= store->edge_count) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    const size_t info_size = (size_t)graph->tangent * (size_t)graph->tangent;
+    const size_t pose_size = pgem_pose_doubles(tangent);
+    const size_t info_size = (size_t)tangent * (size_t)tangent;
     memset(view, 0, sizeof *view);
-    view->from = graph->store.pose_id[graph->store.edge_from[index]];
-    view->to = graph->store.pose_id[graph->store.edge_to[index]];
-    view->kind = (pgem_edge_kind_t)graph->store.edge_kind[index];
-    memcpy(view->measurement, graph->store.edge_measurement + (size_t)index * (size_t)graph->pose_size,
-           (size_t)graph->pose_size * sizeof(double));
-    memcpy(view->information, graph->store.edge_information + (size_t)index * info_size,
+    view->from = store->pose_id[store->edge_from[index]];
+    view->to = store->pose_id[store->edge_to[index]];
+    view->kind = (pgem_edge_kind_t)store->edge_kind[index];
+    memcpy(view->measurement, store->edge_measurement + (size_t)index * pose_size,
+           pose_size * sizeof(double));
+    memcpy(view->information, store->edge_information + (size_t)index * info_size,
            info_size * sizeof(double));
-    view->weight = graph->store.edge_weight[index];
-    view->active = graph->store.edge_active[index] != PGEM_EDGE_PRUNED; /* dormant: not pruned */
+    view->weight = store->edge_weight[index];
+    view->active = store->edge_active[index] != PGEM_EDGE_PRUNED; /* dormant: not pruned */
     return PGEM_OK;
 }
 
 /* An edge named by its poses' ids in messages. */
-void pgem_message_edge(pgem_t *graph, uint32_t k)
+void pgem_store_edge_name(const pgem_store_t *store, uint32_t k, char *message)
 {
-    pgem_message_u64(graph, graph->store.pose_id[graph->store.edge_from[k]]);
-    pgem_message_text(graph, "-");
-    pgem_message_u64(graph, graph->store.pose_id[graph->store.edge_to[k]]);
+    pgem_text_u64(message, PGEM_MESSAGE_SIZE, store->pose_id[store->edge_from[k]]);
+    pgem_edge_note(message, "-");
+    pgem_text_u64(message, PGEM_MESSAGE_SIZE, store->pose_id[store->edge_to[k]]);
 }

@@ -1,6 +1,10 @@
 /* The graph layer, private to lib/core: pose and edge storage in fixed arrays, the id map,
  * each edge's kind, state and weight, and a topology version the layers above compare to
- * notice changes (graph knows nothing of them). Also the edge's error and its chi2. */
+ * notice changes (graph knows nothing of them). Also the edge's error and its chi2. Its calls
+ * take the store, the dimension (`tangent`: an edge's error rows, 3 or 6; `dimension`: 2 or
+ * 3) or the configuration (for the capacities) and, where they fail with a message, the
+ * message buffer (PGEM_MESSAGE_SIZE bytes), never the instance; the public graph calls are
+ * these over the instance's store (instance/graph.c). */
 #ifndef PGEM_GRAPH_LAYER_H
 #define PGEM_GRAPH_LAYER_H
 
@@ -65,6 +69,12 @@ typedef struct pgem_store {
     double *edge_weight;       /* [max_edges] robust weight, 1 for odometry */
 } pgem_store_t;
 
+/* Doubles per pose for an edge's tangent rows (3: SE(2), 6: SE(3)). */
+static inline size_t pgem_pose_doubles(int tangent)
+{
+    return tangent == 6 ? 7u : 3u;
+}
+
 /* Carves the store's arrays for config's capacities and the dimension (doubles per pose, rows
  * per edge) from the arena (measuring when arena->base is NULL). */
 void pgem_store_carve(pgem_store_t *store, const pgem_config_t *config, int pose_size,
@@ -88,36 +98,56 @@ uint32_t pgem_pose_release_parts(pgem_store_t *store, uint8_t flag);
  * information that keep the pair's quadratic form about the estimate (p marginalised out), taking
  * the shares share_a and share_b (in (0, 1]) of the two edges' information. Returns 0 when
  * that information is not a usable one (singular, or refused by pgem_information_check). */
-int pgem_edge_compose(const pgem_t *graph, uint32_t ka, double share_a, uint32_t kb,
+int pgem_edge_compose(const pgem_store_t *store, uint32_t ka, double share_a, uint32_t kb,
                       double share_b, uint32_t p, uint32_t *from, uint32_t *to,
-                      double *measurement, double *information);
+                      double *measurement, double *information, int tangent);
 
 /* Edges ka and kb, which join the same two poses (either way round), fused into one edge
  * from ka's first pose to its second (graph/compose.c): the measurement where the two,
  * weighted by weight_a and weight_b, agree best, and their information together. Returns 0
  * when that information is not a usable one. */
-int pgem_edge_fuse(const pgem_t *graph, uint32_t ka, double weight_a, uint32_t kb,
-                   double weight_b, double *measurement, double *information);
+int pgem_edge_fuse(const pgem_store_t *store, uint32_t ka, double weight_a, uint32_t kb,
+                   double weight_b, double *measurement, double *information, int tangent);
 
-/* Appends edge k's pose ids, "FROM-TO", to the message (graph/idmap.c). */
-void pgem_message_edge(pgem_t *graph, uint32_t k);
+/* pgem_add_pose, pgem_fix_pose and pgem_hold_gauge (flag PGEM_POSE_FIXED, PGEM_POSE_GAUGE or
+ * 0), pgem_pose_index, pgem_pose, pgem_set_pose and pgem_pose_at on the store
+ * (graph/pose.c): the checks and messages are those calls'. */
+int pgem_store_add_pose(pgem_store_t *store, const pgem_config_t *config, pgem_id_t id,
+                        const double *pose, char *message);
+int pgem_store_hold(pgem_store_t *store, pgem_id_t id, uint8_t flag, char *message);
+int pgem_store_pose_index(const pgem_store_t *store, pgem_id_t id, uint32_t *index);
+int pgem_store_pose(const pgem_store_t *store, int dimension, pgem_id_t id, double *pose);
+int pgem_store_set_pose(pgem_store_t *store, int dimension, pgem_id_t id, const double *pose,
+                        char *message);
+int pgem_store_pose_at(const pgem_store_t *store, int dimension, uint32_t index, pgem_id_t *id,
+                       double *pose, int *fixed);
+/* pgem_add_edge and pgem_edge_at on the store (graph/edge.c). */
+int pgem_store_add_edge(pgem_store_t *store, const pgem_config_t *config, pgem_id_t from,
+                        pgem_id_t to, const double *measurement, const double *information,
+                        pgem_edge_kind_t kind, uint32_t *edge_index, char *message);
+int pgem_store_edge_at(const pgem_store_t *store, uint32_t index, pgem_edge_view_t *view,
+                       int tangent);
+/* Appends edge k's pose ids, "FROM-TO", to message (graph/edge.c). */
+void pgem_store_edge_name(const pgem_store_t *store, uint32_t k, char *message);
 
 /* Id map: pose index of id, or -1. */
 int64_t pgem_map_find(const pgem_store_t *store, pgem_id_t id);
 void pgem_map_insert(pgem_store_t *store, pgem_id_t id, uint32_t index);
 
-/* Checks and normalises a pose; names the field in the message on failure. */
-int pgem_check_pose(pgem_t *graph, const double *pose, double *normalised, const char *what);
+/* Checks and normalises a pose of the dimension (2 or 3); on failure message names `what`
+ * and the field. */
+int pgem_check_pose(char *message, int dimension, const double *pose, double *normalised,
+                    const char *what);
 
 /* Checks a tangent x tangent information matrix (finite, symmetric, positive definite); on
  * failure message (PGEM_MESSAGE_SIZE bytes) names the entry. */
 int pgem_check_information(char *message, int tangent, const double *information);
 
 /* Error and Jacobians of edge k under the current estimate (Jacobians may be NULL). */
-void pgem_edge_error(const pgem_t *graph, uint32_t k, double *error, double *jacobian_from,
-                     double *jacobian_to);
+void pgem_edge_error(const pgem_store_t *store, uint32_t k, double *error, double *jacobian_from,
+                     double *jacobian_to, int tangent);
 /* e^T Omega e for edge k. */
-double pgem_edge_mahalanobis(const pgem_t *graph, uint32_t k);
+double pgem_edge_mahalanobis(const pgem_store_t *store, uint32_t k, int tangent);
 /* e^T Omega e for an n x n Omega (n a constant at each call, so the loops unroll). The one sum
  * behind every chi2: an assembly's and pgem_weighted_chi2's agree to the last bit. */
 static inline double pgem_quadratic_form(const double *information, const double *error, int n)
@@ -148,7 +178,9 @@ typedef struct pgem_edge_linearisation {
 double pgem_edge_linearise(const pgem_store_t *store, uint32_t k, pgem_edge_blocks_t *out,
                            int tangent);
 
-/* Weighted chi2 (edges not pruned, robust weights) under the current estimate. */
-double pgem_weighted_chi2(const pgem_t *graph);
+/* Weighted chi2 (edges not pruned, robust weights) under the current estimate; the chi2 of
+ * every edge, unweighted (pgem_total_chi2). */
+double pgem_weighted_chi2(const pgem_store_t *store, int tangent);
+double pgem_store_total_chi2(const pgem_store_t *store, int tangent);
 
 #endif /* PGEM_GRAPH_LAYER_H */

@@ -1,13 +1,18 @@
-/* Adding, fixing, reading and overwriting poses, each input checked before anything changes. */
+/* Adding, fixing, reading and overwriting poses, each input checked before anything changes
+ * (the public pose calls are these over the instance's store, instance/graph.c). */
 #include <math.h>
 #include <string.h>
 
 #include "graph/graph.h"
-#include "instance.h"
 
 /* Field names by dimension (row 0: 2D, row 1: 3D), both rows PGEM_POSE_SIZE_MAX long. */
 static const char *const pgem_pose_fields[2][PGEM_POSE_SIZE_MAX] = {
     {"x", "y", "theta", "", "", "", ""}, {"x", "y", "z", "qx", "qy", "qz", "qw"}};
+
+static void pgem_pose_note(char *message, const char *text)
+{
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, text);
+}
 
 /* The norm of a quaternion, left as it is. */
 static double pgem_quat_norm(const double *q)
@@ -45,28 +50,29 @@ int pgem_pose_check(const double *pose, int dimension, int *field)
     return PGEM_OK;
 }
 
-int pgem_check_pose(pgem_t *graph, const double *pose, double *normalised, const char *what)
+int pgem_check_pose(char *message, int dimension, const double *pose, double *normalised,
+                    const char *what)
 {
-    const char *const *fields = pgem_pose_fields[graph->config.dimension == 3];
+    const char *const *fields = pgem_pose_fields[dimension == 3];
     int field = -1;
-    int status = pgem_pose_check(pose, graph->config.dimension, &field);
+    int status = pgem_pose_check(pose, dimension, &field);
     if (status != PGEM_OK) {
-        pgem_message_clear(graph);
-        pgem_message_text(graph, what);
+        message[0] = '\0';
+        pgem_pose_note(message, what);
         if (status == PGEM_ERR_ROTATION) {
-            pgem_message_text(graph, ": quaternion (qx qy qz qw) norm is not within 1% of 1");
+            pgem_pose_note(message, ": quaternion (qx qy qz qw) norm is not within 1% of 1");
             return status;
         }
-        pgem_message_text(graph, ": field ");
-        pgem_message_text(graph, fields[field > 0 ? field : 0]); /* set with these codes */
-        pgem_message_text(graph, status == PGEM_ERR_NOT_FINITE
-                                     ? " is not finite"
-                                     : " is beyond the translation limit (|x|, |y|, |z| at most "
-                                       "1e8 m, PGEM_TRANSLATION_LIMIT)");
+        pgem_pose_note(message, ": field ");
+        pgem_pose_note(message, fields[field > 0 ? field : 0]); /* set with these codes */
+        pgem_pose_note(message, status == PGEM_ERR_NOT_FINITE
+                                    ? " is not finite"
+                                    : " is beyond the translation limit (|x|, |y|, |z| at most "
+                                      "1e8 m, PGEM_TRANSLATION_LIMIT)");
         return status;
     }
-    memcpy(normalised, pose, (size_t)graph->pose_size * sizeof(double));
-    if (graph->config.dimension == 2) {
+    memcpy(normalised, pose, (size_t)PGEM_POSE_SIZE(dimension) * sizeof(double));
+    if (dimension == 2) {
         normalised[2] = pgem_wrap_angle(pose[2]);
         return PGEM_OK;
     }
@@ -74,59 +80,65 @@ int pgem_check_pose(pgem_t *graph, const double *pose, double *normalised, const
     return PGEM_OK;
 }
 
-static int pgem_unknown_pose(pgem_t *graph, pgem_id_t id)
+static int pgem_unknown_pose(pgem_id_t id, char *message)
 {
-    pgem_message_clear(graph);
-    pgem_message_text(graph, "no pose with id ");
-    pgem_message_u64(graph, id);
+    message[0] = '\0';
+    pgem_pose_note(message, "no pose with id ");
+    pgem_text_u64(message, PGEM_MESSAGE_SIZE, id);
     return PGEM_ERR_UNKNOWN_ID;
 }
 
-int pgem_add_pose(pgem_t *graph, pgem_id_t id, const double *pose)
+/* " (pose id ID)" after a refused pose's message. */
+static int pgem_pose_fail_id(int status, pgem_id_t id, char *message)
+{
+    pgem_pose_note(message, " (pose id ");
+    pgem_text_u64(message, PGEM_MESSAGE_SIZE, id);
+    pgem_pose_note(message, ")");
+    return status;
+}
+
+int pgem_store_add_pose(pgem_store_t *store, const pgem_config_t *config, pgem_id_t id,
+                        const double *pose, char *message)
 {
     double checked[PGEM_POSE_SIZE_MAX];
-    if (graph == NULL || pose == NULL) {
+    if (pose == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    if (graph->store.pose_count >= graph->config.max_poses) {
-        pgem_message_clear(graph);
-        pgem_message_text(graph, "pose ");
-        pgem_message_u64(graph, id);
-        pgem_message_text(graph, " exceeds the pose capacity (max_poses = ");
-        pgem_message_u64(graph, graph->config.max_poses);
-        pgem_message_text(graph, ")");
+    if (store->pose_count >= config->max_poses) {
+        message[0] = '\0';
+        pgem_pose_note(message, "pose ");
+        pgem_text_u64(message, PGEM_MESSAGE_SIZE, id);
+        pgem_pose_note(message, " exceeds the pose capacity (max_poses = ");
+        pgem_text_u64(message, PGEM_MESSAGE_SIZE, config->max_poses);
+        pgem_pose_note(message, ")");
         return PGEM_ERR_CAPACITY;
     }
-    if (pgem_map_find(&graph->store, id) >= 0) {
-        pgem_message_clear(graph);
-        pgem_message_text(graph, "pose id ");
-        pgem_message_u64(graph, id);
-        pgem_message_text(graph, " already exists");
+    if (pgem_map_find(store, id) >= 0) {
+        message[0] = '\0';
+        pgem_pose_note(message, "pose id ");
+        pgem_text_u64(message, PGEM_MESSAGE_SIZE, id);
+        pgem_pose_note(message, " already exists");
         return PGEM_ERR_DUPLICATE_ID;
     }
-    int status = pgem_check_pose(graph, pose, checked, "pose");
+    int status = pgem_check_pose(message, config->dimension, pose, checked, "pose");
     if (status != PGEM_OK) {
-        pgem_message_text(graph, " (pose id ");
-        pgem_message_u64(graph, id);
-        pgem_message_text(graph, ")");
-        return status;
+        return pgem_pose_fail_id(status, id, message);
     }
-    uint32_t index = graph->store.pose_count;
-    graph->store.pose_id[index] = id;
-    memcpy(graph->store.pose + (size_t)index * (size_t)graph->pose_size, checked,
-           (size_t)graph->pose_size * sizeof(double));
-    graph->store.pose_fixed[index] = 0;
-    pgem_map_insert(&graph->store, id, index);
-    graph->store.pose_count++;
-    graph->store.topology++;
-    pgem_message_clear(graph);
+    const size_t size = (size_t)PGEM_POSE_SIZE(config->dimension);
+    uint32_t index = store->pose_count;
+    store->pose_id[index] = id;
+    memcpy(store->pose + (size_t)index * size, checked, size * sizeof(double));
+    store->pose_fixed[index] = 0;
+    pgem_map_insert(store, id, index);
+    store->pose_count++;
+    store->topology++;
+    message[0] = '\0';
     return PGEM_OK;
 }
 
 /* Sets pose `index`'s hold (0, PGEM_POSE_FIXED or PGEM_POSE_GAUGE). */
-static void pgem_set_hold(pgem_t *graph, uint32_t index, uint8_t flag)
+static void pgem_set_hold(pgem_store_t *store, uint32_t index, uint8_t flag)
 {
-    pgem_store_t *store = &graph->store;
     if (store->pose_fixed[index] == flag) {
         return;
     }
@@ -143,37 +155,23 @@ static void pgem_set_hold(pgem_t *graph, uint32_t index, uint8_t flag)
     store->edited_low = low < store->edited_low ? low : store->edited_low;
 }
 
-/* pgem_fix_pose and pgem_hold_gauge: the pose's index, or UNKNOWN_ID. */
-static int pgem_hold(pgem_t *graph, pgem_id_t id, uint8_t flag)
+int pgem_store_hold(pgem_store_t *store, pgem_id_t id, uint8_t flag, char *message)
 {
-    if (graph == NULL) {
-        return PGEM_ERR_INVALID_ARGUMENT;
-    }
-    int64_t index = pgem_map_find(&graph->store, id);
+    int64_t index = pgem_map_find(store, id);
     if (index < 0) {
-        return pgem_unknown_pose(graph, id);
+        return pgem_unknown_pose(id, message);
     }
-    pgem_set_hold(graph, (uint32_t)index, flag);
-    pgem_message_clear(graph);
+    pgem_set_hold(store, (uint32_t)index, flag);
+    message[0] = '\0';
     return PGEM_OK;
 }
 
-int pgem_fix_pose(pgem_t *graph, pgem_id_t id, int fixed)
+int pgem_store_pose_index(const pgem_store_t *store, pgem_id_t id, uint32_t *index)
 {
-    return pgem_hold(graph, id, fixed ? (uint8_t)PGEM_POSE_FIXED : 0u);
-}
-
-int pgem_hold_gauge(pgem_t *graph, pgem_id_t id, int on)
-{
-    return pgem_hold(graph, id, on ? (uint8_t)PGEM_POSE_GAUGE : 0u);
-}
-
-int pgem_pose_index(const pgem_t *graph, pgem_id_t id, uint32_t *index)
-{
-    if (graph == NULL || index == NULL) {
+    if (index == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    int64_t found = pgem_map_find(&graph->store, id);
+    int64_t found = pgem_map_find(store, id);
     if (found < 0) {
         return PGEM_ERR_UNKNOWN_ID;
     }
@@ -181,70 +179,58 @@ int pgem_pose_index(const pgem_t *graph, pgem_id_t id, uint32_t *index)
     return PGEM_OK;
 }
 
-int pgem_pose(const pgem_t *graph, pgem_id_t id, double *pose)
+int pgem_store_pose(const pgem_store_t *store, int dimension, pgem_id_t id, double *pose)
 {
-    if (graph == NULL || pose == NULL) {
+    if (pose == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    int64_t index = pgem_map_find(&graph->store, id);
+    int64_t index = pgem_map_find(store, id);
     if (index < 0) {
         return PGEM_ERR_UNKNOWN_ID;
     }
-    memcpy(pose, graph->store.pose + (size_t)index * (size_t)graph->pose_size,
-           (size_t)graph->pose_size * sizeof(double));
+    const size_t size = (size_t)PGEM_POSE_SIZE(dimension);
+    memcpy(pose, store->pose + (size_t)index * size, size * sizeof(double));
     return PGEM_OK;
 }
 
-int pgem_set_pose(pgem_t *graph, pgem_id_t id, const double *pose)
+int pgem_store_set_pose(pgem_store_t *store, int dimension, pgem_id_t id, const double *pose,
+                        char *message)
 {
     double checked[PGEM_POSE_SIZE_MAX];
-    if (graph == NULL || pose == NULL) {
+    if (pose == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    int64_t index = pgem_map_find(&graph->store, id);
+    int64_t index = pgem_map_find(store, id);
     if (index < 0) {
-        return pgem_unknown_pose(graph, id);
+        return pgem_unknown_pose(id, message);
     }
-    int status = pgem_check_pose(graph, pose, checked, "pose");
+    int status = pgem_check_pose(message, dimension, pose, checked, "pose");
     if (status != PGEM_OK) {
-        pgem_message_text(graph, " (pose id ");
-        pgem_message_u64(graph, id);
-        pgem_message_text(graph, ")");
-        return status;
+        return pgem_pose_fail_id(status, id, message);
     }
-    memcpy(graph->store.pose + (size_t)index * (size_t)graph->pose_size, checked,
-           (size_t)graph->pose_size * sizeof(double));
-    graph->store.edited_low = (uint32_t)index < graph->store.edited_low ? (uint32_t)index
-                                                                       : graph->store.edited_low;
-    graph->store.revision++;
-    pgem_message_clear(graph);
+    const size_t size = (size_t)PGEM_POSE_SIZE(dimension);
+    memcpy(store->pose + (size_t)index * size, checked, size * sizeof(double));
+    store->edited_low = (uint32_t)index < store->edited_low ? (uint32_t)index : store->edited_low;
+    store->revision++;
+    message[0] = '\0';
     return PGEM_OK;
 }
 
-int pgem_dimension(const pgem_t *graph)
+int pgem_store_pose_at(const pgem_store_t *store, int dimension, uint32_t index, pgem_id_t *id,
+                       double *pose, int *fixed)
 {
-    return graph != NULL ? graph->config.dimension : 0;
-}
-
-uint32_t pgem_pose_count(const pgem_t *graph)
-{
-    return graph != NULL ? graph->store.pose_count : 0u;
-}
-
-int pgem_pose_at(const pgem_t *graph, uint32_t index, pgem_id_t *id, double *pose, int *fixed)
-{
-    if (graph == NULL || index >= graph->store.pose_count) {
+    if (index >= store->pose_count) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
     if (id != NULL) {
-        *id = graph->store.pose_id[index];
+        *id = store->pose_id[index];
     }
     if (pose != NULL) {
-        memcpy(pose, graph->store.pose + (size_t)index * (size_t)graph->pose_size,
-               (size_t)graph->pose_size * sizeof(double));
+        const size_t size = (size_t)PGEM_POSE_SIZE(dimension);
+        memcpy(pose, store->pose + (size_t)index * size, size * sizeof(double));
     }
     if (fixed != NULL) {
-        *fixed = graph->store.pose_fixed[index] == PGEM_POSE_FIXED;
+        *fixed = store->pose_fixed[index] == PGEM_POSE_FIXED;
     }
     return PGEM_OK;
 }

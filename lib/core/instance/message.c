@@ -24,6 +24,11 @@ void pgem_message_i64(pgem_t *graph, int64_t value)
     pgem_text_i64(graph->message, PGEM_MESSAGE_SIZE, value);
 }
 
+void pgem_message_edge(pgem_t *graph, uint32_t k)
+{
+    pgem_store_edge_name(&graph->store, k, graph->message);
+}
+
 int pgem_fail(pgem_t *graph, int code, const char *text)
 {
     pgem_message_clear(graph);

@@ -11,6 +11,8 @@ void pgem_message_clear(pgem_t *graph);
 void pgem_message_text(pgem_t *graph, const char *text);
 void pgem_message_u64(pgem_t *graph, uint64_t value);
 void pgem_message_i64(pgem_t *graph, int64_t value);
+/* Appends edge k's pose ids, "FROM-TO" (pgem_store_edge_name). */
+void pgem_message_edge(pgem_t *graph, uint32_t k);
 int pgem_fail(pgem_t *graph, int code, const char *text);
 /* PGEM_ERR_INVALID_ARGUMENT with "option NAME is not a finite number" unless value is finite
  * (the solver's, robust's and online's option checks). */

@@ -132,8 +132,10 @@ static int pgem_compact_carry(pgem_compactor_t *c, const pgem_removal_t *r, uint
     const double share = store->edge_active[kl] == PGEM_EDGE_PRUNED
                              ? 1.0
                              : 1.0 / (double)(1 + (target == r->u ? r->carried_u : r->carried_v));
-    if (!(p_first ? pgem_edge_compose(c->graph, kt, share, kl, 1.0, r->p, &from, &to, z, information)
-                  : pgem_edge_compose(c->graph, kl, 1.0, kt, share, r->p, &from, &to, z, information))) {
+    if (!(p_first ? pgem_edge_compose(store, kt, share, kl, 1.0, r->p, &from, &to, z,
+                                      information, n)
+                  : pgem_edge_compose(store, kl, 1.0, kt, share, r->p, &from, &to, z,
+                                      information, n))) {
         return 0;
     }
     if (write) {
@@ -157,8 +159,10 @@ static int pgem_compact_merge(pgem_compactor_t *c, const pgem_removal_t *r, int 
     uint32_t from = 0, to = 0;
     double z[PGEM_POSE_SIZE_MAX], information[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     const double share_1 = 1.0 / (double)(1 + r->carried_u), share_2 = 1.0 / (double)(1 + r->carried_v);
-    if (!(u_first ? pgem_edge_compose(c->graph, r->k1, share_1, r->k2, share_2, r->p, &from, &to, z, information)
-                  : pgem_edge_compose(c->graph, r->k2, share_2, r->k1, share_1, r->p, &from, &to, z, information))) {
+    if (!(u_first ? pgem_edge_compose(store, r->k1, share_1, r->k2, share_2, r->p, &from, &to, z,
+                                      information, n)
+                  : pgem_edge_compose(store, r->k2, share_2, r->k1, share_1, r->p, &from, &to, z,
+                                      information, n))) {
         return 0;
     }
     if (write) {
@@ -253,8 +257,8 @@ static void pgem_compact_fuse(pgem_compactor_t *c)
             }
             const uint32_t keep = c->seen_by[b];
             double z[PGEM_POSE_SIZE_MAX], information[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-            if (!pgem_edge_fuse(graph, keep, store->edge_weight[keep], k, store->edge_weight[k], z,
-                                information)) {
+            if (!pgem_edge_fuse(store, keep, store->edge_weight[keep], k, store->edge_weight[k], z,
+                                information, n)) {
                 continue;
             }
             memcpy(store->edge_measurement + (size_t)keep * (size_t)graph->pose_size, z,

@@ -354,7 +354,7 @@ static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation
     double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double s[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0.0};
     double covariance[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX]; /* Omega^-1 */
-    pgem_edge_error(graph, k, e, jf, jt);
+    pgem_edge_error(&graph->store, k, e, jf, jt, graph->tangent);
     pgem_online_marginal(graph, online->pose_column[graph->store.edge_from[k]],
                          online->pose_column[graph->store.edge_to[k]], jf, jt, n, s);
     /* The map does not know one end's rotation from the other's to a radian (the SE(3)

@@ -42,7 +42,7 @@ static void pgem_loop_distance(pgem_t *graph, const pgem_robust_options_t *optio
     } else if (!pruned) {
         graph->robust.edge_distance[k] = innovation.plain; /* leave-one-out, no odometry allowance */
     } else {
-        graph->robust.edge_distance[k] = pgem_edge_mahalanobis(graph, k);
+        graph->robust.edge_distance[k] = pgem_edge_mahalanobis(&graph->store, k, graph->tangent);
     }
 }
 
@@ -59,7 +59,8 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, doub
             continue;
         }
         if (!innovation) { /* the point distance, or a singular problem: no covariance */
-            graph->robust.edge_distance[k] = pgem_edge_mahalanobis(graph, k);
+            graph->robust.edge_distance[k] =
+                pgem_edge_mahalanobis(&graph->store, k, graph->tangent);
             graph->robust.edge_checked[k] = 0;
         } else if (pgem_linear_on_pattern(graph, k)) {
             on_pattern++;
@@ -105,7 +106,7 @@ int pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options, double *
         if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP || graph->store.edge_active[k] == PGEM_EDGE_PRUNED) {
             continue;
         }
-        graph->robust.edge_distance[k] = pgem_edge_mahalanobis(graph, k);
+        graph->robust.edge_distance[k] = pgem_edge_mahalanobis(&graph->store, k, graph->tangent);
         graph->robust.edge_checked[k] = 0;
         double weight = 1.0;
         const int status = pgem_loop_kernel_weight(graph, options, k, &weight);

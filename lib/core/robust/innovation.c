@@ -145,7 +145,7 @@ static void pgem_loop_whiten(pgem_t *graph, uint32_t k, double *e, double *upper
     const int n = graph->tangent;
     double jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    pgem_edge_error(graph, k, e, jf, jt);
+    pgem_edge_error(&graph->store, k, e, jf, jt, graph->tangent);
     pgem_information_root(graph->store.edge_information + (size_t)k * (size_t)(n * n), n, upper);
     pgem_upper_times(upper, jf, n, a_from);
     pgem_upper_times(upper, jt, n, a_to);
@@ -215,7 +215,7 @@ int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, d
     double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     pgem_loop_whiten(graph, k, e, upper, a_from, a_to);
     pgem_predicted_error(graph, k, upper, e, a_from, a_to, predicted);
-    const double chi2 = pgem_edge_mahalanobis(graph, k);
+    const double chi2 = pgem_edge_mahalanobis(&graph->store, k, graph->tangent);
     double norm = 0.0;
     for (int r = 0; r < n; r++) {
         norm += predicted[r] * predicted[r];

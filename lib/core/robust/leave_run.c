@@ -17,7 +17,7 @@ static double pgem_run_chi2(const pgem_t *graph, const pgem_loop_run_t *run)
     double chi2 = 0.0;
     uint32_t j = run->first;
     for (uint32_t n = 0; n < run->length && j != UINT32_MAX; n++) {
-        chi2 += pgem_edge_mahalanobis(graph, j);
+        chi2 += pgem_edge_mahalanobis(&graph->store, j, graph->tangent);
         j = pgem_run_next(graph, j, run->direction, PGEM_RUN_ACCEPTED);
     }
     return chi2;
@@ -47,7 +47,7 @@ double pgem_model_minimum(pgem_t *graph, int *status)
  * linear problem); the estimate is not moved. *status set if the factor fails. */
 static double pgem_run_fall(pgem_t *graph, const pgem_loop_run_t *run, int *status)
 {
-    const double with = pgem_weighted_chi2(graph);
+    const double with = pgem_weighted_chi2(&graph->store, graph->tangent);
     pgem_run_set(graph, run, PGEM_RUN_ACCEPTED, 0.0, PGEM_RUN_KEEP_STATE); /* no contribution */
     const double fall = with - pgem_model_minimum(graph, status);
     pgem_run_set(graph, run, PGEM_RUN_ACCEPTED, 1.0, PGEM_RUN_KEEP_STATE);

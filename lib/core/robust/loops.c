@@ -76,7 +76,7 @@ int pgem_report_round(pgem_t *graph, const pgem_robust_options_t *options,
         return 0;
     }
     progress->round = summary->rounds;
-    progress->chi2 = pgem_weighted_chi2(graph);
+    progress->chi2 = pgem_weighted_chi2(&graph->store, graph->tangent);
     pgem_count_loops(graph, summary);
     progress->active_loops = summary->loops - summary->pruned;
     progress->pruned_loops = summary->pruned;

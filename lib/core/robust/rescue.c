@@ -66,7 +66,7 @@ static int pgem_adjustment_consistent(const pgem_t *graph)
     if (!(dof > 0.0)) {
         return 0;
     }
-    return pgem_weighted_chi2(graph) <= pgem_chi2_quantile(dof);
+    return pgem_weighted_chi2(&graph->store, graph->tangent) <= pgem_chi2_quantile(dof);
 }
 
 /* Loops accepted; each loop's state marked in edge_checked (free between E-steps). */

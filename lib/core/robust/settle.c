@@ -20,7 +20,7 @@ void pgem_pass_mark(const pgem_t *graph, double scale, pgem_pass_mark_t *mark)
     mark->accepted = 0;
     mark->cost = 0.0;
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        const double chi2 = pgem_edge_mahalanobis(graph, k);
+        const double chi2 = pgem_edge_mahalanobis(&graph->store, k, graph->tangent);
         if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
             mark->cost += chi2;
             continue;

@@ -20,7 +20,7 @@ static int pgem_prune_non_finite(pgem_t *graph, pgem_robust_summary_t *summary)
 {
     summary->first_non_finite = UINT32_MAX;
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        if (isfinite(pgem_edge_mahalanobis(graph, k))) {
+        if (isfinite(pgem_edge_mahalanobis(&graph->store, k, graph->tangent))) {
             continue;
         }
         if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
@@ -64,8 +64,8 @@ static void pgem_summarise(pgem_t *graph, const pgem_robust_options_t *options,
     } else {
         summary->outcome = PGEM_ROBUST_LOOPS_ACCEPTED;
     }
-    summary->final_chi2 = pgem_weighted_chi2(graph);
-    summary->final_chi2_all = pgem_total_chi2(graph);
+    summary->final_chi2 = pgem_weighted_chi2(&graph->store, graph->tangent);
+    summary->final_chi2_all = pgem_store_total_chi2(&graph->store, graph->tangent);
     summary->estimate_changed = memcmp(graph->store.pose, graph->robust.pose_initial, pgem_pose_bytes(graph)) != 0;
 }
 
@@ -89,9 +89,9 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     pgem_robust_options_t resolved = pgem_robust_resolve(options);
     memcpy(graph->robust.pose_initial, graph->store.pose, pgem_pose_bytes(graph));
     pgem_save_loops(graph);
-    out->initial_chi2 = pgem_weighted_chi2(graph);
+    out->initial_chi2 = pgem_weighted_chi2(&graph->store, graph->tangent);
     int status = PGEM_OK;
-    if (!isfinite(pgem_total_chi2(graph))) {
+    if (!isfinite(pgem_store_total_chi2(&graph->store, graph->tangent))) {
         /* before any E-step: a NaN chi2 would become a NaN weight on the loops */
         status = resolved.kernel == PGEM_KERNEL_NONE ? pgem_fail_numeric(graph, "initial chi2", 0)
                                                      : pgem_prune_non_finite(graph, out);

@@ -34,8 +34,9 @@ int pgem_gauss_newton(pgem_t *graph, const pgem_solve_options_t *options, pgem_s
         pgem_apply_step(graph, pgem_linear_step(graph));
         /* the system is re-assembled only if another iteration will use it; after the last
          * one (every M-step of EM, with one iteration) the chi2 alone is enough */
-        double next = iteration < options->max_iterations ? pgem_linear_assemble(graph)
-                                                          : pgem_weighted_chi2(graph);
+        double next = iteration < options->max_iterations
+                          ? pgem_linear_assemble(graph)
+                          : pgem_weighted_chi2(&graph->store, graph->tangent);
         if (!isfinite(next)) {
             summary->termination = PGEM_TERM_NUMERIC;
             return pgem_fail_numeric(graph, "chi2", iteration);

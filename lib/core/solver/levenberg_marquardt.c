@@ -55,7 +55,7 @@ static int pgem_lm_trial(pgem_t *graph, pgem_lm_t *lm, double *step_norm, int *s
     }
     double predicted = pgem_linear_predicted_gain(graph, lm->lambda);
     pgem_apply_step(graph, pgem_linear_step(graph));
-    double trial = pgem_weighted_chi2(graph);
+    double trial = pgem_weighted_chi2(&graph->store, graph->tangent);
     double rho = (lm->chi2 - trial) / predicted;
     if (isfinite(trial) && predicted > 0.0 && rho > 0.0) {
         /* Nielsen's factor, kept in [1/3, 2/3]: an accepted step never grows the damping */

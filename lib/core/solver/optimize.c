@@ -59,7 +59,7 @@ int pgem_check_solvable(pgem_t *graph)
     if (status == PGEM_OK) {
         status = pgem_linear_check_parts(graph);
     }
-    if (status == PGEM_OK && !isfinite(pgem_total_chi2(graph))) {
+    if (status == PGEM_OK && !isfinite(pgem_store_total_chi2(&graph->store, graph->tangent))) {
         status = pgem_fail(graph, PGEM_ERR_NUMERIC, "the chi2 at the current estimate is not "
                                                     "finite");
     }
