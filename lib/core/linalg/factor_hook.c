@@ -6,7 +6,7 @@
 
 void pgem_factor_hook_forget(pgem_t *graph)
 {
-    pgem_linear_invalidate(graph);
+    pgem_linear_invalidate(graph->linear);
 }
 
 double pgem_factor_hook_assemble(pgem_t *graph)

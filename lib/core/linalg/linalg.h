@@ -9,54 +9,63 @@
 
 typedef struct pgem_linear pgem_linear_t; /* graph->linear, defined in linalg/linear.h */
 
-/* Carves the linear system's state and arrays (measuring when arena->base is NULL); then
- * picks the dense kernels of this CPU (pgem_linear_start, on a carved instance). */
-void pgem_linear_carve(pgem_t *graph, pgem_arena_t *arena);
-void pgem_linear_start(pgem_t *graph);
-/* The fill-reducing ordering into an instance that received `from`'s graph (pgem_copy), when
- * it is still from's graph's (and not the every-edge fallback's). */
-void pgem_linear_copy_ordering(pgem_t *to, const pgem_t *from);
+/* Carves the linear system's state and arrays for a resolved config and the tangent size (3
+ * or 6); returns the state, NULL when measuring (arena->base NULL) or out of room. Then picks
+ * the dense kernels of this CPU (pgem_linear_start, on a carved state). */
+pgem_linear_t *pgem_linear_carve(const pgem_config_t *config, int tangent, pgem_arena_t *arena);
+void pgem_linear_start(pgem_linear_t *linear);
+/* The fill-reducing ordering into a system whose store received from_store's graph
+ * (pgem_copy), when it is still that graph's (and not the every-edge fallback's). */
+void pgem_linear_copy_ordering(pgem_linear_t *to, const pgem_store_t *to_store,
+                               const pgem_linear_t *from, const pgem_store_t *from_store);
 /* The parts of linalg's share of the block for a resolved config: the factor's values and row
  * indices, CSparse's pool (parts->factor, parts->csparse_pool). */
 void pgem_linear_memory_parts(const pgem_config_t *config, pgem_memory_parts_t *parts);
 /* The factor's nonzeros, analyses and CSparse pool figures into stats. */
-void pgem_linear_memory_stats(const pgem_t *graph, pgem_memory_stats_t *stats);
+void pgem_linear_memory_stats(const pgem_linear_t *linear, pgem_memory_stats_t *stats);
 
-/* The structure (ordering, symbolic analysis) for the graph's current topology and edge
- * states: analysed when the graph changed or the structure was invalidated, else kept. */
-int pgem_linear_prepare(pgem_t *graph);
-int pgem_linear_analyze(pgem_t *graph);
+/* The structure (ordering, symbolic analysis) for the store's current topology and edge
+ * states: analysed when the graph changed or the structure was invalidated, else kept. The
+ * config gives the fill budget and the capacities; a failure is described in message
+ * (PGEM_MESSAGE_SIZE bytes). */
+int pgem_linear_prepare(pgem_linear_t *linear, const pgem_store_t *store,
+                        const pgem_config_t *config, char *message);
+int pgem_linear_analyze(pgem_linear_t *linear, const pgem_store_t *store,
+                        const pgem_config_t *config, char *message);
 /* The nonzeros the factor of the graph's structure (edge states as they are) needs, whatever
- * the budget; the ordering is kept (and the analysis, within the budget). */
-int pgem_linear_fill_needed(pgem_t *graph, uint32_t *nonzeros);
+ * the budget; the ordering is kept (and the analysis, within the budget); message cleared. */
+int pgem_linear_fill_needed(pgem_linear_t *linear, const pgem_store_t *store,
+                            const pgem_config_t *config, char *message, uint32_t *nonzeros);
 /* How the next analyses order (choice) and the orderer they may use (NULL: none); the
  * ordering is made anew (linalg/analysis/ordering.c; checked by pgem_set_ordering). */
-void pgem_linear_set_ordering(pgem_t *graph, pgem_order_choice_t choice,
+void pgem_linear_set_ordering(pgem_linear_t *linear, pgem_order_choice_t choice,
                               const pgem_orderer_t *orderer);
 /* AMD's order of a symmetric pattern of n columns given by one triangle (compressed columns,
  * CSparse's workspace from linalg's pool): order[k] is the column placed k-th. PGEM_OK or
  * PGEM_ERR_OUT_OF_MEMORY (no message: the caller names what it was ordering). */
-int pgem_linear_amd(pgem_t *graph, int n, int *colptr, int *rows, int *order);
+int pgem_linear_amd(pgem_linear_t *linear, int n, int *colptr, int *rows, int *order);
 /* Forgets the structure (edge states changed so that it no longer fits). */
-void pgem_linear_invalidate(pgem_t *graph);
+void pgem_linear_invalidate(pgem_linear_t *linear);
 /* Keeps the structure fit for the next solve after edge states changed: invalidated when an
  * active edge has no place in it, or when idle loops in it are too many
  * (linalg/analysis/structure.c). */
-void pgem_linear_review(pgem_t *graph);
+void pgem_linear_review(pgem_linear_t *linear, const pgem_store_t *store);
 /* 1 if loop k's poses meet on the factor's pattern (or one is held). */
-int pgem_linear_on_pattern(const pgem_t *graph, uint32_t k);
-/* PGEM_ERR_NOT_POSITIVE_DEFINITE, naming a pose, if a part of the graph (edges not pruned)
- * has no held pose; needs the numbering of a valid analysis (linalg/analysis/analyze.c). */
-int pgem_linear_check_parts(pgem_t *graph);
+int pgem_linear_on_pattern(const pgem_linear_t *linear, const pgem_store_t *store, uint32_t k);
+/* PGEM_ERR_NOT_POSITIVE_DEFINITE, naming a pose in message, if a part of the graph (edges
+ * not pruned) has no held pose; needs the numbering of a valid analysis
+ * (linalg/analysis/analyze.c). */
+int pgem_linear_check_parts(pgem_linear_t *linear, const pgem_store_t *store, char *message);
 /* The parts of the graph (every edge, or the edges in the problem: not pruned, not a loop at
  * weight 0) that no held pose holds: how many, and unless flag is 0 each held at its pose with
  * the smallest id (pgem_pose_hold_part with flag). */
-uint32_t pgem_linear_unheld_parts(pgem_t *graph, int every_edge, uint8_t flag);
+uint32_t pgem_linear_unheld_parts(pgem_linear_t *linear, pgem_store_t *store, int every_edge,
+                                  uint8_t flag);
 /* The shared region of the factor (the analysis's scratch, the dense workspace and the solves'
  * vectors take turns in it; none outlives its call), lent to a robust-layer stage that runs
  * between solves (robust/frames.c): at least (3 max_edges + 4 max_poses) ints and
  * max_poses * block^2 doubles; its size in bytes into *bytes. */
-void *pgem_linear_shared_region(pgem_t *graph, size_t *bytes);
+void *pgem_linear_shared_region(pgem_linear_t *linear, size_t *bytes);
 
 /* Assembles H and -b at the current estimate and weights; returns the weighted chi2. */
 double pgem_linear_assemble(pgem_t *graph);

@@ -61,7 +61,7 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, doub
         if (!innovation) { /* the point distance, or a singular problem: no covariance */
             graph->robust.edge_distance[k] = pgem_edge_mahalanobis(graph, k);
             graph->robust.edge_checked[k] = 0;
-        } else if (pgem_linear_on_pattern(graph, k)) {
+        } else if (pgem_linear_on_pattern(graph->linear, &graph->store, k)) {
             on_pattern++;
         } else {
             off_pattern++;
@@ -76,7 +76,7 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, doub
         if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
             continue;
         }
-        if (pgem_linear_on_pattern(graph, k)) {
+        if (pgem_linear_on_pattern(graph->linear, &graph->store, k)) {
             pgem_loop_distance(graph, options, k, 1);
             continue;
         }

@@ -76,7 +76,7 @@ uint32_t pgem_em_leave_run_out(pgem_t *graph, pgem_robust_summary_t *summary, in
                  * weight 0, which the consistency test reads as left out with its run */
                 summary->gated += run.length;
                 pgem_run_set(graph, &run, PGEM_RUN_ACCEPTED, 0.0, PGEM_EDGE_PRUNED);
-                pgem_linear_invalidate(graph);
+                pgem_linear_invalidate(graph->linear);
                 return 1;
             }
         }

@@ -13,7 +13,7 @@ int pgem_covariance_prepare(pgem_t *graph)
 {
     int status = pgem_analyze(graph);
     if (status == PGEM_OK) {
-        status = pgem_linear_check_parts(graph);
+        status = pgem_linear_check_parts(graph->linear, &graph->store, graph->message);
     }
     if (status != PGEM_OK) {
         return status;
