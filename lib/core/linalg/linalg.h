@@ -67,52 +67,62 @@ uint32_t pgem_linear_unheld_parts(pgem_linear_t *linear, pgem_store_t *store, in
  * max_poses * block^2 doubles; its size in bytes into *bytes. */
 void *pgem_linear_shared_region(pgem_linear_t *linear, size_t *bytes);
 
-/* Assembles H and -b at the current estimate and weights; returns the weighted chi2. */
-double pgem_linear_assemble(pgem_t *graph);
-void pgem_linear_damp(pgem_t *graph, double lambda);
-int pgem_linear_factor(pgem_t *graph);
-void pgem_linear_solve(pgem_t *graph, double *step);
+/* Assembles H and -b at the store's estimate and weights; returns the weighted chi2. */
+double pgem_linear_assemble(pgem_linear_t *linear, const pgem_store_t *store);
+void pgem_linear_damp(pgem_linear_t *linear, double lambda);
+/* The numeric factorisation of the assembled H on the executor's workers (run NULL: the
+ * caller's thread only); PGEM_ERR_NOT_POSITIVE_DEFINITE names the pivot and its pose (the
+ * store's id) in message (PGEM_MESSAGE_SIZE bytes). */
+int pgem_linear_factor(pgem_linear_t *linear, const pgem_store_t *store,
+                       const pgem_executor_t *executor, char *message);
+void pgem_linear_solve(const pgem_linear_t *linear, double *step);
 /* Solves (H + D) step = rhs in place (rhs: pgem_linear_step): the factor's solve, refined by
  * conjugate gradients preconditioned with it when couplings were left out (linalg/query/newton.c).
  * Returns PGEM_OK, or PGEM_ERR_NUMERIC if the refinement did not converge. */
-int pgem_solve_newton(pgem_t *graph);
+int pgem_solve_newton(pgem_linear_t *linear, const pgem_store_t *store);
 /* y = H x with the assembled values (linalg/multiply.c); y += D x for the couplings the
  * assembly left out (linalg/assemble.c). */
-void pgem_linear_multiply(const pgem_t *graph, const double *x, double *y);
-void pgem_linear_left_out_multiply(const pgem_t *graph, const double *x, double *y);
+void pgem_linear_multiply(const pgem_linear_t *linear, const double *x, double *y);
+void pgem_linear_left_out_multiply(const pgem_linear_t *linear, const pgem_store_t *store,
+                                   const double *x, double *y);
 
 /* The right-hand side -b after an assembly, the step after a solve (permuted order), and the
  * number of unknowns it holds. */
-double *pgem_linear_step(const pgem_t *graph);
-int pgem_linear_unknowns(const pgem_t *graph);
+double *pgem_linear_step(const pgem_linear_t *linear);
+int pgem_linear_unknowns(const pgem_linear_t *linear);
 /* Pose p's part of a vector in permuted order, or NULL if p is held fixed. */
-const double *pgem_linear_pose_delta(const pgem_t *graph, const double *vector, uint32_t p);
+const double *pgem_linear_pose_delta(const pgem_linear_t *linear, const double *vector,
+                                     uint32_t p);
 /* Levenberg-Marquardt's pieces: -b kept across retries and put back, the largest diagonal
  * entry of H, and the decrease step^T (-b + lambda step) the damped model predicts. */
-void pgem_linear_keep_gradient(pgem_t *graph);
-void pgem_linear_restore_gradient(pgem_t *graph);
-double pgem_linear_largest_diagonal(const pgem_t *graph);
-double pgem_linear_predicted_gain(const pgem_t *graph, double lambda);
+void pgem_linear_keep_gradient(pgem_linear_t *linear);
+void pgem_linear_restore_gradient(pgem_linear_t *linear);
+double pgem_linear_largest_diagonal(const pgem_linear_t *linear);
+double pgem_linear_predicted_gain(const pgem_linear_t *linear, double lambda);
 /* The running solve's options (their on_progress; NULL outside a solve), and the iteration
  * the next factorisation belongs to. */
-void pgem_linear_progress(pgem_t *graph, const pgem_solve_options_t *options);
-void pgem_linear_progress_iteration(pgem_t *graph, uint32_t iteration);
+void pgem_linear_progress(pgem_linear_t *linear, const pgem_solve_options_t *options);
+void pgem_linear_progress_iteration(pgem_linear_t *linear, uint32_t iteration);
 /* The last analysis's factor nonzeros. */
-uint32_t pgem_linear_nonzeros(const pgem_t *graph);
+uint32_t pgem_linear_nonzeros(const pgem_linear_t *linear);
+/* The figures of the analysis and factor for the test hook (hooks/factor_hook.h). */
+struct pgem_factor_hook_figures;
+void pgem_linear_hook_figures(const pgem_linear_t *linear,
+                              struct pgem_factor_hook_figures *figures);
 
 /* out = A H^-1 A^T (n x n) for A = [a_from a_to] on poses from and to (n x n blocks,
  * row-major), from the current factor (linalg/query/marginal.c). */
-void pgem_linear_marginal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
+void pgem_linear_marginal(pgem_linear_t *linear, uint32_t from, uint32_t to, const double *a_from,
                           const double *a_to, double *out);
 /* H^-1 on the factor's pattern, over the factor (linalg/query/inverse.c); then the marginal of two
  * poses joined by a block of the pattern (PGEM_ERR_INVALID_ARGUMENT if they are not). */
-void pgem_linear_invert(pgem_t *graph);
-int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
-                                 const double *a_to, double *out);
+void pgem_linear_invert(pgem_linear_t *linear);
+int pgem_linear_marginal_inverse(pgem_linear_t *linear, uint32_t from, uint32_t to,
+                                 const double *a_from, const double *a_to, double *out);
 /* The same without the cross term: A_f Z_ff A_f^T + A_t Z_tt A_t^T, which is at least half of
  * A H^-1 A^T (for any pair of poses, on the pattern or not). */
-void pgem_linear_marginal_diagonal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
-                                   const double *a_to, double *out);
+void pgem_linear_marginal_diagonal(pgem_linear_t *linear, uint32_t from, uint32_t to,
+                                   const double *a_from, const double *a_to, double *out);
 
 /* The covariance calls (pgem/covariance.h) over the factor (linalg/query/covariance.c). What the
  * factor holds for them: nothing current (any assembly, factorisation, inverse or analysis
@@ -120,18 +130,23 @@ void pgem_linear_marginal_diagonal(pgem_t *graph, uint32_t from, uint32_t to, co
 #define PGEM_COVARIANCE_NONE 0
 #define PGEM_COVARIANCE_FACTOR 1
 #define PGEM_COVARIANCE_INVERSE 2
-/* The state, PGEM_COVARIANCE_NONE unless the factor is still the graph's; and setting it
- * (after pgem_linear_assemble and pgem_linear_factor at the current estimate). */
-int pgem_linear_covariance_state(const pgem_t *graph);
-void pgem_linear_covariance_mark(pgem_t *graph, int state);
+/* The state, PGEM_COVARIANCE_NONE unless the factor is still the store's graph's (its
+ * topology and revision); and setting it (after pgem_linear_assemble and pgem_linear_factor
+ * at the current estimate). */
+int pgem_linear_covariance_state(const pgem_linear_t *linear, const pgem_store_t *store);
+void pgem_linear_covariance_mark(pgem_linear_t *linear, const pgem_store_t *store, int state);
 /* Pose p's marginal covariance (b x b, row-major) in the system's tangent (additive in 2D,
  * right in 3D): a solve along p's path (FACTOR) or the inverse's diagonal block (INVERSE). */
-void pgem_linear_pose_covariance(pgem_t *graph, uint32_t p, double *out);
+void pgem_linear_pose_covariance(pgem_linear_t *linear, uint32_t p, double *out);
 /* The joint marginal of poses p and q (2b x 2b, row-major, p's rows first); from the
- * INVERSE state it factors again first (H's values are kept). */
-int pgem_linear_joint_covariance(pgem_t *graph, uint32_t p, uint32_t q, double *out);
+ * INVERSE state it factors again first (H's values are kept; executor and message as
+ * pgem_linear_factor's). */
+int pgem_linear_joint_covariance(pgem_linear_t *linear, const pgem_store_t *store,
+                                 const pgem_executor_t *executor, char *message, uint32_t p,
+                                 uint32_t q, double *out);
 /* Every pose's marginal (pose_count blocks of b x b, insertion order; zero for held poses)
  * from one sparse inverse over L (FACTOR becomes INVERSE). */
-void pgem_linear_all_covariances(pgem_t *graph, double *out);
+void pgem_linear_all_covariances(pgem_linear_t *linear, const pgem_store_t *store,
+                                 double *out);
 
 #endif /* PGEM_LINALG_LAYER_H */

@@ -115,37 +115,34 @@ void pgem_linear_memory_stats(const pgem_linear_t *linear, pgem_memory_stats_t *
     stats->csparse_pool_peak = linear->cs_pool.peak;
 }
 
-double *pgem_linear_step(const pgem_t *graph)
+double *pgem_linear_step(const pgem_linear_t *linear)
 {
-    return graph->linear->rhs;
+    return linear->rhs;
 }
 
-int pgem_linear_unknowns(const pgem_t *graph)
+int pgem_linear_unknowns(const pgem_linear_t *linear)
 {
-    return graph->linear->scalar_count;
+    return linear->scalar_count;
 }
 
-const double *pgem_linear_pose_delta(const pgem_t *graph, const double *vector, uint32_t p)
+const double *pgem_linear_pose_delta(const pgem_linear_t *linear, const double *vector, uint32_t p)
 {
-    const int block = graph->linear->pose_block[p];
-    return block < 0 ? NULL : vector + (size_t)block * (size_t)graph->linear->block;
+    const int block = linear->pose_block[p];
+    return block < 0 ? NULL : vector + (size_t)block * (size_t)linear->block;
 }
 
-void pgem_linear_keep_gradient(pgem_t *graph)
+void pgem_linear_keep_gradient(pgem_linear_t *linear)
 {
-    memcpy(graph->linear->gradient, graph->linear->rhs,
-           (size_t)graph->linear->scalar_count * sizeof(double));
+    memcpy(linear->gradient, linear->rhs, (size_t)linear->scalar_count * sizeof(double));
 }
 
-void pgem_linear_restore_gradient(pgem_t *graph)
+void pgem_linear_restore_gradient(pgem_linear_t *linear)
 {
-    memcpy(graph->linear->rhs, graph->linear->gradient,
-           (size_t)graph->linear->scalar_count * sizeof(double));
+    memcpy(linear->rhs, linear->gradient, (size_t)linear->scalar_count * sizeof(double));
 }
 
-double pgem_linear_largest_diagonal(const pgem_t *graph)
+double pgem_linear_largest_diagonal(const pgem_linear_t *linear)
 {
-    const pgem_linear_t *linear = graph->linear;
     double largest = 0.0;
     for (int j = 0; j < linear->scalar_count; j++) {
         largest = fmax(largest, fabs(linear->diagonal[j]));
@@ -153,9 +150,8 @@ double pgem_linear_largest_diagonal(const pgem_t *graph)
     return largest;
 }
 
-double pgem_linear_predicted_gain(const pgem_t *graph, double lambda)
+double pgem_linear_predicted_gain(const pgem_linear_t *linear, double lambda)
 {
-    const pgem_linear_t *linear = graph->linear;
     const double *step = linear->rhs;
     double gain = 0.0;
     for (int j = 0; j < linear->scalar_count; j++) {
@@ -164,19 +160,19 @@ double pgem_linear_predicted_gain(const pgem_t *graph, double lambda)
     return gain;
 }
 
-void pgem_linear_progress(pgem_t *graph, const pgem_solve_options_t *options)
+void pgem_linear_progress(pgem_linear_t *linear, const pgem_solve_options_t *options)
 {
-    graph->linear->progress = options;
+    linear->progress = options;
 }
 
-void pgem_linear_progress_iteration(pgem_t *graph, uint32_t iteration)
+void pgem_linear_progress_iteration(pgem_linear_t *linear, uint32_t iteration)
 {
-    graph->linear->progress_iteration = iteration;
+    linear->progress_iteration = iteration;
 }
 
-uint32_t pgem_linear_nonzeros(const pgem_t *graph)
+uint32_t pgem_linear_nonzeros(const pgem_linear_t *linear)
 {
-    return (uint32_t)graph->linear->factor.nonzeros;
+    return (uint32_t)linear->factor.nonzeros;
 }
 
 void *pgem_linear_shared_region(pgem_linear_t *linear, size_t *bytes)

@@ -29,15 +29,16 @@ double pgem_model_minimum(pgem_t *graph, int *status)
     *status = pgem_analyze(graph);
     double chi2 = 0.0, gain = 0.0;
     if (*status == PGEM_OK) {
-        chi2 = pgem_linear_assemble(graph);
-        pgem_linear_keep_gradient(graph);
-        *status = pgem_linear_factor(graph);
+        chi2 = pgem_linear_assemble(graph->linear, &graph->store);
+        pgem_linear_keep_gradient(graph->linear);
+        *status =
+            pgem_linear_factor(graph->linear, &graph->store, &graph->executor, graph->message);
     }
     if (*status == PGEM_OK) {
-        *status = pgem_solve_newton(graph);
+        *status = pgem_solve_newton(graph->linear, &graph->store);
     }
     if (*status == PGEM_OK) {
-        gain = pgem_linear_predicted_gain(graph, 0.0);
+        gain = pgem_linear_predicted_gain(graph->linear, 0.0);
     }
     return chi2 - gain;
 }

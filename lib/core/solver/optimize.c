@@ -112,18 +112,19 @@ static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_sum
     if (status == PGEM_OK) {
         status = pgem_linear_check_parts(graph->linear, &graph->store, graph->message);
     }
-    summary->factor_nonzeros = pgem_linear_nonzeros(graph);
+    summary->factor_nonzeros = pgem_linear_nonzeros(graph->linear);
     if (status != PGEM_OK) {
         summary->termination = pgem_failure_termination(status);
         return status;
     }
-    summary->variables = (uint32_t)pgem_linear_unknowns(graph);
+    summary->variables = (uint32_t)pgem_linear_unknowns(graph->linear);
     memcpy(graph->solver.pose_saved, graph->store.pose, pose_bytes);
-    pgem_linear_progress(graph, options); /* the factorisations report to options->on_progress */
+    /* the factorisations report to options->on_progress */
+    pgem_linear_progress(graph->linear, options);
     status = options->method == PGEM_LEVENBERG_MARQUARDT
                  ? pgem_levenberg_marquardt(graph, options, summary)
                  : pgem_gauss_newton(graph, options, summary);
-    pgem_linear_progress(graph, NULL);
+    pgem_linear_progress(graph->linear, NULL);
     if (status == PGEM_OK && (status = pgem_check_solved_poses(graph)) != PGEM_OK) {
         summary->termination = PGEM_TERM_NUMERIC;
     }
