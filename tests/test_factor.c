@@ -4,6 +4,7 @@
  * that runs its workers one after the other in reverse), and the executor's checks. */
 #include "test_util.h"
 
+#include "instance.h" /* the instance's linear system (graph->linear) */
 #include "linalg/linear.h"
 #ifdef PGEM_HAVE_METIS
 #include "pgem/metis.h"

@@ -6,6 +6,7 @@
  * dense Cholesky factor of H, on random block patterns from a chain to nearly dense. */
 #include "test_util.h"
 
+#include "instance.h" /* the instance's linear system (graph->linear) */
 #include "linalg/linear.h"
 
 #define MAX_SCALARS 240

@@ -7,7 +7,7 @@
 
 #include "graph/graph.h"
 
-typedef struct pgem_linear pgem_linear_t; /* graph->linear, defined in linalg/linear.h */
+typedef struct pgem_linear pgem_linear_t; /* defined in linalg/linear.h */
 
 /* Carves the linear system's state and arrays for a resolved config and the tangent size (3
  * or 6); returns the state, NULL when measuring (arena->base NULL) or out of room. Then picks

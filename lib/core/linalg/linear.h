@@ -4,7 +4,6 @@
 #ifndef PGEM_LINEAR_H
 #define PGEM_LINEAR_H
 
-#include "instance.h"
 #include "linalg/factor/factor.h"
 #include "linalg/linalg.h"
 #include "pgem_cs.h"

@@ -69,7 +69,10 @@ pgem_linear_t *pgem_linear_carve(const pgem_config_t *config, int tangent, pgem_
 {
     pgem_linear_t probe; /* what a measuring pass (or a failed carve) fills instead */
     pgem_linear_t *carved = pgem_arena_take_struct(arena, sizeof(pgem_linear_t));
-    pgem_linear_t *linear = carved != NULL ? carved : &probe;
+    pgem_linear_t *linear = carved;
+    if (linear == NULL) {
+        linear = &probe;
+    }
     memset(linear, 0, sizeof *linear);
     pgem_carve_arrays(config, tangent, linear, arena);
     return carved;
