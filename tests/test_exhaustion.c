@@ -16,6 +16,7 @@
 
 #include "test_alloc_counters.h"
 
+#include "instance.h" /* the instance's linear system (graph->linear) */
 #include "linalg/linear.h"
 
 #define BLOCK_PATTERN 0xA5

@@ -4,6 +4,7 @@
  * that runs its workers one after the other in reverse), and the executor's checks. */
 #include "test_util.h"
 
+#include "instance.h" /* the instance's linear system (graph->linear) */
 #include "linalg/linear.h"
 #ifdef PGEM_HAVE_METIS
 #include "pgem/metis.h"
@@ -90,13 +91,13 @@ static double solve_residual(pgem_t *graph)
 {
     pgem_linear_t *linear = graph->linear;
     const int b = linear->block, n = linear->scalar_count;
-    (void)pgem_linear_assemble(graph);
-    assert_int_equal(pgem_linear_factor(graph), PGEM_OK);
+    (void)pgem_linear_assemble(graph->linear, &graph->store);
+    assert_int_equal(pgem_linear_factor(graph->linear, &graph->store, &graph->executor, graph->message), PGEM_OK);
     double *rhs = malloc(sizeof(double) * (size_t)n), *x = malloc(sizeof(double) * (size_t)n);
     double *product = calloc((size_t)n, sizeof(double));
     memcpy(rhs, linear->rhs, sizeof(double) * (size_t)n);
     memcpy(x, rhs, sizeof(double) * (size_t)n);
-    pgem_linear_solve(graph, x);
+    pgem_linear_solve(graph->linear, x);
     for (int block = 0; block < linear->block_count; block++) {
         for (int c = 0; c < b; c++) {
             const int j = block * b + c;
@@ -279,11 +280,11 @@ static void test_failure_is_the_same_on_every_worker_count(void **state)
         }
         assert_int_equal(pgem_set_executor(graph, &executor), PGEM_OK);
         assert_int_equal(pgem_analyze(graph), PGEM_OK);
-        (void)pgem_linear_assemble(graph);
+        (void)pgem_linear_assemble(graph->linear, &graph->store);
         /* a negative diagonal entry deep in one subtree and one in another */
         graph->linear->lower_values[pgem_lower_column(graph->linear, 40, 2)] = -1.0;
         graph->linear->lower_values[pgem_lower_column(graph->linear, worker_side() * 30, 1)] = -1.0;
-        assert_int_equal(pgem_linear_factor(graph), PGEM_ERR_NOT_POSITIVE_DEFINITE);
+        assert_int_equal(pgem_linear_factor(graph->linear, &graph->store, &graph->executor, graph->message), PGEM_ERR_NOT_POSITIVE_DEFINITE);
         if (workers == 1) {
             snprintf(first, sizeof first, "%s", pgem_last_error(graph));
         } else {
@@ -327,7 +328,7 @@ static void test_ordering_is_deterministic(void **state)
     assert_int_equal(pgem_analyze(a), PGEM_OK);
     assert_int_equal(pgem_analyze(b), PGEM_OK);
     assert_memory_equal(a->linear->pose_block, b->linear->pose_block, sizeof(int) * 13u * 13u * 13u);
-    pgem_linear_invalidate(a);
+    pgem_linear_invalidate(a->linear);
     assert_int_equal(pgem_analyze(a), PGEM_OK);
     assert_memory_equal(a->linear->pose_block, b->linear->pose_block, sizeof(int) * 13u * 13u * 13u);
     pgem_destroy(a);
@@ -385,7 +386,7 @@ static void test_orderer_is_weighed(void **state)
     assert_true(factor->exact_flops == factor->orderer_flops);
     for (int kind = 1; kind <= 2; kind++) {
         test.kind = kind;
-        pgem_linear_invalidate(graph);
+        pgem_linear_invalidate(graph->linear);
         check_residual(graph, "a failing orderer");
         assert_int_equal(factor->ordering, PGEM_ORDERING_AMD);
         assert_true(factor->orderer_flops < 0.0);

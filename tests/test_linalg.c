@@ -6,6 +6,7 @@
  * dense Cholesky factor of H, on random block patterns from a chain to nearly dense. */
 #include "test_util.h"
 
+#include "instance.h" /* the instance's linear system (graph->linear) */
 #include "linalg/linear.h"
 
 #define MAX_SCALARS 240
@@ -74,7 +75,7 @@ static void dense_h(pgem_t *graph, double *h)
     for (int j = 0; j < count; j++) {
         memset(unit, 0, sizeof unit);
         unit[j] = 1.0;
-        pgem_linear_multiply(graph, unit, column);
+        pgem_linear_multiply(graph->linear, unit, column);
         for (int i = 0; i < count; i++) {
             h[i * count + j] = column[i];
         }
@@ -127,8 +128,8 @@ static double largest_magnitude(const double *values, int count)
 static int factor(pgem_t *graph)
 {
     assert_int_equal(pgem_analyze(graph), PGEM_OK);
-    (void)pgem_linear_assemble(graph);
-    assert_int_equal(pgem_linear_factor(graph), PGEM_OK);
+    (void)pgem_linear_assemble(graph->linear, &graph->store);
+    assert_int_equal(pgem_linear_factor(graph->linear, &graph->store, &graph->executor, graph->message), PGEM_OK);
     assert_true(graph->linear->scalar_count <= MAX_SCALARS);
     return graph->linear->scalar_count;
 }
@@ -151,7 +152,7 @@ static void check_solve(int dimension, uint32_t poses, uint32_t loops, uint64_t 
         }
     }
     memcpy(solved, b, (size_t)count * sizeof(double));
-    pgem_linear_solve(graph, solved);
+    pgem_linear_solve(graph->linear, solved);
     for (int j = 0; j < count; j++) {
         assert_near(solved[j], x[j], 1e-8 * (1.0 + fabs(x[j])));
     }
@@ -245,10 +246,10 @@ static void check_inverse(int dimension, uint32_t poses, uint32_t loops, uint64_
             blocks_from[k * 36 + (uint32_t)q] = test_uniform_in(&rng, -1, 1);
             blocks_to[k * 36 + (uint32_t)q] = test_uniform_in(&rng, -1, 1);
         }
-        pgem_linear_marginal(graph, graph->store.edge_from[k], graph->store.edge_to[k], blocks_from + k * 36,
+        pgem_linear_marginal(graph->linear, graph->store.edge_from[k], graph->store.edge_to[k], blocks_from + k * 36,
                              blocks_to + k * 36, by_solve + k * 36);
     }
-    pgem_linear_invert(graph);
+    pgem_linear_invert(graph->linear);
     const pgem_linear_t *linear = graph->linear;
     for (int column = 0; column < linear->block_count; column++) {
         const pgem_factor_column_t view = pgem_factor_column_view(&linear->factor, column);
@@ -271,7 +272,7 @@ static void check_inverse(int dimension, uint32_t poses, uint32_t loops, uint64_
         memcpy(a_from, blocks_from + k * 36, sizeof a_from);
         memcpy(a_to, blocks_to + k * 36, sizeof a_to);
         double by_inverse[36];
-        int status = pgem_linear_marginal_inverse(graph, graph->store.edge_from[k], graph->store.edge_to[k],
+        int status = pgem_linear_marginal_inverse(graph->linear, graph->store.edge_from[k], graph->store.edge_to[k],
                                                   a_from, a_to, by_inverse);
         const int pf = linear->pose_block[graph->store.edge_from[k]];
         const int pt = linear->pose_block[graph->store.edge_to[k]];

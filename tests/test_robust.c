@@ -785,10 +785,10 @@ static void test_pruning_that_splits_the_graph_holds_the_part(void **state)
          * joins nothing either: with the loops back and one at weight 0, the chain is loose */
         pgem_t *probe = split_chains(1);
         probe->store.edge_weight[18] = 0.0;
-        assert_int_equal(pgem_linear_unheld_parts(probe, 0, 0u), 0); /* the other loop joins */
+        assert_int_equal(pgem_linear_unheld_parts(probe->linear, &probe->store, 0, 0u), 0); /* the other loop joins */
         probe->store.edge_weight[19] = 0.0;
-        assert_int_equal(pgem_linear_unheld_parts(probe, 0, 0u), 1);
-        assert_int_equal(pgem_linear_unheld_parts(probe, 1, 0u), 0); /* every edge: joined */
+        assert_int_equal(pgem_linear_unheld_parts(probe->linear, &probe->store, 0, 0u), 1);
+        assert_int_equal(pgem_linear_unheld_parts(probe->linear, &probe->store, 1, 0u), 0); /* every edge: joined */
         pgem_destroy(probe);
         /* the holds hold for a plain solve of the result; a reset releases them with the loops */
         assert_int_equal(pgem_optimize(graph, &solve, NULL), PGEM_OK);

@@ -1,7 +1,7 @@
 /* FOR TESTS AND BENCHMARKS ONLY: a narrow window on an instance's factorisation, for
  * tools/bench/bench_factor.c (pgem-bench-factor), which times the stages that pgem_optimize
  * runs together and reports the factor's size. Not installed, not part of the API (include/pgem),
- * no stable interface: it follows linalg, which implements it (linalg/factor_hook.c). A program
+ * no stable interface: it follows linalg (instance/factor_hook.c, linalg/factor_hook.c). A program
  * that uses it puts lib/core/hooks, and nothing else of lib/core, on its include path. */
 #ifndef PGEM_FACTOR_HOOK_H
 #define PGEM_FACTOR_HOOK_H

@@ -27,7 +27,7 @@ int pgem_copy(pgem_t *to, const pgem_t *from)
                                  "pgem_copy: the target has room for fewer poses or edges");
     }
     pgem_store_copy(&to->store, &from->store, from->pose_size, from->tangent);
-    pgem_linear_copy_ordering(to, from);
+    pgem_linear_copy_ordering(to->linear, &to->store, from->linear, &from->store);
     pgem_message_clear(to);
     return PGEM_OK;
 }

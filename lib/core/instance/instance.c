@@ -81,7 +81,7 @@ static void pgem_carve(pgem_t *graph, pgem_arena_t *arena, pgem_memory_parts_t *
     pgem_robust_carve(graph, arena);
     taken.robust = arena->used - mark;
     mark = arena->used;
-    pgem_linear_carve(graph, arena);
+    graph->linear = pgem_linear_carve(&graph->config, graph->tangent, arena);
     pgem_online_carve(graph, arena); /* the online arrays count with linalg's, as they did */
     taken.linalg = arena->used - mark;
     if (parts != NULL) {
@@ -220,7 +220,7 @@ int pgem_init_message(pgem_t **instance, const pgem_config_t *config, void *buff
     graph->block_bytes = size;
     graph->used_bytes = arena.used + skip;
     memset(graph->store.map_slot, 0, ((size_t)graph->store.map_mask + 1u) * sizeof(uint32_t));
-    pgem_linear_start(graph);
+    pgem_linear_start(graph->linear);
     *instance = graph;
     if (message != NULL && message_size > 0) {
         message[0] = '\0';
@@ -273,7 +273,7 @@ int pgem_set_ordering(pgem_t *instance, pgem_order_choice_t choice, const pgem_o
         pgem_message_text(instance, wrong);
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    pgem_linear_set_ordering(instance, choice, orderer);
+    pgem_linear_set_ordering(instance->linear, choice, orderer);
     return PGEM_OK;
 }
 
@@ -295,5 +295,5 @@ void pgem_memory_use(const pgem_t *instance, pgem_memory_stats_t *stats)
     stats->block_bytes = instance->block_bytes;
     stats->used_bytes = instance->used_bytes;
     stats->factor_budget = instance->config.fill_budget;
-    pgem_linear_memory_stats(instance, stats);
+    pgem_linear_memory_stats(instance->linear, stats);
 }

@@ -2,9 +2,8 @@
  * factor's rebuild orders its block graph through this call rather than opening the pool. */
 #include "linalg/linear.h"
 
-int pgem_linear_amd(pgem_t *graph, int n, int *colptr, int *rows, int *order)
+int pgem_linear_amd(pgem_linear_t *linear, int n, int *colptr, int *rows, int *order)
 {
-    pgem_linear_t *linear = graph->linear;
     cs_di pattern = {colptr[n], n, n, colptr, rows, NULL, -1};
     pgem_cs_open(&linear->cs_pool);
     int *amd = n > 0 ? cs_di_amd(1, &pattern) : NULL;

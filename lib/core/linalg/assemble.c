@@ -54,19 +54,18 @@ static inline void pgem_add_off_diagonal(pgem_linear_t *linear, int n, int colum
 }
 
 /* The edge loop for block size n (a constant at each call). */
-static inline double pgem_assemble_edges(pgem_t *graph, int n)
+static inline double pgem_assemble_edges(pgem_linear_t *linear, const pgem_store_t *store, int n)
 {
-    pgem_linear_t *linear = graph->linear;
     const int *pose_block = linear->pose_block;
     pgem_edge_blocks_t blocks;
     double chi2 = 0.0;
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        if (graph->store.edge_active[k] == PGEM_EDGE_PRUNED) {
+    for (uint32_t k = 0; k < store->edge_count; k++) {
+        if (store->edge_active[k] == PGEM_EDGE_PRUNED) {
             continue;
         }
-        const int from = pose_block[graph->store.edge_from[k]];
-        const int to = pose_block[graph->store.edge_to[k]];
-        chi2 += pgem_edge_linearise(&graph->store, k, &blocks, graph->tangent);
+        const int from = pose_block[store->edge_from[k]];
+        const int to = pose_block[store->edge_to[k]];
+        chi2 += pgem_edge_linearise(store, k, &blocks, linear->block);
         if (from >= 0) {
             pgem_add_diagonal(linear, n, from, blocks.from_from, blocks.gradient_from);
         }
@@ -84,18 +83,17 @@ static inline double pgem_assemble_edges(pgem_t *graph, int n)
     return chi2;
 }
 
-double pgem_linear_assemble(pgem_t *graph)
+double pgem_linear_assemble(pgem_linear_t *linear, const pgem_store_t *store)
 {
-    pgem_linear_t *linear = graph->linear;
     linear->covariance = PGEM_COVARIANCE_NONE;
     memset(linear->lower_values, 0, (size_t)linear->lower_start[linear->block_count] * sizeof(double));
     memset(linear->rhs, 0, (size_t)linear->scalar_count * sizeof(double));
     linear->left_out = 0;
-    const double chi2 = linear->block == 6 ? pgem_assemble_edges(graph, 6)
-                                           : pgem_assemble_edges(graph, 3);
-    for (uint32_t p = 0; p < graph->store.pose_count; p++) { /* the gauges' damping */
+    const double chi2 = linear->block == 6 ? pgem_assemble_edges(linear, store, 6)
+                                           : pgem_assemble_edges(linear, store, 3);
+    for (uint32_t p = 0; p < store->pose_count; p++) { /* the gauges' damping */
         const int block = linear->pose_block[p];
-        if (block >= 0 && PGEM_POSE_DAMPED(graph->store.pose_fixed[p])) {
+        if (block >= 0 && PGEM_POSE_DAMPED(store->pose_fixed[p])) {
             for (int c = 0; c < linear->block; c++) {
                 linear->lower_values[pgem_lower_column(linear, block, c)] += PGEM_GAUGE_DAMPING;
             }
@@ -110,9 +108,8 @@ double pgem_linear_assemble(pgem_t *graph)
     return chi2;
 }
 
-void pgem_linear_damp(pgem_t *graph, double lambda)
+void pgem_linear_damp(pgem_linear_t *linear, double lambda)
 {
-    pgem_linear_t *linear = graph->linear;
     for (int block = 0; block < linear->block_count; block++) {
         for (int c = 0; c < linear->block; c++) {
             linear->lower_values[pgem_lower_column(linear, block, c)] =
@@ -123,18 +120,18 @@ void pgem_linear_damp(pgem_t *graph, double lambda)
 
 /* y += D x for D the couplings the assembly left out (dormant loops without a place in the
  * structure), each recomputed from the edge's linearisation. */
-static inline void pgem_left_out_edges(const pgem_t *graph, int n, const double *x, double *y)
+static inline void pgem_left_out_edges(const pgem_linear_t *linear, const pgem_store_t *store,
+                                       int n, const double *x, double *y)
 {
-    const pgem_linear_t *linear = graph->linear;
     pgem_edge_blocks_t blocks;
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        const int from = linear->pose_block[graph->store.edge_from[k]];
-        const int to = linear->pose_block[graph->store.edge_to[k]];
-        if (graph->store.edge_active[k] == PGEM_EDGE_PRUNED || from < 0 || to < 0 ||
+    for (uint32_t k = 0; k < store->edge_count; k++) {
+        const int from = linear->pose_block[store->edge_from[k]];
+        const int to = linear->pose_block[store->edge_to[k]];
+        if (store->edge_active[k] == PGEM_EDGE_PRUNED || from < 0 || to < 0 ||
             linear->edge_offset[k] >= 0) {
             continue;
         }
-        (void)pgem_edge_linearise(&graph->store, k, &blocks, graph->tangent);
+        (void)pgem_edge_linearise(store, k, &blocks, linear->block);
         const double *xf = x + (ptrdiff_t)from * n, *xt = x + (ptrdiff_t)to * n;
         double *yf = y + (ptrdiff_t)from * n, *yt = y + (ptrdiff_t)to * n;
         for (int r = 0; r < n; r++) {
@@ -146,11 +143,12 @@ static inline void pgem_left_out_edges(const pgem_t *graph, int n, const double 
     }
 }
 
-void pgem_linear_left_out_multiply(const pgem_t *graph, const double *x, double *y)
+void pgem_linear_left_out_multiply(const pgem_linear_t *linear, const pgem_store_t *store,
+                                   const double *x, double *y)
 {
-    if (graph->linear->block == 6) {
-        pgem_left_out_edges(graph, 6, x, y);
+    if (linear->block == 6) {
+        pgem_left_out_edges(linear, store, 6, x, y);
     } else {
-        pgem_left_out_edges(graph, 3, x, y);
+        pgem_left_out_edges(linear, store, 3, x, y);
     }
 }

@@ -4,7 +4,6 @@
 #ifndef PGEM_LINEAR_H
 #define PGEM_LINEAR_H
 
-#include "instance.h"
 #include "linalg/factor/factor.h"
 #include "linalg/linalg.h"
 #include "pgem_cs.h"
@@ -76,7 +75,7 @@ struct pgem_linear {
 
 /* Forgets the structure and the ordering if the graph's topology changed since they were
  * built, and takes its version (linalg/analysis/structure.c). */
-void pgem_linear_follow(pgem_t *graph);
+void pgem_linear_follow(pgem_linear_t *linear, const pgem_store_t *store);
 
 /* First value of scalar column c of block column `block` of H's lower triangle: each of the
  * block's scalar columns holds its diagonal block's rows c .. b-1, then b rows per
@@ -98,16 +97,21 @@ static inline int *pgem_linear_scratch(const pgem_linear_t *linear)
 /* Block pattern of H (linalg/analysis/pattern.c). */
 /* 1 if edge k has an off-diagonal block in H's structure: both poses free, and the edge
  * active (or every edge, in the fallback). *a, *b receive the poses' permuted blocks. */
-static inline int pgem_edge_blocks(const pgem_t *graph, uint32_t k, int *a, int *b)
+static inline int pgem_edge_blocks(const pgem_linear_t *linear, const pgem_store_t *store,
+                                   uint32_t k, int *a, int *b)
 {
-    *a = graph->linear->pose_block[graph->store.edge_from[k]];
-    *b = graph->linear->pose_block[graph->store.edge_to[k]];
+    *a = linear->pose_block[store->edge_from[k]];
+    *b = linear->pose_block[store->edge_to[k]];
     return *a >= 0 && *b >= 0 &&
-           (graph->linear->all_edges || graph->store.edge_active[k] == PGEM_EDGE_ACTIVE);
+           (linear->all_edges || store->edge_active[k] == PGEM_EDGE_ACTIVE);
 }
-int pgem_pattern_number_free(pgem_t *graph);
-int pgem_pattern_order(pgem_t *graph, int block_count);
-void pgem_pattern_build(pgem_t *graph, int block_count, int *colptr, int *rows, int *work);
+int pgem_pattern_number_free(pgem_linear_t *linear, const pgem_store_t *store);
+/* The fill-reducing ordering into pose_block (linalg/analysis/ordering.c); nested dissection
+ * works in H's values, sized by the config's capacities. */
+int pgem_pattern_order(pgem_linear_t *linear, const pgem_store_t *store,
+                       const pgem_config_t *config, int block_count);
+void pgem_pattern_build(const pgem_linear_t *linear, const pgem_store_t *store, int block_count,
+                        int *colptr, int *rows, int *work);
 /* The transpose of a block pattern (block_count columns, rows sorted): sorted rows again. */
 void pgem_pattern_transpose(int block_count, const int *colptr, const int *rows, int *out_colptr,
                             int *out_rows);

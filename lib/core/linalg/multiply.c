@@ -32,9 +32,8 @@ static inline void pgem_multiply_column(const pgem_linear_t *linear, int b, int 
     }
 }
 
-void pgem_linear_multiply(const pgem_t *graph, const double *x, double *y)
+void pgem_linear_multiply(const pgem_linear_t *linear, const double *x, double *y)
 {
-    const pgem_linear_t *linear = graph->linear;
     memset(y, 0, (size_t)linear->scalar_count * sizeof(double));
     for (int column = 0; column < linear->block_count; column++) {
         if (linear->block == 6) {

@@ -140,7 +140,7 @@ int pgem_update_adopt(pgem_t *graph, const pgem_t *pass, pgem_adopt_summary_t *s
      * of 10, and the pool full). */
     online->ready = 0;
     store->topology++; /* loops changed state: the next analysis is anew */
-    pgem_linear_invalidate(graph);
+    pgem_linear_invalidate(graph->linear);
     pgem_message_clear(graph);
     if (summary != NULL) {
         summary->poses_adopted = from->pose_count;

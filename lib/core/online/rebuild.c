@@ -130,7 +130,7 @@ static int pgem_online_order(pgem_t *graph, int columns, int recent)
         }
     }
     int *order = online->mark; /* free until the columns are mapped back to their poses */
-    if (pgem_linear_amd(graph, columns, colptr, rows, order) != PGEM_OK) {
+    if (pgem_linear_amd(graph->linear, columns, colptr, rows, order) != PGEM_OK) {
         return pgem_fail(graph, PGEM_ERR_OUT_OF_MEMORY,
                          "the online factor's ordering (CSparse's AMD) could not get workspace");
     }

@@ -245,7 +245,7 @@ int pgem_update_restore(pgem_t *graph, const void *buffer, size_t size)
     graph->store.topology++; /* held flags may be back to others: the next analysis is anew */
     graph->online->ready = header.online_ready;
     graph->online->solves_seen = graph->store.solves;
-    pgem_linear_invalidate(graph);
+    pgem_linear_invalidate(graph->linear);
     pgem_message_clear(graph);
     return PGEM_OK;
 }

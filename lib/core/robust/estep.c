@@ -18,11 +18,12 @@ static int pgem_factor_current(pgem_t *graph)
     pgem_robust_hold_parts(graph);
     int status = pgem_analyze(graph);
     if (status == PGEM_OK) {
-        (void)pgem_linear_assemble(graph);
-        status = pgem_linear_factor(graph);
+        (void)pgem_linear_assemble(graph->linear, &graph->store);
+        status =
+            pgem_linear_factor(graph->linear, &graph->store, &graph->executor, graph->message);
     }
     if (status == PGEM_OK) {
-        status = pgem_solve_newton(graph);
+        status = pgem_solve_newton(graph->linear, &graph->store);
     }
     return status;
 }
@@ -62,7 +63,7 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, doub
             graph->robust.edge_distance[k] =
                 pgem_edge_mahalanobis(&graph->store, k, graph->tangent);
             graph->robust.edge_checked[k] = 0;
-        } else if (pgem_linear_on_pattern(graph, k)) {
+        } else if (pgem_linear_on_pattern(graph->linear, &graph->store, k)) {
             on_pattern++;
         } else {
             off_pattern++;
@@ -71,13 +72,13 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, doub
     if (!innovation || on_pattern + off_pattern == 0u) {
         return;
     }
-    pgem_linear_invert(graph);
+    pgem_linear_invert(graph->linear);
     uint32_t unsure = 0;
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
             continue;
         }
-        if (pgem_linear_on_pattern(graph, k)) {
+        if (pgem_linear_on_pattern(graph->linear, &graph->store, k)) {
             pgem_loop_distance(graph, options, k, 1);
             continue;
         }
@@ -89,7 +90,9 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, doub
         graph->robust.edge_checked[k] = screened == 0 ? PGEM_CHECK_PENDING : 0;
         unsure += (uint32_t)(screened == 0);
     }
-    if (unsure == 0u || pgem_linear_factor(graph) != PGEM_OK) {
+    if (unsure == 0u ||
+        pgem_linear_factor(graph->linear, &graph->store, &graph->executor, graph->message) !=
+            PGEM_OK) {
         return; /* (the factor was fine before the inverse: it cannot fail now) */
     }
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {

@@ -445,7 +445,7 @@ uint32_t pgem_robust_frames(pgem_t *graph, const pgem_robust_options_t *options,
     const pgem_store_t *store = &graph->store;
     const size_t max_poses = graph->config.max_poses, max_edges = graph->config.max_edges;
     size_t bytes = 0;
-    unsigned char *region = pgem_linear_shared_region(graph, &bytes);
+    unsigned char *region = pgem_linear_shared_region(graph->linear, &bytes);
     if (store->pose_count < 2u || bytes < 4u * (6u * max_poses + 2u * max_edges)) {
         return 0;
     }

@@ -38,7 +38,7 @@ uint32_t pgem_em_gate(pgem_t *graph, const pgem_robust_options_t *options, doubl
         }
     }
     if (changed > 0u) {
-        pgem_linear_invalidate(graph);
+        pgem_linear_invalidate(graph->linear);
     }
     return changed;
 }

@@ -198,7 +198,7 @@ uint32_t pgem_em_leave_group_out(pgem_t *graph, pgem_robust_summary_t *summary, 
         /* a test the factor could not make decides nothing: the polished estimate stands, and
          * the structure is analysed afresh by whatever solves next */
         pgem_groups_back(graph);
-        pgem_linear_invalidate(graph);
+        pgem_linear_invalidate(graph->linear);
         return 0;
     }
     if (worst.accepted == 0u) {
@@ -207,6 +207,6 @@ uint32_t pgem_em_leave_group_out(pgem_t *graph, pgem_robust_summary_t *summary, 
     /* pruned at weight 0, which the consistency test reads as left out with its group */
     summary->gated += worst.accepted;
     pgem_group_set(graph, &worst, 0.0, PGEM_EDGE_PRUNED);
-    pgem_linear_invalidate(graph);
+    pgem_linear_invalidate(graph->linear);
     return 1;
 }

@@ -99,9 +99,9 @@ static void pgem_predicted_error(const pgem_t *graph, uint32_t k, const double *
                                  double *predicted)
 {
     const int n = graph->tangent;
-    const double *step = pgem_linear_step(graph);
-    const double *step_from = pgem_linear_pose_delta(graph, step, graph->store.edge_from[k]);
-    const double *step_to = pgem_linear_pose_delta(graph, step, graph->store.edge_to[k]);
+    const double *step = pgem_linear_step(graph->linear);
+    const double *step_from = pgem_linear_pose_delta(graph->linear, step, graph->store.edge_from[k]);
+    const double *step_to = pgem_linear_pose_delta(graph->linear, step, graph->store.edge_to[k]);
     for (int r = 0; r < n; r++) {
         double sum = 0.0;
         for (int c = r; c < n; c++) {
@@ -165,10 +165,10 @@ void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double infla
     double values[PGEM_TANGENT_SIZE_MAX] = {0}, mu0[PGEM_TANGENT_SIZE_MAX] = {0};
     pgem_loop_whiten(graph, k, e, upper, a_from, a_to);
     if (from_inverse) {
-        (void)pgem_linear_marginal_inverse(graph, graph->store.edge_from[k], graph->store.edge_to[k], a_from,
+        (void)pgem_linear_marginal_inverse(graph->linear, graph->store.edge_from[k], graph->store.edge_to[k], a_from,
                                            a_to, m);
     } else {
-        pgem_linear_marginal(graph, graph->store.edge_from[k], graph->store.edge_to[k], a_from, a_to, m);
+        pgem_linear_marginal(graph->linear, graph->store.edge_from[k], graph->store.edge_to[k], a_from, a_to, m);
     }
     pgem_symmetric_eigen(m, n, values, vectors);
     pgem_predicted_error(graph, k, upper, e, a_from, a_to, predicted);
@@ -225,7 +225,7 @@ int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, d
         return 1;
     }
     /* A H^-1 A^T <= 2 (A_f Z_ff A_f^T + A_t Z_tt A_t^T), and the allowance at most kappa */
-    pgem_linear_marginal_diagonal(graph, graph->store.edge_from[k], graph->store.edge_to[k], a_from, a_to, m);
+    pgem_linear_marginal_diagonal(graph->linear, graph->store.edge_from[k], graph->store.edge_to[k], a_from, a_to, m);
     for (int q = 0; q < n * n; q++) {
         m[q] *= 2.0 * inflation;
     }

@@ -29,15 +29,16 @@ double pgem_model_minimum(pgem_t *graph, int *status)
     *status = pgem_analyze(graph);
     double chi2 = 0.0, gain = 0.0;
     if (*status == PGEM_OK) {
-        chi2 = pgem_linear_assemble(graph);
-        pgem_linear_keep_gradient(graph);
-        *status = pgem_linear_factor(graph);
+        chi2 = pgem_linear_assemble(graph->linear, &graph->store);
+        pgem_linear_keep_gradient(graph->linear);
+        *status =
+            pgem_linear_factor(graph->linear, &graph->store, &graph->executor, graph->message);
     }
     if (*status == PGEM_OK) {
-        *status = pgem_solve_newton(graph);
+        *status = pgem_solve_newton(graph->linear, &graph->store);
     }
     if (*status == PGEM_OK) {
-        gain = pgem_linear_predicted_gain(graph, 0.0);
+        gain = pgem_linear_predicted_gain(graph->linear, 0.0);
     }
     return chi2 - gain;
 }
@@ -76,7 +77,7 @@ uint32_t pgem_em_leave_run_out(pgem_t *graph, pgem_robust_summary_t *summary, in
                  * weight 0, which the consistency test reads as left out with its run */
                 summary->gated += run.length;
                 pgem_run_set(graph, &run, PGEM_RUN_ACCEPTED, 0.0, PGEM_EDGE_PRUNED);
-                pgem_linear_invalidate(graph);
+                pgem_linear_invalidate(graph->linear);
                 return 1;
             }
         }

@@ -20,7 +20,7 @@ void pgem_robust_reset(pgem_t *graph)
         graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
     }
     if (returned > 0u) {
-        pgem_linear_invalidate(graph); /* pruned loops were out of H's structure */
+        pgem_linear_invalidate(graph->linear); /* pruned loops were out of H's structure */
     }
 }
 
@@ -33,7 +33,7 @@ void pgem_wake_dormant(pgem_t *graph)
             graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
         }
     }
-    pgem_linear_review(graph);
+    pgem_linear_review(graph->linear, &graph->store);
 }
 
 /* Loop closures in the graph and how many are pruned, into the summary. */
@@ -65,7 +65,8 @@ void pgem_restore_loops(pgem_t *graph)
 {
     memcpy(graph->store.edge_weight, graph->robust.edge_weight_saved, graph->store.edge_count * sizeof(double));
     memcpy(graph->store.edge_active, graph->robust.edge_active_saved, graph->store.edge_count);
-    pgem_linear_invalidate(graph); /* the structure was built for the states of the failed solve */
+    /* the structure was built for the states of the failed solve */
+    pgem_linear_invalidate(graph->linear);
 }
 
 

@@ -10,8 +10,9 @@ void pgem_robust_hold_parts(pgem_t *graph)
 {
     /* a part that no edge joins to a held pose, pruned or not, is the caller's graph: nothing
      * is held, and the solve fails on it as pgem_optimize does */
-    if (pgem_linear_unheld_parts(graph, 1, 0u) == 0u) {
-        (void)pgem_linear_unheld_parts(graph, 0, (uint8_t)PGEM_POSE_PART_NEW);
+    if (pgem_linear_unheld_parts(graph->linear, &graph->store, 1, 0u) == 0u) {
+        (void)pgem_linear_unheld_parts(graph->linear, &graph->store, 0,
+                                       (uint8_t)PGEM_POSE_PART_NEW);
     }
 }
 
@@ -22,7 +23,8 @@ void pgem_robust_parts_settled(pgem_t *graph, int succeeded, pgem_robust_summary
         return;
     }
     (void)pgem_pose_release_parts(&graph->store, 0u);
-    summary->parts_held = pgem_linear_unheld_parts(graph, 0, (uint8_t)PGEM_POSE_PART);
+    summary->parts_held =
+        pgem_linear_unheld_parts(graph->linear, &graph->store, 0, (uint8_t)PGEM_POSE_PART);
 }
 
 uint32_t pgem_robust_held_parts(const pgem_t *graph, pgem_id_t *ids, uint32_t capacity)

@@ -54,7 +54,7 @@ static void pgem_run_alone(pgem_t *graph, const pgem_loop_run_t *run)
         }
     }
     pgem_run_set(graph, run, PGEM_RUN_ANY, 1.0, PGEM_EDGE_ACTIVE);
-    pgem_linear_invalidate(graph);
+    pgem_linear_invalidate(graph->linear);
     pgem_restore_initial(graph);
 }
 
@@ -92,7 +92,7 @@ static void pgem_back_to_marked(pgem_t *graph)
             graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
         }
     }
-    pgem_linear_invalidate(graph);
+    pgem_linear_invalidate(graph->linear);
     pgem_restore_initial(graph);
 }
 

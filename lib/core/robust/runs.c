@@ -101,5 +101,5 @@ double pgem_redundancy(const pgem_t *graph)
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         rows += graph->store.edge_active[k] != PGEM_EDGE_PRUNED ? (uint32_t)graph->tangent : 0u;
     }
-    return (double)rows - (double)pgem_linear_unknowns(graph);
+    return (double)rows - (double)pgem_linear_unknowns(graph->linear);
 }

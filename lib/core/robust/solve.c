@@ -36,7 +36,7 @@ static int pgem_prune_non_finite(pgem_t *graph, pgem_robust_summary_t *summary)
         graph->store.edge_weight[k] = 0.0;
         if (graph->store.edge_active[k] != PGEM_EDGE_PRUNED) {
             graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
-            pgem_linear_invalidate(graph);
+            pgem_linear_invalidate(graph->linear);
         }
     }
     return PGEM_OK;

@@ -13,20 +13,20 @@ int pgem_covariance_prepare(pgem_t *graph)
 {
     int status = pgem_analyze(graph);
     if (status == PGEM_OK) {
-        status = pgem_linear_check_parts(graph);
+        status = pgem_linear_check_parts(graph->linear, &graph->store, graph->message);
     }
     if (status != PGEM_OK) {
         return status;
     }
-    if (!isfinite(pgem_linear_assemble(graph))) {
+    if (!isfinite(pgem_linear_assemble(graph->linear, &graph->store))) {
         return pgem_fail(graph, PGEM_ERR_NUMERIC, "the chi2 at the current estimate is not "
                                                   "finite: no covariance");
     }
-    status = pgem_linear_factor(graph);
+    status = pgem_linear_factor(graph->linear, &graph->store, &graph->executor, graph->message);
     if (status != PGEM_OK) {
         return status;
     }
-    pgem_linear_covariance_mark(graph, PGEM_COVARIANCE_FACTOR);
+    pgem_linear_covariance_mark(graph->linear, &graph->store, PGEM_COVARIANCE_FACTOR);
     pgem_message_clear(graph);
     return PGEM_OK;
 }
@@ -34,7 +34,7 @@ int pgem_covariance_prepare(pgem_t *graph)
 /* PGEM_OK if the covariance calls' factor is the graph's, else NO_FACTOR with its message. */
 static int pgem_covariance_current(pgem_t *graph)
 {
-    if (pgem_linear_covariance_state(graph) != PGEM_COVARIANCE_NONE) {
+    if (pgem_linear_covariance_state(graph->linear, &graph->store) != PGEM_COVARIANCE_NONE) {
         return PGEM_OK;
     }
     return pgem_fail(graph, PGEM_ERR_NO_FACTOR,
@@ -88,7 +88,7 @@ int pgem_covariance(pgem_t *graph, pgem_id_t id, double *covariance)
     if (status != PGEM_OK) {
         return status;
     }
-    pgem_linear_pose_covariance(graph, p, covariance);
+    pgem_linear_pose_covariance(graph->linear, p, covariance);
     if (graph->config.dimension == 2) {
         pgem_covariance_to_body(graph, p, 3, 0, covariance);
     }
@@ -110,7 +110,8 @@ int pgem_joint_covariance(pgem_t *graph, pgem_id_t a, pgem_id_t b, double *covar
         status = pgem_covariance_current(graph);
     }
     if (status == PGEM_OK) {
-        status = pgem_linear_joint_covariance(graph, p, q, covariance);
+        status = pgem_linear_joint_covariance(graph->linear, &graph->store, &graph->executor,
+                                              graph->message, p, q, covariance);
     }
     if (status != PGEM_OK) {
         return status;
@@ -132,7 +133,7 @@ int pgem_covariances(pgem_t *graph, double *covariances)
     if (status != PGEM_OK) {
         return status;
     }
-    pgem_linear_all_covariances(graph, covariances);
+    pgem_linear_all_covariances(graph->linear, &graph->store, covariances);
     if (graph->config.dimension == 2) {
         for (uint32_t p = 0; p < graph->store.pose_count; p++) {
             pgem_covariance_to_body(graph, p, 3, 0, covariances + (size_t)p * 9u);

@@ -19,20 +19,20 @@ typedef struct pgem_lm {
 /* The scale of the first damping: H's largest diagonal entry (1 if H is zero). */
 static double pgem_lm_scale(const pgem_t *graph)
 {
-    const double largest = pgem_linear_largest_diagonal(graph);
+    const double largest = pgem_linear_largest_diagonal(graph->linear);
     return largest > 0.0 ? largest : 1.0;
 }
 
 static void pgem_lm_save(pgem_t *graph)
 {
     memcpy(graph->solver.pose_accepted, graph->store.pose, pgem_pose_bytes(graph));
-    pgem_linear_keep_gradient(graph);
+    pgem_linear_keep_gradient(graph->linear);
 }
 
 static void pgem_lm_undo(pgem_t *graph)
 {
     memcpy(graph->store.pose, graph->solver.pose_accepted, pgem_pose_bytes(graph));
-    pgem_linear_restore_gradient(graph);
+    pgem_linear_restore_gradient(graph->linear);
 }
 
 /* One damped trial step: returns 1 if accepted; *step_norm and *status are set. */
@@ -40,21 +40,22 @@ static int pgem_lm_trial(pgem_t *graph, pgem_lm_t *lm, double *step_norm, int *s
 {
     *status = PGEM_OK;
     *step_norm = 0.0;
-    pgem_linear_damp(graph, lm->lambda);
-    if (pgem_linear_factor(graph) != PGEM_OK) {
+    pgem_linear_damp(graph->linear, lm->lambda);
+    if (pgem_linear_factor(graph->linear, &graph->store, &graph->executor, graph->message) !=
+        PGEM_OK) {
         return 0; /* damping too small to make H positive definite: grow it */
     }
-    if (pgem_solve_newton(graph) != PGEM_OK) {
+    if (pgem_solve_newton(graph->linear, &graph->store) != PGEM_OK) {
         *status = PGEM_ERR_NUMERIC;
         return 0;
     }
-    *step_norm = pgem_norm(pgem_linear_step(graph), pgem_linear_unknowns(graph));
+    *step_norm = pgem_norm(pgem_linear_step(graph->linear), pgem_linear_unknowns(graph->linear));
     if (!isfinite(*step_norm)) {
         *status = PGEM_ERR_NUMERIC;
         return 0;
     }
-    double predicted = pgem_linear_predicted_gain(graph, lm->lambda);
-    pgem_apply_step(graph, pgem_linear_step(graph));
+    double predicted = pgem_linear_predicted_gain(graph->linear, lm->lambda);
+    pgem_apply_step(graph, pgem_linear_step(graph->linear));
     double trial = pgem_weighted_chi2(&graph->store, graph->tangent);
     double rho = (lm->chi2 - trial) / predicted;
     if (isfinite(trial) && predicted > 0.0 && rho > 0.0) {
@@ -93,7 +94,7 @@ static int pgem_lm_iteration(pgem_t *graph, pgem_lm_t *lm, pgem_summary_t *summa
 int pgem_levenberg_marquardt(pgem_t *graph, const pgem_solve_options_t *options,
                              pgem_summary_t *summary)
 {
-    pgem_lm_t lm = {pgem_linear_assemble(graph), 0.0, 2.0};
+    pgem_lm_t lm = {pgem_linear_assemble(graph->linear, &graph->store), 0.0, 2.0};
     summary->initial_chi2 = summary->final_chi2 = lm.chi2;
     if (!isfinite(lm.chi2)) {
         return pgem_fail_numeric(graph, "initial chi2", 0);
@@ -102,7 +103,7 @@ int pgem_levenberg_marquardt(pgem_t *graph, const pgem_solve_options_t *options,
     pgem_lm_save(graph);
     for (uint32_t iteration = 1; iteration <= options->max_iterations; iteration++) {
         double step_norm = 0.0;
-        pgem_linear_progress_iteration(graph, iteration);
+        pgem_linear_progress_iteration(graph->linear, iteration);
         int accepted = pgem_lm_iteration(graph, &lm, summary, &step_norm);
         summary->iterations = iteration;
         if (accepted < 0) {
@@ -111,7 +112,7 @@ int pgem_levenberg_marquardt(pgem_t *graph, const pgem_solve_options_t *options,
         }
         double previous = lm.chi2;
         if (accepted) {
-            lm.chi2 = pgem_linear_assemble(graph);
+            lm.chi2 = pgem_linear_assemble(graph->linear, &graph->store);
             summary->final_chi2 = lm.chi2;
             pgem_lm_save(graph);
         }

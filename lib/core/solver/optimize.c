@@ -36,7 +36,7 @@ int pgem_analyze(pgem_t *graph)
     if (graph->store.edge_count == 0u) {
         return pgem_fail(graph, PGEM_ERR_EMPTY, "the graph has no edges: nothing to optimize");
     }
-    return pgem_linear_prepare(graph);
+    return pgem_linear_prepare(graph->linear, &graph->store, &graph->config, graph->message);
 }
 
 int pgem_fill_needed(pgem_t *graph, uint32_t *nonzeros)
@@ -47,7 +47,8 @@ int pgem_fill_needed(pgem_t *graph, uint32_t *nonzeros)
     if (graph->store.edge_count == 0u) {
         return pgem_fail(graph, PGEM_ERR_EMPTY, "the graph has no edges: nothing to optimize");
     }
-    return pgem_linear_fill_needed(graph, nonzeros);
+    return pgem_linear_fill_needed(graph->linear, &graph->store, &graph->config, graph->message,
+                                   nonzeros);
 }
 
 int pgem_check_solvable(pgem_t *graph)
@@ -57,7 +58,7 @@ int pgem_check_solvable(pgem_t *graph)
     }
     int status = pgem_analyze(graph);
     if (status == PGEM_OK) {
-        status = pgem_linear_check_parts(graph);
+        status = pgem_linear_check_parts(graph->linear, &graph->store, graph->message);
     }
     if (status == PGEM_OK && !isfinite(pgem_store_total_chi2(&graph->store, graph->tangent))) {
         status = pgem_fail(graph, PGEM_ERR_NUMERIC, "the chi2 at the current estimate is not "
@@ -109,20 +110,21 @@ static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_sum
     const size_t pose_bytes = pgem_pose_bytes(graph);
     int status = pgem_analyze(graph);
     if (status == PGEM_OK) {
-        status = pgem_linear_check_parts(graph);
+        status = pgem_linear_check_parts(graph->linear, &graph->store, graph->message);
     }
-    summary->factor_nonzeros = pgem_linear_nonzeros(graph);
+    summary->factor_nonzeros = pgem_linear_nonzeros(graph->linear);
     if (status != PGEM_OK) {
         summary->termination = pgem_failure_termination(status);
         return status;
     }
-    summary->variables = (uint32_t)pgem_linear_unknowns(graph);
+    summary->variables = (uint32_t)pgem_linear_unknowns(graph->linear);
     memcpy(graph->solver.pose_saved, graph->store.pose, pose_bytes);
-    pgem_linear_progress(graph, options); /* the factorisations report to options->on_progress */
+    /* the factorisations report to options->on_progress */
+    pgem_linear_progress(graph->linear, options);
     status = options->method == PGEM_LEVENBERG_MARQUARDT
                  ? pgem_levenberg_marquardt(graph, options, summary)
                  : pgem_gauss_newton(graph, options, summary);
-    pgem_linear_progress(graph, NULL);
+    pgem_linear_progress(graph->linear, NULL);
     if (status == PGEM_OK && (status = pgem_check_solved_poses(graph)) != PGEM_OK) {
         summary->termination = PGEM_TERM_NUMERIC;
     }

@@ -8,7 +8,7 @@ void pgem_apply_step(pgem_t *graph, const double *step)
 {
     const size_t size = (size_t)graph->pose_size;
     for (uint32_t p = 0; p < graph->store.pose_count; p++) {
-        const double *delta = pgem_linear_pose_delta(graph, step, p);
+        const double *delta = pgem_linear_pose_delta(graph->linear, step, p);
         if (delta == NULL) {
             continue;
         }

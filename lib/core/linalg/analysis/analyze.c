@@ -23,12 +23,11 @@ static int pgem_block_position(const pgem_linear_t *linear, int row, int column)
 
 /* Each edge's place in H's lower block pattern: the block (larger, smaller) of column
  * min(a, b); stored as H_{to,from} (transposed) when from < to. */
-static void pgem_analyze_edges(pgem_t *graph)
+static void pgem_analyze_edges(pgem_linear_t *linear, const pgem_store_t *store)
 {
-    pgem_linear_t *linear = graph->linear;
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+    for (uint32_t k = 0; k < store->edge_count; k++) {
         int a, b;
-        if (!pgem_edge_blocks(graph, k, &a, &b)) {
+        if (!pgem_edge_blocks(linear, store, k, &a, &b)) {
             linear->edge_offset[k] = -1;
             continue;
         }
@@ -58,9 +57,9 @@ static void pgem_analyze_lower(pgem_linear_t *linear)
  * block pattern (colptr, rows): the same fill, and every subtree becomes a range of
  * consecutive block columns, which supernodes need. block_parent receives the renumbered
  * tree. work holds block_count ints. */
-static int pgem_analyze_postorder(pgem_t *graph, const cs_di *pattern, int *work)
+static int pgem_analyze_postorder(pgem_linear_t *linear, const pgem_store_t *store,
+                                  const cs_di *pattern, int *work)
 {
-    pgem_linear_t *linear = graph->linear;
     const int blocks = linear->block_count;
     int *parent = cs_di_etree(pattern, 0);
     int *post = parent != NULL ? cs_di_post(parent, blocks) : NULL;
@@ -72,7 +71,7 @@ static int pgem_analyze_postorder(pgem_t *graph, const cs_di *pattern, int *work
         for (int j = 0; j < blocks; j++) {
             linear->block_parent[renumbered[j]] = parent[j] >= 0 ? renumbered[parent[j]] : -1;
         }
-        for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+        for (uint32_t p = 0; p < store->pose_count; p++) {
             const int block = linear->pose_block[p];
             linear->pose_block[p] = block >= 0 ? renumbered[block] : -1;
         }
@@ -84,21 +83,21 @@ static int pgem_analyze_postorder(pgem_t *graph, const cs_di *pattern, int *work
 
 /* Postordering, block column counts of L with CSparse, H's lower block pattern and the
  * supernodal layout. Returns the nonzeros of L or a negative error. */
-static int64_t pgem_analyze_factor(pgem_t *graph)
+static int64_t pgem_analyze_factor(pgem_linear_t *linear, const pgem_store_t *store,
+                                   uint32_t fill_budget)
 {
-    pgem_linear_t *linear = graph->linear;
     const int blocks = linear->block_count;
     int *colptr = pgem_linear_scratch(linear);
     int *rows = colptr + blocks + 1;
-    int *work = rows + graph->store.edge_count;
-    pgem_pattern_build(graph, blocks, colptr, rows, work);
+    int *work = rows + store->edge_count;
+    pgem_pattern_build(linear, store, blocks, colptr, rows, work);
     cs_di pattern = {colptr[blocks], blocks, blocks, colptr, rows, NULL, -1};
     pgem_cs_open(&linear->cs_pool);
-    if (pgem_analyze_postorder(graph, &pattern, work) != PGEM_OK) {
+    if (pgem_analyze_postorder(linear, store, &pattern, work) != PGEM_OK) {
         pgem_cs_close(&linear->cs_pool);
         return PGEM_ERR_OUT_OF_MEMORY;
     }
-    pgem_pattern_build(graph, blocks, colptr, rows, work);
+    pgem_pattern_build(linear, store, blocks, colptr, rows, work);
     pattern.p = colptr;
     pattern.i = rows;
     pattern.nzmax = colptr[blocks];
@@ -109,7 +108,7 @@ static int64_t pgem_analyze_factor(pgem_t *graph)
     int64_t nonzeros = PGEM_ERR_OUT_OF_MEMORY;
     if (counts != NULL) {
         pgem_pattern_transpose(blocks, colptr, rows, linear->block_colptr, linear->block_rows);
-        nonzeros = pgem_supernodes_analyze(graph, counts);
+        nonzeros = pgem_supernodes_analyze(linear, counts, fill_budget);
     }
     cs_di_free(counts);
     pgem_cs_close(&linear->cs_pool);
@@ -118,29 +117,30 @@ static int64_t pgem_analyze_factor(pgem_t *graph)
 
 /* CSparse's symbolic routines could not get workspace: the message names the step and the
  * memory that was short (the C heap with the system CSparse, else the block's pool). */
-static int pgem_fail_workspace(pgem_t *graph, const char *step)
+static int pgem_fail_workspace(const pgem_linear_t *linear, char *message, const char *step)
 {
-    const size_t pool = graph->linear->cs_pool.size;
-    pgem_message_clear(graph);
-    pgem_message_text(graph, "out of memory in the symbolic analysis (");
-    pgem_message_text(graph, step);
+    const size_t pool = linear->cs_pool.size;
+    message[0] = '\0';
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, "out of memory in the symbolic analysis (");
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, step);
     if (pool == 0) {
-        pgem_message_text(graph, "): CSparse's workspace from the C heap: malloc returned NULL");
+        pgem_text_append(message, PGEM_MESSAGE_SIZE,
+                         "): CSparse's workspace from the C heap: malloc returned NULL");
     } else {
-        pgem_message_text(graph, "): CSparse's pool in the memory block (");
-        pgem_message_u64(graph, pool);
-        pgem_message_text(graph, " bytes) could not hold its workspace");
+        pgem_text_append(message, PGEM_MESSAGE_SIZE, "): CSparse's pool in the memory block (");
+        pgem_text_u64(message, PGEM_MESSAGE_SIZE, pool);
+        pgem_text_append(message, PGEM_MESSAGE_SIZE, " bytes) could not hold its workspace");
     }
     return PGEM_ERR_OUT_OF_MEMORY;
 }
 
-static int pgem_fill_exceeded(pgem_t *graph, int64_t nonzeros)
+static int pgem_fill_exceeded(char *message, int64_t nonzeros, uint32_t fill_budget)
 {
-    pgem_message_clear(graph);
-    pgem_message_text(graph, "the Cholesky factor needs ");
-    pgem_message_i64(graph, nonzeros);
-    pgem_message_text(graph, " nonzeros but config.fill_budget is ");
-    pgem_message_u64(graph, graph->config.fill_budget);
+    message[0] = '\0';
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, "the Cholesky factor needs ");
+    pgem_text_i64(message, PGEM_MESSAGE_SIZE, nonzeros);
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, " nonzeros but config.fill_budget is ");
+    pgem_text_u64(message, PGEM_MESSAGE_SIZE, fill_budget);
     return PGEM_ERR_FILL_BUDGET;
 }
 
@@ -152,32 +152,33 @@ static int pgem_fill_exceeded(pgem_t *graph, int64_t nonzeros)
  * edges), against the assembly's O(edges) dense blocks. The factorisation's lists
  * (factor.head, factor.next: max_poses ints each, free between factorisations) hold the
  * union-find forest and the held marks. */
-int pgem_linear_check_parts(pgem_t *graph)
+int pgem_linear_check_parts(pgem_linear_t *linear, const pgem_store_t *store, char *message)
 {
-    uint32_t *parent = (uint32_t *)(void *)graph->linear->factor.head;
-    int *held = graph->linear->factor.next;
-    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+    uint32_t *parent = (uint32_t *)(void *)linear->factor.head;
+    int *held = linear->factor.next;
+    for (uint32_t p = 0; p < store->pose_count; p++) {
         parent[p] = p;
         held[p] = 0;
     }
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        if (graph->store.edge_active[k] != PGEM_EDGE_PRUNED) {
-            (void)pgem_part_join(parent, graph->store.edge_from[k], graph->store.edge_to[k]);
+    for (uint32_t k = 0; k < store->edge_count; k++) {
+        if (store->edge_active[k] != PGEM_EDGE_PRUNED) {
+            (void)pgem_part_join(parent, store->edge_from[k], store->edge_to[k]);
         }
     }
-    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
-        if (graph->linear->pose_block[p] < 0 || PGEM_POSE_DAMPED(graph->store.pose_fixed[p])) {
+    for (uint32_t p = 0; p < store->pose_count; p++) {
+        if (linear->pose_block[p] < 0 || PGEM_POSE_DAMPED(store->pose_fixed[p])) {
             held[pgem_part_root(parent, p)] = 1;
         }
     }
-    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+    for (uint32_t p = 0; p < store->pose_count; p++) {
         if (!held[pgem_part_root(parent, p)]) {
-            pgem_message_clear(graph);
-            pgem_message_text(graph, "pose ");
-            pgem_message_u64(graph, graph->store.pose_id[p]);
-            pgem_message_text(graph, " is in a part of the graph with no held pose (a fixed "
-                                     "pose, or the first pose added when none is fixed): no "
-                                     "edge, or only pruned loop closures, join it to one");
+            message[0] = '\0';
+            pgem_text_append(message, PGEM_MESSAGE_SIZE, "pose ");
+            pgem_text_u64(message, PGEM_MESSAGE_SIZE, store->pose_id[p]);
+            pgem_text_append(message, PGEM_MESSAGE_SIZE,
+                             " is in a part of the graph with no held pose (a fixed pose, or the "
+                             "first pose added when none is fixed): no edge, or only pruned "
+                             "loop closures, join it to one");
             return PGEM_ERR_NOT_POSITIVE_DEFINITE;
         }
     }
@@ -191,11 +192,11 @@ int pgem_linear_check_parts(pgem_t *graph)
  * Needs no analysis: a pose is held if fixed (or the first while none is) or damped. The
  * lists of pgem_linear_check_parts hold the forest and, per part, -2 once held, else its pose
  * with the smallest id so far (-1: none yet). */
-uint32_t pgem_linear_unheld_parts(pgem_t *graph, int every_edge, uint8_t flag)
+uint32_t pgem_linear_unheld_parts(pgem_linear_t *linear, pgem_store_t *store, int every_edge,
+                                  uint8_t flag)
 {
-    const pgem_store_t *store = &graph->store;
-    uint32_t *parent = (uint32_t *)(void *)graph->linear->factor.head;
-    int *lowest = graph->linear->factor.next;
+    uint32_t *parent = (uint32_t *)(void *)linear->factor.head;
+    int *lowest = linear->factor.next;
     for (uint32_t p = 0; p < store->pose_count; p++) {
         parent[p] = p;
         lowest[p] = -1;
@@ -222,42 +223,45 @@ uint32_t pgem_linear_unheld_parts(pgem_t *graph, int every_edge, uint8_t flag)
         }
         unheld++;
         if (flag != 0u) {
-            pgem_pose_hold_part(&graph->store, (uint32_t)lowest[p], flag);
+            pgem_pose_hold_part(store, (uint32_t)lowest[p], flag);
         }
     }
     return unheld;
 }
 
-static int pgem_linear_analyze_once(pgem_t *graph)
+static int pgem_linear_analyze_once(pgem_linear_t *linear, const pgem_store_t *store,
+                                    const pgem_config_t *config, char *message)
 {
-    pgem_linear_t *linear = graph->linear;
     linear->valid = 0;
     linear->factor.nonzeros = 0;
     int blocks = 0;
     if (linear->ordered) { /* pgem_copy handed over this graph's ordering */
-        for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+        for (uint32_t p = 0; p < store->pose_count; p++) {
             blocks += linear->pose_block[p] >= 0;
         }
     } else {
-        blocks = pgem_pattern_number_free(graph);
+        blocks = pgem_pattern_number_free(linear, store);
         if (blocks == 0) {
-            return pgem_fail(graph, PGEM_ERR_EMPTY, "every pose is fixed: nothing to optimize");
+            message[0] = '\0';
+            pgem_text_append(message, PGEM_MESSAGE_SIZE,
+                             "every pose is fixed: nothing to optimize");
+            return PGEM_ERR_EMPTY;
         }
-        if (pgem_pattern_order(graph, blocks) != PGEM_OK) {
-            return pgem_fail_workspace(graph, "AMD ordering");
+        if (pgem_pattern_order(linear, store, config, blocks) != PGEM_OK) {
+            return pgem_fail_workspace(linear, message, "AMD ordering");
         }
     }
     linear->block_count = blocks;
     linear->scalar_count = blocks * linear->block;
-    int64_t nonzeros = pgem_analyze_factor(graph);
+    int64_t nonzeros = pgem_analyze_factor(linear, store, config->fill_budget);
     if (nonzeros < 0) {
-        return pgem_fail_workspace(graph, "elimination tree and column counts");
+        return pgem_fail_workspace(linear, message, "elimination tree and column counts");
     }
     linear->ordered = 1; /* pose_block holds the (postordered) ordering, whatever follows */
-    if (nonzeros > (int64_t)graph->config.fill_budget) {
-        return pgem_fill_exceeded(graph, nonzeros);
+    if (nonzeros > (int64_t)config->fill_budget) {
+        return pgem_fill_exceeded(message, nonzeros, config->fill_budget);
     }
-    pgem_analyze_edges(graph);
+    pgem_analyze_edges(linear, store);
     pgem_analyze_lower(linear);
     pgem_schedule_analyze(linear);
     linear->analyses++;
@@ -269,45 +273,47 @@ static int pgem_linear_analyze_once(pgem_t *graph)
  * loops factors as sparsely as the clean one. AMD on a subgraph almost always needs less fill
  * than on the whole graph, but not provably; if it would exceed the budget, the structure is
  * built over every edge instead (the fill the caller sized for). */
-int pgem_linear_analyze(pgem_t *graph)
+int pgem_linear_analyze(pgem_linear_t *linear, const pgem_store_t *store,
+                        const pgem_config_t *config, char *message)
 {
-    pgem_linear_follow(graph);
-    graph->linear->covariance = PGEM_COVARIANCE_NONE;
-    graph->linear->all_edges = 0; /* a handed-over ordering (pgem_copy) is never the fallback's */
-    int status = pgem_linear_analyze_once(graph);
+    pgem_linear_follow(linear, store);
+    linear->covariance = PGEM_COVARIANCE_NONE;
+    linear->all_edges = 0; /* a handed-over ordering (pgem_copy) is never the fallback's */
+    int status = pgem_linear_analyze_once(linear, store, config, message);
     if (status == PGEM_ERR_FILL_BUDGET) {
         uint32_t k = 0;
-        while (k < graph->store.edge_count && graph->store.edge_active[k] == PGEM_EDGE_ACTIVE) {
+        while (k < store->edge_count && store->edge_active[k] == PGEM_EDGE_ACTIVE) {
             k++;
         }
-        if (k < graph->store.edge_count) { /* some edge was left out: try the full structure */
-            graph->linear->all_edges = 1;
-            graph->linear->ordered = 0;
-            status = pgem_linear_analyze_once(graph);
+        if (k < store->edge_count) { /* some edge was left out: try the full structure */
+            linear->all_edges = 1;
+            linear->ordered = 0;
+            status = pgem_linear_analyze_once(linear, store, config, message);
         }
     }
     return status;
 }
 
 /* The structure is kept while it is still the graph's (linalg/analysis/structure.c). */
-int pgem_linear_prepare(pgem_t *graph)
+int pgem_linear_prepare(pgem_linear_t *linear, const pgem_store_t *store,
+                        const pgem_config_t *config, char *message)
 {
-    pgem_linear_follow(graph);
-    return graph->linear->valid ? PGEM_OK : pgem_linear_analyze(graph);
+    pgem_linear_follow(linear, store);
+    return linear->valid ? PGEM_OK : pgem_linear_analyze(linear, store, config, message);
 }
 
-int pgem_linear_fill_needed(pgem_t *graph, uint32_t *nonzeros)
+int pgem_linear_fill_needed(pgem_linear_t *linear, const pgem_store_t *store,
+                            const pgem_config_t *config, char *message, uint32_t *nonzeros)
 {
-    pgem_linear_follow(graph);
-    pgem_linear_t *linear = graph->linear;
+    pgem_linear_follow(linear, store);
     int status = PGEM_OK;
     if (!linear->valid || linear->all_edges) {
         linear->all_edges = 0;
-        status = pgem_linear_analyze_once(graph);
+        status = pgem_linear_analyze_once(linear, store, config, message);
     }
     if (status == PGEM_OK || status == PGEM_ERR_FILL_BUDGET) {
         *nonzeros = (uint32_t)linear->factor.nonzeros;
-        pgem_message_clear(graph);
+        message[0] = '\0';
         return PGEM_OK;
     }
     return status;

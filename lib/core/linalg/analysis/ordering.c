@@ -22,26 +22,26 @@
 #define PGEM_ND_MIN_FLOPS 1e9
 
 /* Sets pose_block from the free numbering and position[free index]. */
-static void pgem_order_apply(pgem_t *graph, const int *position)
+static void pgem_order_apply(pgem_linear_t *linear, const pgem_store_t *store, const int *position)
 {
-    (void)pgem_pattern_number_free(graph);
-    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
-        const int free_index = graph->linear->pose_block[p];
-        graph->linear->pose_block[p] = free_index >= 0 ? position[free_index] : -1;
+    (void)pgem_pattern_number_free(linear, store);
+    for (uint32_t p = 0; p < store->pose_count; p++) {
+        const int free_index = linear->pose_block[p];
+        linear->pose_block[p] = free_index >= 0 ? position[free_index] : -1;
     }
 }
 
 /* Sum over the factor's scalar columns of their squared counts under the numbering of
  * position, or -1 if CSparse could not get workspace. */
-static double pgem_order_flops(pgem_t *graph, int blocks, const int *position)
+static double pgem_order_flops(pgem_linear_t *linear, const pgem_store_t *store, int blocks,
+                               const int *position)
 {
-    pgem_linear_t *linear = graph->linear;
     const int b = linear->block;
     int *colptr = pgem_linear_scratch(linear);
     int *rows = colptr + blocks + 1;
-    int *work = rows + graph->store.edge_count;
-    pgem_order_apply(graph, position);
-    pgem_pattern_build(graph, blocks, colptr, rows, work);
+    int *work = rows + store->edge_count;
+    pgem_order_apply(linear, store, position);
+    pgem_pattern_build(linear, store, blocks, colptr, rows, work);
     cs_di pattern = {colptr[blocks], blocks, blocks, colptr, rows, NULL, -1};
     pgem_cs_open(&linear->cs_pool);
     int *parent = cs_di_etree(&pattern, 0);
@@ -62,12 +62,12 @@ static double pgem_order_flops(pgem_t *graph, int blocks, const int *position)
 }
 
 /* AMD's position of every free index, into position. */
-static int pgem_order_amd(pgem_t *graph, int blocks, int *position)
+static int pgem_order_amd(pgem_linear_t *linear, const pgem_store_t *store, int blocks,
+                          int *position)
 {
-    pgem_linear_t *linear = graph->linear;
     int *colptr = pgem_linear_scratch(linear);
     int *rows = colptr + blocks + 1;
-    int *work = rows + graph->store.edge_count;
+    int *work = rows + store->edge_count;
     cs_di pattern = {colptr[blocks], blocks, blocks, colptr, rows, NULL, -1};
     pgem_cs_open(&linear->cs_pool);
     int *order = cs_di_amd(1, &pattern);
@@ -85,14 +85,14 @@ static int pgem_order_amd(pgem_t *graph, int blocks, int *position)
 }
 
 /* Nested dissection's position of every free index, into position; order is workspace. */
-static int pgem_order_nested(pgem_t *graph, int blocks, int *position, int *order)
+static int pgem_order_nested(pgem_linear_t *linear, const pgem_config_t *config, int blocks,
+                             int *position, int *order)
 {
-    pgem_linear_t *linear = graph->linear;
     const int *colptr = pgem_linear_scratch(linear);
     const int *rows = colptr + blocks + 1;
     const size_t b = (size_t)linear->block;
-    const size_t doubles = (size_t)graph->config.max_edges * b * b +
-                           (size_t)graph->config.max_poses * b * (b + 1u) / 2u;
+    const size_t doubles = (size_t)config->max_edges * b * b +
+                           (size_t)config->max_poses * b * (b + 1u) / 2u;
 #ifdef PGEM_NO_NESTED
     (void)colptr;
     (void)rows;
@@ -111,11 +111,11 @@ static int pgem_order_nested(pgem_t *graph, int blocks, int *position, int *orde
 
 /* The instance's orderer's position of every free index, into position (order is workspace),
  * after checking that it gave a permutation. */
-static int pgem_order_orderer(pgem_t *graph, int blocks, int *position, int *order)
+static int pgem_order_orderer(const pgem_linear_t *linear, int blocks, int *position, int *order)
 {
-    const int *colptr = pgem_linear_scratch(graph->linear);
+    const int *colptr = pgem_linear_scratch(linear);
     const int *rows = colptr + blocks + 1;
-    const pgem_orderer_t *orderer = &graph->linear->orderer;
+    const pgem_orderer_t *orderer = &linear->orderer;
     if (orderer->order(orderer->orderer, blocks, colptr, rows, order) != 0) {
         return PGEM_ERR_OUT_OF_MEMORY;
     }
@@ -133,27 +133,28 @@ static int pgem_order_orderer(pgem_t *graph, int blocks, int *position, int *ord
 
 /* Tries ordering `kind` (nested dissection or the orderer) into candidate and keeps it in best
  * when the choice names it, or under AUTO when it needs fewer flops than *best_flops. */
-static int pgem_order_try(pgem_t *graph, int block_count, pgem_ordering_t kind, int *best,
-                          double *best_flops)
+static int pgem_order_try(pgem_linear_t *linear, const pgem_store_t *store,
+                          const pgem_config_t *config, int block_count, pgem_ordering_t kind,
+                          int *best, double *best_flops)
 {
-    pgem_linear_t *linear = graph->linear;
     int *colptr = pgem_linear_scratch(linear);
     int *candidate = linear->factor.task_worker;
     /* the free numbering's pattern again (an evaluation renumbers it) */
-    (void)pgem_pattern_number_free(graph);
-    pgem_pattern_build(graph, block_count, colptr, colptr + block_count + 1,
-                       colptr + block_count + 1 + graph->store.edge_count);
+    (void)pgem_pattern_number_free(linear, store);
+    pgem_pattern_build(linear, store, block_count, colptr, colptr + block_count + 1,
+                       colptr + block_count + 1 + store->edge_count);
     const int ok = (kind == PGEM_ORDERING_NESTED
-                        ? pgem_order_nested(graph, block_count, candidate, linear->factor.head)
-                        : pgem_order_orderer(graph, block_count, candidate,
+                        ? pgem_order_nested(linear, config, block_count, candidate,
+                                            linear->factor.head)
+                        : pgem_order_orderer(linear, block_count, candidate,
                                              linear->factor.head)) == PGEM_OK;
-    const double flops = ok ? pgem_order_flops(graph, block_count, candidate) : -1.0;
+    const double flops = ok ? pgem_order_flops(linear, store, block_count, candidate) : -1.0;
     if (ok && flops < 0.0) {
         return PGEM_ERR_OUT_OF_MEMORY;
     }
     *(kind == PGEM_ORDERING_NESTED ? &linear->factor.nested_flops
                                    : &linear->factor.orderer_flops) = flops;
-    if (ok && (graph->linear->ordering_choice != PGEM_ORDER_AUTO || flops < *best_flops)) {
+    if (ok && (linear->ordering_choice != PGEM_ORDER_AUTO || flops < *best_flops)) {
         for (int k = 0; k < block_count; k++) {
             best[k] = candidate[k];
         }
@@ -165,16 +166,16 @@ static int pgem_order_try(pgem_t *graph, int block_count, pgem_ordering_t kind, 
 
 /* AMD always (the fallback); under AUTO on large graphs also the orderer and, unless the
  * orderer beat AMD, nested dissection, by flops; or the one the instance's choice names. */
-int pgem_pattern_order(pgem_t *graph, int block_count)
+int pgem_pattern_order(pgem_linear_t *linear, const pgem_store_t *store,
+                       const pgem_config_t *config, int block_count)
 {
-    pgem_linear_t *linear = graph->linear;
     int *colptr = pgem_linear_scratch(linear);
     int *rows = colptr + block_count + 1;
-    int *work = rows + graph->store.edge_count;
+    int *work = rows + store->edge_count;
     int *best = linear->factor.order; /* free until the schedule is built */
-    const pgem_order_choice_t choice = graph->linear->ordering_choice;
-    pgem_pattern_build(graph, block_count, colptr, rows, work);
-    int status = pgem_order_amd(graph, block_count, best);
+    const pgem_order_choice_t choice = linear->ordering_choice;
+    pgem_pattern_build(linear, store, block_count, colptr, rows, work);
+    int status = pgem_order_amd(linear, store, block_count, best);
     linear->factor.ordering = PGEM_ORDERING_AMD;
     linear->factor.amd_flops = -1.0;
     linear->factor.nested_flops = -1.0;
@@ -182,11 +183,11 @@ int pgem_pattern_order(pgem_t *graph, int block_count)
     if (status != PGEM_OK || choice == PGEM_ORDER_AMD ||
         (choice == PGEM_ORDER_AUTO && block_count < PGEM_ND_MIN_BLOCKS)) {
         if (status == PGEM_OK) {
-            pgem_order_apply(graph, best);
+            pgem_order_apply(linear, store, best);
         }
         return status;
     }
-    double best_flops = pgem_order_flops(graph, block_count, best);
+    double best_flops = pgem_order_flops(linear, store, block_count, best);
     if (best_flops < 0.0) {
         return PGEM_ERR_OUT_OF_MEMORY;
     }
@@ -194,11 +195,12 @@ int pgem_pattern_order(pgem_t *graph, int block_count)
     const int small = best_flops < PGEM_ND_MIN_FLOPS_PER_BLOCK * block_count ||
                       best_flops < PGEM_ND_MIN_FLOPS;
     if (choice == PGEM_ORDER_AUTO && small) {
-        pgem_order_apply(graph, best);
+        pgem_order_apply(linear, store, best);
         return PGEM_OK;
     }
     if (choice != PGEM_ORDER_NESTED && linear->orderer.order != NULL) {
-        status = pgem_order_try(graph, block_count, PGEM_ORDERING_ORDERER, best, &best_flops);
+        status = pgem_order_try(linear, store, config, block_count, PGEM_ORDERING_ORDERER, best,
+                                &best_flops);
     }
     /* Our own dissection is not run beside an orderer that beat AMD: a multilevel dissection
      * such as METIS's orders better than ours on every large graph measured (grid3d 100000:
@@ -206,18 +208,18 @@ int pgem_pattern_order(pgem_t *graph, int block_count)
     const int orderer_won = linear->factor.ordering == PGEM_ORDERING_ORDERER;
     if (status == PGEM_OK && choice != PGEM_ORDER_ORDERER &&
         !(choice == PGEM_ORDER_AUTO && orderer_won)) {
-        status = pgem_order_try(graph, block_count, PGEM_ORDERING_NESTED, best, &best_flops);
+        status = pgem_order_try(linear, store, config, block_count, PGEM_ORDERING_NESTED, best,
+                                &best_flops);
     }
     if (status == PGEM_OK) {
-        pgem_order_apply(graph, best);
+        pgem_order_apply(linear, store, best);
     }
     return status;
 }
 
-void pgem_linear_set_ordering(pgem_t *graph, pgem_order_choice_t choice,
+void pgem_linear_set_ordering(pgem_linear_t *linear, pgem_order_choice_t choice,
                               const pgem_orderer_t *orderer)
 {
-    pgem_linear_t *linear = graph->linear;
     linear->ordering_choice = choice;
     if (orderer != NULL) {
         linear->orderer = *orderer;
@@ -225,5 +227,5 @@ void pgem_linear_set_ordering(pgem_t *graph, pgem_order_choice_t choice,
         linear->orderer.order = NULL;
         linear->orderer.orderer = NULL;
     }
-    pgem_linear_invalidate(graph); /* the next analysis orders anew */
+    pgem_linear_invalidate(linear); /* the next analysis orders anew */
 }

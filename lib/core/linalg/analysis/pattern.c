@@ -2,12 +2,12 @@
 #include "linalg/linear.h"
 
 /* Numbers the free poses 0, 1, ... (-1 for held poses); returns how many are free. */
-int pgem_pattern_number_free(pgem_t *graph)
+int pgem_pattern_number_free(pgem_linear_t *linear, const pgem_store_t *store)
 {
     int free_count = 0;
-    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
-        int held = PGEM_POSE_HELD(&graph->store, p);
-        graph->linear->pose_block[p] = held ? -1 : free_count++;
+    for (uint32_t p = 0; p < store->pose_count; p++) {
+        int held = PGEM_POSE_HELD(store, p);
+        linear->pose_block[p] = held ? -1 : free_count++;
     }
     return free_count;
 }
@@ -15,18 +15,18 @@ int pgem_pattern_number_free(pgem_t *graph)
 /* Column-compressed (row, column) pairs of every edge in the structure joining two free poses, rows sorted
  * and duplicates merged: the classic double transpose, into colptr / rows.
  * work must hold 2 * edge_count + 2 * (block_count + 1) ints. */
-static void pgem_pattern_bucket(const pgem_t *graph, int block_count, int *colptr, int *rows,
-                                int *work)
+static void pgem_pattern_bucket(const pgem_linear_t *linear, const pgem_store_t *store,
+                                int block_count, int *colptr, int *rows, int *work)
 {
     int *rowptr = work;
     int *cols = work + block_count + 1;
-    int *cursor = cols + graph->store.edge_count;
+    int *cursor = cols + store->edge_count;
     for (int j = 0; j <= block_count; j++) {
         rowptr[j] = 0;
     }
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+    for (uint32_t k = 0; k < store->edge_count; k++) {
         int a, b;
-        if (pgem_edge_blocks(graph, k, &a, &b)) {
+        if (pgem_edge_blocks(linear, store, k, &a, &b)) {
             rowptr[(a < b ? a : b) + 1]++;
         }
     }
@@ -35,9 +35,9 @@ static void pgem_pattern_bucket(const pgem_t *graph, int block_count, int *colpt
         cursor[j] = rowptr[j];
     }
     /* rows bucketed by row index, holding their column */
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
+    for (uint32_t k = 0; k < store->edge_count; k++) {
         int a, b;
-        if (pgem_edge_blocks(graph, k, &a, &b)) {
+        if (pgem_edge_blocks(linear, store, k, &a, &b)) {
             cols[cursor[a < b ? a : b]++] = a < b ? b : a;
         }
     }
@@ -77,9 +77,10 @@ static void pgem_pattern_unique(int block_count, int *colptr, int *rows)
     colptr[block_count] = write;
 }
 
-void pgem_pattern_build(pgem_t *graph, int block_count, int *colptr, int *rows, int *work)
+void pgem_pattern_build(const pgem_linear_t *linear, const pgem_store_t *store, int block_count,
+                        int *colptr, int *rows, int *work)
 {
-    pgem_pattern_bucket(graph, block_count, colptr, rows, work);
+    pgem_pattern_bucket(linear, store, block_count, colptr, rows, work);
     pgem_pattern_unique(block_count, colptr, rows);
 }
 

@@ -4,64 +4,60 @@
  * marks the structure stale; linalg/analysis/analyze.c rebuilds it (pgem_linear_prepare). */
 #include "linalg/linear.h"
 
-void pgem_linear_follow(pgem_t *graph)
+void pgem_linear_follow(pgem_linear_t *linear, const pgem_store_t *store)
 {
-    pgem_linear_t *linear = graph->linear;
-    if (linear->topology != graph->store.topology) {
+    if (linear->topology != store->topology) {
         linear->valid = 0;
         linear->ordered = 0;
-        linear->topology = graph->store.topology;
+        linear->topology = store->topology;
     }
 }
 
-void pgem_linear_invalidate(pgem_t *graph)
+void pgem_linear_invalidate(pgem_linear_t *linear)
 {
-    graph->linear->valid = 0;
-    graph->linear->ordered = 0;
-    graph->linear->covariance = PGEM_COVARIANCE_NONE;
+    linear->valid = 0;
+    linear->ordered = 0;
+    linear->covariance = PGEM_COVARIANCE_NONE;
 }
 
 /* 1 if edge k, made active, can be assembled into the current (valid) structure: it has a
  * place there, or touches a held pose (no off-diagonal block). */
-static int pgem_edge_in_structure(const pgem_t *graph, uint32_t k)
+static int pgem_edge_in_structure(const pgem_linear_t *linear, const pgem_store_t *store,
+                                   uint32_t k)
 {
-    const pgem_linear_t *linear = graph->linear;
     return linear->all_edges || linear->edge_offset[k] >= 0 ||
-           linear->pose_block[graph->store.edge_from[k]] < 0 ||
-           linear->pose_block[graph->store.edge_to[k]] < 0;
+           linear->pose_block[store->edge_from[k]] < 0 || linear->pose_block[store->edge_to[k]] < 0;
 }
 
 /* The structure must grow when an active edge has no place in it (a loop woke up or was
  * re-admitted). It may shrink: dormant and pruned loops still in it cost fill, so it is
  * rebuilt without them once they are more than a sixteenth of the loops it holds (the
  * full-structure fallback, which holds every edge by design, is kept). */
-void pgem_linear_review(pgem_t *graph)
+void pgem_linear_review(pgem_linear_t *linear, const pgem_store_t *store)
 {
-    pgem_linear_follow(graph);
-    const pgem_linear_t *linear = graph->linear;
+    pgem_linear_follow(linear, store);
     if (!linear->valid) {
         return;
     }
     uint32_t held = 0, idle = 0;
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        const int active = graph->store.edge_active[k] == PGEM_EDGE_ACTIVE;
-        if (active && !pgem_edge_in_structure(graph, k)) {
-            pgem_linear_invalidate(graph);
+    for (uint32_t k = 0; k < store->edge_count; k++) {
+        const int active = store->edge_active[k] == PGEM_EDGE_ACTIVE;
+        if (active && !pgem_edge_in_structure(linear, store, k)) {
+            pgem_linear_invalidate(linear);
             return;
         }
-        if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP && linear->edge_offset[k] >= 0) {
+        if (store->edge_kind[k] == PGEM_EDGE_LOOP && linear->edge_offset[k] >= 0) {
             held++;
             idle += (uint32_t)!active;
         }
     }
     if (!linear->all_edges && idle > 0u && idle * 16u > held) {
-        pgem_linear_invalidate(graph);
+        pgem_linear_invalidate(linear);
     }
 }
 
-int pgem_linear_on_pattern(const pgem_t *graph, uint32_t k)
+int pgem_linear_on_pattern(const pgem_linear_t *linear, const pgem_store_t *store, uint32_t k)
 {
-    const pgem_linear_t *linear = graph->linear;
-    return linear->edge_offset[k] >= 0 || linear->pose_block[graph->store.edge_from[k]] < 0 ||
-           linear->pose_block[graph->store.edge_to[k]] < 0;
+    return linear->edge_offset[k] >= 0 || linear->pose_block[store->edge_from[k]] < 0 ||
+           linear->pose_block[store->edge_to[k]] < 0;
 }

@@ -48,20 +48,23 @@ pgem_factor_column_t pgem_factor_column_view(const pgem_factor_t *factor, int co
     return view;
 }
 
-static int pgem_not_positive_definite(pgem_t *graph, int unknown)
+static int pgem_not_positive_definite(const pgem_linear_t *linear, const pgem_store_t *store,
+                                      char *message, int unknown)
 {
-    const int block = unknown / graph->linear->block;
-    pgem_message_clear(graph);
-    pgem_message_text(graph, "normal equations not positive definite at unknown ");
-    pgem_message_i64(graph, unknown);
-    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
-        if (graph->linear->pose_block[p] == block) {
-            pgem_message_text(graph, " (pose ");
-            pgem_message_u64(graph, graph->store.pose_id[p]);
-            pgem_message_text(graph, ")");
+    const int block = unknown / linear->block;
+    message[0] = '\0';
+    pgem_text_append(message, PGEM_MESSAGE_SIZE,
+                     "normal equations not positive definite at unknown ");
+    pgem_text_i64(message, PGEM_MESSAGE_SIZE, unknown);
+    for (uint32_t p = 0; p < store->pose_count; p++) {
+        if (linear->pose_block[p] == block) {
+            pgem_text_append(message, PGEM_MESSAGE_SIZE, " (pose ");
+            pgem_text_u64(message, PGEM_MESSAGE_SIZE, store->pose_id[p]);
+            pgem_text_append(message, PGEM_MESSAGE_SIZE, ")");
         }
     }
-    pgem_message_text(graph, ": is the information of its edges too small or degenerate?");
+    pgem_text_append(message, PGEM_MESSAGE_SIZE,
+                     ": is the information of its edges too small or degenerate?");
     return PGEM_ERR_NOT_POSITIVE_DEFINITE;
 }
 
@@ -90,14 +93,15 @@ static void pgem_factor_tasks(void *context, uint32_t worker)
 
 /* The tasks on the executor's workers; PGEM_OK, or the failure of the first task (in task
  * order, as one worker running them in turn would meet it) with *failed its column. */
-static int pgem_factor_parallel(pgem_t *graph, int workers, int *failed)
+static int pgem_factor_parallel(pgem_linear_t *linear, const pgem_executor_t *executor,
+                                int workers, int *failed)
 {
-    pgem_factor_t *factor = &graph->linear->factor;
+    pgem_factor_t *factor = &linear->factor;
     pgem_factor_job_t job;
-    job.linear = graph->linear;
+    job.linear = linear;
     pgem_schedule_assign(factor, workers);
     factor->progress_share = (double)workers; /* worker 0 reports for all */
-    graph->executor.run(graph->executor.executor, pgem_factor_tasks, &job);
+    executor->run(executor->executor, pgem_factor_tasks, &job);
     factor->progress_share = 1.0;
     int first = -1;
     for (int w = 0; w < workers; w++) {
@@ -112,18 +116,18 @@ static int pgem_factor_parallel(pgem_t *graph, int workers, int *failed)
     return PGEM_ERR_NOT_POSITIVE_DEFINITE;
 }
 
-int pgem_linear_factor(pgem_t *graph)
+int pgem_linear_factor(pgem_linear_t *linear, const pgem_store_t *store,
+                       const pgem_executor_t *executor, char *message)
 {
-    pgem_linear_t *linear = graph->linear;
     pgem_factor_t *factor = &linear->factor;
-    int workers = graph->executor.run != NULL ? (int)graph->executor.workers : 1;
+    int workers = executor->run != NULL ? (int)executor->workers : 1;
     workers = workers < factor->worker_count ? workers : factor->worker_count;
     int failed = 0;
     int status = PGEM_OK;
     linear->covariance = PGEM_COVARIANCE_NONE;
     pgem_numeric_begin(linear);
     if (workers > 1 && factor->task_count > 1) {
-        status = pgem_factor_parallel(graph, workers, &failed);
+        status = pgem_factor_parallel(linear, executor, workers, &failed);
     } else {
         for (int t = 0; t < factor->task_count && status == PGEM_OK; t++) {
             status = pgem_numeric_task(linear, t, &factor->workers[0], &failed);
@@ -132,5 +136,6 @@ int pgem_linear_factor(pgem_t *graph)
     if (status == PGEM_OK) {
         status = pgem_numeric_top(linear, &factor->workers[0], &failed);
     }
-    return status == PGEM_OK ? PGEM_OK : pgem_not_positive_definite(graph, failed);
+    return status == PGEM_OK ? PGEM_OK
+                             : pgem_not_positive_definite(linear, store, message, failed);
 }

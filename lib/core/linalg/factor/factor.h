@@ -10,7 +10,6 @@
 #include "dense.h"
 #include "pgem/graph.h"
 
-struct pgem;
 struct pgem_linear;
 
 /* Doubles of the dense workspace of one worker (the packed operands of the update products:
@@ -170,8 +169,9 @@ static inline int pgem_factor_column_parent(const pgem_factor_t *factor, const i
 
 /* linalg/factor/supernodes.c: supernodes, their rows and the layout from the block elimination tree
  * (linear->block_parent, postordered) and block column counts; returns the nonzeros the
- * factor needs (more than the fill budget: nothing else was written), or a negative error. */
-int64_t pgem_supernodes_analyze(struct pgem *graph, const int *counts);
+ * factor needs (more than fill_budget: nothing else was written), or a negative error. */
+int64_t pgem_supernodes_analyze(struct pgem_linear *linear, const int *counts,
+                                uint32_t fill_budget);
 
 /* linalg/factor/schedule.c: tasks and order of a factorisation; tasks to workers. */
 void pgem_schedule_analyze(struct pgem_linear *linear);

@@ -220,9 +220,8 @@ double pgem_factor_supernode_flops(const pgem_factor_t *factor, int s)
                                        (factor->super_first[s + 1] - factor->super_first[s]) * factor->block);
 }
 
-int64_t pgem_supernodes_analyze(pgem_t *graph, const int *counts)
+int64_t pgem_supernodes_analyze(pgem_linear_t *linear, const int *counts, uint32_t fill_budget)
 {
-    pgem_linear_t *linear = graph->linear;
     pgem_factor_t *factor = &linear->factor;
     const int blocks = linear->block_count, b = linear->block;
     int *fsuper = pgem_linear_scratch(linear);          /* [blocks] */
@@ -258,7 +257,7 @@ int64_t pgem_supernodes_analyze(pgem_t *graph, const int *counts)
     const int64_t values = pgem_supernodes_values(factor, counts, b);
     factor->exact_nonzeros = exact > INT32_MAX ? INT32_MAX : (int)exact;
     factor->nonzeros = values > INT32_MAX ? INT32_MAX : (int)values;
-    if (values > (int64_t)graph->config.fill_budget) {
+    if (values > (int64_t)fill_budget) {
         return values; /* the caller refuses it before anything is written past the budget */
     }
     if (!pgem_supernodes_rows(factor, linear, counts)) {

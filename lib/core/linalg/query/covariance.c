@@ -7,22 +7,20 @@
 
 #include "linalg/linear.h"
 
-int pgem_linear_covariance_state(const pgem_t *graph)
+int pgem_linear_covariance_state(const pgem_linear_t *linear, const pgem_store_t *store)
 {
-    const pgem_linear_t *linear = graph->linear;
-    if (linear->covariance_topology != graph->store.topology ||
-        linear->covariance_revision != graph->store.revision) {
+    if (linear->covariance_topology != store->topology ||
+        linear->covariance_revision != store->revision) {
         return PGEM_COVARIANCE_NONE;
     }
     return linear->covariance;
 }
 
-void pgem_linear_covariance_mark(pgem_t *graph, int state)
+void pgem_linear_covariance_mark(pgem_linear_t *linear, const pgem_store_t *store, int state)
 {
-    pgem_linear_t *linear = graph->linear;
     linear->covariance = state;
-    linear->covariance_topology = graph->store.topology;
-    linear->covariance_revision = graph->store.revision;
+    linear->covariance_topology = store->topology;
+    linear->covariance_revision = store->revision;
 }
 
 /* The b x b identity and zero blocks, row-major. */
@@ -35,16 +33,16 @@ static void pgem_identity_blocks(int b, double *identity, double *zero)
     }
 }
 
-void pgem_linear_pose_covariance(pgem_t *graph, uint32_t p, double *out)
+void pgem_linear_pose_covariance(pgem_linear_t *linear, uint32_t p, double *out)
 {
-    const int b = graph->linear->block;
+    const int b = linear->block;
     double identity[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double zero[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     pgem_identity_blocks(b, identity, zero);
-    if (graph->linear->covariance == PGEM_COVARIANCE_INVERSE) {
-        pgem_linear_marginal_diagonal(graph, p, p, identity, zero, out);
+    if (linear->covariance == PGEM_COVARIANCE_INVERSE) {
+        pgem_linear_marginal_diagonal(linear, p, p, identity, zero, out);
     } else {
-        pgem_linear_marginal(graph, p, p, identity, zero, out);
+        pgem_linear_marginal(linear, p, p, identity, zero, out);
     }
 }
 
@@ -54,10 +52,10 @@ void pgem_linear_pose_covariance(pgem_t *graph, uint32_t p, double *out)
  *   T = M([I D]) - Sigma_pp - D Sigma_qq D = S D + D S^T,
  * so S_ii = U_ii / 2 and, for i != j, S_ij = (T_ij - d_i U_ij) / (d_j - d_i), where
  * M(A) = A H^-1 A^T for A = [A_p A_q] (the polarisation identity, in closed form). */
-static void pgem_cross_block(pgem_t *graph, uint32_t p, uint32_t q, const double *own_p,
+static void pgem_cross_block(pgem_linear_t *linear, uint32_t p, uint32_t q, const double *own_p,
                              const double *own_q, double *cross)
 {
-    const int b = graph->linear->block;
+    const int b = linear->block;
     double identity[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double scale[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double sum[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
@@ -66,8 +64,8 @@ static void pgem_cross_block(pgem_t *graph, uint32_t p, uint32_t q, const double
     for (int k = 0; k < b; k++) {
         scale[k * b + k] = (double)(k + 1);
     }
-    pgem_linear_marginal(graph, p, q, identity, identity, sum);
-    pgem_linear_marginal(graph, p, q, identity, scale, scaled);
+    pgem_linear_marginal(linear, p, q, identity, identity, sum);
+    pgem_linear_marginal(linear, p, q, identity, scale, scaled);
     for (int i = 0; i < b; i++) {
         for (int j = 0; j < b; j++) {
             const double d_i = (double)(i + 1), d_j = (double)(j + 1);
@@ -78,28 +76,29 @@ static void pgem_cross_block(pgem_t *graph, uint32_t p, uint32_t q, const double
     }
 }
 
-int pgem_linear_joint_covariance(pgem_t *graph, uint32_t p, uint32_t q, double *out)
+int pgem_linear_joint_covariance(pgem_linear_t *linear, const pgem_store_t *store,
+                                 const pgem_executor_t *executor, char *message, uint32_t p,
+                                 uint32_t q, double *out)
 {
-    pgem_linear_t *linear = graph->linear;
     const int b = linear->block;
     if (linear->covariance == PGEM_COVARIANCE_INVERSE) { /* the solves need L again */
-        const int status = pgem_linear_factor(graph);
+        const int status = pgem_linear_factor(linear, store, executor, message);
         if (status != PGEM_OK) {
             return status; /* (the factor was fine before the inverse: not expected) */
         }
-        pgem_linear_covariance_mark(graph, PGEM_COVARIANCE_FACTOR);
+        pgem_linear_covariance_mark(linear, store, PGEM_COVARIANCE_FACTOR);
     }
     double own_p[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double own_q[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double cross[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    pgem_linear_pose_covariance(graph, p, own_p);
-    pgem_linear_pose_covariance(graph, q, own_q);
+    pgem_linear_pose_covariance(linear, p, own_p);
+    pgem_linear_pose_covariance(linear, q, own_q);
     if (p == q) {
         memcpy(cross, own_p, sizeof cross);
     } else if (linear->pose_block[p] < 0 || linear->pose_block[q] < 0) {
         memset(cross, 0, sizeof cross); /* a held pose: no correlation */
     } else {
-        pgem_cross_block(graph, p, q, own_p, own_q, cross);
+        pgem_cross_block(linear, p, q, own_p, own_q, cross);
     }
     const int n = 2 * b;
     for (int i = 0; i < b; i++) {
@@ -113,14 +112,14 @@ int pgem_linear_joint_covariance(pgem_t *graph, uint32_t p, uint32_t q, double *
     return PGEM_OK;
 }
 
-void pgem_linear_all_covariances(pgem_t *graph, double *out)
+void pgem_linear_all_covariances(pgem_linear_t *linear, const pgem_store_t *store, double *out)
 {
-    const int b = graph->linear->block;
-    if (graph->linear->covariance == PGEM_COVARIANCE_FACTOR) {
-        pgem_linear_invert(graph);
-        pgem_linear_covariance_mark(graph, PGEM_COVARIANCE_INVERSE);
+    const int b = linear->block;
+    if (linear->covariance == PGEM_COVARIANCE_FACTOR) {
+        pgem_linear_invert(linear);
+        pgem_linear_covariance_mark(linear, store, PGEM_COVARIANCE_INVERSE);
     }
-    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
-        pgem_linear_pose_covariance(graph, p, out + (size_t)p * (size_t)(b * b));
+    for (uint32_t p = 0; p < store->pose_count; p++) {
+        pgem_linear_pose_covariance(linear, p, out + (size_t)p * (size_t)(b * b));
     }
 }

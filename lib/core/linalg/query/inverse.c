@@ -152,9 +152,8 @@ static inline void pgem_invert_column(pgem_linear_t *linear, int b, int column)
     }
 }
 
-void pgem_linear_invert(pgem_t *graph)
+void pgem_linear_invert(pgem_linear_t *linear)
 {
-    pgem_linear_t *linear = graph->linear;
     linear->covariance = PGEM_COVARIANCE_NONE;
     for (int column = linear->block_count - 1; column >= 0; column--) {
         if (linear->block == 6) {
@@ -217,10 +216,9 @@ static void pgem_add_diagonal_form(pgem_linear_t *linear, int b, int column, con
     }
 }
 
-void pgem_linear_marginal_diagonal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
-                                   const double *a_to, double *out)
+void pgem_linear_marginal_diagonal(pgem_linear_t *linear, uint32_t from, uint32_t to,
+                                   const double *a_from, const double *a_to, double *out)
 {
-    pgem_linear_t *linear = graph->linear;
     const int b = linear->block;
     const int block_from = linear->pose_block[from], block_to = linear->pose_block[to];
     memset(out, 0, (size_t)(b * b) * sizeof(double));
@@ -232,13 +230,12 @@ void pgem_linear_marginal_diagonal(pgem_t *graph, uint32_t from, uint32_t to, co
     }
 }
 
-int pgem_linear_marginal_inverse(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
-                                 const double *a_to, double *out)
+int pgem_linear_marginal_inverse(pgem_linear_t *linear, uint32_t from, uint32_t to,
+                                 const double *a_from, const double *a_to, double *out)
 {
-    pgem_linear_t *linear = graph->linear;
     const int b = linear->block;
     const int block_from = linear->pose_block[from], block_to = linear->pose_block[to];
-    pgem_linear_marginal_diagonal(graph, from, to, a_from, a_to, out); /* the two own terms */
+    pgem_linear_marginal_diagonal(linear, from, to, a_from, a_to, out); /* the two own terms */
     if (block_from < 0 || block_to < 0) {
         return PGEM_OK;
     }

@@ -105,10 +105,9 @@ static inline void pgem_marginal_blocks(pgem_linear_t *linear, int b, int block_
     }
 }
 
-void pgem_linear_marginal(pgem_t *graph, uint32_t from, uint32_t to, const double *a_from,
+void pgem_linear_marginal(pgem_linear_t *linear, uint32_t from, uint32_t to, const double *a_from,
                           const double *a_to, double *out)
 {
-    pgem_linear_t *linear = graph->linear;
     const int b = linear->block;
     const int block_from = linear->pose_block[from], block_to = linear->pose_block[to];
     memset(out, 0, (size_t)(b * b) * sizeof(double));

@@ -23,18 +23,18 @@ static double pgem_dot(const double *a, const double *b, int count)
 }
 
 /* out = (H + D) x */
-static void pgem_full_multiply(const pgem_t *graph, const double *x, double *out)
+static void pgem_full_multiply(const pgem_linear_t *linear, const pgem_store_t *store,
+                               const double *x, double *out)
 {
-    pgem_linear_multiply(graph, x, out);
-    pgem_linear_left_out_multiply(graph, x, out);
+    pgem_linear_multiply(linear, x, out);
+    pgem_linear_left_out_multiply(linear, store, x, out);
 }
 
-int pgem_solve_newton(pgem_t *graph)
+int pgem_solve_newton(pgem_linear_t *linear, const pgem_store_t *store)
 {
-    pgem_linear_t *linear = graph->linear;
     const int count = linear->scalar_count;
     if (linear->left_out == 0u) {
-        pgem_linear_solve(graph, linear->rhs);
+        pgem_linear_solve(linear, linear->rhs);
         return PGEM_OK;
     }
     double *x = linear->rhs;
@@ -43,20 +43,20 @@ int pgem_solve_newton(pgem_t *graph)
     double *p = r + count;
     double *q = p + count; /* (H + D) p, then the preconditioned residual */
     memcpy(b, x, (size_t)count * sizeof(double));
-    pgem_linear_solve(graph, x);
-    pgem_full_multiply(graph, x, q);
+    pgem_linear_solve(linear, x);
+    pgem_full_multiply(linear, store, x, q);
     for (int j = 0; j < count; j++) {
         r[j] = b[j] - q[j];
     }
     const double limit = PGEM_NEWTON_TOLERANCE * sqrt(pgem_dot(b, b, count));
     memcpy(p, r, (size_t)count * sizeof(double));
-    pgem_linear_solve(graph, p);
+    pgem_linear_solve(linear, p);
     double rz = pgem_dot(r, p, count);
     for (int iteration = 0; iteration < PGEM_NEWTON_ITERATIONS; iteration++) {
         if (!(sqrt(pgem_dot(r, r, count)) > limit)) {
             return PGEM_OK;
         }
-        pgem_full_multiply(graph, p, q);
+        pgem_full_multiply(linear, store, p, q);
         const double curvature = pgem_dot(p, q, count);
         if (!(curvature > 0.0)) {
             break;
@@ -67,7 +67,7 @@ int pgem_solve_newton(pgem_t *graph)
             r[j] -= alpha * q[j];
         }
         memcpy(q, r, (size_t)count * sizeof(double));
-        pgem_linear_solve(graph, q);
+        pgem_linear_solve(linear, q);
         const double next = pgem_dot(r, q, count);
         const double beta = next / rz;
         rz = next;

@@ -104,10 +104,10 @@ static inline void pgem_upper_solve(const pgem_factor_t *factor, int b, double *
 }
 
 /* Solves H step = rhs in place (permuted order): L y = rhs, then L^T step = y. */
-void pgem_linear_solve(pgem_t *graph, double *step)
+void pgem_linear_solve(const pgem_linear_t *linear, double *step)
 {
-    const pgem_factor_t *factor = &graph->linear->factor;
-    if (graph->linear->block == 6) {
+    const pgem_factor_t *factor = &linear->factor;
+    if (linear->block == 6) {
         pgem_lower_solve(factor, 6, step);
         pgem_upper_solve(factor, 6, step);
     } else {
