@@ -19,6 +19,16 @@ Scenarios (all by default; --only picks some):
              message must be counted under its reason, nothing may be lost below the bridge
              (received counted exactly), and the bridge must keep publishing.
   two        two front-ends (sources) stream the two halves of a graph at once.
+  team       M3500 cut into three robots' files, each streamed by its own sender with
+             --foreign-ids at once: the settled map is the offline EM's.
+  frames     a simulated team of three robots (pgem simulate --robots 3, each robot's odometry
+             from its own origin, 5 false inter-robot loops), one sender per robot: first
+             without the third robot's loop closures (pgem.team_t lists it in a part of its
+             own, not anchored, the log says 2 parts), then with them (one anchored part);
+             every robot listed once with its pose count and first pose, its frame takes its
+             first pose's initial estimate onto the optimised one (1e-6) and, in the anchored
+             part, is the true offset of its odometry frame (0.5 m, 0.05 rad); the settled map
+             is the offline EM's.
   restart    a front-end that restarts its numbering: with its history (replays, then its
              new edges land) and without it (other edges under used numbers: conflicts, the
              status tells the operator where to resume; a new source name is accepted).
@@ -71,6 +81,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import random
 import re
@@ -650,6 +661,179 @@ def team_scenario(graph: Path, edges: int) -> None:
           f"at once; the settled map is the offline one; last sequence per robot {last}")
 
 
+def se2_compose(a: list[float], b: list[float]) -> list[float]:
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return [a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1],
+            math.atan2(math.sin(a[2] + b[2]), math.cos(a[2] + b[2]))]
+
+
+def se2_inverse(a: list[float]) -> list[float]:
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return [-c * a[0] - s * a[1], s * a[0] - c * a[1], -a[2]]
+
+
+def se2_gap(a: list[float], b: list[float]) -> tuple[float, float]:
+    """Translation (m) and rotation (rad) between two poses."""
+    turn = math.atan2(math.sin(a[2] - b[2]), math.cos(a[2] - b[2]))
+    return math.hypot(a[0] - b[0], a[1] - b[1]), abs(turn)
+
+
+def read_vertices(path: Path) -> dict[int, list[float]]:
+    return {int(w[1]): [float(x) for x in w[2:5]]
+            for w in (line.split() for line in path.read_text().splitlines())
+            if w and w[0] == "VERTEX_SE2"}
+
+
+def frames_files(graph: Path, robots: int) -> tuple[list[Path], list[int], int]:
+    """A simulated team's graph as each robot's own file (robot r's ids r * 10^6 + i): its
+    VERTEX lines, then its own edges, then its loop closures to the other robots (each
+    inter-robot edge in one of its two robots' files, alternately), those that name the last
+    robot at the end. Returns the files, each file's edges before those naming the last robot,
+    and the edges that name no pose of the last robot in any file."""
+    last = robots - 1
+    robot = lambda pose: pose // 1000000  # noqa: E731
+    vertices: list[list[str]] = [[] for _ in range(robots)]
+    edges: list[list[list[str]]] = [[[], [], []] for _ in range(robots)]  # own, others, last
+    crossing = 0
+    for line in graph.read_text().splitlines():
+        words = line.split()
+        if not words:
+            continue
+        if words[0].startswith("VERTEX"):
+            vertices[robot(int(words[1]))].append(line)
+            continue
+        a, b = robot(int(words[1])), robot(int(words[2]))
+        owner = a
+        if a != b:
+            owner = a if crossing % 2 == 0 else b
+            crossing += 1
+        edges[owner][0 if a == b else 2 if last in (a, b) else 1].append(line)
+    files, first = [], []
+    for r in range(robots):
+        path = Path(f"frames{r}.g2o")
+        path.write_text("\n".join(vertices[r] + edges[r][0] + edges[r][1] + edges[r][2]) + "\n")
+        files.append(path)
+        first.append(len(edges[r][0]) + len(edges[r][1]))
+    return files, first, sum(first)
+
+
+def frames_dump(name: str, edges: int) -> subprocess.Popen:
+    """Waits for the settle solve's graph holding `edges` edges, with its team."""
+    process = spawn(
+        [program("DUMP"), "-o", f"{name}.g2o", "--weights", f"{name}.weights", "--team",
+         f"{name}.team.json", "--edges", str(edges), "--settled", "--timeout", "240",
+         "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    time.sleep(0.3)
+    return process
+
+
+def frames_check(name: str, team: dict, robots: int, initial: dict, truth: dict,
+                 optimised: dict) -> list[str]:
+    """Every robot once with its pose count and first pose; its frame takes its first pose's
+    initial estimate onto its optimised one (1e-6) and is the true offset of its odometry frame
+    (the map's frame is robot 0's, held at its first pose). Returns the frames in words."""
+    names = [robot["source"] for robot in team["robots"]]
+    expect(sorted(names) == [f"robot-{r}" for r in range(robots)],
+           f"{name}: the team lists {names}, not each of the {robots} robots once")
+    anchor = se2_compose(initial[0], se2_inverse(truth[0]))  # world into the map's frame
+    words = []
+    for robot in team["robots"]:
+        r = int(robot["source"].split("-")[1])
+        own = [i for i in initial if i // 1000000 == r]
+        first = min(own)
+        expect(robot["poses"] == len(own) and robot["first_id"] == first,
+               f"{name}: {robot['source']} has {robot['poses']} poses from {robot['first_id']}, "
+               f"expected {len(own)} from {first}")
+        placed = se2_compose(robot["frame"], initial[first])
+        moved, turned = se2_gap(placed, optimised[first])
+        expect(moved < 1e-6 and turned < 1e-6,
+               f"{name}: {robot['source']}'s frame puts its first pose {moved:.3g} m, "
+               f"{turned:.3g} rad from its optimised estimate")
+        true_frame = se2_compose(se2_compose(anchor, truth[first]), se2_inverse(initial[first]))
+        moved, turned = se2_gap(robot["frame"], true_frame)
+        if robot["part"] == team["robots"][names.index("robot-0")]["part"]:
+            expect(moved < 0.5 and turned < 0.05,
+                   f"{name}: {robot['source']}'s frame {robot['frame']} is {moved:.3g} m, "
+                   f"{turned:.3g} rad from the true {true_frame}")
+        words.append(f"{robot['source']} part {robot['part']} frame "
+                     f"({', '.join(f'{v:.3f}' for v in robot['frame'])}) {moved:.3f} m, "
+                     f"{turned:.4f} rad from the truth")
+    return words
+
+
+def frames_scenario() -> dict:
+    step("frames: a simulated team of three robots, each robot's odometry from its own origin, "
+         "each streamed by its own sender; first without the third robot's loop closures (it "
+         "stays in a part of its own), then with them: the team message has each robot's poses, "
+         "part and frame, and the settled map is the offline EM's")
+    robots = 3
+    pgem = program("PGEM")
+    subprocess.run([pgem, "simulate", "--robots", str(robots), "--poses", "900", "--seed", "1",
+                    "--false-loops", "5", "-o", "team.g2o", "--truth", "team.truth.g2o"],
+                   check=True, stdout=subprocess.DEVNULL)
+    subprocess.run([pgem, "optimize", "team.g2o", "--robust", "em", "--weights",
+                    "team.offline.weights", "-o", "team.offline.g2o", "--quiet"], check=True)
+    initial = read_vertices(Path("team.g2o"))
+    truth = read_vertices(Path("team.truth.g2o"))
+    files, first, joined_edges = frames_files(Path("team.g2o"), robots)
+    all_edges = count_edges(Path("team.g2o"))
+    bridge = Bridge(Path("frames.log"))
+    bridge.start()
+
+    # the third robot's own edges only, the others' without their loops to it
+    dump = frames_dump("frames.apart", joined_edges)
+    senders = [sender(path, "--source", f"robot-{r}", "--rate", "1500", "--foreign-ids",
+                      "--count", str(first[r])) for r, path in enumerate(files)]
+    for r, process in enumerate(senders):
+        finish(process, f"robot-{r}, without the loops to robot-{robots - 1}")
+    finish(dump, "frames: waiting for the settled graph without robot-2's loops", timeout=300)
+    team = read_json(Path("frames.apart.team.json"))
+    expect(team is not None, "frames: no team message for the graph without robot-2's loops")
+    apart = frames_check("frames (apart)", team, robots, initial, truth,
+                         read_vertices(Path("frames.apart.g2o")))
+    by_name = {robot["source"]: robot for robot in team["robots"]}
+    expect(team["parts"] == 2 and by_name["robot-0"]["part"] == by_name["robot-1"]["part"] !=
+           by_name["robot-2"]["part"],
+           f"frames: without robot-2's loops the parts are {team}, not robot-0 and robot-1 in "
+           "one and robot-2 in its own")
+    expect(by_name["robot-0"]["anchored"] and by_name["robot-1"]["anchored"] and
+           not by_name["robot-2"]["anchored"],
+           f"frames: without robot-2's loops, anchored {team}: only robot-0's part holds it")
+    expect(re.search(r"graph in 2 parts after the accepted loop closures",
+                     bridge.log_text()) is not None,
+           "frames: the log never said the graph was in 2 parts without robot-2's loops")
+
+    # every edge: the loops to robot-2 join it
+    dump = frames_dump("frames.joined", all_edges)
+    senders = [sender(path, "--source", f"robot-{r}", "--rate", "1500", "--foreign-ids")
+               for r, path in enumerate(files)]
+    for r, process in enumerate(senders):
+        finish(process, f"robot-{r}, every edge")
+    finish(dump, "frames: waiting for the settled graph of every edge", timeout=300)
+    team = read_json(Path("frames.joined.team.json"))
+    expect(team is not None, "frames: no team message for the whole graph")
+    joined = frames_check("frames (joined)", team, robots, initial, truth,
+                          read_vertices(Path("frames.joined.g2o")))
+    expect(team["parts"] == 1 and all(robot["part"] == 0 and robot["anchored"]
+                                      for robot in team["robots"]),
+           f"frames: with every loop the robots are not all in the anchored part: {team}")
+    log = bridge.log_text()
+    settle = [line for line in log.splitlines() if re.search(r"solve \d+ \(settle", line)]
+    expect(settle and "several parts" not in settle[-1] and "parts after" not in settle[-1],
+           f"frames: the last settle's log line says the joined team is in parts: {settle[-1:]}")
+    bridge.stop()
+    result = subprocess.run([program("COMPARE"), "frames.joined.g2o", "team.offline.g2o", "1e-6",
+                             "frames.joined.weights", "team.offline.weights"],
+                            capture_output=True, text=True)
+    print(result.stdout.strip())
+    expect(result.returncode == 0, "frames: the bridge's team map differs from the offline EM")
+    for line in apart:
+        print(f"frames (robot-2 apart): {line}")
+    for line in joined:
+        print(f"frames (joined): {line}")
+    return {"apart": apart, "joined": joined}
+
+
 def finish_refused(path: Path) -> str:
     """A sender's output for a file it must refuse (exit 1, nothing sent)."""
     process = subprocess.run([program("SEND"), str(path)], capture_output=True, text=True,
@@ -1100,7 +1284,7 @@ def split_scenario(graph: Path, edges: int) -> dict:
     solves, whole = solves_in(Path("split.log"))
     expect(solves > 0 and not whole, f"split: {len(whole)} of {solves} solves were whole-graph "
            f"solves ({whole[:3]}), not incremental updates")
-    expect("several parts" in Path("split.log").read_text(),
+    expect(re.search(r"parts by odometry|graph in \d+ parts", Path("split.log").read_text()),
            "split: the log never said the graph was in several parts")
     expect(covered.search(Path("split.log").read_text()) is not None,
            "split: no live EM pass saw every pose within 60 s of the stream's end")
@@ -1454,8 +1638,8 @@ def report_failure(error: Exception) -> int:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--only",
-                        default="kills,malformed,two,team,restart,hostile,full,journal,split,"
-                        "compact")
+                        default="kills,malformed,two,team,frames,restart,hostile,full,journal,"
+                        "split,compact")
     parser.add_argument("--kills", type=int, default=int(os.environ.get("KILLS", "20")))
     parser.add_argument("--min-delay", type=float, default=0.05,
                         help="shortest time between a restart and the next kill (s)")
@@ -1490,6 +1674,8 @@ def main() -> int:
             two_scenario(graph, edges)
         if "team" in only:
             team_scenario(graph, edges)
+        if "frames" in only:
+            figures["frames"] = frames_scenario()
         if "restart" in only:
             restart_scenario(graph, edges)
         if {"hostile", "wire", "snapshots", "optimize"} & set(only):

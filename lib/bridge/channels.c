@@ -39,5 +39,6 @@ int pgem_channels_init(pgem_channels_t *channels, const char *prefix, int dimens
     status |= join(channels->command, prefix, "COMMAND");
     status |= join(channels->compaction, prefix, "COMPACTION");
     status |= join(channels->covariance, prefix, "COVARIANCE");
+    status |= join(channels->team, prefix, "TEAM");
     return status == 0 ? 0 : -1;
 }

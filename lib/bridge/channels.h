@@ -1,6 +1,7 @@
 /* LCM channel names of the bridge and its tools. Every name is PREFIX + a fixed suffix; the
  * default prefix is "PGEM_", so the defaults are PGEM_POSE2, PGEM_EDGE2, PGEM_POSE3,
- * PGEM_EDGE3, PGEM_GRAPH, PGEM_STATUS, PGEM_COMMAND, PGEM_COMPACTION and PGEM_COVARIANCE. Each
+ * PGEM_EDGE3, PGEM_GRAPH, PGEM_STATUS, PGEM_COMMAND, PGEM_COMPACTION, PGEM_COVARIANCE and
+ * PGEM_TEAM. Each
  * can also be set alone. */
 #ifndef PGEM_BRIDGE_CHANNELS_H
 #define PGEM_BRIDGE_CHANNELS_H
@@ -16,6 +17,7 @@ typedef struct pgem_channels {
     char command[PGEM_CHANNEL_MAX]; /* pgem.command_t */
     char compaction[PGEM_CHANNEL_MAX]; /* pgem.compaction_t, published after each compaction */
     char covariance[PGEM_CHANNEL_MAX]; /* pgem.covariance_t, published after each graph */
+    char team[PGEM_CHANNEL_MAX];    /* pgem.team_t, published right after each graph */
 } pgem_channels_t;
 
 /* Fills every name from a prefix (NULL means the default) for a dimension (2 or 3).

@@ -1,6 +1,6 @@
 /* The solver thread's messages: each is encoded into one buffer sized as it grows and
- * published on its channel (graph_t after every solve or update, compaction_t after each
- * compaction; covariance.c's covariance_t the same way). */
+ * published on its channel (graph_t after every solve or update, team.c's team_t right after
+ * it, compaction_t after each compaction; covariance.c's covariance_t the same way). */
 #define _POSIX_C_SOURCE 200809L
 #include <stdio.h>
 #include <stdlib.h>
@@ -113,6 +113,7 @@ void bridge_publish_graph(bridge_t *bridge, const char *trigger,
         bridge_out_publish(bridge, bridge->options.channels.graph, "the graph", size,
                     pgem_graph_t_encode(bridge->solver.out.buffer, 0, size, &msg));
     }
+    bridge_publish_team(bridge, msg.utime, sources);
 }
 
 

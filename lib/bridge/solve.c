@@ -324,6 +324,18 @@ void bridge_solve(bridge_t *bridge, const char *trigger)
         bridge_covariance_publish(bridge, !incremental);
     }
     if (status == PGEM_OK) {
+        /* parts by odometry (each held at its own gauge) and after the accepted loop closures
+         * joined them, as the team message counts them */
+        char parts_text[128] = "";
+        const uint32_t joined = bridge->solver.team.parts;
+        if (joined > 1u) {
+            snprintf(parts_text, sizeof parts_text,
+                     " (graph in %u parts after the accepted loop closures: each held at its own "
+                     "gauge)", joined);
+        } else if (parts > 1u) {
+            snprintf(parts_text, sizeof parts_text,
+                     " (%u parts by odometry, joined by accepted loop closures)", parts);
+        }
         bridge_log(bridge,
                    "solve %lld (%s%s): %u poses, %u loops, %u pruned, chi2 %.6g, %u rounds, "
                    "%.1f ms (publishing %.1f ms)%s",
@@ -334,8 +346,7 @@ void bridge_solve(bridge_t *bridge, const char *trigger)
                                  : "",
                    pgem_pose_count(bridge->solver.core), summary.loops, summary.pruned,
                    summary.final_chi2, summary.rounds, 1e-3 * (double)micros,
-                   1e3 * (published - solved),
-                   parts > 1 ? " (graph in several parts: each held at its own gauge)" : "");
+                   1e3 * (published - solved), parts_text);
         if (why[0] != '\0') {
             bridge_note(bridge, "solve %lld: %s", (long long)bridge->solver.solve_id, why);
         }

@@ -68,6 +68,20 @@ int bridge_solver_init(bridge_t *bridge, char *message, size_t message_size)
     solver->out.sources = calloc(sources, sizeof *solver->out.sources);
     solver->out.names = calloc(sources, PGEM_SOURCE_MAX);
     solver->out.last = calloc(sources, sizeof *solver->out.last);
+    bridge_team_t *team = &solver->team;
+    team->parent = calloc(poses, sizeof *team->parent);
+    team->robot = calloc(poses, sizeof *team->robot);
+    team->label = calloc(poses, sizeof *team->label);
+    team->bits = calloc(poses, sizeof *team->bits);
+    team->first = calloc(sources, sizeof *team->first);
+    team->count = calloc(sources, sizeof *team->count);
+    team->names = calloc(sources, sizeof *team->names);
+    team->poses = calloc(sources, sizeof *team->poses);
+    team->first_ids = calloc(sources, sizeof *team->first_ids);
+    team->part = calloc(sources, sizeof *team->part);
+    team->anchored = calloc(sources, sizeof *team->anchored);
+    team->frames = calloc(sources, sizeof *team->frames);
+    team->frame_values = calloc(sources * pose_size, sizeof *team->frame_values);
     if (solver->core_block == NULL || solver->edge_source == NULL ||
         solver->edge_sequence == NULL || solver->source_last == NULL ||
         solver->anchored == NULL || solver->user_fixed == NULL ||
@@ -80,7 +94,12 @@ int bridge_solver_init(bridge_t *bridge, char *message, size_t message_size)
         solver->out.last == NULL || solver->compaction.pose_map == NULL ||
         solver->compaction.edge_map == NULL || solver->compaction.ids == NULL ||
         solver->compaction.anchors == NULL || solver->compaction.relative == NULL ||
-        solver->compaction.before == NULL || solver->compaction.edges == NULL) {
+        solver->compaction.before == NULL || solver->compaction.edges == NULL ||
+        team->parent == NULL || team->robot == NULL || team->label == NULL ||
+        team->bits == NULL || team->first == NULL || team->count == NULL ||
+        team->names == NULL || team->poses == NULL || team->first_ids == NULL ||
+        team->part == NULL || team->anchored == NULL || team->frames == NULL ||
+        team->frame_values == NULL) {
         snprintf(message, message_size, "out of memory for %u poses and %u edges",
                  (unsigned)o->max_poses, (unsigned)o->max_edges);
         return -1;
@@ -90,6 +109,7 @@ int bridge_solver_init(bridge_t *bridge, char *message, size_t message_size)
     }
     for (size_t s = 0; s < sources; ++s) {
         solver->source_last[s] = -1;
+        team->frames[s] = team->frame_values + s * pose_size;
     }
     bridge_components_reset(bridge);
     int status = pgem_init(&solver->core, &solver->core_config,
@@ -153,6 +173,19 @@ void bridge_solver_free(bridge_t *bridge)
     free(solver->out.last);
     free(solver->out.buffer);
     free(solver->out.anchors);
+    free(solver->team.parent);
+    free(solver->team.robot);
+    free(solver->team.label);
+    free(solver->team.bits);
+    free(solver->team.first);
+    free(solver->team.count);
+    free(solver->team.names);
+    free(solver->team.poses);
+    free(solver->team.first_ids);
+    free(solver->team.part);
+    free(solver->team.anchored);
+    free(solver->team.frames);
+    free(solver->team.frame_values);
     free(solver->settle.save);
     free(solver->settle.anchored);
     free(solver->settle.gauge);

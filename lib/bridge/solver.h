@@ -88,6 +88,27 @@ typedef struct bridge_out {
     int64_t graph_utime;        /* the last graph_t's utime, for pgem.covariance_t */
 } bridge_out_t;
 
+/* The team message (team.c): per pose its robot and its part over the odometry and the
+ * accepted loop closures, per source its count, first pose and what goes out. */
+typedef struct bridge_team {
+    uint32_t *parent;           /* per pose: union-find over odometry and accepted loops */
+    uint32_t *robot;            /* per pose: its robot's source index (team.c), or none */
+    uint32_t *label;            /* per root: its part's number in the message, or none */
+    uint8_t *bits;              /* per pose: an edge touches it, it is held; per root: its
+                                   part has an edge, holds a held pose */
+    uint32_t *first;            /* per source: its first pose's index */
+    int32_t *count;             /* per source: its poses */
+    char **names;               /* per robot (out): its source name (the graph's copy) */
+    int32_t *poses;             /* per robot (out): its poses, first pose, part, anchored */
+    int64_t *first_ids;
+    int32_t *part;
+    int8_t *anchored;
+    double **frames;            /* per robot (out): rows into frame_values */
+    double *frame_values;
+    uint32_t parts;             /* the last graph's parts that have an edge, joined by
+                                   odometry and accepted loop closures */
+} bridge_team_t;
+
 typedef struct bridge_solver {
     /* The graph: the core instance and the bridge's per-edge and per-pose arrays. */
     pgem_config_t core_config;
@@ -118,6 +139,7 @@ typedef struct bridge_solver {
     bridge_settle_t settle;
     bridge_live_em_t live_em;
     bridge_out_t out;
+    bridge_team_t team;
     /* The newest pose's covariances published (covariance.c), [0] from the incremental
      * factor, [1] from a factor at the estimate, and the seconds they took; failures. */
     struct {
@@ -198,6 +220,9 @@ void bridge_out_publish(bridge_t *bridge, const char *channel, const char *what,
 void bridge_publish_graph(bridge_t *bridge, const char *trigger,
                           const pgem_robust_summary_t *summary, int usable, const char *why,
                           int64_t solve_time_us);
+/* team_t: each robot's poses, part and frame in the graph just published (team.c), with the
+ * graph's utime and its sources' count (the names are the graph's, in out.sources). */
+void bridge_publish_team(bridge_t *bridge, int64_t utime, uint32_t sources);
 /* compaction_t: the poses one compaction removed, their anchors and where they lay. */
 void bridge_publish_compaction(bridge_t *bridge, const pgem_compact_summary_t *summary,
                                uint32_t removed, int full);

@@ -38,6 +38,7 @@ static const pgem_lcm_channel_option_t pgem_lcm_channel_options[] = {
      "compaction channel (default: PREFIX + COMPACTION)"},
     {"--covariance-channel", PGEM_LCM_COVARIANCE_CHANNEL,
      "covariance channel (default: PREFIX + COVARIANCE)"},
+    {"--team-channel", PGEM_LCM_TEAM_CHANNEL, "team channel (default: PREFIX + TEAM)"},
 };
 
 #define PGEM_LCM_CHANNEL_OPTIONS \
@@ -59,6 +60,8 @@ static const char **pgem_lcm_channel_member(pgem_lcm_options_t *options, unsigne
         return &options->compaction;
     case PGEM_LCM_COVARIANCE_CHANNEL:
         return &options->covariance;
+    case PGEM_LCM_TEAM_CHANNEL:
+        return &options->team;
     default:
         return &options->command;
     }
@@ -133,6 +136,7 @@ int pgem_lcm_channels(const pgem_lcm_options_t *options, int dimension,
         {options->command, channels->command, "--command-channel"},
         {options->compaction, channels->compaction, "--compaction-channel"},
         {options->covariance, channels->covariance, "--covariance-channel"},
+        {options->team, channels->team, "--team-channel"},
     };
     for (size_t c = 0; c < sizeof alone / sizeof alone[0]; c++) {
         if (alone[c].value != NULL && pgem_channel_set(alone[c].name, alone[c].value) != 0) {

@@ -25,7 +25,8 @@
 #define PGEM_LCM_COMMAND_CHANNEL 0x10u /* --command-channel C */
 #define PGEM_LCM_COMPACTION_CHANNEL 0x20u /* --compaction-channel C */
 #define PGEM_LCM_COVARIANCE_CHANNEL 0x40u /* --covariance-channel C */
-#define PGEM_LCM_ALL_CHANNELS 0x7fu
+#define PGEM_LCM_TEAM_CHANNEL 0x80u /* --team-channel C */
+#define PGEM_LCM_ALL_CHANNELS 0xffu
 
 /* The LCM options of one command line. NULL members mean "not given". */
 typedef struct pgem_lcm_options {
@@ -41,6 +42,7 @@ typedef struct pgem_lcm_options {
     const char *command;
     const char *compaction;
     const char *covariance;
+    const char *team;
 } pgem_lcm_options_t;
 
 /* Clears *options for a tool that takes the channel options in `accepted`. */

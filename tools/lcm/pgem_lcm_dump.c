@@ -1,7 +1,8 @@
 /* pgem-lcm-dump: subscribes to the bridge's optimized graph (pgem.graph_t) and writes the
  * latest one: its poses as g2o, its loop-closure weights as pgem optimize --weights writes
- * them, its solve statistics as JSON, and optionally the bridge's latest status and the newest
- * pose's covariance as JSON. Every file is written atomically (FILE.tmp, then renamed). */
+ * them, its solve statistics as JSON, and optionally the bridge's latest status, the newest
+ * pose's covariance and the team's robots as JSON. Every file is written atomically (FILE.tmp,
+ * then renamed). */
 #define _POSIX_C_SOURCE 200809L
 #include <stdint.h>
 #include <stdio.h>
@@ -14,13 +15,15 @@
 #include "pgem_covariance_t.h"
 #include "pgem_graph_t.h"
 #include "pgem_status_t.h"
+#include "pgem_team_t.h"
 #include "utf8.h"
 
 #define DUMP_TOOL "pgem-lcm-dump"
 #define DUMP_SLICE 0.25   /* longest single wait, so a signal or deadline is seen soon */
 #define DUMP_QUEUE 128    /* messages LCM may hold per subscription before dropping */
 #define DUMP_COVARIANCE_WAIT 2.0 /* s a run that met its condition waits for the graph's
-                                    covariance, which the bridge publishes after the graph */
+                                    covariance and team, which the bridge publishes after the
+                                    graph */
 
 /* The command line. Conditions are unset when negative (seconds) or 0 (counts). */
 typedef struct dump_args {
@@ -31,6 +34,7 @@ typedef struct dump_args {
     const char *status;       /* --status S */
     const char *compactions;  /* --compactions C */
     const char *covariance;   /* --covariance V */
+    const char *team;         /* --team T */
     uint64_t count;           /* --count N: stop after N graphs */
     uint64_t edges;           /* --edges N: stop at a graph with edges_included >= N */
     int has_edges;
@@ -55,6 +59,9 @@ typedef struct dump_state {
     pgem_covariance_t *covariance; /* the latest newest-pose covariance (a copy), or NULL */
     uint64_t covariances;     /* covariances received (well-formed) */
     int covariance_new;       /* one arrived since the main loop last looked */
+    pgem_team_t *team;        /* the latest team (a copy), or NULL */
+    uint64_t teams;           /* teams received (well-formed) */
+    int team_new;             /* one arrived since the main loop last looked */
     int graph_held;           /* a stop condition was met: later graphs are not taken */
 } dump_state_t;
 
@@ -62,11 +69,11 @@ static void dump_usage(FILE *out)
 {
     fprintf(out,
             "usage: pgem-lcm-dump [-o OUT.g2o] [--weights W] [--json J] [--status S]\n"
-            "                     [--compactions C] [--covariance V] [--count N] [--edges N]\n"
-            "                     [--idle SECONDS] [--settled] [--timeout SECONDS]\n"
+            "                     [--compactions C] [--covariance V] [--team T] [--count N]\n"
+            "                     [--edges N] [--idle SECONDS] [--settled] [--timeout SECONDS]\n"
             "                     [--quiet] [--url URL] [--channel-prefix P] [--graph-channel C]\n"
             "                     [--status-channel C] [--compaction-channel C]\n"
-            "                     [--covariance-channel C]\n");
+            "                     [--covariance-channel C] [--team-channel C]\n");
 }
 
 static void dump_help(FILE *out, const void *context)
@@ -98,6 +105,11 @@ static void dump_help(FILE *out, const void *context)
             "                         frame), the graph's solve_id and whether it came from a\n"
             "                         factor at the estimate; at a stop condition the one of\n"
             "                         that graph is waited for (up to 2 s)\n"
+            "  --team T               the team's robots (pgem.team_t) as one JSON object: per\n"
+            "                         robot (source) its poses, first pose, part, whether the\n"
+            "                         part holds the anchor, and its frame (own odometry frame\n"
+            "                         into the map's); at a stop condition the one of that\n"
+            "                         graph is waited for (up to 2 s)\n"
             "\n"
             "When to stop and write (the first condition met ends the run, exit 0):\n"
             "  --count N              after N graphs\n"
@@ -115,12 +127,12 @@ static void dump_help(FILE *out, const void *context)
     pgem_lcm_options_help(out, lcm);
     fprintf(out,
             "\n"
-            "Files are written atomically (FILE.tmp, then renamed). A --status or --covariance\n"
-            "file is written when one has arrived (else a warning). Large graphs need a large\n"
-            "kernel receive buffer: unless the URL sets recv_buf_size, 16 MB is asked for, or\n"
-            "net.core.rmem_max when that is less. Exit codes: 0 written, 1 no graph (no\n"
-            "status or covariance when only those are asked for) or the stop condition was\n"
-            "not met, 2 bad command line, 3 a file could not be written.\n");
+            "Files are written atomically (FILE.tmp, then renamed). A --status, --covariance\n"
+            "or --team file is written when one has arrived (else a warning). Large graphs\n"
+            "need a large kernel receive buffer: unless the URL sets recv_buf_size, 16 MB is\n"
+            "asked for, or net.core.rmem_max when that is less. Exit codes: 0 written, 1 no\n"
+            "graph (no status, covariance or team when only those are asked for) or the stop\n"
+            "condition was not met, 2 bad command line, 3 a file could not be written.\n");
 }
 
 /* A file option's value; prints an error and returns 0 when it is missing. */
@@ -155,6 +167,9 @@ static int dump_parse_value(void *user, const char *arg, const char *value)
     }
     if (strcmp(arg, "--covariance") == 0) {
         return dump_parse_file(arg, value, &args->covariance);
+    }
+    if (strcmp(arg, "--team") == 0) {
+        return dump_parse_file(arg, value, &args->team);
     }
     if (strcmp(arg, "--count") == 0) {
         if (!pgem_lcm_parse_u64(DUMP_TOOL, arg, value, &args->count)) {
@@ -191,7 +206,8 @@ static int dump_flag(void *user, const char *name)
 static int dump_parse(int argc, char **argv, dump_args_t *args)
 {
     static const char *const valued[] = {"-o", "--output", "--weights", "--json", "--status",
-                                         "--compactions", "--covariance", "--count", "--edges",
+                                         "--compactions", "--covariance", "--team", "--count",
+                                         "--edges",
                                          "--idle", "--timeout"};
     static const pgem_cli_parser_t parser = {
         NULL, valued, sizeof valued / sizeof valued[0], dump_parse_value, dump_flag, NULL,
@@ -199,7 +215,8 @@ static int dump_parse(int argc, char **argv, dump_args_t *args)
     memset(args, 0, sizeof *args);
     pgem_lcm_options_init(&args->lcm, DUMP_TOOL, PGEM_LCM_GRAPH_CHANNEL | PGEM_LCM_STATUS_CHANNEL |
                                                      PGEM_LCM_COMPACTION_CHANNEL |
-                                                     PGEM_LCM_COVARIANCE_CHANNEL);
+                                                     PGEM_LCM_COVARIANCE_CHANNEL |
+                                                     PGEM_LCM_TEAM_CHANNEL);
     args->idle = -1.0;
     args->timeout = -1.0;
     int status = pgem_lcm_parse_args(&args->lcm, &parser, args, argc, argv);
@@ -207,9 +224,9 @@ static int dump_parse(int argc, char **argv, dump_args_t *args)
         return status;
     }
     if (args->output == NULL && args->weights == NULL && args->json == NULL &&
-        args->status == NULL && args->covariance == NULL) {
-        fprintf(stderr, "%s: nothing to write: give -o, --weights, --json, --status or "
-                        "--covariance\n", DUMP_TOOL);
+        args->status == NULL && args->covariance == NULL && args->team == NULL) {
+        fprintf(stderr, "%s: nothing to write: give -o, --weights, --json, --status, "
+                        "--covariance or --team\n", DUMP_TOOL);
         return PGEM_EXIT_USAGE;
     }
     return PGEM_EXIT_OK;
@@ -343,6 +360,40 @@ static void dump_on_covariance(const lcm_recv_buf_t *buffer, const char *channel
     state->covariance = copy;
     state->covariances++;
     state->covariance_new = 1;
+}
+
+/* Why a decoded team cannot be used, or NULL when it can. */
+static const char *dump_team_problem(const pgem_team_t *team)
+{
+    if (team->dimension != 2 && team->dimension != 3) {
+        return "dimension is neither 2 nor 3";
+    }
+    if (team->pose_size != (team->dimension == 2 ? 3 : 7)) {
+        return "pose_size does not match the dimension";
+    }
+    return team->num_robots < 0 ? "a negative count" : NULL;
+}
+
+static void dump_on_team(const lcm_recv_buf_t *buffer, const char *channel,
+                         const pgem_team_t *team, void *user)
+{
+    dump_state_t *state = user;
+    (void)buffer;
+    const char *problem = dump_team_problem(team);
+    if (problem != NULL) {
+        fprintf(stderr, "%s: ignored a team on %s: %s\n", DUMP_TOOL, channel, problem);
+        return;
+    }
+    pgem_team_t *copy = pgem_team_t_copy(team);
+    if (copy == NULL) {
+        return;
+    }
+    if (state->team != NULL) {
+        pgem_team_t_destroy(state->team);
+    }
+    state->team = copy;
+    state->teams++;
+    state->team_new = 1;
 }
 
 /* Loops in the PRUNED state. */
@@ -499,6 +550,35 @@ static int dump_write_covariance(const dump_state_t *state, const char *path)
     return (pgem_cli_file_commit(&file, 0) == PGEM_EXIT_OK ? 0 : -1);
 }
 
+/* The team as one JSON object: per robot its source, poses, first pose, part, anchored and
+ * frame. */
+static int dump_write_team(const dump_state_t *state, const char *path)
+{
+    const pgem_team_t *team = state->team;
+    pgem_cli_file_t file;
+    if (pgem_cli_file_open(&file, DUMP_TOOL, path) != 0) {
+        return -1;
+    }
+    FILE *out = file.stream;
+    fprintf(out, "{\"utime\":%lld,\"solve_id\":%lld,\"dimension\":%d,\"parts\":%d,\"robots\":[",
+            (long long)team->utime, (long long)team->solve_id, (int)team->dimension,
+            (int)team->num_parts);
+    for (int32_t r = 0; r < team->num_robots; r++) {
+        fputs(r > 0 ? ",{\"source\":" : "{\"source\":", out);
+        pgem_json_string(out, team->sources[r] != NULL ? team->sources[r] : "");
+        fprintf(out, ",\"poses\":%d,\"first_id\":%llu,\"part\":%d,\"anchored\":%s,\"frame\":[",
+                (int)team->poses[r], (unsigned long long)(uint64_t)team->first_ids[r],
+                (int)team->parts[r], team->anchored[r] ? "true" : "false");
+        for (int32_t v = 0; v < team->pose_size; v++) {
+            fputs(v > 0 ? "," : "", out);
+            pgem_json_number(out, team->frames[r][v], 17);
+        }
+        fputs("]}", out);
+    }
+    fprintf(out, "],\"teams_received\":%llu}\n", (unsigned long long)state->teams);
+    return (pgem_cli_file_commit(&file, 0) == PGEM_EXIT_OK ? 0 : -1);
+}
+
 /* Writes the graph files asked for from the latest graph. Returns a PGEM_EXIT_* code. */
 static int dump_write_graph_files(const dump_args_t *args, const dump_state_t *state)
 {
@@ -573,20 +653,32 @@ static int dump_take(const dump_args_t *args, dump_state_t *state)
             return -1;
         }
     }
+    if (state->team_new && free_running && args->team != NULL) {
+        state->team_new = 0;
+        if (dump_write_team(state, args->team) != 0) {
+            return -1;
+        }
+    }
     return 0;
 }
 
-/* After a stop condition: the bridge publishes a graph's covariance right after the graph, so
- * with --covariance the one of the graph that met it is waited for (up to DUMP_COVARIANCE_WAIT
- * s; later graphs are not taken meanwhile). */
+/* Whether --covariance or --team still waits for the one of the latest graph. */
+static int dump_awaits(const dump_args_t *args, const dump_state_t *state)
+{
+    const int64_t solve_id = state->graph->stats.solve_id;
+    return (args->covariance != NULL &&
+            (state->covariance == NULL || state->covariance->solve_id < solve_id)) ||
+           (args->team != NULL && (state->team == NULL || state->team->solve_id < solve_id));
+}
+
+/* After a stop condition: the bridge publishes a graph's team and covariance right after the
+ * graph, so with --team or --covariance the ones of the graph that met it are waited for (up
+ * to DUMP_COVARIANCE_WAIT s; later graphs are not taken meanwhile). */
 static void dump_await_covariance(const dump_args_t *args, lcm_t *lcm, dump_state_t *state)
 {
     const double deadline = pgem_cli_now() + DUMP_COVARIANCE_WAIT;
     state->graph_held = 1;
-    while (args->covariance != NULL && state->graph != NULL &&
-           (state->covariance == NULL ||
-            state->covariance->solve_id < state->graph->stats.solve_id) &&
-           pgem_lcm_stop_signal() == 0) {
+    while (state->graph != NULL && dump_awaits(args, state) && pgem_lcm_stop_signal() == 0) {
         const double left = deadline - pgem_cli_now();
         if (left <= 0.0 || pgem_lcm_handle(DUMP_TOOL, lcm, left < DUMP_SLICE ? left : DUMP_SLICE) < 0) {
             return;
@@ -660,6 +752,18 @@ static int dump_finish_files(const dump_args_t *args, const dump_state_t *state)
                         "graph %lld\n", DUMP_TOOL, (long long)state->covariance->solve_id,
                 (long long)state->graph->stats.solve_id);
     }
+    if (args->team != NULL && state->team != NULL && dump_write_team(state, args->team) != 0) {
+        status = PGEM_EXIT_IO;
+    }
+    if (args->team != NULL && state->team == NULL) {
+        fprintf(stderr, "%s: no team arrived on %s; %s not written\n", DUMP_TOOL,
+                state->channels->team, args->team);
+    } else if (args->team != NULL && state->graph != NULL &&
+               state->team->solve_id != state->graph->stats.solve_id) {
+        fprintf(stderr, "%s: the team written is that of graph %lld, not of the latest graph "
+                        "%lld\n", DUMP_TOOL, (long long)state->team->solve_id,
+                (long long)state->graph->stats.solve_id);
+    }
     if (status == PGEM_EXIT_OK && state->graph != NULL) {
         printf("wrote graph %lld (%d poses, %d loops, %lld edges included); %llu graphs "
                "received\n",
@@ -680,17 +784,21 @@ static int dump_exit_code(const dump_args_t *args, const dump_state_t *state, du
     if (end == DUMP_WRITE_ERROR || files != PGEM_EXIT_OK) {
         return PGEM_EXIT_IO;
     }
-    /* what the run is for: the graph files, else the status, else the covariance */
+    /* what the run is for: the graph files, else the status, else the covariance, else the
+     * team */
     const int graph = dump_wants_graph(args), status = !graph && args->status != NULL;
-    int complete = graph ? state->graph != NULL
-                   : status ? state->status != NULL
-                            : state->covariance != NULL;
+    const int covariance = !graph && !status && args->covariance != NULL;
+    int complete = graph      ? state->graph != NULL
+                   : status     ? state->status != NULL
+                   : covariance ? state->covariance != NULL
+                                : state->team != NULL;
     if (!complete) {
         fprintf(stderr, "%s: no %s arrived on %s%s\n", DUMP_TOOL,
-                graph ? "graph" : status ? "status" : "covariance",
-                graph ? state->channels->graph
-                : status ? state->channels->status
-                         : state->channels->covariance,
+                graph ? "graph" : status ? "status" : covariance ? "covariance" : "team",
+                graph        ? state->channels->graph
+                : status     ? state->channels->status
+                : covariance ? state->channels->covariance
+                             : state->channels->team,
                 end == DUMP_TIMEOUT ? " before --timeout" : "");
         return PGEM_EXIT_FAILURE;
     }
@@ -720,6 +828,9 @@ static int dump_run(const dump_args_t *args, const pgem_channels_t *channels, lc
         args->covariance != NULL
             ? pgem_covariance_t_subscribe(lcm, channels->covariance, dump_on_covariance, &state)
             : NULL;
+    pgem_team_t_subscription_t *teams =
+        args->team != NULL ? pgem_team_t_subscribe(lcm, channels->team, dump_on_team, &state)
+                           : NULL;
     pgem_compaction_t_subscription_t *compactions = NULL;
     if (args->compactions != NULL) {
         state.compactions = fopen(args->compactions, "w");
@@ -732,6 +843,9 @@ static int dump_run(const dump_args_t *args, const pgem_channels_t *channels, lc
             if (covariances != NULL) {
                 pgem_covariance_t_unsubscribe(lcm, covariances);
             }
+            if (teams != NULL) {
+                pgem_team_t_unsubscribe(lcm, teams);
+            }
             return PGEM_EXIT_IO;
         }
         compactions = pgem_compaction_t_subscribe(lcm, channels->compaction, dump_on_compaction,
@@ -742,7 +856,8 @@ static int dump_run(const dump_args_t *args, const pgem_channels_t *channels, lc
     }
     if (graphs == NULL || (args->status != NULL && statuses == NULL) ||
         (args->compactions != NULL && compactions == NULL) ||
-        (args->covariance != NULL && covariances == NULL)) {
+        (args->covariance != NULL && covariances == NULL) ||
+        (args->team != NULL && teams == NULL)) {
         if (state.compactions != NULL) {
             fclose(state.compactions);
         }
@@ -756,6 +871,9 @@ static int dump_run(const dump_args_t *args, const pgem_channels_t *channels, lc
     }
     if (covariances != NULL) {
         pgem_covariance_t_subscription_set_queue_capacity(covariances, DUMP_QUEUE);
+    }
+    if (teams != NULL) {
+        pgem_team_t_subscription_set_queue_capacity(teams, DUMP_QUEUE);
     }
     dump_end_t end = dump_receive(args, lcm, &state);
     int files = end == DUMP_LCM_ERROR || end == DUMP_WRITE_ERROR
@@ -778,6 +896,12 @@ static int dump_run(const dump_args_t *args, const pgem_channels_t *channels, lc
     }
     if (state.covariance != NULL) {
         pgem_covariance_t_destroy(state.covariance);
+    }
+    if (teams != NULL) {
+        pgem_team_t_unsubscribe(lcm, teams);
+    }
+    if (state.team != NULL) {
+        pgem_team_t_destroy(state.team);
     }
     if (state.graph != NULL) {
         pgem_graph_t_destroy(state.graph);
