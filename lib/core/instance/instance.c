@@ -78,7 +78,7 @@ static void pgem_carve(pgem_t *graph, pgem_arena_t *arena, pgem_memory_parts_t *
     pgem_solver_carve(graph, arena);
     taken.solver = arena->used - mark;
     mark = arena->used;
-    pgem_robust_carve(graph, arena);
+    pgem_robust_carve(&graph->robust, &graph->config, graph->pose_size, arena);
     taken.robust = arena->used - mark;
     mark = arena->used;
     graph->linear = pgem_linear_carve(&graph->config, graph->tangent, arena);

@@ -48,7 +48,7 @@ int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
             return PGEM_OK;
         }
         if (options->restart) {
-            pgem_restore_initial(graph);
+            pgem_restore_initial(&graph->robust, &graph->store, graph->pose_size);
         }
     }
     pgem_robust_ended(summary, PGEM_ROBUST_ROUND_LIMIT);
@@ -74,7 +74,7 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *options,
             break;
         }
         pgem_pass_mark_t mark;
-        pgem_pass_mark(graph, options->scale, &mark);
+        pgem_pass_mark(&graph->store, graph->tangent, options->scale, &mark);
         if (pgem_settle_pass(&settle, &mark)) {
             pgem_robust_ended(summary, PGEM_ROBUST_OSCILLATED);
             break;
@@ -84,8 +84,9 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *options,
             break;
         }
         if (pgem_em_gate(graph, options, gate, summary) == 0u &&
-            (pgem_most_rejected(graph) ? pgem_em_leave_run_out(graph, summary, &status)
-                                       : pgem_em_leave_group_out(graph, summary, &status)) == 0u) {
+            (pgem_most_rejected(&graph->store)
+                 ? pgem_em_leave_run_out(graph, summary, &status)
+                 : pgem_em_leave_group_out(graph, summary, &status)) == 0u) {
             pgem_robust_ended(summary, PGEM_ROBUST_CONVERGED);
             break;
         }

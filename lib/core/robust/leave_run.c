@@ -18,7 +18,7 @@ static double pgem_run_chi2(const pgem_t *graph, const pgem_loop_run_t *run)
     uint32_t j = run->first;
     for (uint32_t n = 0; n < run->length && j != UINT32_MAX; n++) {
         chi2 += pgem_edge_mahalanobis(&graph->store, j, graph->tangent);
-        j = pgem_run_next(graph, j, run->direction, PGEM_RUN_ACCEPTED);
+        j = pgem_run_next(&graph->store, j, run->direction, PGEM_RUN_ACCEPTED);
     }
     return chi2;
 }
@@ -49,9 +49,10 @@ double pgem_model_minimum(pgem_t *graph, int *status)
 static double pgem_run_fall(pgem_t *graph, const pgem_loop_run_t *run, int *status)
 {
     const double with = pgem_weighted_chi2(&graph->store, graph->tangent);
-    pgem_run_set(graph, run, PGEM_RUN_ACCEPTED, 0.0, PGEM_RUN_KEEP_STATE); /* no contribution */
+    /* the run without its contribution */
+    pgem_run_set(&graph->store, run, PGEM_RUN_ACCEPTED, 0.0, PGEM_RUN_KEEP_STATE);
     const double fall = with - pgem_model_minimum(graph, status);
-    pgem_run_set(graph, run, PGEM_RUN_ACCEPTED, 1.0, PGEM_RUN_KEEP_STATE);
+    pgem_run_set(&graph->store, run, PGEM_RUN_ACCEPTED, 1.0, PGEM_RUN_KEEP_STATE);
     return fall;
 }
 
@@ -60,7 +61,8 @@ uint32_t pgem_em_leave_run_out(pgem_t *graph, pgem_robust_summary_t *summary, in
     *status = PGEM_OK;
     for (uint32_t k = 0; k < graph->store.edge_count && *status == PGEM_OK; k++) {
         for (int direction = 1; direction >= -1 && *status == PGEM_OK; direction -= 2) {
-            const pgem_loop_run_t run = {k, direction, pgem_run_length(graph, k, direction, PGEM_RUN_ACCEPTED)};
+            const pgem_loop_run_t run = {
+                k, direction, pgem_run_length(&graph->store, k, direction, PGEM_RUN_ACCEPTED)};
             if (run.length < PGEM_RUN_MIN) {
                 continue;
             }
@@ -76,7 +78,7 @@ uint32_t pgem_em_leave_run_out(pgem_t *graph, pgem_robust_summary_t *summary, in
                 /* one run at a time: the others are tested from the next polish; pruned at
                  * weight 0, which the consistency test reads as left out with its run */
                 summary->gated += run.length;
-                pgem_run_set(graph, &run, PGEM_RUN_ACCEPTED, 0.0, PGEM_EDGE_PRUNED);
+                pgem_run_set(&graph->store, &run, PGEM_RUN_ACCEPTED, 0.0, PGEM_EDGE_PRUNED);
                 pgem_linear_invalidate(graph->linear);
                 return 1;
             }

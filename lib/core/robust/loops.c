@@ -37,28 +37,29 @@ void pgem_wake_dormant(pgem_t *graph)
 }
 
 /* Loop closures in the graph and how many are pruned, into the summary. */
-void pgem_count_loops(const pgem_t *graph, pgem_robust_summary_t *summary)
+void pgem_count_loops(const pgem_store_t *store, pgem_robust_summary_t *summary)
 {
     summary->loops = summary->pruned = 0;
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP) {
+    for (uint32_t k = 0; k < store->edge_count; k++) {
+        if (store->edge_kind[k] == PGEM_EDGE_LOOP) {
             summary->loops++;
-            summary->pruned += graph->store.edge_active[k] == PGEM_EDGE_PRUNED;
+            summary->pruned += store->edge_active[k] == PGEM_EDGE_PRUNED;
         }
     }
 }
 
-void pgem_restore_initial(pgem_t *graph)
+void pgem_restore_initial(const pgem_robust_state_t *robust, pgem_store_t *store, int pose_size)
 {
-    memcpy(graph->store.pose, graph->robust.pose_initial, pgem_pose_bytes(graph));
+    memcpy(store->pose, robust->pose_initial,
+           (size_t)store->pose_count * (size_t)pose_size * sizeof(double));
 }
 
 /* The loops' weights and states before a robust solve, put back if it fails (with the
  * estimate), so a failed call changes nothing the caller can see. */
-void pgem_save_loops(pgem_t *graph)
+void pgem_save_loops(pgem_robust_state_t *robust, const pgem_store_t *store)
 {
-    memcpy(graph->robust.edge_weight_saved, graph->store.edge_weight, graph->store.edge_count * sizeof(double));
-    memcpy(graph->robust.edge_active_saved, graph->store.edge_active, graph->store.edge_count);
+    memcpy(robust->edge_weight_saved, store->edge_weight, store->edge_count * sizeof(double));
+    memcpy(robust->edge_active_saved, store->edge_active, store->edge_count);
 }
 
 void pgem_restore_loops(pgem_t *graph)
@@ -78,7 +79,7 @@ int pgem_report_round(pgem_t *graph, const pgem_robust_options_t *options,
     }
     progress->round = summary->rounds;
     progress->chi2 = pgem_weighted_chi2(&graph->store, graph->tangent);
-    pgem_count_loops(graph, summary);
+    pgem_count_loops(&graph->store, summary);
     progress->active_loops = summary->loops - summary->pruned;
     progress->pruned_loops = summary->pruned;
     if (options->on_round(progress, options->user)) {

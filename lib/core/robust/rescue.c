@@ -33,7 +33,8 @@ static int pgem_run_after(const pgem_t *graph, const pgem_loop_run_t *last, pgem
             continue;
         }
         for (int direction = 1; direction >= -1; direction -= 2) {
-            const pgem_loop_run_t run = {k, direction, pgem_run_length(graph, k, direction, PGEM_RUN_ANY)};
+            const pgem_loop_run_t run = {
+                k, direction, pgem_run_length(&graph->store, k, direction, PGEM_RUN_ANY)};
             if (run.length >= PGEM_RUN_MIN && (last->length == 0u || pgem_run_before(last, &run)) &&
                 (!found || pgem_run_before(&run, out))) {
                 *out = run;
@@ -53,9 +54,9 @@ static void pgem_run_alone(pgem_t *graph, const pgem_loop_run_t *run)
             graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
         }
     }
-    pgem_run_set(graph, run, PGEM_RUN_ANY, 1.0, PGEM_EDGE_ACTIVE);
+    pgem_run_set(&graph->store, run, PGEM_RUN_ANY, 1.0, PGEM_EDGE_ACTIVE);
     pgem_linear_invalidate(graph->linear);
-    pgem_restore_initial(graph);
+    pgem_restore_initial(&graph->robust, &graph->store, graph->pose_size);
 }
 
 /* The global test of the adjustment after a polish: its chi2 below the 99.9% quantile of the
@@ -93,14 +94,14 @@ static void pgem_back_to_marked(pgem_t *graph)
         }
     }
     pgem_linear_invalidate(graph->linear);
-    pgem_restore_initial(graph);
+    pgem_restore_initial(&graph->robust, &graph->store, graph->pose_size);
 }
 
 int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
                    int *rescued)
 {
     *rescued = 0;
-    if (!pgem_most_rejected(graph)) {
+    if (!pgem_most_rejected(&graph->store)) {
         return PGEM_OK; /* not a degenerate outcome */
     }
     const uint32_t accepted = pgem_mark_accepted(graph);

@@ -20,8 +20,10 @@ typedef struct pgem_robust_state {
     uint8_t *edge_checked;     /* [max_edges] 1 if the map predicted the loop (innovation) */
 } pgem_robust_state_t;
 
-/* Carves the robust layer's arrays from the arena (measuring when arena->base is NULL). */
-void pgem_robust_carve(pgem_t *graph, pgem_arena_t *arena);
+/* Carves the robust layer's arrays for config's capacities and the doubles per pose from the
+ * arena (measuring when arena->base is NULL). */
+void pgem_robust_carve(pgem_robust_state_t *robust, const pgem_config_t *config, int pose_size,
+                       pgem_arena_t *arena);
 
 /* A loop's innovation (robust/innovation.c): its distance with the odometry allowance, the
  * same without it (inflation 1), and the predicted rotation's standard deviation (radians). */
@@ -59,10 +61,10 @@ pgem_robust_options_t pgem_robust_resolve(const pgem_robust_options_t *options);
  * reviewed), counted into the summary, and the estimate, weights and states saved at the start
  * and put back after a failure. */
 void pgem_wake_dormant(pgem_t *graph);
-void pgem_count_loops(const pgem_t *graph, pgem_robust_summary_t *summary);
-void pgem_save_loops(pgem_t *graph);
+void pgem_count_loops(const pgem_store_t *store, pgem_robust_summary_t *summary);
+void pgem_save_loops(pgem_robust_state_t *robust, const pgem_store_t *store);
 void pgem_restore_loops(pgem_t *graph);
-void pgem_restore_initial(pgem_t *graph);
+void pgem_restore_initial(const pgem_robust_state_t *robust, pgem_store_t *store, int pose_size);
 
 /* Parts that pruning leaves without a held pose (robust/parts.c): before each solve of the
  * method, every part that pruning left alone is held at its own gauge, unless a part has no
@@ -135,12 +137,14 @@ typedef enum pgem_run_members { PGEM_RUN_ANY, PGEM_RUN_ACCEPTED, PGEM_RUN_PRUNED
 /* The loop after loop k in a run of `direction` among `members` (UINT32_MAX if none; the first
  * in edge order); the length of the run starting at loop k (0 if k is not a member or a member
  * precedes it; a loop without a successor counts 1, whatever precedes it). */
-uint32_t pgem_run_next(const pgem_t *graph, uint32_t k, int direction, pgem_run_members_t members);
-uint32_t pgem_run_length(const pgem_t *graph, uint32_t k, int direction, pgem_run_members_t members);
+uint32_t pgem_run_next(const pgem_store_t *store, uint32_t k, int direction,
+                       pgem_run_members_t members);
+uint32_t pgem_run_length(const pgem_store_t *store, uint32_t k, int direction,
+                         pgem_run_members_t members);
 /* Every loop of run (walked among `members`) at weight, and at state (a pgem_edge_state_t) unless
  * state is PGEM_RUN_KEEP_STATE. */
 #define PGEM_RUN_KEEP_STATE (-1)
-void pgem_run_set(pgem_t *graph, const pgem_loop_run_t *run, pgem_run_members_t members,
+void pgem_run_set(pgem_store_t *store, const pgem_loop_run_t *run, pgem_run_members_t members,
                   double weight, int state);
 /* 1 if more than PGEM_MOST_REJECTED of `loops` loop closures (and at least one) are rejected:
  * the degenerate outcome the summary reports and EM's rescue and leave-run-out test act on. */
@@ -149,7 +153,7 @@ static inline int pgem_share_most_rejected(uint32_t rejected, uint32_t loops)
     return loops > 0u && (double)rejected > PGEM_MOST_REJECTED * (double)loops;
 }
 /* 1 if more than PGEM_MOST_REJECTED of the loops (and at least one) are pruned. */
-int pgem_most_rejected(const pgem_t *graph);
+int pgem_most_rejected(const pgem_store_t *store);
 /* The adjustment's redundancy: rows of the edges not pruned (weight 0 included) less the
  * unknowns. */
 double pgem_redundancy(const pgem_t *graph);
@@ -200,7 +204,7 @@ typedef struct pgem_settle {
     pgem_pass_mark_t target;                 /* then: its cheapest set */
     uint32_t remaining;                      /* passes left to reach it */
 } pgem_settle_t;
-void pgem_pass_mark(const pgem_t *graph, double scale, pgem_pass_mark_t *mark);
+void pgem_pass_mark(const pgem_store_t *store, int tangent, double scale, pgem_pass_mark_t *mark);
 /* After a pass's polish: 1 if the passes should end here, oscillating (this pass came back to
  * the set of an earlier one and is the cheapest of the cycle, or reached the cheapest after
  * one was found, or strayed from the cycle for as many passes as it had); 0 to go on. A

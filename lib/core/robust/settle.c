@@ -5,7 +5,6 @@
  * estimates, the Cauchy cost that EM's weights come from: c^2 log(1 + s / c^2) for every loop
  * (pruned ones included, so that sets of different sizes compare), s for every odometry edge.
  * The passes go on around the cycle to its cheapest set and end there. */
-#include "instance.h"
 #include "robust/robust.h"
 
 /* FNV-1a, 64 bits, over one more byte. */
@@ -14,22 +13,22 @@ static uint64_t pgem_fnv(uint64_t hash, uint8_t byte)
     return (hash ^ byte) * 1099511628211ull;
 }
 
-void pgem_pass_mark(const pgem_t *graph, double scale, pgem_pass_mark_t *mark)
+void pgem_pass_mark(const pgem_store_t *store, int tangent, double scale, pgem_pass_mark_t *mark)
 {
     uint64_t hash = 14695981039346656037ull;
     mark->accepted = 0;
     mark->cost = 0.0;
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        const double chi2 = pgem_edge_mahalanobis(&graph->store, k, graph->tangent);
-        if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
+    for (uint32_t k = 0; k < store->edge_count; k++) {
+        const double chi2 = pgem_edge_mahalanobis(store, k, tangent);
+        if (store->edge_kind[k] != PGEM_EDGE_LOOP) {
             mark->cost += chi2;
             continue;
         }
         mark->cost += pgem_kernel_evaluate(PGEM_KERNEL_EM, chi2, scale).rho;
         /* a loop's state: accepted, pruned, or left out with its run (pruned at weight 0) */
-        uint8_t state = graph->store.edge_active[k] != PGEM_EDGE_PRUNED ? 1u
-                        : graph->store.edge_weight[k] == 0.0      ? 2u
-                                                                  : 0u;
+        uint8_t state = store->edge_active[k] != PGEM_EDGE_PRUNED ? 1u
+                        : store->edge_weight[k] == 0.0      ? 2u
+                                                            : 0u;
         mark->accepted += (uint32_t)(state == 1u);
         for (int b = 0; b < 4; b++) {
             hash = pgem_fnv(hash, (uint8_t)(k >> (8 * b)));

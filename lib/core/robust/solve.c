@@ -48,7 +48,7 @@ static int pgem_prune_non_finite(pgem_t *graph, pgem_robust_summary_t *summary)
 static void pgem_summarise(pgem_t *graph, const pgem_robust_options_t *options,
                            pgem_robust_summary_t *summary)
 {
-    pgem_count_loops(graph, summary);
+    pgem_count_loops(&graph->store, summary);
     summary->rejected = 0;
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         summary->rejected += (uint32_t)(graph->store.edge_kind[k] == PGEM_EDGE_LOOP &&
@@ -88,7 +88,7 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     }
     pgem_robust_options_t resolved = pgem_robust_resolve(options);
     memcpy(graph->robust.pose_initial, graph->store.pose, pgem_pose_bytes(graph));
-    pgem_save_loops(graph);
+    pgem_save_loops(&graph->robust, &graph->store);
     out->initial_chi2 = pgem_weighted_chi2(&graph->store, graph->tangent);
     int status = PGEM_OK;
     if (!isfinite(pgem_store_total_chi2(&graph->store, graph->tangent))) {
@@ -111,7 +111,7 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     pgem_wake_dormant(graph); /* none stays dormant after the solve */
     pgem_robust_parts_settled(graph, status == PGEM_OK, out);
     if (status != PGEM_OK) {
-        pgem_restore_initial(graph);
+        pgem_restore_initial(&graph->robust, &graph->store, graph->pose_size);
         pgem_restore_loops(graph);
         out->termination = PGEM_ROBUST_FAILED;
         return status;
