@@ -112,7 +112,8 @@ int pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options, double *
         graph->robust.edge_distance[k] = pgem_edge_mahalanobis(&graph->store, k, graph->tangent);
         graph->robust.edge_checked[k] = 0;
         double weight = 1.0;
-        const int status = pgem_loop_kernel_weight(graph, options, k, &weight);
+        const int status = pgem_loop_kernel_weight(&graph->robust, &graph->store, options, k,
+                                                   &weight, graph->message);
         if (status != PGEM_OK) {
             return status;
         }

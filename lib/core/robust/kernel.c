@@ -3,7 +3,6 @@
  * included. */
 #include <math.h>
 
-#include "instance.h"
 #include "robust/robust.h"
 
 /* Cauchy: rho(s) = c^2 log(1 + s / c^2), w = rho'(s) = 1 / (1 + s / c^2); an exact fit has
@@ -69,10 +68,11 @@ double pgem_kernel_weight(pgem_kernel_t kernel, double chi2, double scale)
     return pgem_kernel_evaluate(kernel, chi2, scale).weight;
 }
 
-int pgem_loop_kernel_weight(pgem_t *graph, const pgem_robust_options_t *options, uint32_t k,
-                            double *weight)
+int pgem_loop_kernel_weight(const pgem_robust_state_t *robust, const pgem_store_t *store,
+                            const pgem_robust_options_t *options, uint32_t k, double *weight,
+                            char *message)
 {
-    const double distance = graph->robust.edge_distance[k];
+    const double distance = robust->edge_distance[k];
     if (options->kernel != PGEM_KERNEL_USER) {
         *weight = pgem_kernel_weight(options->kernel, distance, options->scale);
         return PGEM_OK;
@@ -81,10 +81,10 @@ int pgem_loop_kernel_weight(pgem_t *graph, const pgem_robust_options_t *options,
     if (*weight >= 0.0 && *weight <= 1.0) {
         return PGEM_OK;
     }
-    pgem_message_clear(graph);
-    pgem_message_text(graph, "the user kernel's weight for loop closure ");
-    pgem_message_edge(graph, k);
-    pgem_message_text(graph, " is not in [0, 1]");
+    message[0] = '\0';
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, "the user kernel's weight for loop closure ");
+    pgem_store_edge_name(store, k, message);
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, " is not in [0, 1]");
     return PGEM_ERR_NUMERIC;
 }
 

@@ -2,7 +2,6 @@
  * documented defaults. A zeroed struct means EM with its defaults (PGEM_KERNEL_EM is 0). */
 #include <string.h>
 
-#include "instance.h"
 #include "robust/robust.h"
 
 pgem_robust_options_t pgem_robust_resolve(const pgem_robust_options_t *options)
@@ -34,20 +33,27 @@ pgem_robust_options_t pgem_robust_resolve(const pgem_robust_options_t *options)
 
 /* NaN fails every "> 0" test in pgem_robust_resolve and would silently become the default;
  * Inf would disable the kernel or the gate. Both are refused, naming the option. */
-int pgem_check_robust_options(pgem_t *graph, const pgem_robust_options_t *options)
+/* message: PGEM_MESSAGE_SIZE bytes, set as pgem_fail would. */
+static int pgem_robust_refuse(char *message, const char *text)
+{
+    message[0] = '\0';
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, text);
+    return PGEM_ERR_INVALID_ARGUMENT;
+}
+
+int pgem_check_robust_options(const pgem_robust_options_t *options, char *message)
 {
     if (options == NULL) {
         return PGEM_OK;
     }
     if ((unsigned)options->distance > (unsigned)PGEM_DISTANCE_POINT) {
-        return pgem_fail(graph, PGEM_ERR_INVALID_ARGUMENT, "unknown loop distance");
+        return pgem_robust_refuse(message, "unknown loop distance");
     }
     if ((unsigned)options->kernel > (unsigned)PGEM_KERNEL_USER) { /* negative values too */
-        return pgem_fail(graph, PGEM_ERR_INVALID_ARGUMENT, "unknown robust kernel");
+        return pgem_robust_refuse(message, "unknown robust kernel");
     }
     if (options->kernel == PGEM_KERNEL_USER && options->kernel_function == NULL) {
-        return pgem_fail(graph, PGEM_ERR_INVALID_ARGUMENT,
-                         "PGEM_KERNEL_USER needs options.kernel_function");
+        return pgem_robust_refuse(message, "PGEM_KERNEL_USER needs options.kernel_function");
     }
     const double values[] = {options->scale, options->prune_threshold, options->weight_tolerance,
                              options->gate, options->dormant_threshold,
@@ -56,7 +62,7 @@ int pgem_check_robust_options(pgem_t *graph, const pgem_robust_options_t *option
                                  "dormant_threshold", "odometry_inflation",
                                  "predictable_rotation"};
     for (size_t k = 0; k < sizeof values / sizeof values[0]; k++) {
-        int status = pgem_check_option(graph, values[k], names[k]);
+        int status = pgem_text_option(message, values[k], names[k]);
         if (status != PGEM_OK) {
             return status;
         }

@@ -50,11 +50,13 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, doub
 int pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options, double *largest_change);
 /* Loop k's weight from its distance (edge_distance) under the options' kernel (robust/kernel.c):
  * PGEM_ERR_NUMERIC, naming the loop, if a user kernel's weight is not in [0, 1]. */
-int pgem_loop_kernel_weight(pgem_t *graph, const pgem_robust_options_t *options, uint32_t k,
-                            double *weight);
+int pgem_loop_kernel_weight(const pgem_robust_state_t *robust, const pgem_store_t *store,
+                            const pgem_robust_options_t *options, uint32_t k, double *weight,
+                            char *message);
 
-/* Options (robust/options.c): checked, naming a wrong one; resolved to the defaults. */
-int pgem_check_robust_options(pgem_t *graph, const pgem_robust_options_t *options);
+/* Options (robust/options.c): checked, naming a wrong one in message (PGEM_MESSAGE_SIZE
+ * bytes); resolved to the defaults. */
+int pgem_check_robust_options(const pgem_robust_options_t *options, char *message);
 pgem_robust_options_t pgem_robust_resolve(const pgem_robust_options_t *options);
 
 /* The loops around a solve (robust/loops.c): dormant ones back to active (the structure

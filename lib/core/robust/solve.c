@@ -79,7 +79,7 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     if (graph == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    int checked = pgem_check_robust_options(graph, options);
+    int checked = pgem_check_robust_options(options, graph->message);
     if (checked == PGEM_OK) {
         checked = pgem_check_solve_options(graph, solve);
     }
