@@ -11,6 +11,7 @@
 #include "pgem_graph_t.h"
 #include "pgem_pose3_t.h"
 #include "pgem_status_t.h"
+#include "pgem_team_t.h"
 
 static unsigned char buffer[1 << 16];
 
@@ -154,11 +155,43 @@ static int covariance(const char *folder)
     return save(folder, "covariance", pgem_covariance_t_encode(buffer, 0, sizeof buffer, &msg));
 }
 
+/* A 3D team of two robots: "robot-0" anchored at the identity, "robot-1" in a part of its own,
+ * its frame a half turn about z at (10, -12, 1). */
+static int team(const char *folder)
+{
+    static char robot0[] = "robot-0";
+    static char robot1[] = "robot-1";
+    char *sources[2] = {robot0, robot1};
+    int32_t poses[2] = {300, 299};
+    int64_t first_ids[2] = {0, 1000000};
+    int32_t parts[2] = {0, 1};
+    int8_t anchored[2] = {1, 0};
+    double values[2][7] = {{0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0},
+                           {10.0, -12.0, 1.0, 0.0, 0.0, 1.0, 0.0}};
+    double *frames[2] = {values[0], values[1]};
+    pgem_team_t msg;
+    memset(&msg, 0, sizeof msg);
+    msg.utime = 4321;
+    msg.solve_id = 17;
+    msg.dimension = 3;
+    msg.pose_size = 7;
+    msg.num_parts = 2;
+    msg.num_robots = 2;
+    msg.sources = sources;
+    msg.poses = poses;
+    msg.first_ids = first_ids;
+    msg.parts = parts;
+    msg.anchored = anchored;
+    msg.frames = frames;
+    return save(folder, "team", pgem_team_t_encode(buffer, 0, sizeof buffer, &msg));
+}
+
 int main(int argc, char **argv)
 {
     if (argc != 2) {
         fprintf(stderr, "usage: lcm_encode FOLDER\n");
         return 2;
     }
-    return edges(argv[1]) | graph(argv[1]) | others(argv[1]) | covariance(argv[1]);
+    return edges(argv[1]) | graph(argv[1]) | others(argv[1]) | covariance(argv[1]) |
+           team(argv[1]);
 }

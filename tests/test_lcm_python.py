@@ -52,6 +52,12 @@ def main() -> int:
     assert covariance.current and list(covariance.pose) == [1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0]
     assert [list(row) for row in covariance.covariance] == [
         [6.0 * i + j + 0.5 for j in range(6)] for i in range(6)]
+    team = read("team", pgem.team_t)
+    assert (team.solve_id, team.dimension, team.num_parts) == (17, 3, 2), vars(team)
+    assert team.sources == ["robot-0", "robot-1"] and list(team.poses) == [300, 299]
+    assert list(team.first_ids) == [0, 1000000] and list(team.parts) == [0, 1]
+    assert list(team.anchored) == [1, 0]
+    assert list(team.frames[1]) == [10.0, -12.0, 1.0, 0.0, 0.0, 1.0, 0.0]
     # written from Python, read as the C types write them: an edge built in Python
     built = pgem.edge2_t()
     built.utime, built.source, built.sequence = edge.utime, edge.source, 42
