@@ -1444,6 +1444,63 @@ static void test_consistent_false_group_rejected_whole(void **state)
     }
 }
 
+/* A square walk as square_walk's, with the stated standard deviations ten times the real
+ * ones and a true loop from every second pose of the second lap, and one false loop on the
+ * first lap from pose 22 to pose 36: the true relative pose moved `lateral` metres to the
+ * side, near what the odometry alone gives for fourteen steps whose rotation the map cannot
+ * predict to 0.1 rad. */
+static pgem_t *loose_square(uint64_t seed, double lateral, uint32_t *false_loop)
+{
+    const double sigma = 0.02, heading_sigma = 0.01, stated = 10.0;
+    pgem_t *graph = test_create(2, SQUARE_POSES, 2 * SQUARE_POSES);
+    double information[9], truth[3 * SQUARE_POSES], estimate[3 * SQUARE_POSES];
+    test_diagonal_information(3, 1.0 / (sigma * sigma * stated * stated), information);
+    information[8] = 1.0 / (heading_sigma * heading_sigma * stated * stated);
+    memset(truth, 0, 3 * sizeof(double));
+    for (int i = 1; i < SQUARE_POSES; i++) {
+        const double step[3] = {1.0, 0.0, i % SQUARE_SIDE == 0 ? 1.5707963267948966 : 0.0};
+        pgem_se2_compose(truth + 3 * (i - 1), step, truth + 3 * i);
+    }
+    test_rng_t rng = {seed};
+    add_noisy_odometry(graph, truth, SQUARE_POSES, information, sigma, heading_sigma, &rng, estimate);
+    for (int i = SQUARE_LAP; i < SQUARE_POSES; i += 2) {
+        double z[3];
+        pgem_se2_between(truth + 3 * i, truth + 3 * (i - SQUARE_LAP), z);
+        z[0] += sigma * test_gaussian(&rng);
+        z[1] += sigma * test_gaussian(&rng);
+        z[2] += heading_sigma * test_gaussian(&rng);
+        assert_int_equal(pgem_add_edge(graph, (pgem_id_t)i, (pgem_id_t)(i - SQUARE_LAP), z, information,
+                                       PGEM_EDGE_LOOP, NULL), PGEM_OK);
+    }
+    double z[3];
+    pgem_se2_between(truth + 3 * 22, truth + 3 * 36, z);
+    z[1] += lateral;
+    assert_int_equal(pgem_add_edge(graph, 22, 36, z, information, PGEM_EDGE_LOOP, false_loop), PGEM_OK);
+    return graph;
+}
+
+/* Issue 34: a loop whose rotation the map does not predict is tested by its innovation under
+ * the stated covariances alone; when they are ten times too loose, a false loop 2.5 m off
+ * passed that test (the synthetic M3500 cells' single local false loops). Tested against the
+ * gate scaled by the adjustment's variance factor, it is rejected, every true loop is kept,
+ * and the passes converge (the test of a pruned loop is no looser than that of an accepted
+ * one, so nothing flips between them). */
+static void test_loose_covariances_scale_the_unpredicted_test(void **state)
+{
+    (void)state;
+    for (uint64_t seed = 1; seed <= 4; seed++) {
+        uint32_t false_loop;
+        pgem_t *graph = loose_square(seed, 2.5, &false_loop);
+        pgem_robust_options_t options = em_options();
+        pgem_robust_summary_t summary;
+        assert_int_equal(pgem_robust_optimize(graph, &options, NULL, &summary), PGEM_OK);
+        assert_int_equal(loops_kept(graph, &false_loop, 1), 0);
+        assert_int_equal(summary.rejected, 1u);
+        assert_int_equal(summary.termination, PGEM_ROBUST_CONVERGED);
+        pgem_destroy(graph);
+    }
+}
+
 /* Issue 17: a loop closure whose chi2 is not finite (its measurement near the double range,
  * written past the input checks here) is an outlier from the start, not the end of every
  * solve: pruned at weight 0 and named by its index, the rest solved. */
@@ -1509,6 +1566,7 @@ int main(void)
         cmocka_unit_test(test_true_run_rescued_when_em_keeps_one_false_loop),
         cmocka_unit_test(test_local_false_run_left_out),
         cmocka_unit_test(test_consistent_false_group_rejected_whole),
+        cmocka_unit_test(test_loose_covariances_scale_the_unpredicted_test),
         cmocka_unit_test(test_non_finite_loop_is_pruned),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

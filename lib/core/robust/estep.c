@@ -28,9 +28,12 @@ static int pgem_factor_current(pgem_t *graph)
     return status;
 }
 
-/* Loop k's distance into edge_distance, and edge_checked: 1 if the map predicted it. */
+/* Loop k's distance into edge_distance, and edge_checked: 1 if the map predicted it. Where
+ * it did not, the innovation under the stated covariances alone (no allowance) is divided by
+ * `scale` (robust/gate.c: the variance factor with its margin, at most 1); a pruned loop must
+ * also fit the map as it is (its chi2), so the test cannot re-admit what it would prune. */
 static void pgem_loop_distance(pgem_t *graph, const pgem_robust_options_t *options, uint32_t k,
-                               int from_inverse)
+                               int from_inverse, double scale)
 {
     const int pruned = graph->store.edge_active[k] == PGEM_EDGE_PRUNED;
     pgem_innovation_t innovation;
@@ -41,16 +44,17 @@ static void pgem_loop_distance(pgem_t *graph, const pgem_robust_options_t *optio
     if (checked) {
         graph->robust.edge_distance[k] = innovation.distance;
     } else if (!pruned) {
-        graph->robust.edge_distance[k] = innovation.plain; /* leave-one-out, no odometry allowance */
+        graph->robust.edge_distance[k] = innovation.plain / scale; /* leave-one-out */
     } else {
-        graph->robust.edge_distance[k] = pgem_edge_mahalanobis(&graph->store, k, graph->tangent);
+        graph->robust.edge_distance[k] =
+            fmax(pgem_edge_mahalanobis(&graph->store, k, graph->tangent), innovation.plain / scale);
     }
 }
 
 /* edge_checked while a pruned loop waits for its solve with L. */
 #define PGEM_CHECK_PENDING 2
 
-void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, double gate)
+void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, double gate, double scale)
 {
     const int innovation = options->distance == PGEM_DISTANCE_INNOVATION &&
                            pgem_factor_current(graph) == PGEM_OK;
@@ -79,13 +83,16 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, doub
             continue;
         }
         if (pgem_linear_on_pattern(graph->linear, &graph->store, k)) {
-            pgem_loop_distance(graph, options, k, 1);
+            pgem_loop_distance(graph, options, k, 1, scale);
             continue;
         }
         /* a pruned loop off the pattern: a solve with L along its poses' paths, unless bounds
          * from the inverse's diagonal blocks already decide the test */
         double distance = 0.0;
-        const int screened = pgem_loop_screen(graph, k, options->odometry_inflation, gate, &distance);
+        int screened = pgem_loop_screen(graph, k, options->odometry_inflation, gate, &distance);
+        if (screened > 0 && !(distance < gate * scale)) {
+            screened = 0; /* its scaled innovation could still fail: computed */
+        }
         graph->robust.edge_distance[k] = distance;
         graph->robust.edge_checked[k] = screened == 0 ? PGEM_CHECK_PENDING : 0;
         unsure += (uint32_t)(screened == 0);
@@ -97,7 +104,7 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, doub
     }
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP && graph->robust.edge_checked[k] == PGEM_CHECK_PENDING) {
-            pgem_loop_distance(graph, options, k, 0);
+            pgem_loop_distance(graph, options, k, 0, scale);
         }
     }
 }

@@ -15,6 +15,22 @@ double pgem_em_gate_value(const pgem_t *graph, const pgem_robust_options_t *opti
     return graph->tangent == 6 ? PGEM_CHI2_999_DOF6 : PGEM_CHI2_999_DOF3;
 }
 
+/* The scale of the test of a loop whose rotation the map does not predict: that loop is
+ * measured by its innovation under the stated covariances alone, which nothing else
+ * calibrates (the odometry allowance is for optimistic covariances, and such a loop gets
+ * none). Loose covariances (M3500's, Sphere2500's) would let a false loop near what the
+ * odometry gives pass, so the gate is scaled by the variance factor of the polished
+ * adjustment: its chi2 per redundant row at the 99.9 % upper confidence bound (the chi2 over
+ * the 0.1 % quantile for the redundancy), times PGEM_VARIANCE_MARGIN, at most 1. */
+static double pgem_em_unpredicted_scale(const pgem_t *graph)
+{
+    const double redundancy = pgem_redundancy(graph);
+    const double lower = redundancy > 0.0 ? pgem_chi2_lower_quantile(redundancy) : 0.0;
+    const double chi2 = pgem_weighted_chi2(&graph->store, graph->tangent);
+    const double scale = lower > 0.0 ? PGEM_VARIANCE_MARGIN * chi2 / lower : 1.0;
+    return scale < 1.0 && scale > 0.0 ? scale : 1.0;
+}
+
 /* The consistency test under the polished estimate: a pruned loop whose distance passes the
  * gate is re-admitted, an accepted loop that fails it is pruned. Every loop is tested against
  * the same estimate. Returns how many changed state. */
@@ -22,7 +38,7 @@ uint32_t pgem_em_gate(pgem_t *graph, const pgem_robust_options_t *options, doubl
                       pgem_robust_summary_t *summary)
 {
     uint32_t changed = 0;
-    pgem_em_distances(graph, options, gate);
+    pgem_em_distances(graph, options, gate, pgem_em_unpredicted_scale(graph));
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
             continue;

@@ -147,13 +147,9 @@ static double pgem_groups_variance(double with, double redundancy, double fall, 
     return variance < 1.0 ? variance : 1.0;
 }
 
-/* A group is pruned when its fall exceeds its quantile scaled by this many times the variance
- * factor (at most 1), for covariances that are not equally loose everywhere: on Intel's SE-Sync
- * version a true group's fall is 3.3 times its quantile scaled by the variance factor alone,
- * where the false groups measured are 6 to 65 times theirs. The test of every group at once
- * is a screen for cost only, and uses the variance factor alone. */
-#define PGEM_GROUP_MARGIN 5.0
-
+/* A group is pruned when its fall exceeds its quantile scaled by PGEM_VARIANCE_MARGIN times the
+ * variance factor (at most 1). The test of every group at once is a screen for cost only, and
+ * uses the variance factor alone. */
 /* The group to prune (accepted = 0: none): the joint test, then, if it fails, each group. */
 static pgem_loop_group_t pgem_failing_group(pgem_t *graph, double redundancy, int *status)
 {
@@ -166,7 +162,7 @@ static pgem_loop_group_t pgem_failing_group(pgem_t *graph, double redundancy, in
     if (*status != PGEM_OK || !(with > 0.0) || !(fall > variance * pgem_chi2_quantile(rows))) {
         return worst;
     }
-    const double scale = PGEM_GROUP_MARGIN * variance < 1.0 ? PGEM_GROUP_MARGIN * variance : 1.0;
+    const double scale = PGEM_VARIANCE_MARGIN * variance < 1.0 ? PGEM_VARIANCE_MARGIN * variance : 1.0;
     double worst_ratio = 1.0;
     for (uint32_t k = 0; k < graph->store.edge_count && *status == PGEM_OK; k++) {
         for (int direction = 1; direction >= -1 && *status == PGEM_OK; direction -= 2) {

@@ -43,8 +43,16 @@ void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double infla
 int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, double *distance);
 /* The consistency test's distances (robust/estep.c): every loop's, pruned ones included,
  * under the options' distance; `gate` lets bounds decide pruned loops off the factor's
- * pattern without a solve. */
-void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, double gate);
+ * pattern without a solve. The innovation of a loop the map does not predict is divided by
+ * `scale` (in (0, 1]: the variance factor with its margin, robust/gate.c). */
+void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, double gate, double scale);
+/* Stated covariances are not equally loose everywhere: a test scaled by the variance factor
+ * (the chi2 per redundant row, at most 1) scales by this many times it (at most 1). On
+ * Intel's SE-Sync version a true group's fall is 3.3 times its quantile scaled by the variance
+ * factor alone, where the false groups measured are 6 to 65 times theirs (robust/groups.c);
+ * on Sphere2500 true single loops the map does not predict reach 1.3 times the gate
+ * (robust/gate.c). */
+#define PGEM_VARIANCE_MARGIN 5.0
 /* EM's E-step (robust/estep.c): each unpruned loop's point chi2, then its weight, and the
  * largest weight change; fails only on a user kernel's weight outside [0, 1]. */
 int pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options, double *largest_change);
