@@ -290,12 +290,16 @@ static void test_pruned_loop_comes_back(void **state)
     pgem_update_summary_t summary;
     assert_int_equal(pgem_update(graph, &options, &summary), PGEM_OK);
     assert_int_equal(summary.loops_rejected, 1);
+    assert_int_equal(summary.loops_pruned, 1);
     pgem_edge_view_t view;
     assert_int_equal(pgem_edge_at(graph, loop, &view), PGEM_OK);
     assert_int_equal(view.active, 0);
     assert_int_equal(pgem_update(graph, &options, &summary), PGEM_OK);
     assert_true(summary.relinearized >= 1u);
     assert_int_equal(summary.loops_readmitted, 1);
+    assert_int_equal(summary.rebuilt, 0); /* the running count less the re-admitted loop */
+    assert_int_equal(summary.loops_pruned, 0);
+    assert_int_equal(summary.loops, 5); /* the stream's four and this one */
     assert_int_equal(pgem_edge_at(graph, loop, &view), PGEM_OK);
     assert_int_equal(view.active, 1);
     assert_true(view.weight == 1.0);
@@ -615,6 +619,124 @@ static void test_adopt_pass(void **state)
     pgem_destroy(twin);
     pgem_destroy(pass);
     pgem_destroy(live);
+}
+
+/* The update's loop counts are the graph's: every loop closure, and of them the pruned ones. */
+static void assert_loop_counts(const pgem_t *graph, const pgem_update_summary_t *summary)
+{
+    uint32_t loops = 0, pruned = 0;
+    for (uint32_t k = 0; k < pgem_edge_count(graph); k++) {
+        pgem_edge_view_t view;
+        assert_int_equal(pgem_edge_at(graph, k, &view), PGEM_OK);
+        loops += view.kind == PGEM_EDGE_LOOP;
+        pruned += view.kind == PGEM_EDGE_LOOP && !view.active;
+    }
+    assert_int_equal(summary->loops, loops);
+    assert_int_equal(summary->loops_pruned, pruned);
+}
+
+/* A batch robust solve (EM, from the loops' present states) of a copy of the graph: its
+ * summary says of the loops what the update's says, when EM reaches the gate's verdicts. */
+static void assert_as_batch(const pgem_t *graph, const pgem_update_summary_t *summary,
+                            pgem_robust_outcome_t expected)
+{
+    pgem_t *batch = test_create(2, 400, 1600);
+    assert_int_equal(pgem_copy(batch, graph), PGEM_OK);
+    pgem_robust_summary_t robust;
+    assert_int_equal(pgem_robust_optimize(batch, NULL, NULL, &robust), PGEM_OK);
+    assert_int_equal(robust.loops, summary->loops);
+    assert_int_equal(robust.pruned, summary->loops_pruned);
+    assert_int_equal(robust.outcome, summary->outcome);
+    assert_int_equal(summary->outcome, expected);
+    pgem_destroy(batch);
+}
+
+/* The update summary carries the loop closures, how many are pruned and the robust outcome,
+ * as running counts: after every update (rank updates, relinearisations, rebuilds, a
+ * re-admission) they are the graph's, and at the end they and the outcome are a batch EM
+ * summary's on the same graph: loops accepted on a stream with a few false loops; most
+ * rejected (10 false loops of 11, above 90 %), all rejected (the true one left out), no
+ * loops. After a reset or a batch solve, and in a copy, they are counted anew. */
+static void test_summary_counts_loops(void **state)
+{
+    (void)state;
+    static stream_t s;
+    memset(&s, 0, sizeof s);
+    s.dimension = 2;
+    s.rng.state = 7u;
+    pgem_t *graph = stream_instance(2, 400);
+    pgem_update_options_t gated;
+    memset(&gated, 0, sizeof gated);
+    gated.robust = 1;
+    pgem_update_summary_t summary;
+    int rebuilt = 0;
+    for (int k = 0; k <= 190; k++) {
+        stream_add(graph, &s, k);
+        if (k > 40 && k % 25 == 10) {
+            add_false_loop(graph, &s, k - 37, k);
+        }
+        if (k > 0) {
+            assert_int_equal(pgem_update(graph, &gated, &summary), PGEM_OK);
+            assert_loop_counts(graph, &summary);
+            rebuilt += summary.rebuilt;
+        }
+    }
+    assert_true(rebuilt >= 2); /* the counts came through rebuilds and between them */
+    assert_int_equal(summary.loops, 54 + 6);
+    assert_int_equal(summary.loops_pruned, 6); /* the gate pruned the false loops */
+    assert_as_batch(graph, &summary, PGEM_ROBUST_LOOPS_ACCEPTED);
+
+    /* a reset or a batch solve moves the states outside the update: the next one rebuilds
+     * (every loop in the factor after a reset) and counts anew */
+    pgem_robust_reset(graph);
+    assert_int_equal(pgem_update(graph, &gated, &summary), PGEM_OK);
+    assert_int_equal(summary.rebuilt, 1);
+    assert_int_equal(summary.loops_pruned, 0);
+    assert_int_equal(summary.outcome, PGEM_ROBUST_LOOPS_ACCEPTED);
+    assert_int_equal(pgem_robust_optimize(graph, NULL, NULL, NULL), PGEM_OK);
+    assert_int_equal(pgem_update(graph, &gated, &summary), PGEM_OK);
+    assert_int_equal(summary.rebuilt, 1);
+    assert_loop_counts(graph, &summary);
+    assert_int_equal(summary.loops_pruned, 6);
+    pgem_destroy(graph);
+
+    /* 30 poses of odometry, then 10 false loops and one true one (at most 25 poses long) */
+    memset(&s, 0, sizeof s);
+    s.dimension = 2;
+    s.rng.state = 11u;
+    graph = stream_instance(2, 400);
+    for (int k = 0; k < 30; k++) {
+        stream_add(graph, &s, k);
+        if (k > 0) {
+            assert_int_equal(pgem_update(graph, &gated, &summary), PGEM_OK);
+        }
+    }
+    assert_int_equal(summary.loops, 0);
+    assert_int_equal(summary.outcome, PGEM_ROBUST_NO_LOOPS);
+    pgem_t *all_false = stream_instance(2, 400);
+    for (int q = 0; q < 10; q++) {
+        add_false_loop(graph, &s, 2 * q, 2 * q + 8);
+        assert_int_equal(pgem_update(graph, &gated, &summary), PGEM_OK);
+        assert_loop_counts(graph, &summary);
+        assert_int_equal(summary.loops_rejected, 1);
+    }
+    assert_int_equal(summary.outcome, PGEM_ROBUST_ALL_REJECTED);
+    assert_int_equal(pgem_copy(all_false, graph), PGEM_OK);
+    double information[9], z[3];
+    test_diagonal_information(3, 400.0, information);
+    stream_measure(&s, 3, 28, 0.01, z);
+    assert_int_equal(pgem_add_edge(graph, 3, 28, z, information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
+    assert_int_equal(pgem_update(graph, &gated, &summary), PGEM_OK);
+    assert_int_equal(summary.loops_accepted, 1);
+    assert_loop_counts(graph, &summary);
+    assert_int_equal(summary.loops_pruned, 10);
+    assert_as_batch(graph, &summary, PGEM_ROBUST_MOST_REJECTED);
+    assert_int_equal(pgem_update(all_false, &gated, &summary), PGEM_OK); /* a copy rebuilds */
+    assert_int_equal(summary.rebuilt, 1);
+    assert_loop_counts(all_false, &summary);
+    assert_as_batch(all_false, &summary, PGEM_ROBUST_ALL_REJECTED);
+    pgem_destroy(all_false);
+    pgem_destroy(graph);
 }
 
 /* An odometry-only stretch of 80 poses (drift), then a loop closure from pose 0 to 80: it
@@ -995,6 +1117,7 @@ int main(void)
         cmocka_unit_test(test_relinearize_skip),
         cmocka_unit_test(test_settle_undone),
         cmocka_unit_test(test_adopt_pass),
+        cmocka_unit_test(test_summary_counts_loops),
         cmocka_unit_test(test_pending_loop_waits_for_pass),
         cmocka_unit_test(test_island_held_without_rebuild),
         cmocka_unit_test(test_gauge_hold),

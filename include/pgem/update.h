@@ -7,6 +7,7 @@
 #include <stdint.h>
 
 #include "pgem/core.h"
+#include "pgem/robust.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -85,6 +86,20 @@ typedef struct pgem_update_summary {
     uint32_t loops_accepted;      /**< robust: new loop closures that passed the gate */
     uint32_t loops_rejected;      /**< robust: new loop closures pruned */
     uint32_t loops_readmitted;    /**< robust: pruned loops that passed it again */
+    uint32_t loops;               /**< loop closures in the graph after the update */
+    uint32_t loops_pruned;        /**< of them pruned (by the gate, or by an earlier robust
+                                       solve or adopted pass) */
+    pgem_robust_outcome_t outcome; /**< what a robust solve's summary would say of those
+                                       loops, by the same rule: NO_LOOPS, LOOPS_ACCEPTED,
+                                       MOST_REJECTED (more than 90 % pruned), ALL_REJECTED.
+                                       The three are running counts, O(new edges) per update:
+                                       counted over every edge when the update rebuilds its
+                                       factor (as it does after anything else changed loop
+                                       states: a robust solve, pgem_update_adopt,
+                                       pgem_compact) or fails, else carried from the last
+                                       update with its new loops and re-admissions. Zero
+                                       when the update did not run (NULL, CONFIG, an invalid
+                                       option) */
 } pgem_update_summary_t;
 
 /** Brings the estimate up to date with the poses and edges added since the last call (the

@@ -100,7 +100,7 @@ static void reset_graph(bridge_t *bridge)
     bridge_components_reset(bridge);
     bridge->solver.loop_count = 0;
     bridge->solver.pruned_count = 0;
-    bridge->solver.counted_edges = 0;
+    bridge->solver.outcome = PGEM_ROBUST_NO_LOOPS;
     bridge_solver_counts(bridge);
 }
 

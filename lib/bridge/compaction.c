@@ -109,14 +109,16 @@ static int compact_to(bridge_t *bridge, uint32_t target_poses)
     bridge_components_reset(bridge);
     (void)bridge_components_hold(bridge);
     bridge_pass_drop(bridge);
-    bridge->solver.loop_count = 0;
+    bridge->solver.loop_count = 0; /* the loops kept, and of them pruned (the next update
+                                    * rebuilds, and counts them too) */
+    bridge->solver.pruned_count = 0;
     for (uint32_t k = 0; k < pgem_edge_count(core); ++k) {
         pgem_edge_view_t view;
         pgem_edge_at(core, k, &view);
         bridge->solver.loop_count += view.kind == PGEM_EDGE_LOOP;
+        bridge->solver.pruned_count += view.kind == PGEM_EDGE_LOOP && !view.active;
     }
     bridge->solver.live_em.loops = 0;
-    bridge_solve_recount_pruned(bridge);
     bridge_solver_counts(bridge);
     /* above the high mark still: nothing more can go, so the block is what the graph has */
     const int full = (double)summary.poses_after >= COMPACT_HIGH * o->max_poses ||

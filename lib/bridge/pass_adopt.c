@@ -85,10 +85,8 @@ static void adopt_pass(bridge_t *bridge)
     pgem_robust_summary_t summary;
     memset(&summary, 0, sizeof summary);
     const double adopted_at = bridge_now();
-    status = bridge_solve_update(bridge, &summary);
+    status = bridge_solve_update(bridge, &summary); /* it rebuilds: every loop counted */
     const double updated_at = bridge_now();
-    bridge_solve_recount_pruned(bridge);
-    bridge_solve_loops(bridge, &summary);
     summary.rounds = pass->summary.rounds;
     char why[256] = "";
     bridge_solve_done(bridge, status, &summary, why, sizeof why);

@@ -159,38 +159,16 @@ static void update_options(const bridge_t *bridge, pgem_update_options_t *option
                                                                                          : 0.0;
 }
 
-/* The pruned loop closures among the edges pruned_count has not seen yet, added to it. */
-static void count_new_pruned(bridge_t *bridge)
-{
-    const uint32_t edges = pgem_edge_count(bridge->solver.core);
-    for (uint32_t k = bridge->solver.counted_edges; k < edges; ++k) {
-        pgem_edge_view_t view;
-        pgem_edge_at(bridge->solver.core, k, &view);
-        bridge->solver.pruned_count += view.kind == PGEM_EDGE_LOOP && !view.active;
-    }
-    bridge->solver.counted_edges = edges;
-}
-
-/* The loop closures pruned after an update, from the count before it: the new loops it pruned,
- * less the pruned ones it took back (no other loop changes state in an update). O(new). */
-static void count_pruned(bridge_t *bridge, const pgem_update_summary_t *update)
-{
-    count_new_pruned(bridge);
-    bridge->solver.pruned_count -= update->loops_readmitted < bridge->solver.pruned_count
-                                ? update->loops_readmitted
-                                : bridge->solver.pruned_count;
-}
-
-/* One incremental update and the pruned count after it. */
+/* One incremental update, and the pruned loop closures and outcome after it: the update's
+ * summary carries them (the core keeps the counts: O(new edges) per update). */
 static int update_run(bridge_t *bridge)
 {
     pgem_update_options_t options;
     update_options(bridge, &options);
     pgem_update_summary_t update;
     const int status = pgem_update(bridge->solver.core, &options, &update);
-    if (status == PGEM_OK) {
-        count_pruned(bridge, &update);
-    }
+    bridge->solver.pruned_count = update.loops_pruned;
+    bridge->solver.outcome = update.outcome;
     return status;
 }
 
@@ -222,9 +200,9 @@ void bridge_solve_step(bridge_t *bridge)
     memset(bridge->solver.anchored, 0, bridge->solver.solved_poses);
 }
 
-/* What a robust solve's summary would say of the loops, from the bridge's counts (loops,
- * pruned, the outcome a robust solve would give for them); chi2 not computed (NaN): that
- * visits every edge, and an update's cost must not grow with the map. */
+/* What a robust solve's summary would say of the loops, from the last update's (or solve's)
+ * counts and outcome; chi2 not computed (NaN): that visits every edge, and an update's cost
+ * must not grow with the map. */
 void bridge_solve_loops(const bridge_t *bridge, pgem_robust_summary_t *summary)
 {
     summary->loops = bridge->solver.loop_count;
@@ -233,10 +211,7 @@ void bridge_solve_loops(const bridge_t *bridge, pgem_robust_summary_t *summary)
     summary->final_chi2 = (double)NAN;
     summary->final_chi2_all = (double)NAN;
     summary->initial_chi2 = (double)NAN;
-    summary->outcome = summary->loops == 0u                  ? PGEM_ROBUST_NO_LOOPS
-                       : summary->pruned == summary->loops   ? PGEM_ROBUST_ALL_REJECTED
-                       : 10u * summary->pruned > 9u * summary->loops ? PGEM_ROBUST_MOST_REJECTED
-                                                             : PGEM_ROBUST_LOOPS_ACCEPTED;
+    summary->outcome = bridge->solver.outcome;
 }
 
 /* One incremental update; the summary gets what a robust solve's would say of the loops. Its
@@ -311,7 +286,7 @@ void bridge_solve(bridge_t *bridge, const char *trigger)
     bridge_solve_done(bridge, status, &summary, why, sizeof why);
     if (!incremental) {
         bridge->solver.pruned_count = summary.pruned;
-        bridge->solver.counted_edges = pgem_edge_count(bridge->solver.core);
+        bridge->solver.outcome = summary.outcome;
     }
     bridge_solver_counts(bridge);
     bridge_publish_graph(bridge, trigger, &summary, status == PGEM_OK, why, micros);
@@ -358,13 +333,4 @@ void bridge_solve(bridge_t *bridge, const char *trigger)
                                                : "");
     }
     bridge_publish_status(bridge);
-}
-
-/* Loop closures pruned, counted over the whole graph (after a pass changed verdicts
- * anywhere): O(edges), once per pass. */
-void bridge_solve_recount_pruned(bridge_t *bridge)
-{
-    bridge->solver.pruned_count = 0;
-    bridge->solver.counted_edges = 0;
-    count_new_pruned(bridge);
 }

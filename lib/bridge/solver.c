@@ -37,6 +37,7 @@ int bridge_solver_init(bridge_t *bridge, char *message, size_t message_size)
         return -1;
     }
     solver->core_block = malloc(solver->core_block_size);
+    solver->outcome = PGEM_ROBUST_NO_LOOPS; /* an empty graph's, until the first solve */
     size_t poses = o->max_poses;
     size_t edges = o->max_edges;
     size_t sources = o->max_sources;

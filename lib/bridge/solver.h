@@ -126,8 +126,9 @@ typedef struct bridge_solver {
     /* What the solves left. */
     uint32_t solved_poses;      /* poses that took part in the last successful solve */
     uint32_t loop_count;        /* loop closures in the core */
-    uint32_t pruned_count;      /* of them pruned after the last solve or update */
-    uint32_t counted_edges;     /* edges whose state pruned_count has seen */
+    uint32_t pruned_count;      /* of them pruned after the last solve or update (its
+                                   summary's count) */
+    pgem_robust_outcome_t outcome; /* and that summary's outcome for the loops */
     int restart_pending;        /* the last solve saw a split graph or failed: the next one
                                    on a whole graph starts afresh from the raw estimates */
     int live_failed;            /* a compacted graph's restart from the live estimate failed:
@@ -179,8 +180,8 @@ int bridge_solve_settle(bridge_t *bridge);
 /* One incremental update; the summary gets what a robust solve's would say of the loops
  * (bridge_solve_loops). */
 int bridge_solve_update(bridge_t *bridge, pgem_robust_summary_t *summary);
-/* What a robust solve's summary would say of the loops, from the bridge's counts (loops,
- * pruned, the outcome a robust solve would give for them); chi2 not computed (NaN). */
+/* What a robust solve's summary would say of the loops: the loop closures, and the pruned
+ * count and outcome of the last update or solve (the core's); chi2 not computed (NaN). */
 void bridge_solve_loops(const bridge_t *bridge, pgem_robust_summary_t *summary);
 /* A successful solve's degenerate outcome in words, empty when loop closures were accepted. */
 void bridge_solve_describe(const pgem_robust_summary_t *summary, char *text, size_t size);
@@ -188,8 +189,6 @@ void bridge_solve_describe(const pgem_robust_summary_t *summary, char *text, siz
  * in words, or why it failed. */
 void bridge_solve_done(bridge_t *bridge, int status, const pgem_robust_summary_t *summary,
                        char *why, size_t why_size);
-/* The pruned loop closures counted again over the whole graph. O(edges). */
-void bridge_solve_recount_pruned(bridge_t *bridge);
 
 /* pass_adopt.c: the live EM pass, after each batch: adopts a finished pass (an update at its
  * estimate and verdicts, published as "em-pass") and starts the next one when loop closures

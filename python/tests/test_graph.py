@@ -164,7 +164,12 @@ def test_online_updates_then_settle():
         if not step.rebuilt:
             assert step.poses_added == 1
         accepted += step.loops_accepted
-    assert online.optimize("em").rejected == 0
+        rows = online.loop_weights()  # the update's running counts are the graph's
+        assert (step.loops, step.loops_pruned) == (len(rows), int(rows["pruned"].sum()))
+    assert step.outcome == "loops_accepted"
+    settled = online.optimize("em")
+    assert settled.rejected == 0 and settled.loops == step.loops
+    assert settled.outcome == step.outcome
     poses = online.poses()[1]
     assert np.allclose(poses[:, :2], truth[:, :2], atol=1e-6)
     assert np.allclose(np.angle(np.exp(1j * (poses[:, 2] - truth[:, 2]))), 0.0, atol=1e-6)

@@ -58,8 +58,10 @@ typedef struct pgem_store {
     uint32_t *map_slot;        /* [map_mask + 1] pose index + 1, 0 = empty */
 
     uint32_t edge_count;       /* edges added */
-    uint32_t solves;           /* pgem_optimize calls: the estimate moved outside pgem_update,
-                                  whose factor is rebuilt when this changed since it looked */
+    uint32_t solves;           /* pgem_optimize calls and pgem_robust_reset calls that
+                                  changed a weight or state: the estimate or the loops moved
+                                  outside pgem_update, whose factor is rebuilt when this
+                                  changed since it looked */
     uint32_t *edge_from;       /* [max_edges] pose index of the first pose */
     uint32_t *edge_to;         /* [max_edges] pose index of the second pose */
     double *edge_measurement;  /* [max_edges * pose_size] */

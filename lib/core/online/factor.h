@@ -71,7 +71,8 @@ struct pgem_online {
     int stamp;                /* stamp of the update under way */
     uint32_t topology_after;  /* the graph's topology and revision after the last successful */
     uint32_t revision_after;  /* update: while both hold, the factor is the graph's */
-    pgem_update_summary_t last; /* counters of the update under way */
+    pgem_update_summary_t last; /* counters of the update under way; its loops and
+                                   loops_pruned run on from update to update */
 };
 
 /* A batch solve (pgem_optimize: graph->store.solves) moved the estimate since the factor was

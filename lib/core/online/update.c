@@ -490,6 +490,29 @@ static void pgem_update_apply(pgem_t *graph)
     }
 }
 
+/* The loop closures and how many of them are pruned, into online->last: counted over every
+ * edge when `first` is 0 (after a rebuild, which visits every edge anyway, or a failure), else
+ * carried from the last update with the edges from `first` on (those this update saw first)
+ * and less the pruned loops it re-admitted (no other loop changes state in an update): O(new
+ * edges). The outcome follows by the robust summary's rule. */
+static void pgem_update_count_loops(pgem_t *graph, uint32_t first)
+{
+    pgem_update_summary_t *last = &graph->online->last;
+    if (first == 0u) {
+        last->loops = 0u;
+        last->loops_pruned = 0u;
+    } else {
+        last->loops_pruned -= last->loops_readmitted;
+    }
+    for (uint32_t k = first; k < graph->store.edge_count; k++) {
+        if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP) {
+            last->loops++;
+            last->loops_pruned += graph->store.edge_active[k] == PGEM_EDGE_PRUNED;
+        }
+    }
+    last->outcome = pgem_loops_outcome(last->loops_pruned, last->loops);
+}
+
 static int pgem_update_run(pgem_t *graph, const pgem_update_settings_t *settings)
 {
     pgem_online_t *online = graph->online;
@@ -532,6 +555,7 @@ static int pgem_update_run(pgem_t *graph, const pgem_update_settings_t *settings
         }
     }
     pgem_update_apply(graph);
+    pgem_update_count_loops(graph, online->last.rebuilt ? 0u : online->edges_seen);
     online->poses_seen = graph->store.pose_count;
     online->edges_seen = graph->store.edge_count;
     online->topology_after = graph->store.topology;
@@ -585,7 +609,10 @@ int pgem_update(pgem_t *graph, const pgem_update_options_t *options,
         graph->store.edited_low = UINT32_MAX;
     }
     graph->store.revision++; /* the estimate moves: the covariance calls' factor is old */
+    const uint32_t loops = online->last.loops, pruned = online->last.loops_pruned;
     memset(&online->last, 0, sizeof online->last);
+    online->last.loops = loops; /* the running counts go on */
+    online->last.loops_pruned = pruned;
     online->stamp++;
     if (online->stamp <= 0) { /* wrapped: restart the stamps */
         memset(online->touched, 0, (size_t)graph->config.max_poses * sizeof(int));
@@ -596,6 +623,9 @@ int pgem_update(pgem_t *graph, const pgem_update_options_t *options,
     if (status != PGEM_OK && graph->message[0] == '\0') { /* every failure says what it was */
         pgem_message_text(graph, "the incremental update failed: ");
         pgem_message_text(graph, pgem_error_description(status));
+    }
+    if (status != PGEM_OK) {
+        pgem_update_count_loops(graph, 0u); /* the states as the failure left them */
     }
     online->last.columns = (uint32_t)online->columns;
     online->last.factor_blocks = online->pool_used;

@@ -13,14 +13,18 @@ void pgem_robust_reset(pgem_t *graph)
     }
     graph->store.revision++; /* the weights change: the covariance calls' factor is old */
     (void)pgem_pose_release_parts(&graph->store, 0u); /* every part is joined as the caller made it */
-    uint32_t returned = 0;
+    uint32_t returned = 0, reweighted = 0;
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         returned += graph->store.edge_active[k] != PGEM_EDGE_ACTIVE;
+        reweighted += graph->store.edge_weight[k] != 1.0;
         graph->store.edge_weight[k] = 1.0;
         graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
     }
     if (returned > 0u) {
         pgem_linear_invalidate(graph->linear); /* pruned loops were out of H's structure */
+    }
+    if (returned > 0u || reweighted > 0u) {
+        graph->store.solves++; /* the incremental factor holds the old weights: it rebuilds */
     }
 }
 

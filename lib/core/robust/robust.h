@@ -164,6 +164,9 @@ static inline int pgem_share_most_rejected(uint32_t rejected, uint32_t loops)
 }
 /* 1 if more than PGEM_MOST_REJECTED of the loops (and at least one) are pruned. */
 int pgem_most_rejected(const pgem_store_t *store);
+/* The outcome a summary reports for `rejected` of `loops` loop closures (robust/solve.c): the
+ * robust solve's, and pgem_update's from its running counts. */
+pgem_robust_outcome_t pgem_loops_outcome(uint32_t rejected, uint32_t loops);
 /* The adjustment's redundancy: rows of the edges not pruned (weight 0 included) less the
  * unknowns. */
 double pgem_redundancy(const pgem_t *graph);

@@ -42,6 +42,18 @@ static int pgem_prune_non_finite(pgem_t *graph, pgem_robust_summary_t *summary)
     return PGEM_OK;
 }
 
+pgem_robust_outcome_t pgem_loops_outcome(uint32_t rejected, uint32_t loops)
+{
+    if (loops == 0u) {
+        return PGEM_ROBUST_NO_LOOPS;
+    }
+    if (rejected == loops) {
+        return PGEM_ROBUST_ALL_REJECTED;
+    }
+    return pgem_share_most_rejected(rejected, loops) ? PGEM_ROBUST_MOST_REJECTED
+                                                     : PGEM_ROBUST_LOOPS_ACCEPTED;
+}
+
 /* The summary's account of the loops after a successful solve: how many were rejected (pruned,
  * or for the kernels that never prune, weighing less than the prune threshold) and the
  * outcome that says so. */
@@ -55,15 +67,7 @@ static void pgem_summarise(pgem_t *graph, const pgem_robust_options_t *options,
                                         (graph->store.edge_active[k] == PGEM_EDGE_PRUNED ||
                                          graph->store.edge_weight[k] < options->prune_threshold));
     }
-    if (summary->loops == 0u) {
-        summary->outcome = PGEM_ROBUST_NO_LOOPS;
-    } else if (summary->rejected == summary->loops) {
-        summary->outcome = PGEM_ROBUST_ALL_REJECTED;
-    } else if (pgem_share_most_rejected(summary->rejected, summary->loops)) {
-        summary->outcome = PGEM_ROBUST_MOST_REJECTED;
-    } else {
-        summary->outcome = PGEM_ROBUST_LOOPS_ACCEPTED;
-    }
+    summary->outcome = pgem_loops_outcome(summary->rejected, summary->loops);
     summary->final_chi2 = pgem_weighted_chi2(&graph->store, graph->tangent);
     summary->final_chi2_all = pgem_store_total_chi2(&graph->store, graph->tangent);
     summary->estimate_changed = memcmp(graph->store.pose, graph->robust.pose_initial, pgem_pose_bytes(graph)) != 0;

@@ -74,7 +74,9 @@ class Summary:
 class UpdateSummary:
     """What :meth:`Graph.update` did: poses and edges that entered the incremental factor,
     poses relinearised, whether the factor was rebuilt, and (robust) the new loop closures
-    the consistency gate accepted or rejected, and pruned ones it re-admitted."""
+    the consistency gate accepted or rejected, and pruned ones it re-admitted; then the
+    loop closures in the graph, how many are pruned, and the ``outcome`` a robust solve's
+    :class:`Summary` would give for them (``"loops_accepted"``, ``"most_rejected"``, ...)."""
 
     poses_added: int
     edges_added: int
@@ -83,6 +85,9 @@ class UpdateSummary:
     loops_accepted: int
     loops_rejected: int
     loops_readmitted: int
+    loops: int = 0
+    loops_pruned: int = 0
+    outcome: str = ""
 
 
 def _vector(values: ArrayLike, size: int, what: str) -> np.ndarray:

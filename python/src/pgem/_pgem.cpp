@@ -292,6 +292,9 @@ public:
         out["loops_accepted"] = summary.loops_accepted;
         out["loops_rejected"] = summary.loops_rejected;
         out["loops_readmitted"] = summary.loops_readmitted;
+        out["loops"] = summary.loops;
+        out["loops_pruned"] = summary.loops_pruned;
+        out["outcome"] = pgem_robust_outcome_name(summary.outcome);
         return out;
     }
 
