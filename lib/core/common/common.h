@@ -49,6 +49,11 @@ long pgem_fault_seen(void);
 void pgem_text_append(char *text, size_t size, const char *piece);
 void pgem_text_u64(char *text, size_t size, uint64_t value);
 void pgem_text_i64(char *text, size_t size, int64_t value);
+/* Sets message (PGEM_MESSAGE_SIZE bytes) to text and returns code (one-line error returns). */
+int pgem_text_fail(char *message, int code, const char *text);
+/* PGEM_ERR_INVALID_ARGUMENT with "option NAME is not a finite number" in message
+ * (PGEM_MESSAGE_SIZE bytes) unless value is finite (the solve options' checks). */
+int pgem_check_finite_option(char *message, double value, const char *name);
 
 /* Small dense matrices, n <= PGEM_SMALL_MAX, row-major (common/small.c): every dense block the
  * core factors, solves or inverts outside the sparse factors. */

@@ -1,5 +1,8 @@
 /* Text built without stdio, so the core stays firmware-safe: the pieces of error messages
- * (the instance's message is built with them, instance/message.c). */
+ * (the instance's message is built with them, instance/message.c), and the solve options'
+ * finite check. */
+#include <math.h>
+
 #include "common/common.h"
 
 void pgem_text_append(char *text, size_t size, const char *piece)
@@ -38,4 +41,23 @@ void pgem_text_i64(char *text, size_t size, int64_t value)
     } else {
         pgem_text_u64(text, size, (uint64_t)value);
     }
+}
+
+int pgem_text_fail(char *message, int code, const char *text)
+{
+    message[0] = '\0';
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, text);
+    return code;
+}
+
+int pgem_check_finite_option(char *message, double value, const char *name)
+{
+    if (isfinite(value)) {
+        return PGEM_OK;
+    }
+    message[0] = '\0';
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, "option ");
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, name);
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, " is not a finite number");
+    return PGEM_ERR_INVALID_ARGUMENT;
 }

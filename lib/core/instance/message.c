@@ -1,7 +1,5 @@
 /* The instance's last error message, built from common's text pieces; the calls of the layers
  * that still take pgem_t (instance/message.h). */
-#include <math.h>
-
 #include "instance.h"
 
 void pgem_message_clear(pgem_t *graph)
@@ -31,19 +29,10 @@ void pgem_message_edge(pgem_t *graph, uint32_t k)
 
 int pgem_fail(pgem_t *graph, int code, const char *text)
 {
-    pgem_message_clear(graph);
-    pgem_message_text(graph, text);
-    return code;
+    return pgem_text_fail(graph->message, code, text);
 }
 
 int pgem_check_option(pgem_t *graph, double value, const char *name)
 {
-    if (isfinite(value)) {
-        return PGEM_OK;
-    }
-    pgem_message_clear(graph);
-    pgem_message_text(graph, "option ");
-    pgem_message_text(graph, name);
-    pgem_message_text(graph, " is not a finite number");
-    return PGEM_ERR_INVALID_ARGUMENT;
+    return pgem_check_finite_option(graph->message, value, name);
 }
