@@ -66,8 +66,8 @@ plant(include_private solver/step.c "#include \"linalg/linear.h\""
 plant(state linalg/state.c "static int pgem_planted(pgem_t *g) { return g->solver.planted; }"
       "linalg/state\\.c: layer linalg reads the state of layer solver")
 # an upper layer's function
-plant(call graph/pose.c "static void pgem_planted(void) { pgem_optimize(0, 0, 0); }"
-      "graph/pose\\.c: layer graph calls pgem_optimize of layer solver")
+plant(call graph/pose.c "static void pgem_planted(void) { pgem_solver_optimize(0, 0, 0); }"
+      "graph/pose\\.c: layer graph calls pgem_solver_optimize of layer solver")
 # the hub outside instance/, directly and through a header
 plant(hub_direct geometry/se2.c "#include \"instance.h\""
       "geometry/se2\\.c: layer geometry includes the hub instance\\.h \\(instance\\.h\\)")

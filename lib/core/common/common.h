@@ -49,6 +49,8 @@ long pgem_fault_seen(void);
 void pgem_text_append(char *text, size_t size, const char *piece);
 void pgem_text_u64(char *text, size_t size, uint64_t value);
 void pgem_text_i64(char *text, size_t size, int64_t value);
+/* Sets message (PGEM_MESSAGE_SIZE bytes) to text and returns code (one-line error returns). */
+int pgem_text_fail(char *message, int code, const char *text);
 /* PGEM_OK if value is finite; else PGEM_ERR_INVALID_ARGUMENT with "option NAME is not a
  * finite number" in message (PGEM_MESSAGE_SIZE bytes): the layers' option checks. */
 int pgem_text_option(char *message, double value, const char *name);

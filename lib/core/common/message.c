@@ -1,5 +1,6 @@
 /* Text built without stdio, so the core stays firmware-safe: the pieces of error messages
- * (the instance's message is built with them, instance/message.c). */
+ * (the instance's message is built with them, instance/message.c), and the option checks'
+ * finite test. */
 #include <math.h>
 
 #include "common/common.h"
@@ -40,6 +41,13 @@ void pgem_text_i64(char *text, size_t size, int64_t value)
     } else {
         pgem_text_u64(text, size, (uint64_t)value);
     }
+}
+
+int pgem_text_fail(char *message, int code, const char *text)
+{
+    message[0] = '\0';
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, text);
+    return code;
 }
 
 int pgem_text_option(char *message, double value, const char *name)

@@ -75,7 +75,7 @@ static void pgem_carve(pgem_t *graph, pgem_arena_t *arena, pgem_memory_parts_t *
     pgem_store_carve(&graph->store, &graph->config, graph->pose_size, graph->tangent, arena);
     taken.graph = arena->used - mark;
     mark = arena->used;
-    pgem_solver_carve(graph, arena);
+    pgem_solver_carve(&graph->solver, &graph->config, graph->pose_size, arena);
     taken.solver = arena->used - mark;
     mark = arena->used;
     pgem_robust_carve(&graph->robust, &graph->config, graph->pose_size, arena);

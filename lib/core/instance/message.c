@@ -29,9 +29,7 @@ void pgem_message_edge(pgem_t *graph, uint32_t k)
 
 int pgem_fail(pgem_t *graph, int code, const char *text)
 {
-    pgem_message_clear(graph);
-    pgem_message_text(graph, text);
-    return code;
+    return pgem_text_fail(graph->message, code, text);
 }
 
 int pgem_check_option(pgem_t *graph, double value, const char *name)

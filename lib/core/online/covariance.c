@@ -18,7 +18,7 @@ int pgem_update_covariance(pgem_t *graph, pgem_id_t id, double *covariance)
                                                  "(the incremental factor's room)");
     }
     uint32_t p = 0;
-    int status = pgem_covariance_pose(graph, id, &p);
+    int status = pgem_covariance_pose(&graph->store, graph->message, id, &p);
     if (status != PGEM_OK) {
         return status;
     }
@@ -40,7 +40,7 @@ int pgem_update_covariance(pgem_t *graph, pgem_id_t id, double *covariance)
         memset(covariance, 0, (size_t)(n * n) * sizeof(double)); /* held: certain */
     }
     if (graph->config.dimension == 2) {
-        pgem_covariance_to_body(graph, p, 3, 0, covariance);
+        pgem_covariance_to_body(&graph->store, p, 3, 0, covariance);
     }
     pgem_message_clear(graph);
     return PGEM_OK;

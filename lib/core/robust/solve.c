@@ -85,7 +85,7 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     }
     int checked = pgem_check_robust_options(options, graph->message);
     if (checked == PGEM_OK) {
-        checked = pgem_check_solve_options(graph, solve);
+        checked = pgem_check_solve_options(graph->message, solve);
     }
     if (checked != PGEM_OK) {
         return checked;
@@ -97,8 +97,9 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     int status = PGEM_OK;
     if (!isfinite(pgem_store_total_chi2(&graph->store, graph->tangent))) {
         /* before any E-step: a NaN chi2 would become a NaN weight on the loops */
-        status = resolved.kernel == PGEM_KERNEL_NONE ? pgem_fail_numeric(graph, "initial chi2", 0)
-                                                     : pgem_prune_non_finite(graph, out);
+        status = resolved.kernel == PGEM_KERNEL_NONE
+                     ? pgem_fail_numeric(graph->message, "initial chi2", 0)
+                     : pgem_prune_non_finite(graph, out);
     }
     if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_EM && resolved.frames >= 0) {
         out->frames_placed = pgem_robust_frames(graph, &resolved, 0);

@@ -3,7 +3,6 @@
 #include <math.h>
 #include <string.h>
 
-#include "instance.h"
 #include "solver/solver.h"
 
 static pgem_solve_options_t pgem_options_resolve(const pgem_solve_options_t *options)
@@ -28,44 +27,38 @@ static pgem_solve_options_t pgem_options_resolve(const pgem_solve_options_t *opt
     return out;
 }
 
-int pgem_analyze(pgem_t *graph)
+int pgem_solver_analyze(const pgem_solve_parts_t *parts)
 {
-    if (graph == NULL) {
-        return PGEM_ERR_INVALID_ARGUMENT;
+    if (parts->store->edge_count == 0u) {
+        return pgem_text_fail(parts->message, PGEM_ERR_EMPTY,
+                              "the graph has no edges: nothing to optimize");
     }
-    if (graph->store.edge_count == 0u) {
-        return pgem_fail(graph, PGEM_ERR_EMPTY, "the graph has no edges: nothing to optimize");
-    }
-    return pgem_linear_prepare(graph->linear, &graph->store, &graph->config, graph->message);
+    return pgem_linear_prepare(parts->linear, parts->store, parts->config, parts->message);
 }
 
-int pgem_fill_needed(pgem_t *graph, uint32_t *nonzeros)
+int pgem_solver_fill_needed(const pgem_solve_parts_t *parts, uint32_t *nonzeros)
 {
-    if (graph == NULL || nonzeros == NULL) {
-        return PGEM_ERR_INVALID_ARGUMENT;
+    if (parts->store->edge_count == 0u) {
+        return pgem_text_fail(parts->message, PGEM_ERR_EMPTY,
+                              "the graph has no edges: nothing to optimize");
     }
-    if (graph->store.edge_count == 0u) {
-        return pgem_fail(graph, PGEM_ERR_EMPTY, "the graph has no edges: nothing to optimize");
-    }
-    return pgem_linear_fill_needed(graph->linear, &graph->store, &graph->config, graph->message,
+    return pgem_linear_fill_needed(parts->linear, parts->store, parts->config, parts->message,
                                    nonzeros);
 }
 
-int pgem_check_solvable(pgem_t *graph)
+int pgem_solver_check_solvable(const pgem_solve_parts_t *parts)
 {
-    if (graph == NULL) {
-        return PGEM_ERR_INVALID_ARGUMENT;
-    }
-    int status = pgem_analyze(graph);
+    const int tangent = PGEM_TANGENT_SIZE(parts->config->dimension);
+    int status = pgem_solver_analyze(parts);
     if (status == PGEM_OK) {
-        status = pgem_linear_check_parts(graph->linear, &graph->store, graph->message);
+        status = pgem_linear_check_parts(parts->linear, parts->store, parts->message);
     }
-    if (status == PGEM_OK && !isfinite(pgem_store_total_chi2(&graph->store, graph->tangent))) {
-        status = pgem_fail(graph, PGEM_ERR_NUMERIC, "the chi2 at the current estimate is not "
-                                                    "finite");
+    if (status == PGEM_OK && !isfinite(pgem_store_total_chi2(parts->store, tangent))) {
+        status = pgem_text_fail(parts->message, PGEM_ERR_NUMERIC,
+                                "the chi2 at the current estimate is not finite");
     }
     if (status == PGEM_OK) {
-        pgem_message_clear(graph);
+        parts->message[0] = '\0';
     }
     return status;
 }
@@ -87,17 +80,20 @@ static pgem_termination_t pgem_failure_termination(int status)
 /* A solve that moved a pose past the translation limit has diverged (no well-posed graph within
  * the input limits has its optimum 1e8 m away); keeping it would leave the instance holding
  * what it refuses as input, and a written result that does not read back. */
-static int pgem_check_solved_poses(pgem_t *graph)
+static int pgem_check_solved_poses(const pgem_solve_parts_t *parts)
 {
-    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
-        const double *pose = graph->store.pose + (size_t)p * (size_t)graph->pose_size;
-        for (int k = 0; k < graph->config.dimension; k++) {
+    const pgem_store_t *store = parts->store;
+    const size_t pose_size = (size_t)PGEM_POSE_SIZE(parts->config->dimension);
+    for (uint32_t p = 0; p < store->pose_count; p++) {
+        const double *pose = store->pose + (size_t)p * pose_size;
+        for (int k = 0; k < parts->config->dimension; k++) {
             if (!(fabs(pose[k]) <= PGEM_TRANSLATION_LIMIT)) {
-                pgem_message_clear(graph);
-                pgem_message_text(graph, "the solve diverged: it moved pose ");
-                pgem_message_u64(graph, graph->store.pose_id[p]);
-                pgem_message_text(graph, " beyond the translation limit (1e8 m, "
-                                         "PGEM_TRANSLATION_LIMIT)");
+                char *message = parts->message;
+                message[0] = '\0';
+                pgem_text_append(message, PGEM_MESSAGE_SIZE, "the solve diverged: it moved pose ");
+                pgem_text_u64(message, PGEM_MESSAGE_SIZE, store->pose_id[p]);
+                pgem_text_append(message, PGEM_MESSAGE_SIZE,
+                                 " beyond the translation limit (1e8 m, PGEM_TRANSLATION_LIMIT)");
                 return PGEM_ERR_NUMERIC;
             }
         }
@@ -105,31 +101,33 @@ static int pgem_check_solved_poses(pgem_t *graph)
     return PGEM_OK;
 }
 
-static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary)
+static int pgem_run(const pgem_solve_parts_t *parts, const pgem_solve_options_t *options,
+                    pgem_summary_t *summary)
 {
-    const size_t pose_bytes = pgem_pose_bytes(graph);
-    int status = pgem_analyze(graph);
+    const size_t pose_bytes = pgem_solve_pose_bytes(parts);
+    double *pose = parts->store->pose, *saved = parts->state->pose_saved;
+    int status = pgem_solver_analyze(parts);
     if (status == PGEM_OK) {
-        status = pgem_linear_check_parts(graph->linear, &graph->store, graph->message);
+        status = pgem_linear_check_parts(parts->linear, parts->store, parts->message);
     }
-    summary->factor_nonzeros = pgem_linear_nonzeros(graph->linear);
+    summary->factor_nonzeros = pgem_linear_nonzeros(parts->linear);
     if (status != PGEM_OK) {
         summary->termination = pgem_failure_termination(status);
         return status;
     }
-    summary->variables = (uint32_t)pgem_linear_unknowns(graph->linear);
-    memcpy(graph->solver.pose_saved, graph->store.pose, pose_bytes);
+    summary->variables = (uint32_t)pgem_linear_unknowns(parts->linear);
+    memcpy(saved, pose, pose_bytes);
     /* the factorisations report to options->on_progress */
-    pgem_linear_progress(graph->linear, options);
+    pgem_linear_progress(parts->linear, options);
     status = options->method == PGEM_LEVENBERG_MARQUARDT
-                 ? pgem_levenberg_marquardt(graph, options, summary)
-                 : pgem_gauss_newton(graph, options, summary);
-    pgem_linear_progress(graph->linear, NULL);
-    if (status == PGEM_OK && (status = pgem_check_solved_poses(graph)) != PGEM_OK) {
+                 ? pgem_levenberg_marquardt(parts, options, summary)
+                 : pgem_gauss_newton(parts, options, summary);
+    pgem_linear_progress(parts->linear, NULL);
+    if (status == PGEM_OK && (status = pgem_check_solved_poses(parts)) != PGEM_OK) {
         summary->termination = PGEM_TERM_NUMERIC;
     }
     if (status != PGEM_OK) {
-        memcpy(graph->store.pose, graph->solver.pose_saved, pose_bytes);
+        memcpy(pose, saved, pose_bytes);
         if (summary->termination == PGEM_TERM_NONE) {
             summary->termination = pgem_failure_termination(status);
         }
@@ -137,39 +135,37 @@ static int pgem_run(pgem_t *graph, const pgem_solve_options_t *options, pgem_sum
         return status;
     }
     summary->usable = 1;
-    summary->estimate_changed = memcmp(graph->store.pose, graph->solver.pose_saved, pose_bytes) != 0;
+    summary->estimate_changed = memcmp(pose, saved, pose_bytes) != 0;
     return PGEM_OK;
 }
 
 /* A NaN would slip past every "0 means the default" test below and stop the solve from ever
  * converging (or, as a damping, poison the matrix): refused, naming the option. */
-int pgem_check_solve_options(pgem_t *graph, const pgem_solve_options_t *options)
+int pgem_check_solve_options(char *message, const pgem_solve_options_t *options)
 {
     if (options == NULL) {
         return PGEM_OK;
     }
     if (options->method != PGEM_GAUSS_NEWTON && options->method != PGEM_LEVENBERG_MARQUARDT) {
-        return pgem_fail(graph, PGEM_ERR_INVALID_ARGUMENT, "unknown solver method");
+        return pgem_text_fail(message, PGEM_ERR_INVALID_ARGUMENT, "unknown solver method");
     }
-    int status = pgem_check_option(graph, options->relative_chi2_tolerance,
-                                   "relative_chi2_tolerance");
+    int status = pgem_text_option(message, options->relative_chi2_tolerance,
+                                          "relative_chi2_tolerance");
     if (status == PGEM_OK) {
-        status = pgem_check_option(graph, options->step_tolerance, "step_tolerance");
+        status = pgem_text_option(message, options->step_tolerance, "step_tolerance");
     }
     if (status == PGEM_OK) {
-        status = pgem_check_option(graph, options->initial_lambda, "initial_lambda");
+        status = pgem_text_option(message, options->initial_lambda, "initial_lambda");
     }
     return status;
 }
 
-int pgem_optimize(pgem_t *graph, const pgem_solve_options_t *options, pgem_summary_t *summary)
+int pgem_solver_optimize(const pgem_solve_parts_t *parts, const pgem_solve_options_t *options,
+                         pgem_summary_t *summary)
 {
     pgem_summary_t local;
-    if (graph == NULL) {
-        return PGEM_ERR_INVALID_ARGUMENT;
-    }
-    int checked = pgem_check_solve_options(graph, options);
-    graph->store.solves++; /* the estimate changes under pgem_update: it rebuilds */
+    int checked = pgem_check_solve_options(parts->message, options);
+    parts->store->solves++; /* the estimate changes under pgem_update: it rebuilds */
     if (checked != PGEM_OK) {
         if (summary != NULL) {
             memset(summary, 0, sizeof *summary);
@@ -177,11 +173,14 @@ int pgem_optimize(pgem_t *graph, const pgem_solve_options_t *options, pgem_summa
         return checked;
     }
     pgem_solve_options_t resolved = pgem_options_resolve(options);
-    pgem_summary_t *out = summary != NULL ? summary : &local;
+    pgem_summary_t *out = summary;
+    if (out == NULL) {
+        out = &local;
+    }
     memset(out, 0, sizeof *out);
-    int status = pgem_run(graph, &resolved, out);
+    int status = pgem_run(parts, &resolved, out);
     if (status == PGEM_OK) {
-        pgem_message_clear(graph);
+        parts->message[0] = '\0';
     }
     return status;
 }

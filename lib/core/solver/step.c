@@ -1,19 +1,18 @@
 /* Pieces shared by the solvers: applying a step, norms, progress reports, numeric failure. */
 #include <math.h>
 
-#include "instance.h"
 #include "solver/solver.h"
 
-void pgem_apply_step(pgem_t *graph, const double *step)
+void pgem_apply_step(const pgem_solve_parts_t *parts, const double *step)
 {
-    const size_t size = (size_t)graph->pose_size;
-    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
-        const double *delta = pgem_linear_pose_delta(graph->linear, step, p);
+    const size_t size = (size_t)PGEM_POSE_SIZE(parts->config->dimension);
+    for (uint32_t p = 0; p < parts->store->pose_count; p++) {
+        const double *delta = pgem_linear_pose_delta(parts->linear, step, p);
         if (delta == NULL) {
             continue;
         }
-        double *pose = graph->store.pose + (size_t)p * size;
-        if (graph->config.dimension == 3) {
+        double *pose = parts->store->pose + (size_t)p * size;
+        if (parts->config->dimension == 3) {
             pgem_se3_boxplus(pose, delta, pose);
         } else {
             pgem_se2_boxplus(pose, delta, pose);
@@ -40,12 +39,12 @@ int pgem_report(const pgem_solve_options_t *options, uint32_t iteration, double 
     return options->on_iteration(&info, options->user);
 }
 
-int pgem_fail_numeric(pgem_t *graph, const char *what, uint32_t iteration)
+int pgem_fail_numeric(char *message, const char *what, uint32_t iteration)
 {
-    pgem_message_clear(graph);
-    pgem_message_text(graph, what);
-    pgem_message_text(graph, " is not finite at iteration ");
-    pgem_message_u64(graph, iteration);
+    message[0] = '\0';
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, what);
+    pgem_text_append(message, PGEM_MESSAGE_SIZE, " is not finite at iteration ");
+    pgem_text_u64(message, PGEM_MESSAGE_SIZE, iteration);
     return PGEM_ERR_NUMERIC;
 }
 
