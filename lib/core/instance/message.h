@@ -15,7 +15,7 @@ void pgem_message_i64(pgem_t *graph, int64_t value);
 void pgem_message_edge(pgem_t *graph, uint32_t k);
 int pgem_fail(pgem_t *graph, int code, const char *text);
 /* PGEM_ERR_INVALID_ARGUMENT with "option NAME is not a finite number" unless value is finite
- * (pgem_text_option into the instance's message: robust's and online's option checks). */
+ * (pgem_text_option into the instance's message: online's option checks). */
 int pgem_check_option(pgem_t *graph, double value, const char *name);
 
 #endif /* PGEM_INSTANCE_MESSAGE_H */

@@ -150,7 +150,7 @@ int pgem_check_solve_options(char *message, const pgem_solve_options_t *options)
         return pgem_text_fail(message, PGEM_ERR_INVALID_ARGUMENT, "unknown solver method");
     }
     int status = pgem_text_option(message, options->relative_chi2_tolerance,
-                                          "relative_chi2_tolerance");
+                                  "relative_chi2_tolerance");
     if (status == PGEM_OK) {
         status = pgem_text_option(message, options->step_tolerance, "step_tolerance");
     }
