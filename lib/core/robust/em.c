@@ -40,7 +40,7 @@ int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
             summary->frames_placed += pgem_robust_frames(graph, options, 1);
         }
         summary->rounds++; /* counted across re-admission passes */
-        if (pgem_report_round(graph, options, summary, &progress)) {
+        if (pgem_report_round(&graph->store, graph->tangent, options, summary, &progress)) {
             return PGEM_OK;
         }
         if (pruned == 0u) {

@@ -15,7 +15,7 @@
  * from it in pgem_linear_step (the innovations predict from where that step leads). */
 static int pgem_factor_current(pgem_t *graph)
 {
-    pgem_robust_hold_parts(graph);
+    pgem_robust_hold_parts(graph->linear, &graph->store);
     int status = pgem_analyze(graph);
     if (status == PGEM_OK) {
         (void)pgem_linear_assemble(graph->linear, &graph->store);

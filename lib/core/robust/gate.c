@@ -24,7 +24,7 @@ double pgem_em_gate_value(const pgem_t *graph, const pgem_robust_options_t *opti
  * the 0.1 % quantile for the redundancy), times PGEM_VARIANCE_MARGIN, at most 1. */
 static double pgem_em_unpredicted_scale(const pgem_t *graph)
 {
-    const double redundancy = pgem_redundancy(graph);
+    const double redundancy = pgem_redundancy(&graph->store, graph->linear, graph->tangent);
     const double lower = redundancy > 0.0 ? pgem_chi2_lower_quantile(redundancy) : 0.0;
     const double chi2 = pgem_weighted_chi2(&graph->store, graph->tangent);
     const double scale = lower > 0.0 ? PGEM_VARIANCE_MARGIN * chi2 / lower : 1.0;

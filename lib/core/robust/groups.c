@@ -183,7 +183,7 @@ static pgem_loop_group_t pgem_failing_group(pgem_t *graph, double redundancy, in
 uint32_t pgem_em_leave_group_out(pgem_t *graph, pgem_robust_summary_t *summary, int *status)
 {
     *status = PGEM_OK;
-    const double redundancy = pgem_redundancy(graph);
+    const double redundancy = pgem_redundancy(&graph->store, graph->linear, graph->tangent);
     if (!(redundancy > 0.0) || pgem_groups_leave(graph) == 0.0) {
         return 0; /* no group: nothing to factor */
     }

@@ -15,6 +15,6 @@ int pgem_irls(pgem_t *graph, const pgem_robust_options_t *options,
         return status;
     }
     summary->rounds++;
-    (void)pgem_report_round(graph, options, summary, &progress);
+    (void)pgem_report_round(&graph->store, graph->tangent, options, summary, &progress);
     return PGEM_OK;
 }

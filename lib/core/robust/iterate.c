@@ -22,7 +22,7 @@ static int pgem_m_step(pgem_t *graph, const pgem_robust_options_t *options,
     }
     inner.max_iterations = options->m_step_iterations;
     pgem_linear_review(graph->linear, &graph->store);
-    pgem_robust_hold_parts(graph);
+    pgem_robust_hold_parts(graph->linear, &graph->store);
     int status = pgem_optimize(graph, &inner, &result);
     summary->gn_iterations += result.iterations;
     summary->em_iterations++;

@@ -25,7 +25,7 @@ static double pgem_run_chi2(const pgem_t *graph, const pgem_loop_run_t *run)
 
 double pgem_model_minimum(pgem_t *graph, int *status)
 {
-    pgem_robust_hold_parts(graph);
+    pgem_robust_hold_parts(graph->linear, &graph->store);
     *status = pgem_analyze(graph);
     double chi2 = 0.0, gain = 0.0;
     if (*status == PGEM_OK) {

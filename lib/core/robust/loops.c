@@ -3,41 +3,37 @@
  * fails. */
 #include <string.h>
 
-#include "instance.h"
 #include "robust/robust.h"
 
-void pgem_robust_reset(pgem_t *graph)
+void pgem_robust_reset_loops(pgem_linear_t *linear, pgem_store_t *store)
 {
-    if (graph == NULL) {
-        return;
-    }
-    graph->store.revision++; /* the weights change: the covariance calls' factor is old */
-    (void)pgem_pose_release_parts(&graph->store, 0u); /* every part is joined as the caller made it */
+    store->revision++; /* the weights change: the covariance calls' factor is old */
+    (void)pgem_pose_release_parts(store, 0u); /* every part is joined as the caller made it */
     uint32_t returned = 0, reweighted = 0;
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        returned += graph->store.edge_active[k] != PGEM_EDGE_ACTIVE;
-        reweighted += graph->store.edge_weight[k] != 1.0;
-        graph->store.edge_weight[k] = 1.0;
-        graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
+    for (uint32_t k = 0; k < store->edge_count; k++) {
+        returned += store->edge_active[k] != PGEM_EDGE_ACTIVE;
+        reweighted += store->edge_weight[k] != 1.0;
+        store->edge_weight[k] = 1.0;
+        store->edge_active[k] = PGEM_EDGE_ACTIVE;
     }
     if (returned > 0u) {
-        pgem_linear_invalidate(graph->linear); /* pruned loops were out of H's structure */
+        pgem_linear_invalidate(linear); /* pruned loops were out of H's structure */
     }
     if (returned > 0u || reweighted > 0u) {
-        graph->store.solves++; /* the incremental factor holds the old weights: it rebuilds */
+        store->solves++; /* the incremental factor holds the old weights: it rebuilds */
     }
 }
 
 /* Dormant loops back to active, for a solve at their weights' full Newton matrix (the polish)
  * or for whatever the caller does after the robust solve; the structure is reviewed. */
-void pgem_wake_dormant(pgem_t *graph)
+void pgem_wake_dormant(pgem_linear_t *linear, pgem_store_t *store)
 {
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        if (graph->store.edge_active[k] == PGEM_EDGE_DORMANT) {
-            graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
+    for (uint32_t k = 0; k < store->edge_count; k++) {
+        if (store->edge_active[k] == PGEM_EDGE_DORMANT) {
+            store->edge_active[k] = PGEM_EDGE_ACTIVE;
         }
     }
-    pgem_linear_review(graph->linear, &graph->store);
+    pgem_linear_review(linear, store);
 }
 
 /* Loop closures in the graph and how many are pruned, into the summary. */
@@ -66,24 +62,25 @@ void pgem_save_loops(pgem_robust_state_t *robust, const pgem_store_t *store)
     memcpy(robust->edge_active_saved, store->edge_active, store->edge_count);
 }
 
-void pgem_restore_loops(pgem_t *graph)
+void pgem_restore_loops(const pgem_robust_state_t *robust, pgem_store_t *store,
+                        pgem_linear_t *linear)
 {
-    memcpy(graph->store.edge_weight, graph->robust.edge_weight_saved, graph->store.edge_count * sizeof(double));
-    memcpy(graph->store.edge_active, graph->robust.edge_active_saved, graph->store.edge_count);
+    memcpy(store->edge_weight, robust->edge_weight_saved, store->edge_count * sizeof(double));
+    memcpy(store->edge_active, robust->edge_active_saved, store->edge_count);
     /* the structure was built for the states of the failed solve */
-    pgem_linear_invalidate(graph->linear);
+    pgem_linear_invalidate(linear);
 }
 
 
-int pgem_report_round(pgem_t *graph, const pgem_robust_options_t *options,
+int pgem_report_round(const pgem_store_t *store, int tangent, const pgem_robust_options_t *options,
                       pgem_robust_summary_t *summary, pgem_robust_progress_t *progress)
 {
     if (options->on_round == NULL) {
         return 0;
     }
     progress->round = summary->rounds;
-    progress->chi2 = pgem_weighted_chi2(&graph->store, graph->tangent);
-    pgem_count_loops(&graph->store, summary);
+    progress->chi2 = pgem_weighted_chi2(store, tangent);
+    pgem_count_loops(store, summary);
     progress->active_loops = summary->loops - summary->pruned;
     progress->pruned_loops = summary->pruned;
     if (options->on_round(progress, options->user)) {

@@ -8,11 +8,11 @@
 int pgem_em_polish(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
     pgem_summary_t result;
-    pgem_wake_dormant(graph);
+    pgem_wake_dormant(graph->linear, &graph->store);
     for (uint32_t k = 0; k < graph->store.edge_count; k++) {
         graph->store.edge_weight[k] = graph->store.edge_active[k] == PGEM_EDGE_ACTIVE ? 1.0 : graph->store.edge_weight[k];
     }
-    pgem_robust_hold_parts(graph);
+    pgem_robust_hold_parts(graph->linear, &graph->store);
     int status = pgem_optimize(graph, solve, &result);
     summary->gn_iterations += result.iterations;
     pgem_robust_note_stop(summary, &result);

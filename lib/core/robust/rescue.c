@@ -63,7 +63,7 @@ static void pgem_run_alone(pgem_t *graph, const pgem_loop_run_t *run)
  * chi-square distribution with the redundancy's degrees of freedom (Wilson-Hilferty). */
 static int pgem_adjustment_consistent(const pgem_t *graph)
 {
-    const double dof = pgem_redundancy(graph);
+    const double dof = pgem_redundancy(&graph->store, graph->linear, graph->tangent);
     if (!(dof > 0.0)) {
         return 0;
     }

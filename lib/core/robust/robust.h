@@ -70,10 +70,11 @@ pgem_robust_options_t pgem_robust_resolve(const pgem_robust_options_t *options);
 /* The loops around a solve (robust/loops.c): dormant ones back to active (the structure
  * reviewed), counted into the summary, and the estimate, weights and states saved at the start
  * and put back after a failure. */
-void pgem_wake_dormant(pgem_t *graph);
+void pgem_wake_dormant(pgem_linear_t *linear, pgem_store_t *store);
 void pgem_count_loops(const pgem_store_t *store, pgem_robust_summary_t *summary);
 void pgem_save_loops(pgem_robust_state_t *robust, const pgem_store_t *store);
-void pgem_restore_loops(pgem_t *graph);
+void pgem_restore_loops(const pgem_robust_state_t *robust, pgem_store_t *store,
+                        pgem_linear_t *linear);
 void pgem_restore_initial(const pgem_robust_state_t *robust, pgem_store_t *store, int pose_size);
 
 /* Parts that pruning leaves without a held pose (robust/parts.c): before each solve of the
@@ -82,8 +83,13 @@ void pgem_restore_initial(const pgem_robust_state_t *robust, pgem_store_t *store
  * is held and the solve fails, PGEM_ERR_NOT_POSITIVE_DEFINITE naming a pose, as before); at
  * the end, the holds are those of the final loop states (counted into summary->parts_held),
  * or, after a failure, the ones from before the call. */
-void pgem_robust_hold_parts(pgem_t *graph);
-void pgem_robust_parts_settled(pgem_t *graph, int succeeded, pgem_robust_summary_t *summary);
+void pgem_robust_hold_parts(pgem_linear_t *linear, pgem_store_t *store);
+void pgem_robust_parts_settled(pgem_linear_t *linear, pgem_store_t *store, int succeeded,
+                               pgem_robust_summary_t *summary);
+/* pgem_robust_reset and pgem_robust_held_parts on the store (robust/loops.c, parts.c; the
+ * public calls are these over the instance's parts, instance/robust.c). */
+void pgem_robust_reset_loops(pgem_linear_t *linear, pgem_store_t *store);
+uint32_t pgem_robust_list_parts(const pgem_store_t *store, pgem_id_t *ids, uint32_t capacity);
 /* The frames of a team's robots (robust/frames.c): each part of the graph without a held pose
  * (over the edges that are not loop closures, before EM's first E-step; with_loops: over them
  * and the loops in the problem, after a round's pruning left a part joined only by pruned
@@ -117,7 +123,7 @@ static inline void pgem_robust_note_stop(pgem_robust_summary_t *summary, const p
 
 /* The round callback (if any) told of the round just done (progress->largest_change set by
  * the caller); returns 1, the termination PGEM_ROBUST_STOPPED, if it asks to stop. */
-int pgem_report_round(pgem_t *graph, const pgem_robust_options_t *options,
+int pgem_report_round(const pgem_store_t *store, int tangent, const pgem_robust_options_t *options,
                       pgem_robust_summary_t *summary, pgem_robust_progress_t *progress);
 
 /* E/M iterations (robust/iterate.c); weights_current skips the first E-step. */
@@ -169,7 +175,7 @@ int pgem_most_rejected(const pgem_store_t *store);
 pgem_robust_outcome_t pgem_loops_outcome(uint32_t rejected, uint32_t loops);
 /* The adjustment's redundancy: rows of the edges not pruned (weight 0 included) less the
  * unknowns. */
-double pgem_redundancy(const pgem_t *graph);
+double pgem_redundancy(const pgem_store_t *store, const pgem_linear_t *linear, int tangent);
 /* The 99.9% quantile of the chi-square distribution with dof degrees of freedom
  * (Wilson-Hilferty). */
 double pgem_chi2_quantile(double dof);

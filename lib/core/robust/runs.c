@@ -3,7 +3,6 @@
  * and the chi-square quantile the tests on them use. */
 #include <math.h>
 
-#include "instance.h"
 #include "robust/robust.h"
 
 /* Standard normal quantile of the tests on runs (99.9%). */
@@ -99,11 +98,11 @@ int pgem_most_rejected(const pgem_store_t *store)
     return pgem_share_most_rejected(loops - accepted, loops);
 }
 
-double pgem_redundancy(const pgem_t *graph)
+double pgem_redundancy(const pgem_store_t *store, const pgem_linear_t *linear, int tangent)
 {
     uint32_t rows = 0;
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        rows += graph->store.edge_active[k] != PGEM_EDGE_PRUNED ? (uint32_t)graph->tangent : 0u;
+    for (uint32_t k = 0; k < store->edge_count; k++) {
+        rows += store->edge_active[k] != PGEM_EDGE_PRUNED ? (uint32_t)tangent : 0u;
     }
-    return (double)rows - (double)pgem_linear_unknowns(graph->linear);
+    return (double)rows - (double)pgem_linear_unknowns(linear);
 }

@@ -8,7 +8,7 @@
 
 static int pgem_plain(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
-    pgem_robust_reset(graph);
+    pgem_robust_reset_loops(graph->linear, &graph->store);
     summary->rounds = 1u;
     return pgem_em_polish(graph, solve, summary);
 }
@@ -113,11 +113,11 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     } else if (status == PGEM_OK) {
         status = pgem_irls(graph, &resolved, solve, out);
     }
-    pgem_wake_dormant(graph); /* none stays dormant after the solve */
-    pgem_robust_parts_settled(graph, status == PGEM_OK, out);
+    pgem_wake_dormant(graph->linear, &graph->store); /* none stays dormant after the solve */
+    pgem_robust_parts_settled(graph->linear, &graph->store, status == PGEM_OK, out);
     if (status != PGEM_OK) {
         pgem_restore_initial(&graph->robust, &graph->store, graph->pose_size);
-        pgem_restore_loops(graph);
+        pgem_restore_loops(&graph->robust, &graph->store, graph->linear);
         out->termination = PGEM_ROBUST_FAILED;
         return status;
     }
