@@ -60,15 +60,30 @@ fail() {
 
 step() { echo "== $*"; }
 
+# How many times a bridge's log says it listens (0 without the log).
+listening() {
+    count=$(grep -c 'listening:' "$1" 2>/dev/null || true)
+    echo "${count:-0}"
+}
+
 # Starts the bridge in the background: start_bridge NAME [bridge options...]; sets $bridge.
 start_bridge() {
     name=$1
     shift
+    started=$(listening "$name.log")
     "$BRIDGE" --max-poses 20000 "$@" 2>>"$name.log" &
     bridge=$!
     pids="$pids $bridge"
-    # Ready once its first status is out; give it a moment to subscribe.
-    sleep 0.5
+    # Ready once it says it listens (subscribed: a journal, if any, replayed), a new line in
+    # the log it appends to; under load (sanitizers, a busy machine) that can take seconds.
+    waited=0
+    while [ "$(listening "$name.log")" -le "$started" ]; do
+        kill -0 "$bridge" 2>/dev/null || fail "$name: the bridge exited at start"
+        waited=$((waited + 1))
+        [ "$waited" -le 600 ] || fail "$name: the bridge did not start within 60 s"
+        sleep 0.1
+    done
+    sleep 0.2 # let its first status go out
 }
 
 stop_bridge() {
@@ -191,7 +206,9 @@ stop_bridge
 
 if command -v lcm-logger >/dev/null 2>&1; then # (checked before the namespace: always there)
     step "recorded with lcm-logger, read back: a bridge started on the recording has the graph"
-    lcm-logger --force recorded.lcmlog >logger.log 2>&1 &
+    # the front-end's channels only: the bridge's graphs are most of the bytes, and a logger
+    # delayed on a loaded machine dropped poses and edges with them
+    lcm-logger --force --channel='PGEM_(POSE2|EDGE2|COMMAND)' recorded.lcmlog >logger.log 2>&1 &
     logger=$!
     pids="$pids $logger"
     sleep 0.3
