@@ -1,5 +1,5 @@
 /* The core's small dense module (lib/core/common/small.c): Cholesky (strict and raising its
- * pivots), the triangular solve, the quadratic form and the two inverses, on 3 x 3 and 6 x 6
+ * pivots), the triangular solve, the quadratic form and the inverse, on 3 x 3 and 6 x 6
  * blocks, against products recomputed here. */
 #include "test_util.h"
 
@@ -91,35 +91,12 @@ static void test_solve_and_form(void **state)
     }
 }
 
-static void test_inverse_definite(void **state)
-{
-    (void)state;
-    for (int n = 1; n <= PGEM_SMALL_MAX; n++) {
-        double a[PGEM_SMALL_MAX * PGEM_SMALL_MAX], inverse[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
-        double pivoted[PGEM_SMALL_MAX * PGEM_SMALL_MAX], identity[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
-        definite(n, a);
-        assert_int_equal(pgem_small_inverse_definite(a, inverse, n), 1);
-        pgem_small_product(a, 0, inverse, 0, identity, n);
-        for (int q = 0; q < n * n; q++) {
-            assert_near(identity[q], q / n == q % n ? 1.0 : 0.0, 1e-12);
-        }
-        assert_int_equal(pgem_small_inverse(a, pivoted, n), 1); /* the same to rounding */
-        for (int q = 0; q < n * n; q++) {
-            assert_near(inverse[q], pivoted[q], 1e-12);
-        }
-    }
-    double negative[4] = {-1.0, 0.0, 0.0, 1.0}, out[4];
-    assert_int_equal(pgem_small_inverse_definite(negative, out, 2), 0);
-    assert_int_equal(pgem_small_inverse_definite(negative, out, PGEM_SMALL_MAX + 1), 0);
-}
-
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cholesky),
         cmocka_unit_test(test_cholesky_pivots),
         cmocka_unit_test(test_solve_and_form),
-        cmocka_unit_test(test_inverse_definite),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -65,11 +65,6 @@ void pgem_small_product(const double *a, int transpose_a, const double *b, int t
 void pgem_small_apply(const double *a, int transpose, const double *v, double *out, int n);
 /* out = a^-1 (Gauss-Jordan with partial pivoting); 0, out undefined, if a is singular. */
 int pgem_small_inverse(const double *a, double *out, int n);
-/* out = a^-1 for a symmetric positive definite a: Gauss-Jordan on the diagonal pivots, each
- * row divided by its pivot (the online gate's Omega^-1); 0, out undefined, if a pivot is not
- * positive. Not merged with pgem_small_inverse: its pivoting and reciprocal change the last
- * bits of the gate's distances. */
-int pgem_small_inverse_definite(const double *a, double *out, int n);
 /* Cholesky of a symmetric n x n matrix in place (row-major), from its upper triangle: the
  * upper factor U with a = U^T U, row by row, the strictly lower triangle zeroed; read by
  * column, the array holds the lower factor L = U^T. A pivot (before its root) that is not

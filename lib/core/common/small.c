@@ -1,6 +1,6 @@
-/* Small dense matrices (n <= 6, row-major): products, matrix times vector, the inverses (the
- * composition of two edges, the online gate), Cholesky, triangular solves and a quadratic
- * form (information checks, whitening, the innovation tests, the online factor's blocks). */
+/* Small dense matrices (n <= 6, row-major): products, matrix times vector, the inverse (the
+ * composition of two edges), Cholesky, triangular solves and a quadratic form (information
+ * checks, whitening, the innovation tests, the online factor's blocks). */
 #include <math.h>
 
 #include "common/common.h"
@@ -85,35 +85,6 @@ int pgem_small_inverse(const double *a, double *out, int n)
     for (int q = 0; q < n * n; q++) {
         if (!isfinite(out[q])) {
             return 0;
-        }
-    }
-    return 1;
-}
-
-int pgem_small_inverse_definite(const double *a, double *out, int n)
-{
-    double work[PGEM_SMALL_MAX * PGEM_SMALL_MAX] = {0.0};
-    if (!pgem_small_inverse_start(a, work, out, n)) {
-        return 0;
-    }
-    for (int c = 0; c < n; c++) {
-        const double pivot = work[c * n + c];
-        if (!(pivot > 0.0)) {
-            return 0;
-        }
-        for (int m = 0; m < n; m++) {
-            work[c * n + m] /= pivot;
-            out[c * n + m] /= pivot;
-        }
-        for (int r = 0; r < n; r++) {
-            if (r == c) {
-                continue;
-            }
-            const double f = work[r * n + c];
-            for (int m = 0; m < n; m++) {
-                work[r * n + m] -= f * work[c * n + m];
-                out[r * n + m] -= f * out[c * n + m];
-            }
         }
     }
     return 1;

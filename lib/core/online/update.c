@@ -334,52 +334,42 @@ static int pgem_update_relinearise_due(pgem_t *graph, double threshold, int limi
     return status;
 }
 
-/* e^T S^-1 e for a symmetric positive definite n x n S (overwritten by its factor), or +inf
- * if S is not positive definite. */
-static double pgem_update_quadratic(double *s, const double *e, int n)
-{
-    if (pgem_small_cholesky(s, n, 0.0, 1) >= 0) {
-        return (double)INFINITY;
-    }
-    return pgem_small_form(s, e, n);
-}
-
-/* Loop k's innovation distance under the factor and the current estimate: e^T (Omega^-1 +
- * inflation J H^-1 J^T)^-1 e. */
+/* Loop k's innovation distance under the online factor and the current estimate (the
+ * factor's solution: no step), the robust layer's test in its fixed form:
+ * e^T (Omega^-1 + inflation J H^-1 J^T)^-1 e; *plain gets e^T Omega e, its chi2 with the map
+ * taken as certain. The marginal of the loop's whitened Jacobian is a forward solve along the
+ * two poses' paths. */
 static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation, double *plain)
 {
     pgem_online_t *online = graph->online;
     const int n = graph->tangent;
-    double e[PGEM_TANGENT_SIZE_MAX], jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    double s[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0.0};
-    double covariance[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX]; /* Omega^-1 */
-    pgem_edge_error(&graph->store, k, e, jf, jt, graph->tangent);
+    double e[PGEM_TANGENT_SIZE_MAX], r[PGEM_TANGENT_SIZE_MAX];
+    double upper[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    double a_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0.0};
+    pgem_loop_whiten(graph, k, e, upper, a_from, a_to);
     pgem_online_marginal(graph, online->pose_column[graph->store.edge_from[k]],
-                         online->pose_column[graph->store.edge_to[k]], jf, jt, n, s);
+                         online->pose_column[graph->store.edge_to[k]], a_from, a_to, n, m);
+    pgem_small_apply(upper, 0, e, r, n);
+    pgem_innovation_t innovation;
+    pgem_innovation_test(n, upper, r, m, 0.0, inflation, PGEM_INNOVATION_FIXED, &innovation);
     /* The map does not know one end's rotation from the other's to a radian (the SE(3)
      * error's rotation part is half the angle): only a gauge's damping holds them together,
      * the loop is not tested (it waits for a whole-graph pass, which sees it beside the other
      * loops joining the same parts). */
-    const double rotation = n == 3 ? s[8] : s[21] + s[28] + s[35];
-    if (!(rotation <= (n == 3 ? 1.0 : 0.25))) {
+    if (!(innovation.rotation_sd <= (n == 3 ? 1.0 : 0.5))) {
         *plain = (double)INFINITY;
         return (double)INFINITY;
     }
     const double *o = graph->store.edge_information + (size_t)k * (size_t)(n * n);
     *plain = 0.0; /* e^T Omega e: the loop's chi2 with the map taken as certain */
-    for (int r = 0; r < n; r++) {
+    for (int row = 0; row < n; row++) {
         for (int c = 0; c < n; c++) {
-            *plain += e[r] * o[r * n + c] * e[c];
+            *plain += e[row] * o[row * n + c] * e[c];
         }
     }
-    if (!pgem_small_inverse_definite(o, covariance, n)) {
-        return (double)INFINITY;
-    }
-    for (int q = 0; q < n * n; q++) {
-        s[q] = covariance[q] + inflation * s[q];
-    }
-    return pgem_update_quadratic(s, e, n);
+    return innovation.distance;
 }
 
 /* The gate on loop k: in with weight 1 if its innovation passes, else pruned. Returns 1 if

@@ -1,14 +1,18 @@
 /* A loop closure's innovation: its error measured against what the rest of the graph predicts
  * for its two poses. With whitened error r = U e (U^T U = Omega), whitened Jacobian A = U J and
- * the current factor holding the loop at weight w, M = A H^-1 A^T has eigenpairs (mu_i, v_i);
- * the leave-one-out identities (Sherman-Morrison on the loop's own term) give the error the
- * map would predict without the loop, rho0_i = v_i^T (r + A step) / (1 - w mu_i), and the
+ * a factor holding the loop at weight w (0: not in it), M = A H^-1 A^T has eigenpairs (mu_i,
+ * v_i); the leave-one-out identities (Sherman-Morrison on the loop's own term) give the error
+ * the map would predict without the loop, rho0_i = v_i^T (r + A step) / (1 - w mu_i), and the
  * map's covariance without it, mu0_i = mu_i / (1 - w mu_i), in whitened units. Then
- *     d^2 = sum_i rho0_i^2 / (1 + kappa mu0_i),
+ *     d^2 = sum_i rho0_i^2 / (1 + kappa_i mu0_i),
  * the Mahalanobis distance of the loop under the predicted covariance Omega^-1 + kappa J
- * Sigma_-k J^T, kappa the odometry allowance (1: the stated covariances). `step` is the
- * Gauss-Newton step from the current estimate, so the estimate need not be at the optimum of
- * the current weights. */
+ * Sigma_-k J^T, kappa the odometry allowance, graded per direction with the map's variance
+ * (EM's consistency test) or constant (the online gate, whose loops are in no factor:
+ * r^T (I + kappa M)^-1 r). `step` is the Gauss-Newton step from the current estimate, so the
+ * estimate need not be at the optimum of the current weights. One test over either factor:
+ * the batch one here (its sparse inverse or a solve with L), the online one in
+ * online/update.c (a solve along the two poses' paths); both hand M and r to
+ * pgem_innovation_test. */
 #include <math.h>
 #include <string.h>
 
@@ -137,9 +141,7 @@ static double pgem_rotation_sd(int n, const double *upper, const double *mu0, co
     return sqrt(variance);
 }
 
-/* Loop k's error e, the upper root U of its information (U^T U = information) and its
- * whitened Jacobians A_from = U J_from, A_to = U J_to. */
-static void pgem_loop_whiten(pgem_t *graph, uint32_t k, double *e, double *upper, double *a_from,
+void pgem_loop_whiten(pgem_t *graph, uint32_t k, double *e, double *upper, double *a_from,
                              double *a_to)
 {
     const int n = graph->tangent;
@@ -151,27 +153,29 @@ static void pgem_loop_whiten(pgem_t *graph, uint32_t k, double *e, double *upper
     pgem_upper_times(upper, jt, n, a_to);
 }
 
-void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double inflation,
-                          int from_inverse, pgem_innovation_t *out)
+/* p^T (I + m)^-1 p for a symmetric positive semi-definite n x n m, by Cholesky of I + m from
+ * its lower triangle (its pivots at least 1). */
+static double pgem_shifted_form(int n, const double *m, const double *p)
 {
-    const int n = graph->tangent;
-    /* zeroed where the analysers cannot see the loops that fill them */
-    double e[PGEM_TANGENT_SIZE_MAX] = {0}, predicted[PGEM_TANGENT_SIZE_MAX] = {0};
-    double upper[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    double a_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double u[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    for (int i = 0; i < n; i++) {
+        for (int j = 0; j < n; j++) {
+            u[j * n + i] = m[i * n + j] + (i == j ? 1.0 : 0.0);
+        }
+    }
+    (void)pgem_small_cholesky(u, n, 1.0, 0);
+    return pgem_small_form(u, p, n);
+}
+
+/* EM's form: M's eigen-directions, each left out of the factor at the loop's weight and given
+ * its graded allowance; m is destroyed. */
+static void pgem_innovation_graded(int n, const double *upper, const double *predicted,
+                                   double *m, double weight, double inflation,
+                                   pgem_innovation_t *out)
+{
     double vectors[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double values[PGEM_TANGENT_SIZE_MAX] = {0}, mu0[PGEM_TANGENT_SIZE_MAX] = {0};
-    pgem_loop_whiten(graph, k, e, upper, a_from, a_to);
-    if (from_inverse) {
-        (void)pgem_linear_marginal_inverse(graph->linear, graph->store.edge_from[k], graph->store.edge_to[k], a_from,
-                                           a_to, m);
-    } else {
-        pgem_linear_marginal(graph->linear, graph->store.edge_from[k], graph->store.edge_to[k], a_from, a_to, m);
-    }
     pgem_symmetric_eigen(m, n, values, vectors);
-    pgem_predicted_error(graph, k, upper, e, a_from, a_to, predicted);
     out->distance = out->plain = 0.0;
     for (int i = 0; i < n; i++) {
         double rho = 0.0;
@@ -191,18 +195,67 @@ void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double infla
     out->rotation_sd = pgem_rotation_sd(n, upper, mu0, vectors);
 }
 
-/* p^T (I + m)^-1 p for a symmetric positive semi-definite n x n m, by Cholesky of I + m from
- * its lower triangle (its pivots at least 1). */
-static double pgem_shifted_form(int n, const double *m, const double *p)
+/* The online gate's form: the loop in no factor, the allowance constant,
+ * r^T (I + inflation M)^-1 r by Cholesky; the rotation's variance from the rotation rows g of
+ * U^-T, g^T M g. */
+static void pgem_innovation_fixed(int n, const double *upper, const double *predicted,
+                                  const double *m, double inflation, pgem_innovation_t *out)
 {
-    double u[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    for (int i = 0; i < n; i++) {
-        for (int j = 0; j < n; j++) {
-            u[j * n + i] = m[i * n + j] + (i == j ? 1.0 : 0.0);
+    double scaled[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    for (int q = 0; q < n * n; q++) {
+        scaled[q] = inflation * m[q];
+    }
+    out->distance = pgem_shifted_form(n, scaled, predicted);
+    out->plain = inflation == 1.0 ? out->distance : pgem_shifted_form(n, m, predicted);
+    double variance = 0.0;
+    for (int r = n == 3 ? 2 : 3; r < n; r++) { /* the rotation rows: theta, or 3..5 */
+        double g[PGEM_TANGENT_SIZE_MAX] = {0}; /* U^T g = e_r, forward */
+        for (int i = 0; i < n; i++) {
+            double sum = i == r ? 1.0 : 0.0;
+            for (int j = 0; j < i; j++) {
+                sum -= upper[j * n + i] * g[j];
+            }
+            g[i] = sum / upper[i * n + i];
+        }
+        double mg[PGEM_TANGENT_SIZE_MAX];
+        pgem_small_apply(m, 0, g, mg, n);
+        for (int i = 0; i < n; i++) {
+            variance += g[i] * mg[i];
         }
     }
-    (void)pgem_small_cholesky(u, n, 1.0, 0);
-    return pgem_small_form(u, p, n);
+    out->rotation_sd = sqrt(fmax(variance, 0.0));
+}
+
+void pgem_innovation_test(int n, const double *upper, const double *predicted, double *marginal,
+                          double weight, double inflation, pgem_innovation_form_t form,
+                          pgem_innovation_t *out)
+{
+    if (form == PGEM_INNOVATION_FIXED) {
+        pgem_innovation_fixed(n, upper, predicted, marginal, inflation, out);
+    } else {
+        pgem_innovation_graded(n, upper, predicted, marginal, weight, inflation, out);
+    }
+}
+
+void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double inflation,
+                          int from_inverse, pgem_innovation_t *out)
+{
+    const int n = graph->tangent;
+    /* zeroed where the analysers cannot see the loops that fill them */
+    double e[PGEM_TANGENT_SIZE_MAX] = {0}, predicted[PGEM_TANGENT_SIZE_MAX] = {0};
+    double upper[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double a_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    pgem_loop_whiten(graph, k, e, upper, a_from, a_to);
+    if (from_inverse) {
+        (void)pgem_linear_marginal_inverse(graph->linear, graph->store.edge_from[k], graph->store.edge_to[k], a_from,
+                                           a_to, m);
+    } else {
+        pgem_linear_marginal(graph->linear, graph->store.edge_from[k], graph->store.edge_to[k], a_from, a_to, m);
+    }
+    pgem_predicted_error(graph, k, upper, e, a_from, a_to, predicted);
+    pgem_innovation_test(n, upper, predicted, m, weight, inflation, PGEM_INNOVATION_GRADED, out);
 }
 
 int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, double *distance)
