@@ -162,10 +162,10 @@ int pgem_bridge_run(const pgem_bridge_options_t *options, int (*stop)(void), cha
     }
     const pgem_bridge_options_t *o = &bridge->options;
     bridge_log(bridge,
-               "listening: %s (poses), %s (edges), %s (commands); publishing %s and %s; "
+               "listening: %s (poses), %s (edges), %s (commands); publishing %s, %s and %s; "
                "%dD, %u poses, %u edges, core block %.1f MiB%s",
                o->channels.pose, o->channels.edge, o->channels.command, o->channels.graph,
-               o->channels.status, o->dimension, (unsigned)o->max_poses,
+               o->channels.team, o->channels.status, o->dimension, (unsigned)o->max_poses,
                (unsigned)o->max_edges, core_mib, pass_on ? ", live EM pass block" : "");
     if (pass_on) {
         bridge_log(bridge, "live EM passes on: the copy's block %.1f MiB (--no-live-em: none)",
