@@ -206,13 +206,16 @@ stop_bridge
 
 if command -v lcm-logger >/dev/null 2>&1; then # (checked before the namespace: always there)
     step "recorded with lcm-logger, read back: a bridge started on the recording has the graph"
-    # the front-end's channels only: the bridge's graphs are most of the bytes, and a logger
-    # delayed on a loaded machine dropped poses and edges with them
+    # the front-end's channels only (all the replay reads)
     lcm-logger --force --channel='PGEM_(POSE2|EDGE2|COMMAND)' recorded.lcmlog >logger.log 2>&1 &
     logger=$!
     pids="$pids $logger"
     sleep 0.3
-    start_bridge live
+    # Whole-graph solves at most twice a second: the logger's socket gets every message on the
+    # group, the bridge's graphs too (a filter on channels acts after the kernel), and the
+    # kernel caps its buffer (net.core.rmem_max, often 208 KB). A graph after every update
+    # (800 of them, 8 MB/s) overran it on a loaded machine, and poses were lost mid-stream.
+    start_bridge live --full --max-rate 2
     # A smaller graph at a gentle rate: lcm-logger keeps LCM's small handler queue and drops
     # messages when a loaded machine delays it (seen at 2000 edges/s beside a sanitizer build).
     "$PGEM" simulate --world manhattan --poses 600 --seed 2 -o small_clean.g2o >/dev/null
