@@ -226,6 +226,14 @@ if command -v lcm-logger >/dev/null 2>&1; then # (checked before the namespace: 
     "$SEND" small.g2o --rate 300 --wait 30 >live.send.log 2>&1 ||
         fail "recorded: not every edge accepted"
     wait "$dump" || fail "recorded: no complete live graph"
+    # lcm-logger's subscription keeps LCM's default handler queue (30 messages): delayed on a
+    # loaded machine it drops a run of them (poses 112-120 once). Sent twice more, as a
+    # front-end that must not lose anything resends: the bridge takes the copies as replays,
+    # and the recording misses a message only if all three lost it.
+    for again in 1 2; do
+        "$SEND" small.g2o --rate 300 >"live.resend$again.log" 2>&1 ||
+            fail "recorded: resend $again failed"
+    done
     stop_bridge
     # Once the stream is quiet the live bridge settles: the whole graph solved from the
     # front-end's estimates, which is the offline solve of the same file.
