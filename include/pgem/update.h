@@ -64,7 +64,9 @@ typedef struct pgem_update_options {
                                        loop would wait long. 0: none */
     double gate;                  /**< robust: 0 means the 99.9 % chi-square quantile (16.27 in
                                        2D, 22.46 in 3D) */
-    double odometry_inflation;    /**< robust: the map's covariance factor in the gate; 0
+    double odometry_inflation;    /**< robust: the map's covariance factor in the gate,
+                                       graded with the map's variance as in EM's consistency
+                                       test (the same test, docs/design/innovation.md); 0
                                        means 1 (the batch consistency test's allowance of 4
                                        let false loops of M3500 + 100 in while the map was
                                        still uncertain: the settle solve re-decides anyway) */

@@ -335,10 +335,11 @@ static int pgem_update_relinearise_due(pgem_t *graph, double threshold, int limi
 }
 
 /* Loop k's innovation distance under the online factor and the current estimate (the
- * factor's solution: no step), the robust layer's test in its fixed form:
- * e^T (Omega^-1 + inflation J H^-1 J^T)^-1 e; *plain gets e^T Omega e, its chi2 with the map
- * taken as certain. The marginal of the loop's whitened Jacobian is a forward solve along the
- * two poses' paths. */
+ * factor's solution: no step), by the robust layer's test, as EM's consistency test measures
+ * it (the loop in no factor; the allowance graded with the map's variance, none at the
+ * default inflation 1: then e^T (Omega^-1 + J H^-1 J^T)^-1 e); *plain gets e^T Omega e, its
+ * chi2 with the map taken as certain. The marginal of the loop's whitened Jacobian is a
+ * forward solve along the two poses' paths. */
 static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation, double *plain)
 {
     pgem_online_t *online = graph->online;
@@ -353,7 +354,7 @@ static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation
                          online->pose_column[graph->store.edge_to[k]], a_from, a_to, n, m);
     pgem_small_apply(upper, 0, e, r, n);
     pgem_innovation_t innovation;
-    pgem_innovation_test(n, upper, r, m, 0.0, inflation, PGEM_INNOVATION_FIXED, &innovation);
+    pgem_innovation_test(n, upper, r, m, 0.0, inflation, &innovation);
     /* The map does not know one end's rotation from the other's to a radian (the SE(3)
      * error's rotation part is half the angle): only a gauge's damping holds them together,
      * the loop is not tested (it waits for a whole-graph pass, which sees it beside the other

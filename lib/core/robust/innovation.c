@@ -6,13 +6,12 @@
  * map's covariance without it, mu0_i = mu_i / (1 - w mu_i), in whitened units. Then
  *     d^2 = sum_i rho0_i^2 / (1 + kappa_i mu0_i),
  * the Mahalanobis distance of the loop under the predicted covariance Omega^-1 + kappa J
- * Sigma_-k J^T, kappa the odometry allowance, graded per direction with the map's variance
- * (EM's consistency test) or constant (the online gate, whose loops are in no factor:
- * r^T (I + kappa M)^-1 r). `step` is the Gauss-Newton step from the current estimate, so the
- * estimate need not be at the optimum of the current weights. One test over either factor:
- * the batch one here (its sparse inverse or a solve with L), the online one in
- * online/update.c (a solve along the two poses' paths); both hand M and r to
- * pgem_innovation_test. */
+ * Sigma_-k J^T, kappa the odometry allowance, graded per direction with the map's variance.
+ * `step` is the Gauss-Newton step from the current estimate, so the estimate need not be at
+ * the optimum of the current weights. One test over either factor (pgem_innovation_test): EM's
+ * consistency test gets M from the batch factor here (its sparse inverse or a solve with L),
+ * the online gate from its own factor in online/update.c (a solve along the two poses' paths;
+ * the loop in no factor, no step). */
 #include <math.h>
 #include <string.h>
 
@@ -167,11 +166,8 @@ static double pgem_shifted_form(int n, const double *m, const double *p)
     return pgem_small_form(u, p, n);
 }
 
-/* EM's form: M's eigen-directions, each left out of the factor at the loop's weight and given
- * its graded allowance; m is destroyed. */
-static void pgem_innovation_graded(int n, const double *upper, const double *predicted,
-                                   double *m, double weight, double inflation,
-                                   pgem_innovation_t *out)
+void pgem_innovation_test(int n, const double *upper, const double *predicted, double *m,
+                          double weight, double inflation, pgem_innovation_t *out)
 {
     double vectors[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double values[PGEM_TANGENT_SIZE_MAX] = {0}, mu0[PGEM_TANGENT_SIZE_MAX] = {0};
@@ -195,48 +191,6 @@ static void pgem_innovation_graded(int n, const double *upper, const double *pre
     out->rotation_sd = pgem_rotation_sd(n, upper, mu0, vectors);
 }
 
-/* The online gate's form: the loop in no factor, the allowance constant,
- * r^T (I + inflation M)^-1 r by Cholesky; the rotation's variance from the rotation rows g of
- * U^-T, g^T M g. */
-static void pgem_innovation_fixed(int n, const double *upper, const double *predicted,
-                                  const double *m, double inflation, pgem_innovation_t *out)
-{
-    double scaled[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    for (int q = 0; q < n * n; q++) {
-        scaled[q] = inflation * m[q];
-    }
-    out->distance = pgem_shifted_form(n, scaled, predicted);
-    out->plain = inflation == 1.0 ? out->distance : pgem_shifted_form(n, m, predicted);
-    double variance = 0.0;
-    for (int r = n == 3 ? 2 : 3; r < n; r++) { /* the rotation rows: theta, or 3..5 */
-        double g[PGEM_TANGENT_SIZE_MAX] = {0}; /* U^T g = e_r, forward */
-        for (int i = 0; i < n; i++) {
-            double sum = i == r ? 1.0 : 0.0;
-            for (int j = 0; j < i; j++) {
-                sum -= upper[j * n + i] * g[j];
-            }
-            g[i] = sum / upper[i * n + i];
-        }
-        double mg[PGEM_TANGENT_SIZE_MAX];
-        pgem_small_apply(m, 0, g, mg, n);
-        for (int i = 0; i < n; i++) {
-            variance += g[i] * mg[i];
-        }
-    }
-    out->rotation_sd = sqrt(fmax(variance, 0.0));
-}
-
-void pgem_innovation_test(int n, const double *upper, const double *predicted, double *marginal,
-                          double weight, double inflation, pgem_innovation_form_t form,
-                          pgem_innovation_t *out)
-{
-    if (form == PGEM_INNOVATION_FIXED) {
-        pgem_innovation_fixed(n, upper, predicted, marginal, inflation, out);
-    } else {
-        pgem_innovation_graded(n, upper, predicted, marginal, weight, inflation, out);
-    }
-}
-
 void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double inflation,
                           int from_inverse, pgem_innovation_t *out)
 {
@@ -255,7 +209,7 @@ void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double infla
         pgem_linear_marginal(graph->linear, graph->store.edge_from[k], graph->store.edge_to[k], a_from, a_to, m);
     }
     pgem_predicted_error(graph, k, upper, e, a_from, a_to, predicted);
-    pgem_innovation_test(n, upper, predicted, m, weight, inflation, PGEM_INNOVATION_GRADED, out);
+    pgem_innovation_test(n, upper, predicted, m, weight, inflation, out);
 }
 
 int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, double *distance)

@@ -32,21 +32,13 @@ typedef struct pgem_innovation {
     double plain;        /* d^2 under Omega^-1 + J Sigma_-k J^T */
     double rotation_sd;  /* sqrt of the rotation block's trace of J Sigma_-k J^T */
 } pgem_innovation_t;
-/* How the map's covariance counts in a loop's innovation (robust/innovation.c). */
-typedef enum pgem_innovation_form {
-    PGEM_INNOVATION_GRADED = 0, /* EM's consistency test: per eigen-direction of M, the loop
-                                   left out of the factor that holds it at `weight`, the
-                                   allowance graded with the map's variance there */
-    PGEM_INNOVATION_FIXED = 1   /* the online gate: the loop in no factor (weight unused), the
-                                   allowance constant: r^T (I + inflation M)^-1 r */
-} pgem_innovation_form_t;
 /* The innovation test of one loop over whichever factor the caller has: its whitened error
  * r = U (e + J step) (`predicted`; step 0 when the estimate is the factor's solution), U
- * (U^T U = Omega) and the marginal M = A H^-1 A^T of its whitened Jacobian A = U J
- * (destroyed by the graded form). */
+ * (U^T U = Omega) and the marginal M = A H^-1 A^T (destroyed) of its whitened Jacobian
+ * A = U J under a factor that holds the loop at `weight` (0: not in it); the odometry
+ * allowance `inflation` graded with the map's variance (robust/innovation.c). */
 void pgem_innovation_test(int n, const double *upper, const double *predicted, double *marginal,
-                          double weight, double inflation, pgem_innovation_form_t form,
-                          pgem_innovation_t *out);
+                          double weight, double inflation, pgem_innovation_t *out);
 /* Loop k's error e, the upper root U of its information (U^T U = information) and its
  * whitened Jacobians A_from = U J_from, A_to = U J_to. */
 void pgem_loop_whiten(pgem_t *graph, uint32_t k, double *e, double *upper, double *a_from,
