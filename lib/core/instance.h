@@ -38,4 +38,19 @@ static inline size_t pgem_pose_bytes(const pgem_t *graph)
     return (size_t)graph->store.pose_count * (size_t)graph->pose_size * sizeof(double);
 }
 
+/* The parts of the instance a robust solve works on (pgem_robust_parts_t). */
+static inline pgem_robust_parts_t pgem_robust_parts(pgem_t *graph)
+{
+    pgem_robust_parts_t parts;
+    parts.solve.store = &graph->store;
+    parts.solve.state = &graph->solver;
+    parts.solve.linear = graph->linear;
+    parts.solve.config = &graph->config;
+    parts.solve.executor = &graph->executor;
+    parts.solve.message = graph->message;
+    parts.state = &graph->robust;
+    parts.tangent = graph->tangent;
+    return parts;
+}
+
 #endif /* PGEM_INSTANCE_H */

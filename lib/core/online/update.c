@@ -349,7 +349,7 @@ static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation
     double a_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0.0};
-    pgem_loop_whiten(graph, k, e, upper, a_from, a_to);
+    pgem_loop_whiten(&graph->store, n, k, e, upper, a_from, a_to);
     pgem_online_marginal(graph, online->pose_column[graph->store.edge_from[k]],
                          online->pose_column[graph->store.edge_to[k]], a_from, a_to, n, m);
     pgem_small_apply(upper, 0, e, r, n);

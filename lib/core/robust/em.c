@@ -65,6 +65,7 @@ int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
 static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *options,
                           const pgem_solve_options_t *solve, pgem_robust_summary_t *summary, double gate)
 {
+    const pgem_robust_parts_t parts = pgem_robust_parts(graph);
     int status = PGEM_OK;
     pgem_settle_t settle;
     memset(&settle, 0, sizeof settle);
@@ -83,7 +84,7 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *options,
             pgem_robust_ended(summary, settle.cycling ? PGEM_ROBUST_OSCILLATED : PGEM_ROBUST_ROUND_LIMIT);
             break;
         }
-        if (pgem_em_gate(graph, options, gate, summary) == 0u &&
+        if (pgem_em_gate(&parts, options, gate, summary) == 0u &&
             (pgem_most_rejected(&graph->store)
                  ? pgem_em_leave_run_out(graph, summary, &status)
                  : pgem_em_leave_group_out(graph, summary, &status)) == 0u) {
@@ -101,7 +102,7 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *options,
 int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
                              const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
-    const double gate = pgem_em_gate_value(graph, options);
+    const double gate = pgem_em_gate_value(graph->tangent, options);
     int status = pgem_em_rounds(graph, options, solve, summary);
     if (status == PGEM_OK && !pgem_robust_stopped(summary)) {
         status = pgem_em_passes(graph, options, solve, summary, gate);

@@ -458,7 +458,7 @@ uint32_t pgem_robust_frames(pgem_t *graph, const pgem_robust_options_t *options,
     f.next = f.first + max_poses;
     f.loop_var = (float *)(void *)graph->robust.edge_distance;
     f.inflation = options->odometry_inflation;
-    f.gate = pgem_em_gate_value(graph, options);
+    f.gate = pgem_em_gate_value(graph->tangent, options);
     pgem_frames_parts(&f, with_loops);
     /* the parts that hold a fixed pose (or the first pose, when none is fixed) are placed; the
      * others are to place, those held at a damped gauge too (pgem_hold_gauge: loop closures

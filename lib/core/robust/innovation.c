@@ -15,7 +15,6 @@
 #include <math.h>
 #include <string.h>
 
-#include "instance.h"
 #include "robust/robust.h"
 
 /* The map's variance, in units of the loop's own, at which half the odometry allowance
@@ -97,14 +96,13 @@ static void pgem_symmetric_eigen(double *a, int n, double *values, double *vecto
 }
 
 /* U (e + J step): the whitened error the Gauss-Newton step (pgem_linear_step) predicts. */
-static void pgem_predicted_error(const pgem_t *graph, uint32_t k, const double *upper,
-                                 const double *error, const double *a_from, const double *a_to,
-                                 double *predicted)
+static void pgem_predicted_error(const pgem_linear_t *linear, const pgem_store_t *store, int n,
+                                 uint32_t k, const double *upper, const double *error,
+                                 const double *a_from, const double *a_to, double *predicted)
 {
-    const int n = graph->tangent;
-    const double *step = pgem_linear_step(graph->linear);
-    const double *step_from = pgem_linear_pose_delta(graph->linear, step, graph->store.edge_from[k]);
-    const double *step_to = pgem_linear_pose_delta(graph->linear, step, graph->store.edge_to[k]);
+    const double *step = pgem_linear_step(linear);
+    const double *step_from = pgem_linear_pose_delta(linear, step, store->edge_from[k]);
+    const double *step_to = pgem_linear_pose_delta(linear, step, store->edge_to[k]);
     for (int r = 0; r < n; r++) {
         double sum = 0.0;
         for (int c = r; c < n; c++) {
@@ -140,14 +138,13 @@ static double pgem_rotation_sd(int n, const double *upper, const double *mu0, co
     return sqrt(variance);
 }
 
-void pgem_loop_whiten(pgem_t *graph, uint32_t k, double *e, double *upper, double *a_from,
-                             double *a_to)
+void pgem_loop_whiten(const pgem_store_t *store, int n, uint32_t k, double *e, double *upper,
+                      double *a_from, double *a_to)
 {
-    const int n = graph->tangent;
     double jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    pgem_edge_error(&graph->store, k, e, jf, jt, graph->tangent);
-    pgem_information_root(graph->store.edge_information + (size_t)k * (size_t)(n * n), n, upper);
+    pgem_edge_error(store, k, e, jf, jt, n);
+    pgem_information_root(store->edge_information + (size_t)k * (size_t)(n * n), n, upper);
     pgem_upper_times(upper, jf, n, a_from);
     pgem_upper_times(upper, jt, n, a_to);
 }
@@ -191,38 +188,38 @@ void pgem_innovation_test(int n, const double *upper, const double *predicted, d
     out->rotation_sd = pgem_rotation_sd(n, upper, mu0, vectors);
 }
 
-void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double inflation,
-                          int from_inverse, pgem_innovation_t *out)
+void pgem_loop_innovation(pgem_linear_t *linear, const pgem_store_t *store, int n, uint32_t k,
+                          double weight, double inflation, int from_inverse,
+                          pgem_innovation_t *out)
 {
-    const int n = graph->tangent;
     /* zeroed where the analysers cannot see the loops that fill them */
     double e[PGEM_TANGENT_SIZE_MAX] = {0}, predicted[PGEM_TANGENT_SIZE_MAX] = {0};
     double upper[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double a_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    pgem_loop_whiten(graph, k, e, upper, a_from, a_to);
+    pgem_loop_whiten(store, n, k, e, upper, a_from, a_to);
     if (from_inverse) {
-        (void)pgem_linear_marginal_inverse(graph->linear, graph->store.edge_from[k], graph->store.edge_to[k], a_from,
+        (void)pgem_linear_marginal_inverse(linear, store->edge_from[k], store->edge_to[k], a_from,
                                            a_to, m);
     } else {
-        pgem_linear_marginal(graph->linear, graph->store.edge_from[k], graph->store.edge_to[k], a_from, a_to, m);
+        pgem_linear_marginal(linear, store->edge_from[k], store->edge_to[k], a_from, a_to, m);
     }
-    pgem_predicted_error(graph, k, upper, e, a_from, a_to, predicted);
+    pgem_predicted_error(linear, store, n, k, upper, e, a_from, a_to, predicted);
     pgem_innovation_test(n, upper, predicted, m, weight, inflation, out);
 }
 
-int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, double *distance)
+int pgem_loop_screen(pgem_linear_t *linear, const pgem_store_t *store, int n, uint32_t k,
+                     double inflation, double gate, double *distance)
 {
-    const int n = graph->tangent;
     double e[PGEM_TANGENT_SIZE_MAX] = {0}, predicted[PGEM_TANGENT_SIZE_MAX] = {0};
     double upper[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double a_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
     double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    pgem_loop_whiten(graph, k, e, upper, a_from, a_to);
-    pgem_predicted_error(graph, k, upper, e, a_from, a_to, predicted);
-    const double chi2 = pgem_edge_mahalanobis(&graph->store, k, graph->tangent);
+    pgem_loop_whiten(store, n, k, e, upper, a_from, a_to);
+    pgem_predicted_error(linear, store, n, k, upper, e, a_from, a_to, predicted);
+    const double chi2 = pgem_edge_mahalanobis(store, k, n);
     double norm = 0.0;
     for (int r = 0; r < n; r++) {
         norm += predicted[r] * predicted[r];
@@ -232,7 +229,7 @@ int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, d
         return 1;
     }
     /* A H^-1 A^T <= 2 (A_f Z_ff A_f^T + A_t Z_tt A_t^T), and the allowance at most kappa */
-    pgem_linear_marginal_diagonal(graph->linear, graph->store.edge_from[k], graph->store.edge_to[k], a_from, a_to, m);
+    pgem_linear_marginal_diagonal(linear, store->edge_from[k], store->edge_to[k], a_from, a_to, m);
     for (int q = 0; q < n * n; q++) {
         m[q] *= 2.0 * inflation;
     }

@@ -41,10 +41,11 @@ int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
                            const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
                            int weights_current, double *largest_change)
 {
+    const pgem_robust_parts_t parts = pgem_robust_parts(graph);
     int settled = 0, status = PGEM_OK;
     for (uint32_t iteration = 0; iteration < options->max_em_iterations; iteration++) {
         if (iteration > 0u || !weights_current) {
-            status = pgem_em_e_step(graph, options, largest_change);
+            status = pgem_em_e_step(&parts, options, largest_change);
         }
         if (status != PGEM_OK) {
             return status;
@@ -59,6 +60,6 @@ int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
         }
     }
     pgem_robust_ended(summary, PGEM_ROBUST_ITERATION_LIMIT);
-    return pgem_em_e_step(graph, options, largest_change);
+    return pgem_em_e_step(&parts, options, largest_change);
 }
 

@@ -20,6 +20,16 @@ typedef struct pgem_robust_state {
     uint8_t *edge_checked;     /* [max_edges] 1 if the map predicted the loop (innovation) */
 } pgem_robust_state_t;
 
+/* What a robust solve works on, lent for one call: the parts a solve works on (the store, the
+ * solver's state, the linear system, the config, the executor, the message buffer), the robust
+ * state and the error rows per edge (3 or 6). The public calls build it (instance/robust.c);
+ * a file of the layer that still sees the instance gets it from pgem_robust_parts. */
+typedef struct pgem_robust_parts {
+    pgem_solve_parts_t solve;
+    pgem_robust_state_t *state;
+    int tangent;
+} pgem_robust_parts_t;
+
 /* Carves the robust layer's arrays for config's capacities and the doubles per pose from the
  * arena (measuring when arena->base is NULL). */
 void pgem_robust_carve(pgem_robust_state_t *robust, const pgem_config_t *config, int pose_size,
@@ -39,24 +49,27 @@ typedef struct pgem_innovation {
  * allowance `inflation` graded with the map's variance (robust/innovation.c). */
 void pgem_innovation_test(int n, const double *upper, const double *predicted, double *marginal,
                           double weight, double inflation, pgem_innovation_t *out);
-/* Loop k's error e, the upper root U of its information (U^T U = information) and its
- * whitened Jacobians A_from = U J_from, A_to = U J_to. */
-void pgem_loop_whiten(pgem_t *graph, uint32_t k, double *e, double *upper, double *a_from,
-                      double *a_to);
+/* Loop k's error e (n = tangent rows), the upper root U of its information (U^T U =
+ * information) and its whitened Jacobians A_from = U J_from, A_to = U J_to. */
+void pgem_loop_whiten(const pgem_store_t *store, int n, uint32_t k, double *e, double *upper,
+                      double *a_from, double *a_to);
 /* Loop k's innovation under the current factor, in which it has weight `weight` (0 when
  * pruned); its marginal from the sparse inverse (from_inverse) or by a solve with L. */
-void pgem_loop_innovation(pgem_t *graph, uint32_t k, double weight, double inflation,
-                          int from_inverse, pgem_innovation_t *out);
+void pgem_loop_innovation(pgem_linear_t *linear, const pgem_store_t *store, int n, uint32_t k,
+                          double weight, double inflation, int from_inverse,
+                          pgem_innovation_t *out);
 /* For a pruned loop, after pgem_linear_invert: 1 if it passes `gate` however the map predicts
  * it (its chi2 and its predicted error are below it), -1 if it fails it however (its chi2 and
  * a lower bound of its innovation are above it), 0 if only the innovation can tell;
  * *distance is the measure that decided (robust/innovation.c). */
-int pgem_loop_screen(pgem_t *graph, uint32_t k, double inflation, double gate, double *distance);
+int pgem_loop_screen(pgem_linear_t *linear, const pgem_store_t *store, int n, uint32_t k,
+                     double inflation, double gate, double *distance);
 /* The consistency test's distances (robust/estep.c): every loop's, pruned ones included,
  * under the options' distance; `gate` lets bounds decide pruned loops off the factor's
  * pattern without a solve. The innovation of a loop the map does not predict is divided by
  * `scale` (in (0, 1]: the variance factor with its margin, robust/gate.c). */
-void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, double gate, double scale);
+void pgem_em_distances(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
+                       double gate, double scale);
 /* Stated covariances are not equally loose everywhere: a test scaled by the variance factor
  * (the chi2 per redundant row, at most 1) scales by this many times it (at most 1). On
  * Intel's SE-Sync version a true group's fall is 3.3 times its quantile scaled by the variance
@@ -66,7 +79,8 @@ void pgem_em_distances(pgem_t *graph, const pgem_robust_options_t *options, doub
 #define PGEM_VARIANCE_MARGIN 5.0
 /* EM's E-step (robust/estep.c): each unpruned loop's point chi2, then its weight, and the
  * largest weight change; fails only on a user kernel's weight outside [0, 1]. */
-int pgem_em_e_step(pgem_t *graph, const pgem_robust_options_t *options, double *largest_change);
+int pgem_em_e_step(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
+                   double *largest_change);
 /* Loop k's weight from its distance (edge_distance) under the options' kernel (robust/kernel.c):
  * PGEM_ERR_NUMERIC, naming the loop, if a user kernel's weight is not in [0, 1]. */
 int pgem_loop_kernel_weight(const pgem_robust_state_t *robust, const pgem_store_t *store,
@@ -214,9 +228,9 @@ double pgem_model_minimum(pgem_t *graph, int *status);
 uint32_t pgem_em_leave_group_out(pgem_t *graph, pgem_robust_summary_t *summary, int *status);
 /* The consistency test (robust/gate.c): the gate, then the loops it re-admits or prunes under
  * the current (polished) estimate; returns how many changed state. */
-double pgem_em_gate_value(const pgem_t *graph, const pgem_robust_options_t *options);
-uint32_t pgem_em_gate(pgem_t *graph, const pgem_robust_options_t *options, double gate,
-                      pgem_robust_summary_t *summary);
+double pgem_em_gate_value(int tangent, const pgem_robust_options_t *options);
+uint32_t pgem_em_gate(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
+                      double gate, pgem_robust_summary_t *summary);
 /* Oscillation between EM's passes (robust/settle.c). A pass's mark: a fingerprint of its
  * loops' states (accepted, pruned, left out with a run), how many are accepted, and the
  * robust cost of its polished estimate (odometry chi2 plus every loop's Cauchy rho at
