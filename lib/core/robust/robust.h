@@ -152,7 +152,7 @@ int pgem_report_round(const pgem_store_t *store, int tangent, const pgem_robust_
                       pgem_robust_summary_t *summary, pgem_robust_progress_t *progress);
 
 /* E/M iterations (robust/iterate.c); weights_current skips the first E-step. */
-int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
+int pgem_em_iterate(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
                     const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
                     int weights_current, double *largest_change);
 /* EM (robust/em.c): rounds with pruning (the literal method); the polish (robust/polish.c:
@@ -160,7 +160,7 @@ int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
  * (the default). */
 int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
                    const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
-int pgem_em_polish(pgem_t *graph, const pgem_solve_options_t *solve,
+int pgem_em_polish(const pgem_robust_parts_t *parts, const pgem_solve_options_t *solve,
                    pgem_robust_summary_t *summary);
 int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
                       const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
@@ -215,17 +215,19 @@ int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust
  * on a degenerate outcome (pgem_most_rejected): the first run of accepted loops whose leaving
  * would make the chi2 fall by more than the 99.9% quantile for its rows is pruned at weight
  * 0; returns 1 if one was (0 if none: the estimate is not moved). */
-uint32_t pgem_em_leave_run_out(pgem_t *graph, pgem_robust_summary_t *summary, int *status);
+uint32_t pgem_em_leave_run_out(const pgem_robust_parts_t *parts, pgem_robust_summary_t *summary,
+                               int *status);
 /* The minimum of the Gauss-Newton model of the adjustment at the current estimate and weights
  * (robust/leave_run.c): its chi2 less the decrease a step would bring, exact for a linear
  * problem; the estimate is not moved (one factorisation). *status set if the factor fails. */
-double pgem_model_minimum(pgem_t *graph, int *status);
+double pgem_model_minimum(const pgem_robust_parts_t *parts, int *status);
 /* The leave-group-out test (robust/groups.c), after a consistency test that changed nothing on
  * any other outcome: a run of loops (any state) is a group, tested through its accepted
  * members; the group that fails its test by the largest factor is pruned at weight 0; returns
  * 1 if one was (0 if none: the estimate is not moved). A factorisation that fails decides
  * nothing (*status stays PGEM_OK). */
-uint32_t pgem_em_leave_group_out(pgem_t *graph, pgem_robust_summary_t *summary, int *status);
+uint32_t pgem_em_leave_group_out(const pgem_robust_parts_t *parts, pgem_robust_summary_t *summary,
+                                 int *status);
 /* The consistency test (robust/gate.c): the gate, then the loops it re-admits or prunes under
  * the current (polished) estimate; returns how many changed state. */
 double pgem_em_gate_value(int tangent, const pgem_robust_options_t *options);
@@ -255,7 +257,7 @@ void pgem_pass_mark(const pgem_store_t *store, int tangent, double scale, pgem_p
  * settle starts zeroed. */
 int pgem_settle_pass(pgem_settle_t *settle, const pgem_pass_mark_t *mark);
 /* IRLS for the kernels that never prune (robust/irls.c). */
-int pgem_irls(pgem_t *graph, const pgem_robust_options_t *options,
+int pgem_irls(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
               const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
 
 #endif /* PGEM_ROBUST_LAYER_H */
