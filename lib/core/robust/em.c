@@ -26,10 +26,11 @@ static uint32_t pgem_prune(pgem_t *graph, double threshold)
 int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
                           const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
+    const pgem_robust_parts_t parts = pgem_robust_parts(graph);
     pgem_robust_progress_t progress;
     memset(&progress, 0, sizeof progress);
     for (uint32_t round = 1; round <= options->max_rounds; round++) {
-        int status = pgem_em_iterate(graph, options, solve, summary, round > 1u && !options->restart,
+        int status = pgem_em_iterate(&parts, options, solve, summary, round > 1u && !options->restart,
                                      &progress.largest_change);
         if (status != PGEM_OK || pgem_robust_stopped(summary)) {
             return status;
@@ -70,7 +71,7 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *options,
     pgem_settle_t settle;
     memset(&settle, 0, sizeof settle);
     for (uint32_t pass = 0; status == PGEM_OK; pass++) {
-        status = pgem_em_polish(graph, solve, summary);
+        status = pgem_em_polish(&parts, solve, summary);
         if (status != PGEM_OK || pgem_robust_stopped(summary)) {
             break;
         }

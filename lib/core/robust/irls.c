@@ -2,19 +2,18 @@
  * iterations (robust/iterate.c) to settled weights, reported as one round. */
 #include <string.h>
 
-#include "instance.h"
 #include "robust/robust.h"
 
-int pgem_irls(pgem_t *graph, const pgem_robust_options_t *options,
+int pgem_irls(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
               const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
     pgem_robust_progress_t progress;
     memset(&progress, 0, sizeof progress);
-    int status = pgem_em_iterate(graph, options, solve, summary, 0, &progress.largest_change);
+    int status = pgem_em_iterate(parts, options, solve, summary, 0, &progress.largest_change);
     if (status != PGEM_OK) {
         return status;
     }
     summary->rounds++;
-    (void)pgem_report_round(&graph->store, graph->tangent, options, summary, &progress);
+    (void)pgem_report_round(parts->solve.store, parts->tangent, options, summary, &progress);
     return PGEM_OK;
 }

@@ -100,6 +100,7 @@ static void pgem_back_to_marked(pgem_t *graph)
 int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
                    int *rescued)
 {
+    const pgem_robust_parts_t parts = pgem_robust_parts(graph);
     *rescued = 0;
     if (!pgem_most_rejected(&graph->store)) {
         return PGEM_OK; /* not a degenerate outcome */
@@ -109,7 +110,7 @@ int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust
     for (uint32_t attempt = 0; attempt < PGEM_RESCUE_ATTEMPTS && pgem_run_after(graph, &last, &run) &&
                                run.length > accepted; attempt++) {
         pgem_run_alone(graph, &run);
-        const int status = pgem_em_polish(graph, solve, summary);
+        const int status = pgem_em_polish(&parts, solve, summary);
         if (pgem_robust_stopped(summary)) {
             return status; /* asked to stop: the run is left as it is */
         }
@@ -122,7 +123,7 @@ int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust
     }
     if (last.length > 0u) { /* back to EM's loops */
         pgem_back_to_marked(graph);
-        return pgem_em_polish(graph, solve, summary);
+        return pgem_em_polish(&parts, solve, summary);
     }
     return PGEM_OK;
 }

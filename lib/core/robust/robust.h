@@ -152,7 +152,7 @@ int pgem_report_round(const pgem_store_t *store, int tangent, const pgem_robust_
                       pgem_robust_summary_t *summary, pgem_robust_progress_t *progress);
 
 /* E/M iterations (robust/iterate.c); weights_current skips the first E-step. */
-int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
+int pgem_em_iterate(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
                     const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
                     int weights_current, double *largest_change);
 /* EM (robust/em.c): rounds with pruning (the literal method); the polish (robust/polish.c:
@@ -160,7 +160,7 @@ int pgem_em_iterate(pgem_t *graph, const pgem_robust_options_t *options,
  * (the default). */
 int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
                    const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
-int pgem_em_polish(pgem_t *graph, const pgem_solve_options_t *solve,
+int pgem_em_polish(const pgem_robust_parts_t *parts, const pgem_solve_options_t *solve,
                    pgem_robust_summary_t *summary);
 int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
                       const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
@@ -255,7 +255,7 @@ void pgem_pass_mark(const pgem_store_t *store, int tangent, double scale, pgem_p
  * settle starts zeroed. */
 int pgem_settle_pass(pgem_settle_t *settle, const pgem_pass_mark_t *mark);
 /* IRLS for the kernels that never prune (robust/irls.c). */
-int pgem_irls(pgem_t *graph, const pgem_robust_options_t *options,
+int pgem_irls(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
               const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
 
 #endif /* PGEM_ROBUST_LAYER_H */

@@ -8,9 +8,10 @@
 
 static int pgem_plain(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
+    const pgem_robust_parts_t parts = pgem_robust_parts(graph);
     pgem_robust_reset_loops(graph->linear, &graph->store);
     summary->rounds = 1u;
-    return pgem_em_polish(graph, solve, summary);
+    return pgem_em_polish(&parts, solve, summary);
 }
 
 /* A loop closure whose chi2 is not finite (a pose or measurement near the double range) is an
@@ -111,7 +112,8 @@ int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
     } else if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_EM) {
         status = pgem_em_rounds(graph, &resolved, solve, out);
     } else if (status == PGEM_OK) {
-        status = pgem_irls(graph, &resolved, solve, out);
+        const pgem_robust_parts_t parts = pgem_robust_parts(graph);
+        status = pgem_irls(&parts, &resolved, solve, out);
     }
     pgem_wake_dormant(graph->linear, &graph->store); /* none stays dormant after the solve */
     pgem_robust_parts_settled(graph->linear, &graph->store, status == PGEM_OK, out);
