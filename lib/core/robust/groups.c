@@ -100,8 +100,9 @@ static double pgem_group_quantile(const pgem_t *graph, const pgem_loop_group_t *
 /* The fall from `with` (the model's minimum with every accepted loop) when the group leaves. */
 static double pgem_group_fall(pgem_t *graph, const pgem_loop_group_t *group, double with, int *status)
 {
+    const pgem_robust_parts_t parts = pgem_robust_parts(graph);
     pgem_group_set(graph, group, 0.0, PGEM_RUN_KEEP_STATE);
-    const double fall = with - pgem_model_minimum(graph, status);
+    const double fall = with - pgem_model_minimum(&parts, status);
     pgem_group_set(graph, group, 1.0, PGEM_RUN_KEEP_STATE);
     return fall;
 }
@@ -153,10 +154,11 @@ static double pgem_groups_variance(double with, double redundancy, double fall, 
 /* The group to prune (accepted = 0: none): the joint test, then, if it fails, each group. */
 static pgem_loop_group_t pgem_failing_group(pgem_t *graph, double redundancy, int *status)
 {
+    const pgem_robust_parts_t parts = pgem_robust_parts(graph);
     pgem_loop_group_t worst = {0, 0, 0, 0};
-    const double with = pgem_model_minimum(graph, status);
+    const double with = pgem_model_minimum(&parts, status);
     const double rows = pgem_groups_leave(graph);
-    const double fall = *status == PGEM_OK ? with - pgem_model_minimum(graph, status) : 0.0;
+    const double fall = *status == PGEM_OK ? with - pgem_model_minimum(&parts, status) : 0.0;
     pgem_groups_back(graph);
     const double variance = pgem_groups_variance(with, redundancy, fall, rows);
     if (*status != PGEM_OK || !(with > 0.0) || !(fall > variance * pgem_chi2_quantile(rows))) {

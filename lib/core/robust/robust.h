@@ -215,11 +215,12 @@ int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust
  * on a degenerate outcome (pgem_most_rejected): the first run of accepted loops whose leaving
  * would make the chi2 fall by more than the 99.9% quantile for its rows is pruned at weight
  * 0; returns 1 if one was (0 if none: the estimate is not moved). */
-uint32_t pgem_em_leave_run_out(pgem_t *graph, pgem_robust_summary_t *summary, int *status);
+uint32_t pgem_em_leave_run_out(const pgem_robust_parts_t *parts, pgem_robust_summary_t *summary,
+                               int *status);
 /* The minimum of the Gauss-Newton model of the adjustment at the current estimate and weights
  * (robust/leave_run.c): its chi2 less the decrease a step would bring, exact for a linear
  * problem; the estimate is not moved (one factorisation). *status set if the factor fails. */
-double pgem_model_minimum(pgem_t *graph, int *status);
+double pgem_model_minimum(const pgem_robust_parts_t *parts, int *status);
 /* The leave-group-out test (robust/groups.c), after a consistency test that changed nothing on
  * any other outcome: a run of loops (any state) is a group, tested through its accepted
  * members; the group that fails its test by the largest factor is pruned at weight 0; returns
