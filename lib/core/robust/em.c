@@ -88,7 +88,7 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *options,
         if (pgem_em_gate(&parts, options, gate, summary) == 0u &&
             (pgem_most_rejected(&graph->store)
                  ? pgem_em_leave_run_out(&parts, summary, &status)
-                 : pgem_em_leave_group_out(graph, summary, &status)) == 0u) {
+                 : pgem_em_leave_group_out(&parts, summary, &status)) == 0u) {
             pgem_robust_ended(summary, PGEM_ROBUST_CONVERGED);
             break;
         }

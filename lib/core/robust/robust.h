@@ -226,7 +226,8 @@ double pgem_model_minimum(const pgem_robust_parts_t *parts, int *status);
  * members; the group that fails its test by the largest factor is pruned at weight 0; returns
  * 1 if one was (0 if none: the estimate is not moved). A factorisation that fails decides
  * nothing (*status stays PGEM_OK). */
-uint32_t pgem_em_leave_group_out(pgem_t *graph, pgem_robust_summary_t *summary, int *status);
+uint32_t pgem_em_leave_group_out(const pgem_robust_parts_t *parts, pgem_robust_summary_t *summary,
+                                 int *status);
 /* The consistency test (robust/gate.c): the gate, then the loops it re-admits or prunes under
  * the current (polished) estimate; returns how many changed state. */
 double pgem_em_gate_value(int tangent, const pgem_robust_options_t *options);
