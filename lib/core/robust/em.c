@@ -110,7 +110,8 @@ int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
     }
     int rescued = 0;
     if (status == PGEM_OK && !pgem_robust_stopped(summary)) {
-        status = pgem_em_rescue(graph, solve, summary, &rescued);
+        const pgem_robust_parts_t parts = pgem_robust_parts(graph);
+        status = pgem_em_rescue(&parts, solve, summary, &rescued);
     }
     if (status == PGEM_OK && rescued && !pgem_robust_stopped(summary)) {
         status = pgem_em_passes(graph, options, solve, summary, gate);

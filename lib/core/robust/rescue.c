@@ -4,7 +4,6 @@
  * tried alone from the initial estimate, and kept, with EM's passes run again from it, if the
  * map it gives passes the global chi-square test of the adjustment: a larger consistent set
  * than EM's. */
-#include "instance.h"
 #include "robust/robust.h"
 
 /* Runs tried, longest first, before the outcome is left at every loop rejected. */
@@ -25,16 +24,16 @@ static int pgem_run_before(const pgem_loop_run_t *a, const pgem_loop_run_t *b)
 
 /* The first run in the order of trial after `last` (every run if last->length is 0), of at
  * least PGEM_RUN_MIN loops; 0 if there is none. */
-static int pgem_run_after(const pgem_t *graph, const pgem_loop_run_t *last, pgem_loop_run_t *out)
+static int pgem_run_after(const pgem_robust_parts_t *parts, const pgem_loop_run_t *last, pgem_loop_run_t *out)
 {
     int found = 0;
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
+    for (uint32_t k = 0; k < parts->solve.store->edge_count; k++) {
+        if (parts->solve.store->edge_kind[k] != PGEM_EDGE_LOOP) {
             continue;
         }
         for (int direction = 1; direction >= -1; direction -= 2) {
             const pgem_loop_run_t run = {
-                k, direction, pgem_run_length(&graph->store, k, direction, PGEM_RUN_ANY)};
+                k, direction, pgem_run_length(parts->solve.store, k, direction, PGEM_RUN_ANY)};
             if (run.length >= PGEM_RUN_MIN && (last->length == 0u || pgem_run_before(last, &run)) &&
                 (!found || pgem_run_before(&run, out))) {
                 *out = run;
@@ -47,74 +46,73 @@ static int pgem_run_after(const pgem_t *graph, const pgem_loop_run_t *last, pgem
 
 /* Every loop pruned but the run's, active at weight 1 (the others keep their weights, so the
  * consistency test may re-admit them); the initial estimate. */
-static void pgem_run_alone(pgem_t *graph, const pgem_loop_run_t *run)
+static void pgem_run_alone(const pgem_robust_parts_t *parts, const pgem_loop_run_t *run)
 {
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP) {
-            graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
+    for (uint32_t k = 0; k < parts->solve.store->edge_count; k++) {
+        if (parts->solve.store->edge_kind[k] == PGEM_EDGE_LOOP) {
+            parts->solve.store->edge_active[k] = PGEM_EDGE_PRUNED;
         }
     }
-    pgem_run_set(&graph->store, run, PGEM_RUN_ANY, 1.0, PGEM_EDGE_ACTIVE);
-    pgem_linear_invalidate(graph->linear);
-    pgem_restore_initial(&graph->robust, &graph->store, graph->pose_size);
+    pgem_run_set(parts->solve.store, run, PGEM_RUN_ANY, 1.0, PGEM_EDGE_ACTIVE);
+    pgem_linear_invalidate(parts->solve.linear);
+    pgem_restore_initial(parts->state, parts->solve.store, PGEM_POSE_SIZE(parts->solve.config->dimension));
 }
 
 /* The global test of the adjustment after a polish: its chi2 below the 99.9% quantile of the
  * chi-square distribution with the redundancy's degrees of freedom (Wilson-Hilferty). */
-static int pgem_adjustment_consistent(const pgem_t *graph)
+static int pgem_adjustment_consistent(const pgem_robust_parts_t *parts)
 {
-    const double dof = pgem_redundancy(&graph->store, graph->linear, graph->tangent);
+    const double dof = pgem_redundancy(parts->solve.store, parts->solve.linear, parts->tangent);
     if (!(dof > 0.0)) {
         return 0;
     }
-    return pgem_weighted_chi2(&graph->store, graph->tangent) <= pgem_chi2_quantile(dof);
+    return pgem_weighted_chi2(parts->solve.store, parts->tangent) <= pgem_chi2_quantile(dof);
 }
 
 /* Loops accepted; each loop's state marked in edge_checked (free between E-steps). */
-static uint32_t pgem_mark_accepted(pgem_t *graph)
+static uint32_t pgem_mark_accepted(const pgem_robust_parts_t *parts)
 {
     uint32_t accepted = 0;
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        const int active = graph->store.edge_kind[k] == PGEM_EDGE_LOOP && graph->store.edge_active[k] != PGEM_EDGE_PRUNED;
-        graph->robust.edge_checked[k] = (uint8_t)active;
+    for (uint32_t k = 0; k < parts->solve.store->edge_count; k++) {
+        const int active = parts->solve.store->edge_kind[k] == PGEM_EDGE_LOOP && parts->solve.store->edge_active[k] != PGEM_EDGE_PRUNED;
+        parts->state->edge_checked[k] = (uint8_t)active;
         accepted += (uint32_t)active;
     }
     return accepted;
 }
 
 /* Back to the loops marked accepted, at weight 1, from the initial estimate. */
-static void pgem_back_to_marked(pgem_t *graph)
+static void pgem_back_to_marked(const pgem_robust_parts_t *parts)
 {
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        if (graph->robust.edge_checked[k]) {
-            graph->store.edge_weight[k] = 1.0;
-            graph->store.edge_active[k] = PGEM_EDGE_ACTIVE;
-        } else if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP) {
-            graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
+    for (uint32_t k = 0; k < parts->solve.store->edge_count; k++) {
+        if (parts->state->edge_checked[k]) {
+            parts->solve.store->edge_weight[k] = 1.0;
+            parts->solve.store->edge_active[k] = PGEM_EDGE_ACTIVE;
+        } else if (parts->solve.store->edge_kind[k] == PGEM_EDGE_LOOP) {
+            parts->solve.store->edge_active[k] = PGEM_EDGE_PRUNED;
         }
     }
-    pgem_linear_invalidate(graph->linear);
-    pgem_restore_initial(&graph->robust, &graph->store, graph->pose_size);
+    pgem_linear_invalidate(parts->solve.linear);
+    pgem_restore_initial(parts->state, parts->solve.store, PGEM_POSE_SIZE(parts->solve.config->dimension));
 }
 
-int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
-                   int *rescued)
+int pgem_em_rescue(const pgem_robust_parts_t *parts, const pgem_solve_options_t *solve,
+                   pgem_robust_summary_t *summary, int *rescued)
 {
-    const pgem_robust_parts_t parts = pgem_robust_parts(graph);
     *rescued = 0;
-    if (!pgem_most_rejected(&graph->store)) {
+    if (!pgem_most_rejected(parts->solve.store)) {
         return PGEM_OK; /* not a degenerate outcome */
     }
-    const uint32_t accepted = pgem_mark_accepted(graph);
+    const uint32_t accepted = pgem_mark_accepted(parts);
     pgem_loop_run_t last = {0, 0, 0}, run = {0, 0, 0};
-    for (uint32_t attempt = 0; attempt < PGEM_RESCUE_ATTEMPTS && pgem_run_after(graph, &last, &run) &&
+    for (uint32_t attempt = 0; attempt < PGEM_RESCUE_ATTEMPTS && pgem_run_after(parts, &last, &run) &&
                                run.length > accepted; attempt++) {
-        pgem_run_alone(graph, &run);
-        const int status = pgem_em_polish(&parts, solve, summary);
+        pgem_run_alone(parts, &run);
+        const int status = pgem_em_polish(parts, solve, summary);
         if (pgem_robust_stopped(summary)) {
             return status; /* asked to stop: the run is left as it is */
         }
-        if (status == PGEM_OK && pgem_adjustment_consistent(graph)) {
+        if (status == PGEM_OK && pgem_adjustment_consistent(parts)) {
             summary->readmitted += run.length;
             *rescued = 1;
             return PGEM_OK;
@@ -122,8 +120,8 @@ int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust
         last = run;
     }
     if (last.length > 0u) { /* back to EM's loops */
-        pgem_back_to_marked(graph);
-        return pgem_em_polish(&parts, solve, summary);
+        pgem_back_to_marked(parts);
+        return pgem_em_polish(parts, solve, summary);
     }
     return PGEM_OK;
 }

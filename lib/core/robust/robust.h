@@ -209,8 +209,8 @@ double pgem_chi2_lower_quantile(double dof);
 /* When every loop was rejected (robust/rescue.c): the longest runs of loops along a revisit,
  * tried alone from the initial estimate; *rescued = 1 and the run active, polished, if one
  * passes the adjustment's global chi-square test, else every loop pruned and polished again. */
-int pgem_em_rescue(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
-                   int *rescued);
+int pgem_em_rescue(const pgem_robust_parts_t *parts, const pgem_solve_options_t *solve,
+                   pgem_robust_summary_t *summary, int *rescued);
 /* The leave-run-out test (robust/leave_run.c), after a consistency test that changed nothing
  * on a degenerate outcome (pgem_most_rejected): the first run of accepted loops whose leaving
  * would make the chi2 fall by more than the 99.9% quantile for its rows is pruned at weight
