@@ -29,7 +29,8 @@ int pgem_update_covariance(pgem_t *graph, pgem_id_t id, double *covariance)
                          "change to the graph, its estimate or its weights");
     }
     const int n = graph->tangent;
-    if (!pgem_online_covariance(graph, p, covariance)) {
+    const pgem_online_parts_t parts = pgem_online_parts_of(graph);
+    if (!pgem_online_covariance(&parts, p, covariance)) {
         if (!PGEM_POSE_HELD(&graph->store, p)) {
             pgem_message_clear(graph);
             pgem_message_text(graph, "pose ");

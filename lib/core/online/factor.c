@@ -204,26 +204,28 @@ static void pgem_online_clear_path(pgem_online_t *online, int j, int rank)
 
 /* The message of an update that found the incremental factor's room used up: what ran out,
  * how much there is and what to raise. Returns PGEM_ERR_FILL_BUDGET. */
-static int pgem_online_out_of_room(pgem_t *graph, const char *what)
+static int pgem_online_out_of_room(const pgem_online_parts_t *parts, const char *what)
 {
-    const pgem_online_t *online = graph->online;
-    pgem_message_clear(graph);
-    pgem_message_text(graph, "the incremental factor is out of room (");
-    pgem_message_text(graph, what);
-    pgem_message_text(graph, "): its ");
-    pgem_message_u64(graph, online->pool_blocks);
-    pgem_message_text(graph, " blocks of ");
-    pgem_message_u64(graph, (uint64_t)online->block * (uint64_t)online->block);
-    pgem_message_text(graph, " nonzeros are used up, config.online_fill is ");
-    pgem_message_u64(graph, graph->config.online_fill);
-    pgem_message_text(graph, " nonzeros: raise config.online_fill");
+    const pgem_online_t *online = parts->online;
+    parts->message[0] = '\0';
+    pgem_text_append(parts->message, PGEM_MESSAGE_SIZE, "the incremental factor is out of room (");
+    pgem_text_append(parts->message, PGEM_MESSAGE_SIZE, what);
+    pgem_text_append(parts->message, PGEM_MESSAGE_SIZE, "): its ");
+    pgem_text_u64(parts->message, PGEM_MESSAGE_SIZE, online->pool_blocks);
+    pgem_text_append(parts->message, PGEM_MESSAGE_SIZE, " blocks of ");
+    pgem_text_u64(parts->message, PGEM_MESSAGE_SIZE,
+                  (uint64_t)online->block * (uint64_t)online->block);
+    pgem_text_append(parts->message, PGEM_MESSAGE_SIZE,
+                     " nonzeros are used up, config.online_fill is ");
+    pgem_text_u64(parts->message, PGEM_MESSAGE_SIZE, parts->config->online_fill);
+    pgem_text_append(parts->message, PGEM_MESSAGE_SIZE, " nonzeros: raise config.online_fill");
     return PGEM_ERR_FILL_BUDGET;
 }
 
-int pgem_online_rank_update(pgem_t *graph, const int *columns, int column_count, double sign,
-                            int rank)
+int pgem_online_rank_update(const pgem_online_parts_t *parts, const int *columns, int column_count,
+                            double sign, int rank)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     int j = columns[0];
     int changed = 0, status = PGEM_OK;
     for (int k = 1; k < column_count && status == PGEM_OK; k++) {
@@ -255,28 +257,30 @@ int pgem_online_rank_update(pgem_t *graph, const int *columns, int column_count,
         pgem_online_clear_path(online, j, rank);
     }
     if (status == PGEM_ERR_FILL_BUDGET) {
-        return pgem_online_out_of_room(graph, "a column grew");
+        return pgem_online_out_of_room(parts, "a column grew");
     }
     if (status == PGEM_ERR_NOT_POSITIVE_DEFINITE) {
-        pgem_message_clear(graph);
-        pgem_message_text(graph, sign < 0.0 ? "removing an edge from" : "adding an edge to");
-        pgem_message_text(graph, " the incremental factor lost positive definiteness at pose "
-                                 "index ");
-        pgem_message_u64(graph, (uint64_t)online->column_pose[j]);
-        pgem_message_text(graph, " (the next update rebuilds it)");
+        parts->message[0] = '\0';
+        pgem_text_append(parts->message, PGEM_MESSAGE_SIZE,
+                         sign < 0.0 ? "removing an edge from" : "adding an edge to");
+        pgem_text_append(parts->message, PGEM_MESSAGE_SIZE,
+                         " the incremental factor lost positive definiteness at pose "
+                         "index ");
+        pgem_text_u64(parts->message, PGEM_MESSAGE_SIZE, (uint64_t)online->column_pose[j]);
+        pgem_text_append(parts->message, PGEM_MESSAGE_SIZE, " (the next update rebuilds it)");
     }
     return status;
 }
 
-int pgem_online_append(pgem_t *graph, uint32_t p, double seed)
+int pgem_online_append(const pgem_online_parts_t *parts, uint32_t p, double seed)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     const int b = online->block, j = online->columns;
     const int room = 4;
     if (online->pool_used > online->pool_blocks ||
         (uint32_t)room + 1u > online->pool_blocks - online->pool_used) {
         online->full = 1;
-        return pgem_online_out_of_room(graph, "a new pose's column");
+        return pgem_online_out_of_room(parts, "a new pose's column");
     }
     online->start[j] = (int)online->pool_used;
     online->pool_used += (uint32_t)room + 1u;
@@ -343,9 +347,9 @@ static int pgem_online_stale(const pgem_online_t *online, int j)
     return 0;
 }
 
-void pgem_online_back(pgem_t *graph, double tolerance)
+void pgem_online_back(const pgem_online_parts_t *parts, double tolerance)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     int *stack = online->list, top = 0;
     online->recomputed_count = 0;
     for (int r = online->root; r >= 0; r = online->sibling[r]) {
@@ -451,14 +455,14 @@ static void pgem_online_forward_column(pgem_online_t *online, int j, int n, doub
     memset(x, 0, (size_t)b * (size_t)n * sizeof(double));
 }
 
-void pgem_online_marginal(pgem_t *graph, int ca, int cb, const double *a_a, const double *a_b,
-                          int n, double *out)
+void pgem_online_marginal(const pgem_online_parts_t *parts, int ca, int cb, const double *a_a,
+                          const double *a_b, int n, double *out)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     const int b = online->block;
     memset(out, 0, (size_t)n * (size_t)n * sizeof(double));
     const int ends[2] = {ca, cb};
-    const double *parts[2] = {a_a, a_b};
+    const double *sides[2] = {a_a, a_b};
     for (int side = 0; side < 2; side++) {
         if (ends[side] < 0) {
             continue;
@@ -466,7 +470,7 @@ void pgem_online_marginal(pgem_t *graph, int ca, int cb, const double *a_a, cons
         double *x = online->vector + (size_t)ends[side] * (size_t)b * (size_t)n;
         for (int c = 0; c < b; c++) {
             for (int k = 0; k < n; k++) {
-                x[c * n + k] += parts[side][k * b + c];
+                x[c * n + k] += sides[side][k * b + c];
             }
         }
     }
@@ -489,9 +493,9 @@ void pgem_online_marginal(pgem_t *graph, int ca, int cb, const double *a_a, cons
     }
 }
 
-int pgem_online_covariance(pgem_t *graph, uint32_t p, double *out)
+int pgem_online_covariance(const pgem_online_parts_t *parts, uint32_t p, double *out)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     const int b = online->block;
     if (p >= online->poses_linked || online->pose_column[p] < 0) {
         return 0;
@@ -500,7 +504,7 @@ int pgem_online_covariance(pgem_t *graph, uint32_t p, double *out)
     for (int k = 0; k < b; k++) {
         identity[k * b + k] = 1.0;
     }
-    pgem_online_marginal(graph, online->pose_column[p], -1, identity, identity, b, out);
+    pgem_online_marginal(parts, online->pose_column[p], -1, identity, identity, b, out);
     return 1;
 }
 

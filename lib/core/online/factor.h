@@ -87,54 +87,70 @@ static inline void pgem_online_sync(pgem_t *graph)
     }
 }
 
+/* The parts of an instance the factor works on (see online.h). */
+static inline pgem_online_parts_t pgem_online_parts_of(pgem_t *graph)
+{
+    pgem_online_parts_t parts;
+    parts.online = graph->online;
+    parts.store = &graph->store;
+    parts.linear = graph->linear;
+    parts.config = &graph->config;
+    parts.tangent = graph->tangent;
+    parts.pose_size = graph->pose_size;
+    parts.message = graph->message;
+    return parts;
+}
+
 /* Pose p's marginal covariance in the system's tangent (b x b, row-major) from the factor: a
  * forward solve along its column's path to the root. 0 when p has no column (held, or not in
  * the factor yet: out untouched), else 1. */
-int pgem_online_covariance(pgem_t *graph, uint32_t p, double *out);
+int pgem_online_covariance(const pgem_online_parts_t *parts, uint32_t p, double *out);
 
 /* online/rebuild.c and online/factor.c */
 /* The system's ordering, pattern and factor from scratch at lin (poses with columns, edges
  * with edge_weight_in > 0). PGEM_OK, PGEM_ERR_FILL_BUDGET (the pool cannot hold the packed
  * factor: the message gives the blocks needed), PGEM_ERR_OUT_OF_MEMORY (CSparse's ordering),
  * PGEM_ERR_NOT_POSITIVE_DEFINITE. The newest `recent` columns are ordered last. */
-int pgem_online_rebuild(pgem_t *graph, int recent);
+int pgem_online_rebuild(const pgem_online_parts_t *parts, int recent);
 /* The rows of sqrt(w) U J_from, sqrt(w) U J_to (n x n each, row-major) and sqrt(w) U e of
  * edge k at the poses given (Omega = U^T U): the edge's square-root linearisation. */
-void pgem_online_edge(const pgem_t *graph, uint32_t k, const double *from, const double *to,
-                      double weight, double *a_from, double *a_to, double *residual);
+void pgem_online_edge(const pgem_store_t *store, int tangent, uint32_t k, const double *from,
+                      const double *to, double weight, double *a_from, double *a_to,
+                      double *residual);
 /* L L^T + sign A A^T for the `rank` (1 .. b) vectors in online->vector (interleaved: entry
  * (scalar s, vector k) at s rank + k; non-zero only in the block columns listed, ascending,
  * at most 2), growing the pattern along the path. PGEM_OK, PGEM_ERR_FILL_BUDGET (the pool is
  * full: online->full), PGEM_ERR_NOT_POSITIVE_DEFINITE (a downdate lost definiteness). The
  * vectors are zero afterwards. */
-int pgem_online_rank_update(pgem_t *graph, const int *columns, int column_count, double sign,
-                            int rank);
+int pgem_online_rank_update(const pgem_online_parts_t *parts, const int *columns, int column_count,
+                            double sign, int rank);
 /* Appends a block column for pose p with diagonal block sqrt(seed) I and no rows. */
-int pgem_online_append(pgem_t *graph, uint32_t p, double seed);
+int pgem_online_append(const pgem_online_parts_t *parts, uint32_t p, double seed);
 /* Pool block of block row i in column j (its diagonal block for i == j), or -1. */
 int pgem_online_find(const pgem_online_t *online, int j, int i);
 /* Marks touched the columns whose values relinearising the `count` poses listed changes
  * (theirs, their neighbours' and all their ancestors) and lists them in online->adjacent;
  * returns how many, and in *work the cost of refactoring them (the sum over the columns of
  * the squared number of blocks they update there: blocks updated, x b^3 flops). */
-int pgem_online_affected(pgem_t *graph, const int *poses, int count, double *work);
+int pgem_online_affected(const pgem_online_parts_t *parts, const int *poses, int count,
+                         double *work);
 /* Takes those `count` marks off again. */
-void pgem_online_unaffected(pgem_t *graph, int count);
+void pgem_online_unaffected(const pgem_online_parts_t *parts, int count);
 /* Refactors the `count` columns pgem_online_affected marked at lin, in place on the present
  * pattern and from the present values of the other columns, with their part of forward.
  * PGEM_OK or PGEM_ERR_NOT_POSITIVE_DEFINITE (online->ready cleared). */
-int pgem_online_refactor(pgem_t *graph, int count);
+int pgem_online_refactor(const pgem_online_parts_t *parts, int count);
 /* delta = L^-T forward from the roots down, recomputing a column when it was touched by this
  * update or a row's step changed by more than tolerance (negative: every column); the
  * recomputed columns into online->recomputed. */
-void pgem_online_back(pgem_t *graph, double tolerance);
+void pgem_online_back(const pgem_online_parts_t *parts, double tolerance);
 /* Column j's parent becomes p (-1: a root), in the tree's child lists. */
 void pgem_online_set_parent(pgem_online_t *online, int j, int p);
 /* The child lists from parent[] for columns 0 .. columns-1. */
 void pgem_online_link_tree(pgem_online_t *online);
 /* Y = L^-1 A^T for A (n x (2 b), row-major, by the two columns ca < cb, either -1 when held):
  * the forward solve along the two paths; returns A H^-1 A^T (n x n, row-major) in out. */
-void pgem_online_marginal(pgem_t *graph, int ca, int cb, const double *a_a, const double *a_b,
-                          int n, double *out);
+void pgem_online_marginal(const pgem_online_parts_t *parts, int ca, int cb, const double *a_a,
+                          const double *a_b, int n, double *out);
 
 #endif /* PGEM_ONLINE_FACTOR_H */

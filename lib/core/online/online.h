@@ -9,6 +9,19 @@
 
 typedef struct pgem_online pgem_online_t; /* graph->online, defined in online/factor.h */
 
+/* What the incremental factor works on, lent for one call: its state, the store, the linear
+ * system (for CSparse's ordering), the resolved config (online_fill, capacities), the
+ * dimension (tangent rows, doubles per pose) and the message buffer (PGEM_MESSAGE_SIZE). */
+typedef struct pgem_online_parts {
+    pgem_online_t *online;
+    pgem_store_t *store;
+    pgem_linear_t *linear;
+    const pgem_config_t *config;
+    int tangent;
+    int pose_size;
+    char *message;
+} pgem_online_parts_t;
+
 /* Carves the online state, right after struct pgem (which held it before it was opaque: the
  * block's size stayed the same), and then, after linalg's part and with config.online_fill,
  * its arrays (measuring when arena->base is NULL; a failed carve leaves graph->online NULL). */

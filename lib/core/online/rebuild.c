@@ -6,14 +6,15 @@
 
 #include "online/factor.h"
 
-void pgem_online_edge(const pgem_t *graph, uint32_t k, const double *from, const double *to,
-                      double weight, double *a_from, double *a_to, double *residual)
+void pgem_online_edge(const pgem_store_t *store, int tangent, uint32_t k, const double *from,
+                      const double *to, double weight, double *a_from, double *a_to,
+                      double *residual)
 {
-    const int n = graph->tangent;
+    const int n = tangent;
     double e[PGEM_TANGENT_SIZE_MAX], jf[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double jt[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double u[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
-    const double *measurement = graph->store.edge_measurement + (size_t)k * (size_t)graph->pose_size;
+    const double *measurement = store->edge_measurement + (size_t)k * pgem_pose_doubles(n);
     if (n == 6) {
         pgem_se3_error(from, to, measurement, e, jf, jt);
     } else {
@@ -21,7 +22,7 @@ void pgem_online_edge(const pgem_t *graph, uint32_t k, const double *from, const
     }
     /* Omega = U^T U: Omega's Cholesky factor stored by column is U stored by row (Omega was
      * checked positive definite when the edge was added); rows of sqrt(w) U J, sqrt(w) U e */
-    const double *o = graph->store.edge_information + (size_t)k * (size_t)(n * n);
+    const double *o = store->edge_information + (size_t)k * (size_t)(n * n);
     memcpy(u, o, (size_t)(n * n) * sizeof(double));
     (void)pgem_small_cholesky(u, n, 0.0, 1);
     const double root = sqrt(weight);
@@ -61,27 +62,27 @@ static void pgem_online_sort(int *values, int count)
 }
 
 /* 1 if pose p is solved for: free (held poses and, with none held, the first pose are not). */
-static int pgem_online_free(const pgem_t *graph, uint32_t p)
+static int pgem_online_free(const pgem_online_parts_t *parts, uint32_t p)
 {
-    return !PGEM_POSE_HELD(&graph->store, p);
+    return !PGEM_POSE_HELD(parts->store, p);
 }
 
 /* The other pose of edge end `end` (2 k + side). */
-static uint32_t pgem_online_other(const pgem_t *graph, int end)
+static uint32_t pgem_online_other(const pgem_online_parts_t *parts, int end)
 {
     const uint32_t k = (uint32_t)end / 2u;
-    return (end & 1) ? graph->store.edge_from[k] : graph->store.edge_to[k];
+    return (end & 1) ? parts->store->edge_from[k] : parts->store->edge_to[k];
 }
 
 /* Columns numbered by arrival for every free pose with an edge in the system; returns how
  * many. */
-static int pgem_online_number(pgem_t *graph)
+static int pgem_online_number(const pgem_online_parts_t *parts)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     int columns = 0;
-    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+    for (uint32_t p = 0; p < parts->store->pose_count; p++) {
         online->pose_column[p] = -1;
-        if (!pgem_online_free(graph, p)) {
+        if (!pgem_online_free(parts, p)) {
             continue;
         }
         for (int end = online->pose_edge[p]; end >= 0; end = online->edge_next[end]) {
@@ -96,17 +97,17 @@ static int pgem_online_number(pgem_t *graph)
 
 /* AMD's order of the columns (online->list: k-th column's arrival number), the newest
  * `recent` of them moved last in arrival order. */
-static int pgem_online_order(pgem_t *graph, int columns, int recent)
+static int pgem_online_order(const pgem_online_parts_t *parts, int columns, int recent)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     int *colptr = online->adjacent_start, *rows = online->adjacent;
     for (int j = 0; j <= columns; j++) {
         colptr[j] = 0;
     }
-    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+    for (uint32_t p = 0; p < parts->store->pose_count; p++) {
         const int j = online->pose_column[p];
         for (int end = j >= 0 ? online->pose_edge[p] : -1; end >= 0; end = online->edge_next[end]) {
-            const int i = online->pose_column[pgem_online_other(graph, end)];
+            const int i = online->pose_column[pgem_online_other(parts, end)];
             if (i > j && online->edge_weight_in[end / 2] > 0.0) {
                 colptr[j + 1]++; /* counted first, placed below; one triangle (AMD adds A^T) */
             }
@@ -120,19 +121,20 @@ static int pgem_online_order(pgem_t *graph, int columns, int recent)
         colptr[j] = colptr[j - 1];
     }
     colptr[0] = 0;
-    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+    for (uint32_t p = 0; p < parts->store->pose_count; p++) {
         const int j = online->pose_column[p];
         for (int end = j >= 0 ? online->pose_edge[p] : -1; end >= 0; end = online->edge_next[end]) {
-            const int i = online->pose_column[pgem_online_other(graph, end)];
+            const int i = online->pose_column[pgem_online_other(parts, end)];
             if (i > j && online->edge_weight_in[end / 2] > 0.0) {
                 rows[colptr[j + 1]++] = i;
             }
         }
     }
     int *order = online->mark; /* free until the columns are mapped back to their poses */
-    if (pgem_linear_amd(graph->linear, columns, colptr, rows, order) != PGEM_OK) {
-        return pgem_fail(graph, PGEM_ERR_OUT_OF_MEMORY,
-                         "the online factor's ordering (CSparse's AMD) could not get workspace");
+    if (pgem_linear_amd(parts->linear, columns, colptr, rows, order) != PGEM_OK) {
+        return pgem_text_fail(parts->message, PGEM_ERR_OUT_OF_MEMORY,
+                              "the online factor's ordering (CSparse's AMD) could not get "
+                              "workspace");
     }
     const int first_recent = columns - recent;
     int k = 0;
@@ -149,9 +151,9 @@ static int pgem_online_order(pgem_t *graph, int columns, int recent)
 
 /* Every column's pattern from its edges and its children's patterns, packed into the pool
  * with some room to grow; PGEM_ERR_FILL_BUDGET with the blocks needed if it does not fit. */
-static int pgem_online_symbolic(pgem_t *graph, int columns)
+static int pgem_online_symbolic(const pgem_online_parts_t *parts, int columns)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     int *children = online->head, *sibling = online->next, *gather = online->position;
     uint64_t used = 0, live = 0;
     int short_of_room = 0; /* a column did not fit (used may still be within the pool: the
@@ -165,7 +167,7 @@ static int pgem_online_symbolic(pgem_t *graph, int columns)
         int count = 0;
         online->mark[j] = j;
         for (int end = online->pose_edge[p]; end >= 0; end = online->edge_next[end]) {
-            const int i = online->pose_column[pgem_online_other(graph, end)];
+            const int i = online->pose_column[pgem_online_other(parts, end)];
             if (i > j && online->edge_weight_in[end / 2] > 0.0 && online->mark[i] != j) {
                 online->mark[i] = j;
                 gather[count++] = i;
@@ -204,12 +206,14 @@ static int pgem_online_symbolic(pgem_t *graph, int columns)
         }
     }
     if (short_of_room) {
-        pgem_message_clear(graph);
-        pgem_message_text(graph, "the online factor needs at least ");
-        pgem_message_u64(graph, used * (uint64_t)online->block * (uint64_t)online->block);
-        pgem_message_text(graph, " nonzeros with its room to grow, config.online_fill is ");
-        pgem_message_u64(graph, graph->config.online_fill);
-        pgem_message_text(graph, ": raise config.online_fill");
+        parts->message[0] = '\0';
+        pgem_text_append(parts->message, PGEM_MESSAGE_SIZE, "the online factor needs at least ");
+        pgem_text_u64(parts->message, PGEM_MESSAGE_SIZE,
+                      used * (uint64_t)online->block * (uint64_t)online->block);
+        pgem_text_append(parts->message, PGEM_MESSAGE_SIZE,
+                         " nonzeros with its room to grow, config.online_fill is ");
+        pgem_text_u64(parts->message, PGEM_MESSAGE_SIZE, parts->config->online_fill);
+        pgem_text_append(parts->message, PGEM_MESSAGE_SIZE, ": raise config.online_fill");
         return PGEM_ERR_FILL_BUDGET;
     }
     online->pool_used = (uint32_t)used;
@@ -225,22 +229,23 @@ static int pgem_online_in(const pgem_online_t *online, int j, int partial)
 
 /* Adds edge k at lin to the columns being refactored: H's blocks into their pool blocks, the
  * gradient, negated, into forward. */
-static void pgem_online_add_edge(pgem_t *graph, uint32_t k, int partial)
+static void pgem_online_add_edge(const pgem_online_parts_t *parts, uint32_t k, int partial)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     const int b = online->block;
-    const size_t bb = (size_t)b * (size_t)b, size = (size_t)graph->pose_size;
+    const size_t bb = (size_t)b * (size_t)b, size = (size_t)parts->pose_size;
     const double w = online->edge_weight_in[k];
-    const int ends[2] = {online->pose_column[graph->store.edge_from[k]],
-                         online->pose_column[graph->store.edge_to[k]]};
+    const int ends[2] = {online->pose_column[parts->store->edge_from[k]],
+                         online->pose_column[parts->store->edge_to[k]]};
     if (!(w > 0.0) || (!pgem_online_in(online, ends[0], partial) &&
                        !pgem_online_in(online, ends[1], partial))) {
         return;
     }
     double a[2][PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {{0.0}};
     double r[PGEM_TANGENT_SIZE_MAX] = {0.0};
-    pgem_online_edge(graph, k, online->lin + graph->store.edge_from[k] * size,
-                     online->lin + graph->store.edge_to[k] * size, w, a[0], a[1], r);
+    pgem_online_edge(parts->store, parts->tangent, k,
+                     online->lin + parts->store->edge_from[k] * size,
+                     online->lin + parts->store->edge_to[k] * size, w, a[0], a[1], r);
     for (int s = 0; s < 2; s++) {
         if (!pgem_online_in(online, ends[s], partial)) {
             continue; /* the blocks of column ends[s] */
@@ -273,11 +278,11 @@ static void pgem_online_add_edge(pgem_t *graph, uint32_t k, int partial)
 }
 
 /* Column j's gauge damping (pgem_hold_gauge) onto its diagonal block. */
-static void pgem_online_damp(pgem_t *graph, int j)
+static void pgem_online_damp(const pgem_online_parts_t *parts, int j)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     const int b = online->block;
-    if (!PGEM_POSE_DAMPED(graph->store.pose_fixed[online->column_pose[j]])) {
+    if (!PGEM_POSE_DAMPED(parts->store->pose_fixed[online->column_pose[j]])) {
         return;
     }
     double *diagonal = online->values + (size_t)online->start[j] * (size_t)b * (size_t)b;
@@ -287,25 +292,26 @@ static void pgem_online_damp(pgem_t *graph, int j)
 }
 
 /* Every edge of the system into the zeroed factor, and the gauges' damping. */
-static void pgem_online_assemble(pgem_t *graph, int columns)
+static void pgem_online_assemble(const pgem_online_parts_t *parts, int columns)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     const size_t bb = (size_t)online->block * (size_t)online->block;
     memset(online->values, 0, (size_t)online->pool_used * bb * sizeof(double));
     memset(online->forward, 0, (size_t)columns * (size_t)online->block * sizeof(double));
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        pgem_online_add_edge(graph, k, 0);
+    for (uint32_t k = 0; k < parts->store->edge_count; k++) {
+        pgem_online_add_edge(parts, k, 0);
     }
     for (int j = 0; j < columns; j++) {
-        pgem_online_damp(graph, j);
+        pgem_online_damp(parts, j);
     }
 }
 
 /* The edges of the touched columns (the `count` listed) into those columns, zeroed first;
  * an edge with both ends touched is added once, from its lower column. */
-static void pgem_online_assemble_touched(pgem_t *graph, const int *touched, int count)
+static void pgem_online_assemble_touched(const pgem_online_parts_t *parts, const int *touched,
+                                         int count)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     const int b = online->block;
     const size_t bb = (size_t)b * (size_t)b;
     for (int t = 0; t < count; t++) {
@@ -313,15 +319,15 @@ static void pgem_online_assemble_touched(pgem_t *graph, const int *touched, int 
         memset(online->values + (size_t)online->start[j] * bb, 0,
                (size_t)(online->count[j] + 1) * bb * sizeof(double));
         memset(online->forward + (size_t)j * (size_t)b, 0, (size_t)b * sizeof(double));
-        pgem_online_damp(graph, j);
+        pgem_online_damp(parts, j);
     }
     for (int t = 0; t < count; t++) {
         const int j = touched[t];
         for (int end = online->pose_edge[online->column_pose[j]]; end >= 0;
              end = online->edge_next[end]) {
-            const int other = online->pose_column[pgem_online_other(graph, end)];
+            const int other = online->pose_column[pgem_online_other(parts, end)];
             if (!pgem_online_in(online, other, 1) || j < other) {
-                pgem_online_add_edge(graph, (uint32_t)end / 2u, 1);
+                pgem_online_add_edge(parts, (uint32_t)end / 2u, 1);
             }
         }
     }
@@ -379,9 +385,9 @@ static void pgem_online_propagate(pgem_online_t *online, int j, int q)
  * the same columns. Column d waits in the list of the next row it updates (head, next,
  * position); the rows of an untouched column that are touched are the last ones (they are
  * its ancestors, and the touched columns are closed towards the root). */
-static int pgem_online_numeric(pgem_t *graph, int columns, int partial)
+static int pgem_online_numeric(const pgem_online_parts_t *parts, int columns, int partial)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     const int b = online->block;
     const size_t bb = (size_t)b * (size_t)b;
     int *head = online->adjacent_start, *next = online->next, *position = online->position;
@@ -427,10 +433,12 @@ static int pgem_online_numeric(pgem_t *graph, int columns, int partial)
         }
         double *diagonal = online->values + (size_t)first * bb;
         if (pgem_small_cholesky(diagonal, b, 0.0, 1) >= 0) {
-            pgem_message_clear(graph);
-            pgem_message_text(graph, "the online factor is not positive definite at pose index ");
-            pgem_message_u64(graph, (uint64_t)online->column_pose[j]);
-            pgem_message_text(graph, " (a part of the graph with no held pose?)");
+            parts->message[0] = '\0';
+            pgem_text_append(parts->message, PGEM_MESSAGE_SIZE,
+                             "the online factor is not positive definite at pose index ");
+            pgem_text_u64(parts->message, PGEM_MESSAGE_SIZE, (uint64_t)online->column_pose[j]);
+            pgem_text_append(parts->message, PGEM_MESSAGE_SIZE,
+                             " (a part of the graph with no held pose?)");
             return PGEM_ERR_NOT_POSITIVE_DEFINITE;
         }
         for (int q = 1; q <= online->count[j]; q++) {
@@ -463,23 +471,23 @@ static int pgem_online_numeric(pgem_t *graph, int columns, int partial)
     return PGEM_OK;
 }
 
-int pgem_online_rebuild(pgem_t *graph, int recent)
+int pgem_online_rebuild(const pgem_online_parts_t *parts, int recent)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     online->ready = 0;
     online->full = 0;
-    const int columns = pgem_online_number(graph);
-    int status = pgem_online_order(graph, columns, recent < columns ? recent : columns);
+    const int columns = pgem_online_number(parts);
+    int status = pgem_online_order(parts, columns, recent < columns ? recent : columns);
     if (status != PGEM_OK) {
         return status;
     }
-    for (uint32_t p = 0; p < graph->store.pose_count; p++) {
+    for (uint32_t p = 0; p < parts->store->pose_count; p++) {
         online->pose_column[p] = -1;
     }
     /* list[k] holds the arrival number of the k-th column: map it back to its pose */
     int arrival = 0;
-    for (uint32_t p = 0; p < graph->store.pose_count && arrival < columns; p++) {
-        if (!pgem_online_free(graph, p)) {
+    for (uint32_t p = 0; p < parts->store->pose_count && arrival < columns; p++) {
+        if (!pgem_online_free(parts, p)) {
             continue;
         }
         int in = 0;
@@ -496,7 +504,7 @@ int pgem_online_rebuild(pgem_t *graph, int recent)
         online->pose_column[p] = k;
     }
     online->columns = columns;
-    status = pgem_online_symbolic(graph, columns);
+    status = pgem_online_symbolic(parts, columns);
     if (status != PGEM_OK) {
         online->columns = 0;
         return status;
@@ -504,8 +512,8 @@ int pgem_online_rebuild(pgem_t *graph, int recent)
     online->packed_blocks = online->live_blocks;
     pgem_online_link_tree(online);
     memset(online->delta, 0, (size_t)columns * (size_t)online->block * sizeof(double));
-    pgem_online_assemble(graph, columns);
-    status = pgem_online_numeric(graph, columns, 0);
+    pgem_online_assemble(parts, columns);
+    status = pgem_online_numeric(parts, columns, 0);
     if (status != PGEM_OK) {
         online->columns = 0;
         return status;
@@ -525,9 +533,10 @@ static int pgem_online_touch_path(pgem_online_t *online, int j, int *list, int c
     return count;
 }
 
-int pgem_online_affected(pgem_t *graph, const int *poses, int count, double *work)
+int pgem_online_affected(const pgem_online_parts_t *parts, const int *poses, int count,
+                         double *work)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     int *list = online->adjacent, marked = 0;
     for (int m = 0; m < count; m++) {
         const uint32_t p = (uint32_t)poses[m];
@@ -535,7 +544,7 @@ int pgem_online_affected(pgem_t *graph, const int *poses, int count, double *wor
         for (int end = online->pose_edge[p]; end >= 0; end = online->edge_next[end]) {
             if (online->edge_weight_in[end / 2] > 0.0) {
                 marked = pgem_online_touch_path(
-                    online, online->pose_column[pgem_online_other(graph, end)], list, marked);
+                    online, online->pose_column[pgem_online_other(parts, end)], list, marked);
             }
         }
     }
@@ -556,19 +565,19 @@ int pgem_online_affected(pgem_t *graph, const int *poses, int count, double *wor
     return marked;
 }
 
-void pgem_online_unaffected(pgem_t *graph, int count)
+void pgem_online_unaffected(const pgem_online_parts_t *parts, int count)
 {
-    pgem_online_t *online = graph->online;
+    pgem_online_t *online = parts->online;
     for (int t = 0; t < count; t++) {
         online->touched[online->adjacent[t]] = 0; /* stamps start at 1 */
     }
 }
 
-int pgem_online_refactor(pgem_t *graph, int count)
+int pgem_online_refactor(const pgem_online_parts_t *parts, int count)
 {
-    pgem_online_t *online = graph->online;
-    pgem_online_assemble_touched(graph, online->adjacent, count);
-    const int status = pgem_online_numeric(graph, online->columns, 1);
+    pgem_online_t *online = parts->online;
+    pgem_online_assemble_touched(parts, online->adjacent, count);
+    const int status = pgem_online_numeric(parts, online->columns, 1);
     if (status != PGEM_OK) {
         online->ready = 0;
         return status;

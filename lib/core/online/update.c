@@ -107,7 +107,7 @@ static int pgem_update_edge(pgem_t *graph, uint32_t k, const double *from, const
     const int b = online->block;
     double a[2][PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {{0.0}};
     double r[PGEM_TANGENT_SIZE_MAX] = {0.0};
-    pgem_online_edge(graph, k, from, to, weight, a[0], a[1], r);
+    pgem_online_edge(&graph->store, graph->tangent, k, from, to, weight, a[0], a[1], r);
     const int ends[2] = {online->pose_column[graph->store.edge_from[k]],
                          online->pose_column[graph->store.edge_to[k]]};
     int columns[2] = {-1, -1}, count = 0, side[2] = {0, 0};
@@ -134,7 +134,8 @@ static int pgem_update_edge(pgem_t *graph, uint32_t k, const double *from, const
             }
         }
     }
-    return count > 0 ? pgem_online_rank_update(graph, columns, count, sign, b) : PGEM_OK;
+    const pgem_online_parts_t parts = pgem_online_parts_of(graph);
+    return count > 0 ? pgem_online_rank_update(&parts, columns, count, sign, b) : PGEM_OK;
 }
 
 static const double *pgem_update_lin(const pgem_t *graph, uint32_t p)
@@ -157,7 +158,8 @@ static int pgem_update_insert(pgem_t *graph, uint32_t k, double w, int *seeded, 
                    (size_t)graph->pose_size * sizeof(double));
             /* the seed goes once the column's edges are in; a gauge's damping stays */
             const double damping = PGEM_POSE_DAMPED(graph->store.pose_fixed[p]) ? PGEM_GAUGE_DAMPING : 0.0;
-            const int status = pgem_online_append(graph, p, PGEM_ONLINE_SEED + damping);
+            const pgem_online_parts_t parts = pgem_online_parts_of(graph);
+            const int status = pgem_online_append(&parts, p, PGEM_ONLINE_SEED + damping);
             if (status != PGEM_OK) {
                 return status;
             }
@@ -182,7 +184,8 @@ static int pgem_update_unseed(pgem_t *graph, const int *seeded, int count)
             x[c * b + c] = sqrt(PGEM_ONLINE_SEED);
             online->beta[c] = 0.0;
         }
-        const int status = pgem_online_rank_update(graph, seeded + s, 1, -1.0, b);
+        const pgem_online_parts_t parts = pgem_online_parts_of(graph);
+        const int status = pgem_online_rank_update(&parts, seeded + s, 1, -1.0, b);
         if (status != PGEM_OK) {
             return status;
         }
@@ -320,13 +323,14 @@ static int pgem_update_relinearise_due(pgem_t *graph, double threshold, int limi
         return PGEM_OK;
     }
     double refactor = 0.0;
-    const int touched = pgem_online_affected(graph, online->head, count, &refactor);
+    const pgem_online_parts_t parts = pgem_online_parts_of(graph);
+    const int touched = pgem_online_affected(&parts, online->head, count, &refactor);
     const int many = limit > 0 && count > limit;
     if (many || 2.0 * pgem_update_cost(graph, count, 0.5 * refactor) > refactor) {
         pgem_update_move(graph, count);
-        return pgem_online_refactor(graph, touched);
+        return pgem_online_refactor(&parts, touched);
     }
-    pgem_online_unaffected(graph, touched);
+    pgem_online_unaffected(&parts, touched);
     const int status = pgem_update_relinearise(graph, count);
     if (status == PGEM_OK) {
         pgem_update_move(graph, count);
@@ -350,7 +354,8 @@ static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation
     double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0.0};
     pgem_loop_whiten(&graph->store, n, k, e, upper, a_from, a_to);
-    pgem_online_marginal(graph, online->pose_column[graph->store.edge_from[k]],
+    const pgem_online_parts_t parts = pgem_online_parts_of(graph);
+    pgem_online_marginal(&parts, online->pose_column[graph->store.edge_from[k]],
                          online->pose_column[graph->store.edge_to[k]], a_from, a_to, n, m);
     pgem_small_apply(upper, 0, e, r, n);
     pgem_innovation_t innovation;
@@ -462,7 +467,8 @@ static int pgem_update_rebuild(pgem_t *graph, const pgem_update_settings_t *sett
                           fresh && graph->store.edge_active[k] != PGEM_EDGE_PRUNED;
         online->edge_weight_in[k] = gated ? 0.0 : pgem_update_weight(graph, k);
     }
-    const int status = pgem_online_rebuild(graph, settings->recent);
+    const pgem_online_parts_t parts = pgem_online_parts_of(graph);
+    const int status = pgem_online_rebuild(&parts, settings->recent);
     online->last.rebuilt = 1;
     online->updates = 0;
     return status;
@@ -540,7 +546,8 @@ static int pgem_update_run(pgem_t *graph, const pgem_update_settings_t *settings
         online->ready = 0;
         return status;
     }
-    pgem_online_back(graph, online->last.rebuilt ? -1.0 : settings->wildfire);
+    const pgem_online_parts_t parts = pgem_online_parts_of(graph);
+    pgem_online_back(&parts, online->last.rebuilt ? -1.0 : settings->wildfire);
     for (int q = 0; q < online->recomputed_count; q++) {
         const double *d = online->delta + (size_t)online->recomputed[q] * (size_t)online->block;
         if (!isfinite(pgem_norm(d, online->block))) {
