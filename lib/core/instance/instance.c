@@ -70,7 +70,8 @@ int pgem_config_resolve(const pgem_config_t *config, pgem_config_t *resolved)
 static void pgem_carve(pgem_t *graph, pgem_arena_t *arena, pgem_memory_parts_t *parts)
 {
     pgem_memory_parts_t taken;
-    pgem_online_carve_state(graph, arena); /* beside struct pgem, in the instance's part */
+    /* beside struct pgem, in the instance's part */
+    graph->online = pgem_online_carve_state(arena);
     size_t mark = arena->used;
     pgem_store_carve(&graph->store, &graph->config, graph->pose_size, graph->tangent, arena);
     taken.graph = arena->used - mark;
@@ -82,7 +83,8 @@ static void pgem_carve(pgem_t *graph, pgem_arena_t *arena, pgem_memory_parts_t *
     taken.robust = arena->used - mark;
     mark = arena->used;
     graph->linear = pgem_linear_carve(&graph->config, graph->tangent, arena);
-    pgem_online_carve(graph, arena); /* the online arrays count with linalg's, as they did */
+    /* the online arrays count with linalg's, as they did */
+    pgem_online_carve(graph->online, &graph->config, graph->tangent, arena);
     taken.linalg = arena->used - mark;
     if (parts != NULL) {
         parts->graph = taken.graph;

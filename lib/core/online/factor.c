@@ -508,23 +508,25 @@ int pgem_online_covariance(const pgem_online_parts_t *parts, uint32_t p, double 
     return 1;
 }
 
-void pgem_online_carve_state(pgem_t *graph, pgem_arena_t *arena)
+pgem_online_t *pgem_online_carve_state(pgem_arena_t *arena)
 {
-    graph->online = pgem_arena_take_struct(arena, sizeof(pgem_online_t));
-    if (graph->online != NULL) {
-        memset(graph->online, 0, sizeof *graph->online);
+    pgem_online_t *state = pgem_arena_take_struct(arena, sizeof(pgem_online_t));
+    if (state != NULL) {
+        memset(state, 0, sizeof *state);
     }
+    return state;
 }
 
-void pgem_online_carve(pgem_t *graph, pgem_arena_t *arena)
+void pgem_online_carve(pgem_online_t *state, const pgem_config_t *config, int tangent,
+                       pgem_arena_t *arena)
 {
     pgem_online_t probe; /* what a measuring pass (or a failed carve) fills instead */
     memset(&probe, 0, sizeof probe);
-    pgem_online_t *online = graph->online != NULL ? graph->online : &probe;
-    const size_t poses = graph->config.max_poses, edges = graph->config.max_edges;
-    const size_t b = (size_t)graph->tangent;
+    pgem_online_t *online = state != NULL ? state : &probe;
+    const size_t poses = config->max_poses, edges = config->max_edges;
+    const size_t b = (size_t)tangent;
     online->block = (int)b;
-    online->pool_blocks = graph->config.online_fill / (uint32_t)(b * b);
+    online->pool_blocks = config->online_fill / (uint32_t)(b * b);
     if (online->pool_blocks == 0u) {
         return;
     }
@@ -542,7 +544,7 @@ void pgem_online_carve(pgem_t *graph, pgem_arena_t *arena)
     online->edge_weight_in = pgem_arena_take(arena, edges, sizeof(double));
     online->rows = pgem_arena_take(arena, online->pool_blocks, sizeof(int));
     online->values = pgem_arena_take(arena, (size_t)online->pool_blocks * b * b, sizeof(double));
-    online->lin = pgem_arena_take(arena, poses * (size_t)graph->pose_size, sizeof(double));
+    online->lin = pgem_arena_take(arena, poses * pgem_pose_doubles(tangent), sizeof(double));
     online->delta = pgem_arena_take(arena, poses * b, sizeof(double));
     online->forward = pgem_arena_take(arena, poses * b, sizeof(double));
     online->vector = pgem_arena_take(arena, poses * b * b, sizeof(double));

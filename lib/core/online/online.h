@@ -24,8 +24,10 @@ typedef struct pgem_online_parts {
 
 /* Carves the online state, right after struct pgem (which held it before it was opaque: the
  * block's size stayed the same), and then, after linalg's part and with config.online_fill,
- * its arrays (measuring when arena->base is NULL; a failed carve leaves graph->online NULL). */
-void pgem_online_carve_state(pgem_t *graph, pgem_arena_t *arena);
-void pgem_online_carve(pgem_t *graph, pgem_arena_t *arena);
+ * its arrays (measuring when arena->base is NULL: the state is NULL then, and after a failed
+ * carve; the arrays are carved for the config's capacities and the tangent's dimension). */
+pgem_online_t *pgem_online_carve_state(pgem_arena_t *arena);
+void pgem_online_carve(pgem_online_t *state, const pgem_config_t *config, int tangent,
+                       pgem_arena_t *arena);
 
 #endif /* PGEM_ONLINE_LAYER_H */
