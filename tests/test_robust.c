@@ -1363,6 +1363,36 @@ static void test_local_false_run_left_out(void **state)
 #define SQUARE_RUN 20                    /* poses of the second lap matched along a stretch */
 #define SQUARE_GROUP 20                  /* the attacker's loops */
 
+#define SQUARE_SIGMA 0.02          /* odometry and loop noise per step, m */
+#define SQUARE_HEADING_SIGMA 0.01  /* and rad */
+
+/* The square's truth (1 m steps, a quarter turn every SQUARE_SIDE) and its noisy odometry
+ * (SQUARE_SIGMA, SQUARE_HEADING_SIGMA) into a new instance, with information `stated` times
+ * too loose (written to information, for the loops too); rng goes on for the loops. */
+static pgem_t *square_odometry(test_rng_t *rng, double stated, double *information, double *truth)
+{
+    double estimate[3 * SQUARE_POSES];
+    pgem_t *graph = test_create(2, SQUARE_POSES, 2 * SQUARE_POSES);
+    test_diagonal_information(3, 1.0 / (SQUARE_SIGMA * SQUARE_SIGMA * stated * stated), information);
+    information[8] = 1.0 / (SQUARE_HEADING_SIGMA * SQUARE_HEADING_SIGMA * stated * stated);
+    memset(truth, 0, 3 * sizeof(double));
+    for (int i = 1; i < SQUARE_POSES; i++) {
+        const double step[3] = {1.0, 0.0, i % SQUARE_SIDE == 0 ? 1.5707963267948966 : 0.0};
+        pgem_se2_compose(truth + 3 * (i - 1), step, truth + 3 * i);
+    }
+    add_noisy_odometry(graph, truth, SQUARE_POSES, information, SQUARE_SIGMA, SQUARE_HEADING_SIGMA,
+                       rng, estimate);
+    return graph;
+}
+
+/* A loop measurement's noise, as the odometry's. */
+static void square_noise(test_rng_t *rng, double *z)
+{
+    z[0] += SQUARE_SIGMA * test_gaussian(rng);
+    z[1] += SQUARE_SIGMA * test_gaussian(rng);
+    z[2] += SQUARE_HEADING_SIGMA * test_gaussian(rng);
+}
+
 /* Two laps of a square, 1 m steps, with odometry noise of 2 cm and 10 mrad stated three times
  * too large (as M3500's, whose information is about ten times too loose); a true loop from
  * every SQUARE_EVERY-th pose of the second lap to the same place in the first; with run, a
@@ -1374,18 +1404,9 @@ static void test_local_false_run_left_out(void **state)
  * stretches, and only the path between them, and the loops there, contradict it. */
 static pgem_t *square_walk(uint64_t seed, int run, int group, uint32_t *run_loops, uint32_t *group_loops)
 {
-    const double sigma = 0.02, heading_sigma = 0.01, stated = 3.0;
-    pgem_t *graph = test_create(2, SQUARE_POSES, 2 * SQUARE_POSES);
-    double information[9], truth[3 * SQUARE_POSES], estimate[3 * SQUARE_POSES];
-    test_diagonal_information(3, 1.0 / (sigma * sigma * stated * stated), information);
-    information[8] = 1.0 / (heading_sigma * heading_sigma * stated * stated);
-    memset(truth, 0, 3 * sizeof(double));
-    for (int i = 1; i < SQUARE_POSES; i++) {
-        const double step[3] = {1.0, 0.0, i % SQUARE_SIDE == 0 ? 1.5707963267948966 : 0.0};
-        pgem_se2_compose(truth + 3 * (i - 1), step, truth + 3 * i);
-    }
+    double information[9], truth[3 * SQUARE_POSES];
     test_rng_t rng = {seed};
-    add_noisy_odometry(graph, truth, SQUARE_POSES, information, sigma, heading_sigma, &rng, estimate);
+    pgem_t *graph = square_odometry(&rng, 3.0, information, truth);
     for (int i = SQUARE_LAP; i < SQUARE_POSES; i++) {
         const int place = i - SQUARE_LAP;
         const int single = place % SQUARE_EVERY == 0, in_run = run && place >= 20 && place < 20 + SQUARE_RUN;
@@ -1394,9 +1415,7 @@ static pgem_t *square_walk(uint64_t seed, int run, int group, uint32_t *run_loop
         }
         double z[3];
         pgem_se2_between(truth + 3 * i, truth + 3 * place, z);
-        z[0] += sigma * test_gaussian(&rng);
-        z[1] += sigma * test_gaussian(&rng);
-        z[2] += heading_sigma * test_gaussian(&rng);
+        square_noise(&rng, z);
         uint32_t index;
         assert_int_equal(pgem_add_edge(graph, (pgem_id_t)i, (pgem_id_t)place, z, information,
                                        PGEM_EDGE_LOOP, &index), PGEM_OK);
@@ -1451,24 +1470,13 @@ static void test_consistent_false_group_rejected_whole(void **state)
  * predict to 0.1 rad. */
 static pgem_t *loose_square(uint64_t seed, double lateral, uint32_t *false_loop)
 {
-    const double sigma = 0.02, heading_sigma = 0.01, stated = 10.0;
-    pgem_t *graph = test_create(2, SQUARE_POSES, 2 * SQUARE_POSES);
-    double information[9], truth[3 * SQUARE_POSES], estimate[3 * SQUARE_POSES];
-    test_diagonal_information(3, 1.0 / (sigma * sigma * stated * stated), information);
-    information[8] = 1.0 / (heading_sigma * heading_sigma * stated * stated);
-    memset(truth, 0, 3 * sizeof(double));
-    for (int i = 1; i < SQUARE_POSES; i++) {
-        const double step[3] = {1.0, 0.0, i % SQUARE_SIDE == 0 ? 1.5707963267948966 : 0.0};
-        pgem_se2_compose(truth + 3 * (i - 1), step, truth + 3 * i);
-    }
+    double information[9], truth[3 * SQUARE_POSES];
     test_rng_t rng = {seed};
-    add_noisy_odometry(graph, truth, SQUARE_POSES, information, sigma, heading_sigma, &rng, estimate);
+    pgem_t *graph = square_odometry(&rng, 10.0, information, truth);
     for (int i = SQUARE_LAP; i < SQUARE_POSES; i += 2) {
         double z[3];
         pgem_se2_between(truth + 3 * i, truth + 3 * (i - SQUARE_LAP), z);
-        z[0] += sigma * test_gaussian(&rng);
-        z[1] += sigma * test_gaussian(&rng);
-        z[2] += heading_sigma * test_gaussian(&rng);
+        square_noise(&rng, z);
         assert_int_equal(pgem_add_edge(graph, (pgem_id_t)i, (pgem_id_t)(i - SQUARE_LAP), z, information,
                                        PGEM_EDGE_LOOP, NULL), PGEM_OK);
     }

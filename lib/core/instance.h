@@ -38,16 +38,25 @@ static inline size_t pgem_pose_bytes(const pgem_t *graph)
     return (size_t)graph->store.pose_count * (size_t)graph->pose_size * sizeof(double);
 }
 
-/* The parts of the instance a robust solve works on (pgem_robust_parts_t). */
+/* The parts of the instance a solve works on (pgem_solve_parts_t). */
+static inline pgem_solve_parts_t pgem_solve_parts(pgem_t *graph)
+{
+    pgem_solve_parts_t parts;
+    parts.store = &graph->store;
+    parts.state = &graph->solver;
+    parts.linear = graph->linear;
+    parts.config = &graph->config;
+    parts.executor = &graph->executor;
+    parts.message = graph->message;
+    return parts;
+}
+
+/* The parts of the instance a robust solve works on (pgem_robust_parts_t): a solve's, and
+ * the robust state. */
 static inline pgem_robust_parts_t pgem_robust_parts(pgem_t *graph)
 {
     pgem_robust_parts_t parts;
-    parts.solve.store = &graph->store;
-    parts.solve.state = &graph->solver;
-    parts.solve.linear = graph->linear;
-    parts.solve.config = &graph->config;
-    parts.solve.executor = &graph->executor;
-    parts.solve.message = graph->message;
+    parts.solve = pgem_solve_parts(graph);
     parts.state = &graph->robust;
     parts.tangent = graph->tangent;
     return parts;

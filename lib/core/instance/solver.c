@@ -5,19 +5,6 @@
 #include "instance.h"
 #include "pgem/covariance.h"
 
-/* The parts of the instance a solve works on. */
-static pgem_solve_parts_t pgem_solve_parts(pgem_t *graph)
-{
-    pgem_solve_parts_t parts;
-    parts.store = &graph->store;
-    parts.state = &graph->solver;
-    parts.linear = graph->linear;
-    parts.config = &graph->config;
-    parts.executor = &graph->executor;
-    parts.message = graph->message;
-    return parts;
-}
-
 int pgem_analyze(pgem_t *graph)
 {
     if (graph == NULL) {

@@ -149,6 +149,25 @@ void pgem_loop_whiten(const pgem_store_t *store, int n, uint32_t k, double *e, d
     pgem_upper_times(upper, jt, n, a_to);
 }
 
+/* Loop k whitened (pgem_loop_whiten), and the whitened error the Gauss-Newton step predicts
+ * for it: what both the innovation and its screen start from. Zeroed where the analysers
+ * cannot see the loops that fill them. */
+typedef struct pgem_whitened_loop {
+    double e[PGEM_TANGENT_SIZE_MAX];
+    double predicted[PGEM_TANGENT_SIZE_MAX];
+    double upper[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    double a_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+    double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
+} pgem_whitened_loop_t;
+
+static void pgem_loop_predict(const pgem_linear_t *linear, const pgem_store_t *store, int n,
+                              uint32_t k, pgem_whitened_loop_t *w)
+{
+    memset(w, 0, sizeof *w);
+    pgem_loop_whiten(store, n, k, w->e, w->upper, w->a_from, w->a_to);
+    pgem_predicted_error(linear, store, n, k, w->upper, w->e, w->a_from, w->a_to, w->predicted);
+}
+
 /* p^T (I + m)^-1 p for a symmetric positive semi-definite n x n m, by Cholesky of I + m from
  * its lower triangle (its pivots at least 1). */
 static double pgem_shifted_form(int n, const double *m, const double *p)
@@ -192,33 +211,25 @@ void pgem_loop_innovation(pgem_linear_t *linear, const pgem_store_t *store, int 
                           double weight, double inflation, int from_inverse,
                           pgem_innovation_t *out)
 {
-    /* zeroed where the analysers cannot see the loops that fill them */
-    double e[PGEM_TANGENT_SIZE_MAX] = {0}, predicted[PGEM_TANGENT_SIZE_MAX] = {0};
-    double upper[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    double a_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    pgem_whitened_loop_t w;
     double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    pgem_loop_whiten(store, n, k, e, upper, a_from, a_to);
+    pgem_loop_predict(linear, store, n, k, &w);
     if (from_inverse) {
-        (void)pgem_linear_marginal_inverse(linear, store->edge_from[k], store->edge_to[k], a_from,
-                                           a_to, m);
+        (void)pgem_linear_marginal_inverse(linear, store->edge_from[k], store->edge_to[k],
+                                           w.a_from, w.a_to, m);
     } else {
-        pgem_linear_marginal(linear, store->edge_from[k], store->edge_to[k], a_from, a_to, m);
+        pgem_linear_marginal(linear, store->edge_from[k], store->edge_to[k], w.a_from, w.a_to, m);
     }
-    pgem_predicted_error(linear, store, n, k, upper, e, a_from, a_to, predicted);
-    pgem_innovation_test(n, upper, predicted, m, weight, inflation, out);
+    pgem_innovation_test(n, w.upper, w.predicted, m, weight, inflation, out);
 }
 
 int pgem_loop_screen(pgem_linear_t *linear, const pgem_store_t *store, int n, uint32_t k,
                      double inflation, double gate, double *distance)
 {
-    double e[PGEM_TANGENT_SIZE_MAX] = {0}, predicted[PGEM_TANGENT_SIZE_MAX] = {0};
-    double upper[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    double a_from[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
+    pgem_whitened_loop_t w;
     double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0};
-    pgem_loop_whiten(store, n, k, e, upper, a_from, a_to);
-    pgem_predicted_error(linear, store, n, k, upper, e, a_from, a_to, predicted);
+    pgem_loop_predict(linear, store, n, k, &w);
+    const double *predicted = w.predicted;
     const double chi2 = pgem_edge_mahalanobis(store, k, n);
     double norm = 0.0;
     for (int r = 0; r < n; r++) {
@@ -229,7 +240,8 @@ int pgem_loop_screen(pgem_linear_t *linear, const pgem_store_t *store, int n, ui
         return 1;
     }
     /* A H^-1 A^T <= 2 (A_f Z_ff A_f^T + A_t Z_tt A_t^T), and the allowance at most kappa */
-    pgem_linear_marginal_diagonal(linear, store->edge_from[k], store->edge_to[k], a_from, a_to, m);
+    pgem_linear_marginal_diagonal(linear, store->edge_from[k], store->edge_to[k], w.a_from, w.a_to,
+                                  m);
     for (int q = 0; q < n * n; q++) {
         m[q] *= 2.0 * inflation;
     }
