@@ -892,6 +892,13 @@ static void test_robot_frame_from_agreeing_loops(void **state)
     pgem_destroy(graph);
 }
 
+/* The frames stage on the instance's parts (robust/frames.c). */
+static uint32_t test_frames(pgem_t *graph, const pgem_robust_options_t *options, int with_loops)
+{
+    const pgem_robust_parts_t parts = pgem_robust_parts(graph);
+    return pgem_robust_frames(&parts, options, with_loops);
+}
+
 /* Loops that agree on no frame move nothing (the part stays where its odometry put it for
  * EM to judge them), a single loop places its part, a part joined only by pruned loops after
  * a round is placed again by them, and a graph of one part is never touched. */
@@ -902,20 +909,20 @@ static void test_robot_frame_needs_agreeing_loops(void **state)
     pgem_t *graph = two_robots(0, 3, truth);
     const pgem_robust_options_t options = pgem_robust_resolve(NULL);
     test_snapshot(graph, before);
-    assert_int_equal(pgem_robust_frames(graph, &options, 0), 0);
+    assert_int_equal(test_frames(graph, &options, 0), 0);
     test_snapshot(graph, after);
     assert_memory_equal(before, after, sizeof before);
     pgem_destroy(graph);
     /* one true loop and one false one: they disagree, nothing moves */
     graph = two_robots(1, 1, truth);
     test_snapshot(graph, before);
-    assert_int_equal(pgem_robust_frames(graph, &options, 0), 0);
+    assert_int_equal(test_frames(graph, &options, 0), 0);
     test_snapshot(graph, after);
     assert_memory_equal(before, after, sizeof before);
     pgem_destroy(graph);
     /* a single loop places its robot where it says */
     graph = two_robots(1, 0, truth);
-    assert_int_equal(pgem_robust_frames(graph, &options, 0), 1);
+    assert_int_equal(test_frames(graph, &options, 0), 1);
     test_snapshot(graph, after);
     for (int k = 0; k < 3 * 2 * TEAM_POSES; k++) {
         assert_near(after[k], truth[k], 1e-9);
@@ -925,19 +932,19 @@ static void test_robot_frame_needs_agreeing_loops(void **state)
      * accepted loops join, or that already stands where they say, is not moved */
     graph = two_robots(4, 3, truth);
     test_snapshot(graph, before);
-    assert_int_equal(pgem_robust_frames(graph, &options, 1), 0); /* joined by its loops */
+    assert_int_equal(test_frames(graph, &options, 1), 0); /* joined by its loops */
     test_snapshot(graph, after);
     assert_memory_equal(before, after, sizeof before);
     for (uint32_t k = 2 * TEAM_POSES - 2; k < 2 * TEAM_POSES + 5; k++) {
         graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
     }
-    assert_int_equal(pgem_robust_frames(graph, &options, 1), 1);
+    assert_int_equal(test_frames(graph, &options, 1), 1);
     test_snapshot(graph, after);
     for (int k = 0; k < 3 * 2 * TEAM_POSES; k++) {
         assert_near(after[k], truth[k], 1e-9);
     }
     test_snapshot(graph, before);
-    assert_int_equal(pgem_robust_frames(graph, &options, 1), 0); /* already there */
+    assert_int_equal(test_frames(graph, &options, 1), 0); /* already there */
     test_snapshot(graph, after);
     assert_memory_equal(before, after, sizeof before);
     pgem_destroy(graph);
@@ -945,7 +952,7 @@ static void test_robot_frame_needs_agreeing_loops(void **state)
     graph = ring(5, ring_truth);
     double ring_before[3 * RING], ring_after[3 * RING];
     test_snapshot(graph, ring_before);
-    assert_int_equal(pgem_robust_frames(graph, &options, 0), 0);
+    assert_int_equal(test_frames(graph, &options, 0), 0);
     test_snapshot(graph, ring_after);
     assert_memory_equal(ring_before, ring_after, sizeof ring_before);
     pgem_destroy(graph);

@@ -1,6 +1,20 @@
-/* The public calls of the robust layer that need only the graph and the linear system, over
- * the instance's parts: thin wrappers, as instance/graph.c's (docs/design/core-layers.md). */
+/* The public calls of the robust layer (pgem/robust.h) over an instance: the argument check,
+ * then the layer's own calls on the parts they work on (pgem_robust_parts), so the robust
+ * layer itself never sees struct pgem (docs/design/core-layers.md). */
 #include "instance.h"
+
+int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
+                         const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+{
+    if (graph == NULL) {
+        if (summary != NULL) {
+            pgem_robust_summary_start(summary);
+        }
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    const pgem_robust_parts_t parts = pgem_robust_parts(graph);
+    return pgem_robust_solve(&parts, options, solve, summary);
+}
 
 void pgem_robust_reset(pgem_t *graph)
 {

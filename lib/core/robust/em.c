@@ -4,18 +4,17 @@
  * test (robust/gate.c), repeated while the test changes any loop's state. */
 #include <string.h>
 
-#include "instance.h"
 #include "robust/robust.h"
 
 /* Prunes the loops (active or dormant) whose weight fell below the threshold; returns how many.
  * The structure is reviewed before the next M-step. */
-static uint32_t pgem_prune(pgem_t *graph, double threshold)
+static uint32_t pgem_prune(pgem_store_t *store, double threshold)
 {
     uint32_t pruned = 0;
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        if (graph->store.edge_kind[k] == PGEM_EDGE_LOOP && graph->store.edge_active[k] != PGEM_EDGE_PRUNED &&
-            graph->store.edge_weight[k] < threshold) {
-            graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
+    for (uint32_t k = 0; k < store->edge_count; k++) {
+        if (store->edge_kind[k] == PGEM_EDGE_LOOP && store->edge_active[k] != PGEM_EDGE_PRUNED &&
+            store->edge_weight[k] < threshold) {
+            store->edge_active[k] = PGEM_EDGE_PRUNED;
             pruned++;
         }
     }
@@ -23,25 +22,25 @@ static uint32_t pgem_prune(pgem_t *graph, double threshold)
 }
 
 /* Rounds of E/M iterations, each followed by pruning, until a round prunes nothing. */
-int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
-                          const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+int pgem_em_rounds(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
+                   const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
-    const pgem_robust_parts_t parts = pgem_robust_parts(graph);
+    pgem_store_t *store = parts->solve.store;
     pgem_robust_progress_t progress;
     memset(&progress, 0, sizeof progress);
     for (uint32_t round = 1; round <= options->max_rounds; round++) {
-        int status = pgem_em_iterate(&parts, options, solve, summary, round > 1u && !options->restart,
-                                     &progress.largest_change);
+        int status = pgem_em_iterate(parts, options, solve, summary,
+                                     round > 1u && !options->restart, &progress.largest_change);
         if (status != PGEM_OK || pgem_robust_stopped(summary)) {
             return status;
         }
-        const uint32_t pruned = pgem_prune(graph, options->prune_threshold);
+        const uint32_t pruned = pgem_prune(store, options->prune_threshold);
         if (options->frames >= 0 && (pruned > 0u || round == 1u)) {
             /* a part left joined only by pruned loops, moved rigidly: its weights stand */
-            summary->frames_placed += pgem_robust_frames(graph, options, 1);
+            summary->frames_placed += pgem_robust_frames(parts, options, 1);
         }
         summary->rounds++; /* counted across re-admission passes */
-        if (pgem_report_round(&graph->store, graph->tangent, options, summary, &progress)) {
+        if (pgem_report_round(store, parts->tangent, options, summary, &progress)) {
             return PGEM_OK;
         }
         if (pruned == 0u) {
@@ -49,7 +48,8 @@ int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
             return PGEM_OK;
         }
         if (options->restart) {
-            pgem_restore_initial(&graph->robust, &graph->store, graph->pose_size);
+            pgem_restore_initial(parts->state, store,
+                                 PGEM_POSE_SIZE(parts->solve.config->dimension));
         }
     }
     pgem_robust_ended(summary, PGEM_ROBUST_ROUND_LIMIT);
@@ -63,20 +63,20 @@ int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
  * and the next pass if it pruned a run or group (bounded by max_rounds passes). Ends polished. No EM rounds run between passes: the test decides each
  * loop against the leave-one-out prediction of the polished map, which is what the rounds'
  * innovation E-steps converged to, at a tenth of their cost (docs/design/robust-em.md). */
-static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *options,
-                          const pgem_solve_options_t *solve, pgem_robust_summary_t *summary, double gate)
+static int pgem_em_passes(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
+                          const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
+                          double gate)
 {
-    const pgem_robust_parts_t parts = pgem_robust_parts(graph);
     int status = PGEM_OK;
     pgem_settle_t settle;
     memset(&settle, 0, sizeof settle);
     for (uint32_t pass = 0; status == PGEM_OK; pass++) {
-        status = pgem_em_polish(&parts, solve, summary);
+        status = pgem_em_polish(parts, solve, summary);
         if (status != PGEM_OK || pgem_robust_stopped(summary)) {
             break;
         }
         pgem_pass_mark_t mark;
-        pgem_pass_mark(&graph->store, graph->tangent, options->scale, &mark);
+        pgem_pass_mark(parts->solve.store, parts->tangent, options->scale, &mark);
         if (pgem_settle_pass(&settle, &mark)) {
             pgem_robust_ended(summary, PGEM_ROBUST_OSCILLATED);
             break;
@@ -85,10 +85,10 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *options,
             pgem_robust_ended(summary, settle.cycling ? PGEM_ROBUST_OSCILLATED : PGEM_ROBUST_ROUND_LIMIT);
             break;
         }
-        if (pgem_em_gate(&parts, options, gate, summary) == 0u &&
-            (pgem_most_rejected(&graph->store)
-                 ? pgem_em_leave_run_out(&parts, summary, &status)
-                 : pgem_em_leave_group_out(&parts, summary, &status)) == 0u) {
+        if (pgem_em_gate(parts, options, gate, summary) == 0u &&
+            (pgem_most_rejected(parts->solve.store)
+                 ? pgem_em_leave_run_out(parts, summary, &status)
+                 : pgem_em_leave_group_out(parts, summary, &status)) == 0u) {
             pgem_robust_ended(summary, PGEM_ROBUST_CONVERGED);
             break;
         }
@@ -100,21 +100,20 @@ static int pgem_em_passes(pgem_t *graph, const pgem_robust_options_t *options,
  * (point chi2, from wherever the estimate starts); with the innovation distance the test
  * measures loops against the map they produced. If every loop ends rejected, a run of loops
  * that passes the global test alone (robust/rescue.c) starts the passes again. */
-int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
-                             const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+int pgem_em_with_gate(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
+                      const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
-    const double gate = pgem_em_gate_value(graph->tangent, options);
-    int status = pgem_em_rounds(graph, options, solve, summary);
+    const double gate = pgem_em_gate_value(parts->tangent, options);
+    int status = pgem_em_rounds(parts, options, solve, summary);
     if (status == PGEM_OK && !pgem_robust_stopped(summary)) {
-        status = pgem_em_passes(graph, options, solve, summary, gate);
+        status = pgem_em_passes(parts, options, solve, summary, gate);
     }
     int rescued = 0;
     if (status == PGEM_OK && !pgem_robust_stopped(summary)) {
-        const pgem_robust_parts_t parts = pgem_robust_parts(graph);
-        status = pgem_em_rescue(&parts, solve, summary, &rescued);
+        status = pgem_em_rescue(parts, solve, summary, &rescued);
     }
     if (status == PGEM_OK && rescued && !pgem_robust_stopped(summary)) {
-        status = pgem_em_passes(graph, options, solve, summary, gate);
+        status = pgem_em_passes(parts, options, solve, summary, gate);
     }
     return status;
 }

@@ -11,7 +11,6 @@
 #include <math.h>
 #include <string.h>
 
-#include "instance.h"
 #include "robust/robust.h"
 
 /* At most this many of a part's loops are tried as its frame (evenly spread over the rest). */
@@ -24,7 +23,9 @@
 #define PGEM_FRAMES_VARIANCE_MIN 1e-12
 
 typedef struct pgem_frames {
-    pgem_t *graph;
+    pgem_store_t *store;
+    int tangent;      /* error rows per edge: 3 or 6 */
+    size_t pose_size; /* doubles per pose: 3 or 7 */
     uint32_t *part;   /* [max_poses] union-find parent, then each pose's root */
     uint32_t *state;  /* [max_poses] the search's queue; then per root: placed or not */
     int32_t *first;   /* [max_poses] a pose's first odometry end; then per root, its loops' end */
@@ -45,18 +46,19 @@ typedef struct pgem_frames_loop {
     int moving_is_to;
 } pgem_frames_loop_t;
 
-static void pgem_frames_compose(const pgem_t *graph, const double *a, const double *b, double *out)
+static void pgem_frames_compose(const pgem_frames_t *f, const double *a, const double *b,
+                                double *out)
 {
-    if (graph->tangent == 3) {
+    if (f->tangent == 3) {
         pgem_se2_compose(a, b, out);
     } else {
         pgem_se3_compose(a, b, out);
     }
 }
 
-static void pgem_frames_inverse(const pgem_t *graph, const double *a, double *out)
+static void pgem_frames_inverse(const pgem_frames_t *f, const double *a, double *out)
 {
-    if (graph->tangent == 3) {
+    if (f->tangent == 3) {
         pgem_se2_inverse(a, out);
     } else {
         pgem_se3_inverse(a, out);
@@ -65,19 +67,20 @@ static void pgem_frames_inverse(const pgem_t *graph, const double *a, double *ou
 
 /* Edge k's rotation variance (rad^2: the g2o 3D error is half the angle) and translation
  * variance (m^2, the trace), and the length of its translation. */
-static void pgem_frames_edge_variances(const pgem_t *graph, uint32_t k, double *rotation,
+static void pgem_frames_edge_variances(const pgem_frames_t *f, uint32_t k, double *rotation,
                                        double *translation, double *length)
 {
-    const int n = graph->tangent;
+    const int n = f->tangent;
     double covariance[PGEM_SMALL_MAX * PGEM_SMALL_MAX];
-    const double *z = graph->store.edge_measurement + (size_t)k * (size_t)graph->pose_size;
+    const double *z = f->store->edge_measurement + (size_t)k * f->pose_size;
     const int dims = n == 3 ? 2 : 3;
     double squared = 0.0;
     for (int i = 0; i < dims; i++) {
         squared += z[i] * z[i];
     }
     *length = sqrt(squared);
-    if (!pgem_small_inverse(graph->store.edge_information + (size_t)k * (size_t)(n * n), covariance, n)) {
+    const double *information = f->store->edge_information + (size_t)k * (size_t)(n * n);
+    if (!pgem_small_inverse(information, covariance, n)) {
         *rotation = *translation = 1e30; /* no information in some direction */
         return;
     }
@@ -102,7 +105,7 @@ static int pgem_frames_joins(const pgem_store_t *store, uint32_t k, int with_loo
 /* The parts over the joining edges (union-find, each pose's root) and their adjacency. */
 static void pgem_frames_parts(pgem_frames_t *f, int with_loops)
 {
-    const pgem_store_t *store = &f->graph->store;
+    const pgem_store_t *store = f->store;
     for (uint32_t p = 0; p < store->pose_count; p++) {
         f->part[p] = p;
         f->first[p] = -1;
@@ -126,7 +129,7 @@ static void pgem_frames_parts(pgem_frames_t *f, int with_loops)
  * first; the state array is the queue). */
 static void pgem_frames_drift(pgem_frames_t *f)
 {
-    const pgem_store_t *store = &f->graph->store;
+    const pgem_store_t *store = f->store;
     const uint32_t poses = store->pose_count;
     for (uint32_t p = 0; p < poses; p++) {
         f->drift[(size_t)3u * p + 2u] = -1.0f; /* not reached yet */
@@ -147,7 +150,7 @@ static void pgem_frames_drift(pgem_frames_t *f)
                     continue;
                 }
                 double rotation = 0.0, translation = 0.0, length = 0.0;
-                pgem_frames_edge_variances(f->graph, k, &rotation, &translation, &length);
+                pgem_frames_edge_variances(f, k, &rotation, &translation, &length);
                 f->drift[(size_t)3u * q] = f->drift[(size_t)3u * p] + (float)(f->inflation * rotation);
                 f->drift[(size_t)3u * q + 1u] = f->drift[(size_t)3u * p + 1u] + (float)(f->inflation * translation);
                 f->drift[(size_t)3u * q + 2u] = f->drift[(size_t)3u * p + 2u] + (float)length;
@@ -168,7 +171,7 @@ static double pgem_frames_between(const pgem_frames_t *f, uint32_t p, uint32_t q
 /* Loop k as a candidate: the root of the unplaced part it joins to a placed one, or NONE. */
 static uint32_t pgem_frames_side(const pgem_frames_t *f, uint32_t k, pgem_frames_loop_t *loop)
 {
-    const pgem_store_t *store = &f->graph->store;
+    const pgem_store_t *store = f->store;
     const uint32_t from = store->edge_from[k], to = store->edge_to[k];
     const uint32_t a = f->part[from], b = f->part[to];
     loop->k = k;
@@ -189,18 +192,18 @@ static uint32_t pgem_frames_side(const pgem_frames_t *f, uint32_t k, pgem_frames
 static void pgem_frames_implied(const pgem_frames_t *f, const pgem_frames_loop_t *loop,
                                 double frame[7], double target[7])
 {
-    const pgem_t *graph = f->graph;
-    const size_t size = (size_t)graph->pose_size;
-    const double *z = graph->store.edge_measurement + (size_t)loop->k * size;
+    const pgem_store_t *store = f->store;
+    const size_t size = f->pose_size;
+    const double *z = store->edge_measurement + (size_t)loop->k * size;
     double inverse[7];
     if (loop->moving_is_to) { /* z = placed^-1 moving */
-        pgem_frames_compose(graph, graph->store.pose + loop->placed * size, z, target);
+        pgem_frames_compose(f, store->pose + loop->placed * size, z, target);
     } else { /* z = moving^-1 placed */
-        pgem_frames_inverse(graph, z, inverse);
-        pgem_frames_compose(graph, graph->store.pose + loop->placed * size, inverse, target);
+        pgem_frames_inverse(f, z, inverse);
+        pgem_frames_compose(f, store->pose + loop->placed * size, inverse, target);
     }
-    pgem_frames_inverse(graph, graph->store.pose + loop->moving * size, inverse);
-    pgem_frames_compose(graph, target, inverse, frame);
+    pgem_frames_inverse(f, store->pose + loop->moving * size, inverse);
+    pgem_frames_compose(f, target, inverse, frame);
 }
 
 /* Loop l's error with its part placed by `frame` (implied by loop h), squared and divided by
@@ -209,16 +212,15 @@ static void pgem_frames_implied(const pgem_frames_t *f, const pgem_frames_loop_t
 static double pgem_frames_distance(const pgem_frames_t *f, const pgem_frames_loop_t *h,
                                    const pgem_frames_loop_t *l, const double frame[7])
 {
-    const pgem_t *graph = f->graph;
-    const size_t size = (size_t)graph->pose_size;
-    const pgem_store_t *store = &graph->store;
+    const size_t size = f->pose_size;
+    const pgem_store_t *store = f->store;
     const double *z = store->edge_measurement + (size_t)l->k * size;
     double moved[7], e[6];
-    pgem_frames_compose(graph, frame, store->pose + l->moving * size, moved);
+    pgem_frames_compose(f, frame, store->pose + l->moving * size, moved);
     const double *xi = l->moving_is_to ? store->pose + l->placed * size : moved;
     const double *xj = l->moving_is_to ? moved : store->pose + l->placed * size;
     double angle2 = 0.0, shift2 = 0.0;
-    if (graph->tangent == 3) {
+    if (f->tangent == 3) {
         pgem_se2_error(xi, xj, z, e, NULL, NULL);
         shift2 = e[0] * e[0] + e[1] * e[1];
         angle2 = e[2] * e[2];
@@ -281,8 +283,7 @@ static uint32_t pgem_frames_vote(const pgem_frames_t *f, uint32_t first, uint32_
 static void pgem_frames_refine(const pgem_frames_t *f, uint32_t first, uint32_t end, uint32_t best,
                                double out[7])
 {
-    const pgem_t *graph = f->graph;
-    const size_t size = (size_t)graph->pose_size;
+    const size_t size = f->pose_size;
     pgem_frames_loop_t h, l;
     double frame[7], target[7], other[7], mean[3] = {0.0, 0.0, 0.0};
     (void)pgem_frames_side(f, (uint32_t)f->next[best], &h);
@@ -294,7 +295,7 @@ static void pgem_frames_refine(const pgem_frames_t *f, uint32_t first, uint32_t 
             continue;
         }
         pgem_frames_implied(f, &l, other, target);
-        if (graph->tangent == 3) {
+        if (f->tangent == 3) {
             mean[0] += pgem_wrap_angle(other[2] - frame[2]);
         } else {
             double conjugate[4] = {-frame[3], -frame[4], -frame[5], frame[6]}, relative[4], phi[3];
@@ -307,7 +308,7 @@ static void pgem_frames_refine(const pgem_frames_t *f, uint32_t first, uint32_t 
         voters++;
     }
     memcpy(out, frame, size * sizeof(double));
-    if (graph->tangent == 3) {
+    if (f->tangent == 3) {
         out[2] = pgem_wrap_angle(frame[2] + mean[0] / (double)voters);
     } else {
         double phi[3] = {mean[0] / (double)voters, mean[1] / (double)voters, mean[2] / (double)voters}, step[4];
@@ -316,7 +317,7 @@ static void pgem_frames_refine(const pgem_frames_t *f, uint32_t first, uint32_t 
         (void)pgem_quat_normalize(out + 3);
     }
     /* translation: the mean of target - R moving over the voters */
-    const int dims = graph->tangent == 3 ? 2 : 3;
+    const int dims = f->tangent == 3 ? 2 : 3;
     double shift[3] = {0.0, 0.0, 0.0};
     for (uint32_t j = first; j < end; j++) {
         (void)pgem_frames_side(f, (uint32_t)f->next[j], &l);
@@ -324,9 +325,9 @@ static void pgem_frames_refine(const pgem_frames_t *f, uint32_t first, uint32_t 
             continue;
         }
         pgem_frames_implied(f, &l, other, target);
-        const double *moving = graph->store.pose + l.moving * size;
+        const double *moving = f->store->pose + l.moving * size;
         double rotated[3];
-        if (graph->tangent == 3) {
+        if (f->tangent == 3) {
             const double c = cos(out[2]), s = sin(out[2]);
             rotated[0] = c * moving[0] - s * moving[1];
             rotated[1] = s * moving[0] + c * moving[1];
@@ -346,7 +347,7 @@ static void pgem_frames_refine(const pgem_frames_t *f, uint32_t first, uint32_t 
  * group ends at first[root], groups in the order of their roots); how many. */
 static uint32_t pgem_frames_gather(pgem_frames_t *f)
 {
-    const pgem_store_t *store = &f->graph->store;
+    const pgem_store_t *store = f->store;
     pgem_frames_loop_t loop;
     for (uint32_t p = 0; p < store->pose_count; p++) {
         f->first[p] = 0;
@@ -386,7 +387,7 @@ static uint32_t pgem_frames_gather(pgem_frames_t *f)
  * loop counts, one whose loops all disagree does not) moved into its frame. 1 if one was. */
 static int pgem_frames_place_one(pgem_frames_t *f)
 {
-    pgem_store_t *store = &f->graph->store;
+    pgem_store_t *store = f->store;
     if (pgem_frames_gather(f) == 0u) {
         return 0;
     }
@@ -424,41 +425,45 @@ static int pgem_frames_place_one(pgem_frames_t *f)
     }
     double frame[7];
     pgem_frames_refine(f, chosen_first, (uint32_t)f->first[chosen], chosen_best, frame);
-    for (int c = 0; c < f->graph->pose_size; c++) {
+    for (size_t c = 0; c < f->pose_size; c++) {
         if (!isfinite(frame[c])) {
             f->state[chosen] = PGEM_FRAMES_PLACED; /* left where it is */
             return 1;
         }
     }
-    const size_t size = (size_t)f->graph->pose_size;
+    const size_t size = f->pose_size;
     for (uint32_t p = 0; p < store->pose_count; p++) {
         if (f->part[p] == chosen) {
-            pgem_frames_compose(f->graph, frame, store->pose + p * size, store->pose + p * size);
+            pgem_frames_compose(f, frame, store->pose + p * size, store->pose + p * size);
         }
     }
     f->state[chosen] = PGEM_FRAMES_PLACED;
     return 2;
 }
 
-uint32_t pgem_robust_frames(pgem_t *graph, const pgem_robust_options_t *options, int with_loops)
+uint32_t pgem_robust_frames(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
+                            int with_loops)
 {
-    const pgem_store_t *store = &graph->store;
-    const size_t max_poses = graph->config.max_poses, max_edges = graph->config.max_edges;
+    const pgem_store_t *store = parts->solve.store;
+    const pgem_config_t *config = parts->solve.config;
+    const size_t max_poses = config->max_poses, max_edges = config->max_edges;
     size_t bytes = 0;
-    unsigned char *region = pgem_linear_shared_region(graph->linear, &bytes);
+    unsigned char *region = pgem_linear_shared_region(parts->solve.linear, &bytes);
     if (store->pose_count < 2u || bytes < 4u * (6u * max_poses + 2u * max_edges)) {
         return 0;
     }
     pgem_frames_t f;
-    f.graph = graph;
+    f.store = parts->solve.store;
+    f.tangent = parts->tangent;
+    f.pose_size = (size_t)PGEM_POSE_SIZE(config->dimension);
     f.drift = (float *)(void *)region;
     f.part = (uint32_t *)(void *)(f.drift + 3u * max_poses);
     f.state = f.part + max_poses;
     f.first = (int32_t *)(void *)(f.state + max_poses);
     f.next = f.first + max_poses;
-    f.loop_var = (float *)(void *)graph->robust.edge_distance;
+    f.loop_var = (float *)(void *)parts->state->edge_distance;
     f.inflation = options->odometry_inflation;
-    f.gate = pgem_em_gate_value(graph->tangent, options);
+    f.gate = pgem_em_gate_value(parts->tangent, options);
     pgem_frames_parts(&f, with_loops);
     /* the parts that hold a fixed pose (or the first pose, when none is fixed) are placed; the
      * others are to place, those held at a damped gauge too (pgem_hold_gauge: loop closures
@@ -493,7 +498,7 @@ uint32_t pgem_robust_frames(pgem_t *graph, const pgem_robust_options_t *options,
     for (uint32_t k = 0; k < store->edge_count; k++) {
         if (store->edge_kind[k] == PGEM_EDGE_LOOP) {
             double rotation = 0.0, translation = 0.0, length = 0.0;
-            pgem_frames_edge_variances(graph, k, &rotation, &translation, &length);
+            pgem_frames_edge_variances(&f, k, &rotation, &translation, &length);
             f.loop_var[(size_t)2u * k] = (float)rotation;
             f.loop_var[(size_t)2u * k + 1u] = (float)(translation + rotation * length * length);
         }

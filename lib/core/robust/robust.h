@@ -1,6 +1,6 @@
 /* The robust layer, private to lib/core: EM's loop-closure weighting and the IRLS kernels over
- * the solver, with what a robust solve keeps (graph->robust): the estimate and edge states to
- * put back if it fails, and each loop's last distance. */
+ * the solver, with what a robust solve keeps (pgem_robust_state_t): the estimate and edge
+ * states to put back if it fails, and each loop's last distance. */
 #ifndef PGEM_ROBUST_LAYER_H
 #define PGEM_ROBUST_LAYER_H
 
@@ -22,13 +22,22 @@ typedef struct pgem_robust_state {
 
 /* What a robust solve works on, lent for one call: the parts a solve works on (the store, the
  * solver's state, the linear system, the config, the executor, the message buffer), the robust
- * state and the error rows per edge (3 or 6). The public calls build it (instance/robust.c);
- * a file of the layer that still sees the instance gets it from pgem_robust_parts. */
+ * state and the error rows per edge (3 or 6). The public calls build it from the instance
+ * (pgem_robust_parts in instance.h, instance/robust.c); the layer never sees struct pgem. */
 typedef struct pgem_robust_parts {
     pgem_solve_parts_t solve;
     pgem_robust_state_t *state;
     int tangent;
 } pgem_robust_parts_t;
+
+/* A robust solve (robust/solve.c; pgem_robust_optimize over the instance's parts): options
+ * checked, loops whose chi2 is not finite pruned, the method run, a failure undone, and the
+ * summary (NULL: none) started by pgem_robust_summary_start and filled; the message cleared
+ * on success. */
+int pgem_robust_solve(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
+                      const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
+/* A summary before a solve: zeroed, no loop with a chi2 that is not finite. */
+void pgem_robust_summary_start(pgem_robust_summary_t *summary);
 
 /* Carves the robust layer's arrays for config's capacities and the doubles per pose from the
  * arena (measuring when arena->base is NULL). */
@@ -120,7 +129,8 @@ uint32_t pgem_robust_list_parts(const pgem_store_t *store, pgem_id_t *ids, uint3
  * and the loops in the problem, after a round's pruning left a part joined only by pruned
  * loops) is moved into the frame on which most of the loops joining it to the placed parts
  * agree, unless as many agree where it stands; returns how many parts were moved. */
-uint32_t pgem_robust_frames(pgem_t *graph, const pgem_robust_options_t *options, int with_loops);
+uint32_t pgem_robust_frames(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
+                            int with_loops);
 
 /* The summary's termination, unless an earlier stop by on_round already set it. */
 static inline void pgem_robust_ended(pgem_robust_summary_t *summary,
@@ -158,11 +168,11 @@ int pgem_em_iterate(const pgem_robust_parts_t *parts, const pgem_robust_options_
 /* EM (robust/em.c): rounds with pruning (the literal method); the polish (robust/polish.c:
  * accepted loops at weight 1, Gauss-Newton to convergence); rounds, polish and consistency test
  * (the default). */
-int pgem_em_rounds(pgem_t *graph, const pgem_robust_options_t *options,
+int pgem_em_rounds(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
                    const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
 int pgem_em_polish(const pgem_robust_parts_t *parts, const pgem_solve_options_t *solve,
                    pgem_robust_summary_t *summary);
-int pgem_em_with_gate(pgem_t *graph, const pgem_robust_options_t *options,
+int pgem_em_with_gate(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
                       const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
 /* A run of loops (robust/runs.c): loops from poses a, a+1, ... to b, b+s, ... Runs shorter
  * than PGEM_RUN_MIN are not tested as runs: one or two loops are what the consistency test

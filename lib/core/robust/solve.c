@@ -3,41 +3,50 @@
 #include <math.h>
 #include <string.h>
 
-#include "instance.h"
 #include "robust/robust.h"
 
-static int pgem_plain(pgem_t *graph, const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+/* Bytes of the whole estimate (every pose), for the copy a solve starts from. */
+static size_t pgem_estimate_bytes(const pgem_robust_parts_t *parts)
 {
-    const pgem_robust_parts_t parts = pgem_robust_parts(graph);
-    pgem_robust_reset_loops(graph->linear, &graph->store);
+    return (size_t)parts->solve.store->pose_count *
+           (size_t)PGEM_POSE_SIZE(parts->solve.config->dimension) * sizeof(double);
+}
+
+static int pgem_plain(const pgem_robust_parts_t *parts, const pgem_solve_options_t *solve,
+                      pgem_robust_summary_t *summary)
+{
+    pgem_robust_reset_loops(parts->solve.linear, parts->solve.store);
     summary->rounds = 1u;
-    return pgem_em_polish(&parts, solve, summary);
+    return pgem_em_polish(parts, solve, summary);
 }
 
 /* A loop closure whose chi2 is not finite (a pose or measurement near the double range) is an
  * outlier before any E-step: pruned at weight 0, so the rest of the graph can be solved. An
  * odometry edge like that fails the solve, naming its poses. */
-static int pgem_prune_non_finite(pgem_t *graph, pgem_robust_summary_t *summary)
+static int pgem_prune_non_finite(const pgem_robust_parts_t *parts, pgem_robust_summary_t *summary)
 {
+    pgem_store_t *store = parts->solve.store;
+    char *message = parts->solve.message;
     summary->first_non_finite = UINT32_MAX;
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        if (isfinite(pgem_edge_mahalanobis(&graph->store, k, graph->tangent))) {
+    for (uint32_t k = 0; k < store->edge_count; k++) {
+        if (isfinite(pgem_edge_mahalanobis(store, k, parts->tangent))) {
             continue;
         }
-        if (graph->store.edge_kind[k] != PGEM_EDGE_LOOP) {
-            pgem_message_clear(graph);
-            pgem_message_text(graph, "the chi2 of odometry edge ");
-            pgem_message_edge(graph, k);
-            pgem_message_text(graph, " is not finite under the initial estimate");
+        if (store->edge_kind[k] != PGEM_EDGE_LOOP) {
+            message[0] = '\0';
+            pgem_text_append(message, PGEM_MESSAGE_SIZE, "the chi2 of odometry edge ");
+            pgem_store_edge_name(store, k, message);
+            pgem_text_append(message, PGEM_MESSAGE_SIZE,
+                             " is not finite under the initial estimate");
             return PGEM_ERR_NUMERIC;
         }
         if (summary->non_finite++ == 0u) {
             summary->first_non_finite = k;
         }
-        graph->store.edge_weight[k] = 0.0;
-        if (graph->store.edge_active[k] != PGEM_EDGE_PRUNED) {
-            graph->store.edge_active[k] = PGEM_EDGE_PRUNED;
-            pgem_linear_invalidate(graph->linear);
+        store->edge_weight[k] = 0.0;
+        if (store->edge_active[k] != PGEM_EDGE_PRUNED) {
+            store->edge_active[k] = PGEM_EDGE_PRUNED;
+            pgem_linear_invalidate(parts->solve.linear);
         }
     }
     return PGEM_OK;
@@ -58,74 +67,80 @@ pgem_robust_outcome_t pgem_loops_outcome(uint32_t rejected, uint32_t loops)
 /* The summary's account of the loops after a successful solve: how many were rejected (pruned,
  * or for the kernels that never prune, weighing less than the prune threshold) and the
  * outcome that says so. */
-static void pgem_summarise(pgem_t *graph, const pgem_robust_options_t *options,
+static void pgem_summarise(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
                            pgem_robust_summary_t *summary)
 {
-    pgem_count_loops(&graph->store, summary);
+    const pgem_store_t *store = parts->solve.store;
+    pgem_count_loops(store, summary);
     summary->rejected = 0;
-    for (uint32_t k = 0; k < graph->store.edge_count; k++) {
-        summary->rejected += (uint32_t)(graph->store.edge_kind[k] == PGEM_EDGE_LOOP &&
-                                        (graph->store.edge_active[k] == PGEM_EDGE_PRUNED ||
-                                         graph->store.edge_weight[k] < options->prune_threshold));
+    for (uint32_t k = 0; k < store->edge_count; k++) {
+        summary->rejected += (uint32_t)(store->edge_kind[k] == PGEM_EDGE_LOOP &&
+                                        (store->edge_active[k] == PGEM_EDGE_PRUNED ||
+                                         store->edge_weight[k] < options->prune_threshold));
     }
     summary->outcome = pgem_loops_outcome(summary->rejected, summary->loops);
-    summary->final_chi2 = pgem_weighted_chi2(&graph->store, graph->tangent);
-    summary->final_chi2_all = pgem_store_total_chi2(&graph->store, graph->tangent);
-    summary->estimate_changed = memcmp(graph->store.pose, graph->robust.pose_initial, pgem_pose_bytes(graph)) != 0;
+    summary->final_chi2 = pgem_weighted_chi2(store, parts->tangent);
+    summary->final_chi2_all = pgem_store_total_chi2(store, parts->tangent);
+    summary->estimate_changed =
+        memcmp(store->pose, parts->state->pose_initial, pgem_estimate_bytes(parts)) != 0;
 }
 
-int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
-                         const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+void pgem_robust_summary_start(pgem_robust_summary_t *summary)
 {
+    memset(summary, 0, sizeof *summary);
+    summary->first_non_finite = UINT32_MAX;
+}
+
+int pgem_robust_solve(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
+                      const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
+{
+    pgem_store_t *store = parts->solve.store;
+    pgem_linear_t *linear = parts->solve.linear;
+    char *message = parts->solve.message;
     pgem_robust_summary_t local = {0};
     pgem_robust_summary_t *out = summary != NULL ? summary : &local;
-    memset(out, 0, sizeof *out);
-    out->first_non_finite = UINT32_MAX;
-    if (graph == NULL) {
-        return PGEM_ERR_INVALID_ARGUMENT;
-    }
-    int checked = pgem_check_robust_options(options, graph->message);
+    pgem_robust_summary_start(out);
+    int checked = pgem_check_robust_options(options, message);
     if (checked == PGEM_OK) {
-        checked = pgem_check_solve_options(graph->message, solve);
+        checked = pgem_check_solve_options(message, solve);
     }
     if (checked != PGEM_OK) {
         return checked;
     }
     pgem_robust_options_t resolved = pgem_robust_resolve(options);
-    memcpy(graph->robust.pose_initial, graph->store.pose, pgem_pose_bytes(graph));
-    pgem_save_loops(&graph->robust, &graph->store);
-    out->initial_chi2 = pgem_weighted_chi2(&graph->store, graph->tangent);
+    memcpy(parts->state->pose_initial, store->pose, pgem_estimate_bytes(parts));
+    pgem_save_loops(parts->state, store);
+    out->initial_chi2 = pgem_weighted_chi2(store, parts->tangent);
     int status = PGEM_OK;
-    if (!isfinite(pgem_store_total_chi2(&graph->store, graph->tangent))) {
+    if (!isfinite(pgem_store_total_chi2(store, parts->tangent))) {
         /* before any E-step: a NaN chi2 would become a NaN weight on the loops */
         status = resolved.kernel == PGEM_KERNEL_NONE
-                     ? pgem_fail_numeric(graph->message, "initial chi2", 0)
-                     : pgem_prune_non_finite(graph, out);
+                     ? pgem_fail_numeric(message, "initial chi2", 0)
+                     : pgem_prune_non_finite(parts, out);
     }
     if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_EM && resolved.frames >= 0) {
-        out->frames_placed = pgem_robust_frames(graph, &resolved, 0);
+        out->frames_placed = pgem_robust_frames(parts, &resolved, 0);
     }
     if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_NONE) {
-        status = pgem_plain(graph, solve, out);
+        status = pgem_plain(parts, solve, out);
     } else if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_EM && !resolved.literal) {
-        status = pgem_em_with_gate(graph, &resolved, solve, out);
+        status = pgem_em_with_gate(parts, &resolved, solve, out);
     } else if (status == PGEM_OK && resolved.kernel == PGEM_KERNEL_EM) {
-        status = pgem_em_rounds(graph, &resolved, solve, out);
+        status = pgem_em_rounds(parts, &resolved, solve, out);
     } else if (status == PGEM_OK) {
-        const pgem_robust_parts_t parts = pgem_robust_parts(graph);
-        status = pgem_irls(&parts, &resolved, solve, out);
+        status = pgem_irls(parts, &resolved, solve, out);
     }
-    pgem_wake_dormant(graph->linear, &graph->store); /* none stays dormant after the solve */
-    pgem_robust_parts_settled(graph->linear, &graph->store, status == PGEM_OK, out);
+    pgem_wake_dormant(linear, store); /* none stays dormant after the solve */
+    pgem_robust_parts_settled(linear, store, status == PGEM_OK, out);
     if (status != PGEM_OK) {
-        pgem_restore_initial(&graph->robust, &graph->store, graph->pose_size);
-        pgem_restore_loops(&graph->robust, &graph->store, graph->linear);
+        pgem_restore_initial(parts->state, store, PGEM_POSE_SIZE(parts->solve.config->dimension));
+        pgem_restore_loops(parts->state, store, linear);
         out->termination = PGEM_ROBUST_FAILED;
         return status;
     }
-    pgem_summarise(graph, &resolved, out);
+    pgem_summarise(parts, &resolved, out);
     out->usable = 1;
-    pgem_message_clear(graph);
+    message[0] = '\0';
     return PGEM_OK;
 }
 
