@@ -62,4 +62,28 @@ static inline pgem_robust_parts_t pgem_robust_parts(pgem_t *graph)
     return parts;
 }
 
+/* The parts of the instance the incremental factor works on (pgem_online_parts_t). */
+static inline pgem_online_parts_t pgem_online_parts(pgem_t *graph)
+{
+    pgem_online_parts_t parts;
+    parts.online = graph->online;
+    parts.store = &graph->store;
+    parts.linear = graph->linear;
+    parts.config = &graph->config;
+    parts.tangent = graph->tangent;
+    parts.pose_size = graph->pose_size;
+    parts.message = graph->message;
+    return parts;
+}
+
+/* The parts the online layer's entries work on (pgem_online_entry_t): the factor's and the
+ * robust ones. */
+static inline pgem_online_entry_t pgem_online_entry(pgem_t *graph)
+{
+    pgem_online_entry_t entry;
+    entry.factor = pgem_online_parts(graph);
+    entry.robust = pgem_robust_parts(graph);
+    return entry;
+}
+
 #endif /* PGEM_INSTANCE_H */

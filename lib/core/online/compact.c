@@ -11,7 +11,6 @@
 #include <string.h>
 
 #include "online/factor.h"
-#include "robust/robust.h"
 
 #define PGEM_COMPACT_TAIL 32u
 /* A pose with more edges than this stays (the list of what it carries lives on the stack). */
@@ -19,7 +18,7 @@
 #define PGEM_COMPACT_GONE UINT32_MAX
 
 typedef struct pgem_compactor {
-    pgem_t *graph;
+    const pgem_online_parts_t *parts;
     uint32_t *pose_new; /* PGEM_COMPACT_GONE once removed */
     int32_t *first;     /* a pose's first edge end (2 k + side), -1 none */
     uint32_t *touched;  /* the sweep in which a pose's edges last changed */
@@ -65,7 +64,7 @@ static uint32_t pgem_other(const pgem_store_t *store, uint32_t k, uint32_t p)
 static int pgem_compact_candidate(const pgem_compactor_t *c, uint32_t p, int loops,
                                   pgem_removal_t *r)
 {
-    const pgem_store_t *store = &c->graph->store;
+    const pgem_store_t *store = c->parts->store;
     if (store->pose_fixed[p] != 0u || PGEM_POSE_HELD(store, p)) {
         return 0;
     }
@@ -121,8 +120,8 @@ static int pgem_compact_candidate(const pgem_compactor_t *c, uint32_t p, int loo
  * write, else only checks it can be made. */
 static int pgem_compact_carry(pgem_compactor_t *c, const pgem_removal_t *r, uint32_t kl, int write)
 {
-    pgem_store_t *store = &c->graph->store;
-    const int n = c->graph->tangent;
+    pgem_store_t *store = c->parts->store;
+    const int n = c->parts->tangent;
     const uint32_t other = pgem_other(store, kl, r->p);
     const uint32_t target = other == r->u ? r->v : r->u;
     const uint32_t kt = target == r->u ? r->k1 : r->k2;
@@ -141,8 +140,8 @@ static int pgem_compact_carry(pgem_compactor_t *c, const pgem_removal_t *r, uint
     if (write) {
         store->edge_from[kl] = from;
         store->edge_to[kl] = to;
-        memcpy(store->edge_measurement + (size_t)kl * (size_t)c->graph->pose_size, z,
-               (size_t)c->graph->pose_size * sizeof(double));
+        memcpy(store->edge_measurement + (size_t)kl * (size_t)c->parts->pose_size, z,
+               (size_t)c->parts->pose_size * sizeof(double));
         memcpy(store->edge_information + (size_t)kl * (size_t)(n * n), information,
                (size_t)(n * n) * sizeof(double));
         pgem_compact_push(c, (int32_t)(2u * kl + (p_first ? 0u : 1u)), target);
@@ -153,8 +152,8 @@ static int pgem_compact_carry(pgem_compactor_t *c, const pgem_removal_t *r, uint
 /* The two odometry edges made one in k1's place (its end at u stays; the end at p goes to v). */
 static int pgem_compact_merge(pgem_compactor_t *c, const pgem_removal_t *r, int write)
 {
-    pgem_store_t *store = &c->graph->store;
-    const int n = c->graph->tangent;
+    pgem_store_t *store = c->parts->store;
+    const int n = c->parts->tangent;
     const int u_first = store->edge_from[r->k1] == r->u;
     uint32_t from = 0, to = 0;
     double z[PGEM_POSE_SIZE_MAX], information[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
@@ -168,8 +167,8 @@ static int pgem_compact_merge(pgem_compactor_t *c, const pgem_removal_t *r, int 
     if (write) {
         store->edge_from[r->k1] = from;
         store->edge_to[r->k1] = to;
-        memcpy(store->edge_measurement + (size_t)r->k1 * (size_t)c->graph->pose_size, z,
-               (size_t)c->graph->pose_size * sizeof(double));
+        memcpy(store->edge_measurement + (size_t)r->k1 * (size_t)c->parts->pose_size, z,
+               (size_t)c->parts->pose_size * sizeof(double));
         memcpy(store->edge_information + (size_t)r->k1 * (size_t)(n * n), information,
                (size_t)(n * n) * sizeof(double));
         pgem_compact_push(c, (int32_t)(2u * r->k1 + (u_first ? 1u : 0u)), r->v);
@@ -230,9 +229,8 @@ static void pgem_compact_sweeps(pgem_compactor_t *c, uint32_t target, uint32_t l
  * long mission's loop closures only so: carried, they pile up between the poses kept. */
 static void pgem_compact_fuse(pgem_compactor_t *c)
 {
-    pgem_t *graph = c->graph;
-    pgem_store_t *store = &graph->store;
-    const int n = graph->tangent;
+    pgem_store_t *store = c->parts->store;
+    const int n = c->parts->tangent;
     for (uint32_t a = 0; a < store->pose_count; a++) {
         c->seen[a] = 0u;
     }
@@ -261,8 +259,8 @@ static void pgem_compact_fuse(pgem_compactor_t *c)
                                 information, n)) {
                 continue;
             }
-            memcpy(store->edge_measurement + (size_t)keep * (size_t)graph->pose_size, z,
-                   (size_t)graph->pose_size * sizeof(double));
+            memcpy(store->edge_measurement + (size_t)keep * (size_t)c->parts->pose_size, z,
+                   (size_t)c->parts->pose_size * sizeof(double));
             memcpy(store->edge_information + (size_t)keep * (size_t)n * (size_t)n, information,
                    (size_t)n * (size_t)n * sizeof(double));
             store->edge_weight[keep] = 1.0;
@@ -286,19 +284,21 @@ static void pgem_compact_stage(pgem_compactor_t *c, uint32_t target, uint32_t li
 static uint32_t pgem_compact_edges_alive(const pgem_compactor_t *c)
 {
     uint32_t alive = 0u;
-    for (uint32_t k = 0; k < c->graph->store.edge_count; k++) {
+    for (uint32_t k = 0; k < c->parts->store->edge_count; k++) {
         alive += c->edge_new[k] != PGEM_COMPACT_GONE;
     }
     return alive;
 }
 
 /* Closes up the arrays in order and rebuilds the id map; the maps out when asked. */
-static void pgem_compact_close(pgem_compactor_t *c, const pgem_compact_options_t *options)
+static void pgem_compact_close(pgem_compactor_t *c, const pgem_online_entry_t *entry,
+                               const pgem_compact_options_t *options)
 {
-    pgem_t *graph = c->graph;
-    pgem_store_t *store = &graph->store;
-    const size_t size = (size_t)graph->pose_size, nn = (size_t)graph->tangent * (size_t)graph->tangent;
-    pgem_online_t *online = graph->online;
+    const pgem_online_parts_t *parts = &entry->factor;
+    pgem_store_t *store = parts->store;
+    const size_t size = (size_t)parts->pose_size;
+    const size_t nn = (size_t)parts->tangent * (size_t)parts->tangent;
+    pgem_online_t *online = parts->online;
     uint32_t poses = 0, seen_poses = 0;
     for (uint32_t p = 0; p < store->pose_count; p++) {
         if (c->pose_new[p] == PGEM_COMPACT_GONE) {
@@ -341,8 +341,9 @@ static void pgem_compact_close(pgem_compactor_t *c, const pgem_compact_options_t
     for (uint32_t p = 0; p < poses; p++) {
         pgem_map_insert(store, store->pose_id[p], p);
     }
-    memset(graph->robust.edge_distance, 0, (size_t)graph->config.max_edges * sizeof(double));
-    memset(graph->robust.edge_checked, 0, graph->config.max_edges);
+    const pgem_robust_state_t *robust = entry->robust.state;
+    memset(robust->edge_distance, 0, (size_t)parts->config->max_edges * sizeof(double));
+    memset(robust->edge_checked, 0, parts->config->max_edges);
     store->topology++;
     store->edited_low = 0u;
     /* the incremental factor: rebuilt at the next update, over what it had seen */
@@ -353,33 +354,32 @@ static void pgem_compact_close(pgem_compactor_t *c, const pgem_compact_options_t
     online->edges_seen = seen_edges;
 }
 
-int pgem_compact(pgem_t *graph, uint32_t target_poses, const pgem_compact_options_t *options,
-                 pgem_compact_summary_t *summary)
+int pgem_online_compact(const pgem_online_entry_t *entry, uint32_t target_poses,
+                        const pgem_compact_options_t *options, pgem_compact_summary_t *summary)
 {
     pgem_compact_summary_t local = {0};
     pgem_compact_summary_t *out = summary != NULL ? summary : &local;
     memset(out, 0, sizeof *out);
-    if (graph == NULL) {
-        return PGEM_ERR_INVALID_ARGUMENT;
-    }
-    pgem_store_t *store = &graph->store;
+    const pgem_online_parts_t *parts = &entry->factor;
+    const pgem_robust_state_t *robust = entry->robust.state;
+    pgem_store_t *store = parts->store;
     out->poses_before = out->poses_after = store->pose_count;
     out->edges_before = out->edges_after = store->edge_count;
-    pgem_message_clear(graph);
+    parts->message[0] = '\0';
     if (store->pose_count <= target_poses &&
         (options == NULL || options->target_edges == 0u || store->edge_count <= options->target_edges)) {
         return PGEM_OK;
     }
-    const uint32_t max_poses = graph->config.max_poses;
+    const uint32_t max_poses = parts->config->max_poses;
     pgem_compactor_t c;
-    c.graph = graph;
-    c.pose_new = (uint32_t *)(void *)graph->robust.pose_initial;
+    c.parts = parts;
+    c.pose_new = (uint32_t *)(void *)robust->pose_initial;
     c.first = (int32_t *)(void *)(c.pose_new + max_poses);
     c.touched = (uint32_t *)(void *)(c.first + max_poses);
     c.seen = c.touched + max_poses;
     c.seen_by = c.seen + max_poses;
-    c.edge_new = (uint32_t *)(void *)graph->robust.edge_weight_saved;
-    c.next = (int32_t *)(void *)graph->robust.edge_distance;
+    c.edge_new = (uint32_t *)(void *)robust->edge_weight_saved;
+    c.next = (int32_t *)(void *)robust->edge_distance;
     c.alive = store->pose_count;
     c.sweep = 0u;
     c.keep_pruned = options != NULL && options->keep_pruned;
@@ -409,7 +409,7 @@ int pgem_compact(pgem_t *graph, uint32_t target_poses, const pgem_compact_option
             break;
         }
     }
-    pgem_compact_close(&c, options);
+    pgem_compact_close(&c, entry, options);
     out->poses_after = store->pose_count;
     out->edges_after = store->edge_count;
     return PGEM_OK;

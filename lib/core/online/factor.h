@@ -8,7 +8,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "instance.h"
+#include "online/online.h"
 #include "pgem/geometry.h"
 #include "pgem/update.h"
 
@@ -75,30 +75,16 @@ struct pgem_online {
                                    loops_pruned run on from update to update */
 };
 
-/* A batch solve (pgem_optimize: graph->store.solves) moved the estimate since the factor was
- * last current: the factor is not ready (the next update rebuilds). Called by every entry that
+/* A batch solve (pgem_optimize: store->solves) moved the estimate since the factor was last
+ * current: the factor is not ready (the next update rebuilds). Called by every entry that
  * reads or sets online->ready. */
-static inline void pgem_online_sync(pgem_t *graph)
+static inline void pgem_online_sync(const pgem_online_parts_t *parts)
 {
-    pgem_online_t *online = graph->online;
-    if (online->solves_seen != graph->store.solves) {
+    pgem_online_t *online = parts->online;
+    if (online->solves_seen != parts->store->solves) {
         online->ready = 0;
-        online->solves_seen = graph->store.solves;
+        online->solves_seen = parts->store->solves;
     }
-}
-
-/* The parts of an instance the factor works on (see online.h). */
-static inline pgem_online_parts_t pgem_online_parts_of(pgem_t *graph)
-{
-    pgem_online_parts_t parts;
-    parts.online = graph->online;
-    parts.store = &graph->store;
-    parts.linear = graph->linear;
-    parts.config = &graph->config;
-    parts.tangent = graph->tangent;
-    parts.pose_size = graph->pose_size;
-    parts.message = graph->message;
-    return parts;
 }
 
 /* Pose p's marginal covariance in the system's tangent (b x b, row-major) from the factor: a

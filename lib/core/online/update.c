@@ -5,6 +5,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "instance.h"
 #include "online/factor.h"
 #include "robust/robust.h"
 #include "solver/solver.h"
@@ -134,7 +135,7 @@ static int pgem_update_edge(pgem_t *graph, uint32_t k, const double *from, const
             }
         }
     }
-    const pgem_online_parts_t parts = pgem_online_parts_of(graph);
+    const pgem_online_parts_t parts = pgem_online_parts(graph);
     return count > 0 ? pgem_online_rank_update(&parts, columns, count, sign, b) : PGEM_OK;
 }
 
@@ -158,7 +159,7 @@ static int pgem_update_insert(pgem_t *graph, uint32_t k, double w, int *seeded, 
                    (size_t)graph->pose_size * sizeof(double));
             /* the seed goes once the column's edges are in; a gauge's damping stays */
             const double damping = PGEM_POSE_DAMPED(graph->store.pose_fixed[p]) ? PGEM_GAUGE_DAMPING : 0.0;
-            const pgem_online_parts_t parts = pgem_online_parts_of(graph);
+            const pgem_online_parts_t parts = pgem_online_parts(graph);
             const int status = pgem_online_append(&parts, p, PGEM_ONLINE_SEED + damping);
             if (status != PGEM_OK) {
                 return status;
@@ -184,7 +185,7 @@ static int pgem_update_unseed(pgem_t *graph, const int *seeded, int count)
             x[c * b + c] = sqrt(PGEM_ONLINE_SEED);
             online->beta[c] = 0.0;
         }
-        const pgem_online_parts_t parts = pgem_online_parts_of(graph);
+        const pgem_online_parts_t parts = pgem_online_parts(graph);
         const int status = pgem_online_rank_update(&parts, seeded + s, 1, -1.0, b);
         if (status != PGEM_OK) {
             return status;
@@ -323,7 +324,7 @@ static int pgem_update_relinearise_due(pgem_t *graph, double threshold, int limi
         return PGEM_OK;
     }
     double refactor = 0.0;
-    const pgem_online_parts_t parts = pgem_online_parts_of(graph);
+    const pgem_online_parts_t parts = pgem_online_parts(graph);
     const int touched = pgem_online_affected(&parts, online->head, count, &refactor);
     const int many = limit > 0 && count > limit;
     if (many || 2.0 * pgem_update_cost(graph, count, 0.5 * refactor) > refactor) {
@@ -354,7 +355,7 @@ static double pgem_update_innovation(pgem_t *graph, uint32_t k, double inflation
     double a_to[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX];
     double m[PGEM_TANGENT_SIZE_MAX * PGEM_TANGENT_SIZE_MAX] = {0.0};
     pgem_loop_whiten(&graph->store, n, k, e, upper, a_from, a_to);
-    const pgem_online_parts_t parts = pgem_online_parts_of(graph);
+    const pgem_online_parts_t parts = pgem_online_parts(graph);
     pgem_online_marginal(&parts, online->pose_column[graph->store.edge_from[k]],
                          online->pose_column[graph->store.edge_to[k]], a_from, a_to, n, m);
     pgem_small_apply(upper, 0, e, r, n);
@@ -464,7 +465,7 @@ static int pgem_update_rebuild(pgem_t *graph, const pgem_update_settings_t *sett
                           fresh && graph->store.edge_active[k] != PGEM_EDGE_PRUNED;
         online->edge_weight_in[k] = gated ? 0.0 : pgem_update_weight(graph, k);
     }
-    const pgem_online_parts_t parts = pgem_online_parts_of(graph);
+    const pgem_online_parts_t parts = pgem_online_parts(graph);
     const int status = pgem_online_rebuild(&parts, settings->recent);
     online->last.rebuilt = 1;
     online->updates = 0;
@@ -543,7 +544,7 @@ static int pgem_update_run(pgem_t *graph, const pgem_update_settings_t *settings
         online->ready = 0;
         return status;
     }
-    const pgem_online_parts_t parts = pgem_online_parts_of(graph);
+    const pgem_online_parts_t parts = pgem_online_parts(graph);
     pgem_online_back(&parts, online->last.rebuilt ? -1.0 : settings->wildfire);
     for (int q = 0; q < online->recomputed_count; q++) {
         const double *d = online->delta + (size_t)online->recomputed[q] * (size_t)online->block;
@@ -587,7 +588,8 @@ int pgem_update(pgem_t *graph, const pgem_update_options_t *options,
     if (graph == NULL) {
         return PGEM_ERR_INVALID_ARGUMENT;
     }
-    pgem_online_sync(graph);
+    const pgem_online_parts_t factor = pgem_online_parts(graph);
+    pgem_online_sync(&factor);
     pgem_online_t *online = graph->online;
     if (online->pool_blocks == 0u) {
         return pgem_fail(graph, PGEM_ERR_CONFIG,
