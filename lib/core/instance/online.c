@@ -7,6 +7,29 @@
 #include "instance.h"
 #include "pgem/covariance.h"
 
+int pgem_update(pgem_t *graph, const pgem_update_options_t *options,
+                pgem_update_summary_t *summary)
+{
+    if (summary != NULL) {
+        memset(summary, 0, sizeof *summary);
+    }
+    if (graph == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    const pgem_online_entry_t entry = pgem_online_entry(graph);
+    return pgem_online_update(&entry, options, summary);
+}
+
+int pgem_update_settle(pgem_t *graph, const pgem_robust_options_t *robust,
+                       pgem_robust_summary_t *summary)
+{
+    if (graph == NULL) {
+        return PGEM_ERR_INVALID_ARGUMENT;
+    }
+    const pgem_online_entry_t entry = pgem_online_entry(graph);
+    return pgem_online_settle(&entry, robust, summary);
+}
+
 int pgem_update_adopt(pgem_t *graph, const pgem_t *pass, pgem_adopt_summary_t *summary)
 {
     if (summary != NULL) {

@@ -44,9 +44,13 @@ void pgem_online_carve(pgem_online_t *state, const pgem_config_t *config, int ta
 
 /* The online layer's entries behind the public calls of the same names (pgem/update.h,
  * pgem/compact.h, pgem/covariance.h), past their checks of NULL arguments (instance/online.c):
- * pgem_update_adopt of the pass's store, robust state and dimension; pgem_compact;
- * pgem_update_save_size for the doubles per pose and the config's capacities, pgem_update_save
- * and pgem_update_restore; pgem_update_covariance. */
+ * pgem_update, pgem_update_settle; pgem_update_adopt of the pass's store, robust state and
+ * dimension; pgem_compact; pgem_update_save_size for the doubles per pose and the config's
+ * capacities, pgem_update_save and pgem_update_restore; pgem_update_covariance. */
+int pgem_online_update(const pgem_online_entry_t *entry, const pgem_update_options_t *options,
+                       pgem_update_summary_t *summary);
+int pgem_online_settle(const pgem_online_entry_t *entry, const pgem_robust_options_t *robust,
+                       pgem_robust_summary_t *summary);
 int pgem_online_adopt(const pgem_online_entry_t *entry, const pgem_store_t *from,
                       const pgem_robust_state_t *from_robust, int from_dimension,
                       pgem_adopt_summary_t *summary);
