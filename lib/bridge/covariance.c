@@ -24,8 +24,8 @@ static int newest_pose(bridge_t *bridge, uint32_t *index)
 
 /* The covariance of pose id into values (n x n): after a whole-graph solve from a factor at the
  * estimate (pgem_covariance_prepare; *current 1), else from the update's incremental factor
- * (*current 0) or, when no update came since a whole-graph solve (a live EM pass that agreed
- * publishes the graph again), from that solve's factor if nothing changed since (*current 1). */
+ * (*current 0) or, when no update came since a whole-graph solve, from that solve's factor if
+ * nothing changed since (*current 1). */
 static int newest_covariance(bridge_t *bridge, pgem_id_t id, int whole, double *values,
                              int *current)
 {

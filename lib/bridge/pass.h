@@ -40,8 +40,7 @@ typedef struct bridge_pass {
     int status;                    /* the solve's */
     pgem_robust_summary_t summary;
     uint32_t loops_at_copy;        /* loop closures the copy holds */
-    uint64_t passes;               /* ended and looked at so far (adopted or agreed) */
-    uint64_t agreed;               /* passes that found the live map's verdicts: not adopted */
+    uint64_t passes;               /* ended and adopted so far */
 } bridge_pass_t;
 
 /* Sizes the copy's block for the live instance's capacities (no incremental factor) and
