@@ -364,11 +364,14 @@ static double pgem_update_innovation(const pgem_online_parts_t *parts, uint32_t 
     pgem_small_apply(upper, 0, e, r, n);
     pgem_innovation_t innovation;
     pgem_innovation_test(n, upper, r, m, 0.0, inflation, &innovation);
-    /* The map does not know one end's rotation from the other's to a radian (the SE(3)
-     * error's rotation part is half the angle): only a gauge's damping holds them together,
-     * the loop is not tested (it waits for a whole-graph pass, which sees it beside the other
-     * loops joining the same parts). */
-    if (!(innovation.rotation_sd <= (n == 3 ? 1.0 : 0.5))) {
+    /* The map cannot tell one end's rotation from the other's within a half turn (just under
+     * pi in 2D; pi/2 in 3D, whose error's rotation part is half the angle): the linearised
+     * prediction means nothing there, which is where only a gauge's damping holds two parts
+     * together. The loop is not tested; it waits for a whole-graph pass, which sees it beside
+     * the other loops joining the same parts. Odometry's drift stays well below that (City10000:
+     * 1 to 1.9 rad on loops over 100 steps and more, which the test predicts), so such loops
+     * are tested as any other. */
+    if (!(innovation.rotation_sd <= (n == 3 ? 3.0 : 1.5))) {
         *plain = (double)INFINITY;
         return (double)INFINITY;
     }
