@@ -1,4 +1,5 @@
-/* Memory exhaustion. A block one byte short, a NULL or empty block, every carve from the block
+/* Memory exhaustion, and a broken downdate of the incremental factor (at the end). A block one
+ * byte short, a NULL or empty block, every carve from the block
  * failed in turn at init, and every allocation of CSparse's symbolic analysis failed in turn
  * inside pgem_optimize and pgem_robust_optimize: each gives the documented error and a message
  * saying what was short, changes nothing the caller can see (the poses bit for bit, the edges
@@ -625,6 +626,109 @@ static void test_fill_budget_too_small(void **state)
     }
 }
 
+/* A 3D helix streamed pose by pose, one incremental update each (every moved pose relinearised
+ * at once, so poses leave the factor by downdates), with loops a turn back, and with the
+ * `fault`-th downdate broken (negative: none). Returns how many downdates it asked for; every
+ * update must succeed; *rebuilt_at gets the first update that met the fault and rebuilt, the
+ * final poses go to `poses_out`. */
+static long downdate_stream(long fault, int poses, double *poses_out, int *rebuilt_at)
+{
+    const pgem_config_t config = {3, (uint32_t)poses, 4u * (uint32_t)poses, 0, 0,
+                                  64u * 36u * (uint32_t)poses};
+    pgem_t *graph = NULL;
+    assert_int_equal(pgem_create(&graph, &config), PGEM_OK);
+    pgem_update_options_t options;
+    memset(&options, 0, sizeof options);
+    options.relinearize_threshold = -1.0; /* any motion */
+    options.relinearize_skip = 1u;
+    test_rng_t rng = {31};
+    double information[36], truth[2][7], z[7], noise[6], estimate[7];
+    test_diagonal_information(6, 400.0, information);
+    *rebuilt_at = -1;
+    pgem_fault_arm_downdate(fault);
+    for (int k = 0; k < poses; k++) {
+        const double angle = 0.25 * k;
+        const double tangent[6] = {5.0 * cos(angle), 5.0 * sin(angle), 0.04 * k, 0.1, 0.0, angle};
+        memcpy(truth[0], truth[1], sizeof truth[1]);
+        pgem_se3_exp(tangent, truth[1]);
+        if (k == 0) {
+            assert_int_equal(pgem_add_pose(graph, 0, truth[1]), PGEM_OK);
+            continue;
+        }
+        pgem_se3_between(truth[0], truth[1], z);
+        for (int d = 0; d < 6; d++) {
+            noise[d] = 0.03 * test_gaussian(&rng);
+        }
+        pgem_se3_boxplus(z, noise, z);
+        assert_int_equal(pgem_pose(graph, (pgem_id_t)(k - 1), estimate), PGEM_OK);
+        pgem_se3_compose(estimate, z, estimate);
+        assert_int_equal(pgem_add_pose(graph, (pgem_id_t)k, estimate), PGEM_OK);
+        assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(k - 1), (pgem_id_t)k, z, information,
+                                       PGEM_EDGE_ODOMETRY, NULL), PGEM_OK);
+        if (k >= 25) { /* a turn back: the truth there, composed again */
+            double back[7];
+            const double earlier = 0.25 * (k - 25);
+            const double t_back[6] = {5.0 * cos(earlier), 5.0 * sin(earlier), 0.04 * (k - 25),
+                                      0.1, 0.0, earlier};
+            pgem_se3_exp(t_back, back);
+            pgem_se3_between(back, truth[1], z);
+            assert_int_equal(pgem_add_edge(graph, (pgem_id_t)(k - 25), (pgem_id_t)k, z,
+                                           information, PGEM_EDGE_LOOP, NULL), PGEM_OK);
+        }
+        const long before = pgem_fault_downdates_seen();
+        pgem_update_summary_t summary;
+        const int status = pgem_update(graph, &options, &summary);
+        if (status != PGEM_OK) {
+            fail_msg("update %d with downdate %ld broken: %s", k, fault, pgem_last_error(graph));
+        }
+        if (*rebuilt_at < 0 && fault >= before && fault < pgem_fault_downdates_seen()) {
+            assert_true(summary.rebuilt);
+            *rebuilt_at = k;
+        }
+    }
+    const long seen = pgem_fault_downdates_seen();
+    pgem_fault_arm_downdate(-1);
+    for (int k = 0; k < poses; k++) {
+        assert_int_equal(pgem_pose(graph, (pgem_id_t)k, poses_out + 7 * k), PGEM_OK);
+    }
+    pgem_destroy(graph);
+    return seen;
+}
+
+/* A downdate of the incremental factor that rounding breaks costs its update a rebuild at the
+ * current points, not a failure (and a host restarting a whole-graph solve): at the first,
+ * a middle and the last downdate of the stream, every update succeeds, the one that met the
+ * fault rebuilt, and the stream ends within 1e-6 m and rad of the stream that met none (the
+ * rebuild only moves where later poses are linearised; both estimates solve the same graph). */
+static void test_broken_downdate_rebuilds(void **state)
+{
+    (void)state;
+    enum { POSES = 120 };
+    static double clean[7 * POSES], faulted[7 * POSES];
+    int rebuilt_at = 0;
+    const long downdates = downdate_stream(-1, POSES, clean, &rebuilt_at);
+    assert_true(downdates > 50);
+    const long faults[3] = {0, downdates / 2, downdates - 1};
+    for (int f = 0; f < 3; f++) {
+        const long seen = downdate_stream(faults[f], POSES, faulted, &rebuilt_at);
+        assert_true(rebuilt_at > 0 && seen > faults[f]);
+        double worst = 0.0;
+        for (int k = 0; k < POSES; k++) {
+            for (int d = 0; d < 3; d++) {
+                worst = fmax(worst, fabs(faulted[7 * k + d] - clean[7 * k + d]));
+            }
+            double q = 0.0; /* the rotations' angle apart, from the quaternions' dot product */
+            for (int d = 3; d < 7; d++) {
+                q += faulted[7 * k + d] * clean[7 * k + d];
+            }
+            worst = fmax(worst, 2.0 * acos(fmin(1.0, fabs(q))));
+        }
+        print_message("downdate %ld of %ld broken at update %d: the stream ends %.2g from the "
+                      "clean one\n", faults[f], downdates, rebuilt_at, worst);
+        assert_true(worst < 1e-6);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -634,6 +738,7 @@ int main(void)
         cmocka_unit_test(test_optimize_sweep),
         cmocka_unit_test(test_robust_sweep),
         cmocka_unit_test(test_fill_budget_too_small),
+        cmocka_unit_test(test_broken_downdate_rebuilds),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

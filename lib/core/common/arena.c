@@ -36,25 +36,3 @@ void *pgem_arena_take_struct(pgem_arena_t *arena, size_t bytes)
 {
     return pgem_arena_slice(arena, 1, bytes, PGEM_ARENA_STRUCT_ALIGN);
 }
-
-#ifdef PGEM_FAULT_INJECTION
-/* Test builds only (see common/common.h). One instance at a time: the tests are single-threaded. */
-static long pgem_fault_target = -1;
-static long pgem_fault_count;
-
-void pgem_fault_arm(long index)
-{
-    pgem_fault_target = index;
-    pgem_fault_count = 0;
-}
-
-long pgem_fault_seen(void)
-{
-    return pgem_fault_count;
-}
-
-int pgem_fault_next(void)
-{
-    return pgem_fault_count++ == pgem_fault_target;
-}
-#endif

@@ -40,8 +40,15 @@ int pgem_fault_next(void);
 void pgem_fault_arm(long index);
 /* Requests seen since pgem_fault_arm (the sweep is over once a run sees no more than index). */
 long pgem_fault_seen(void);
+/* The same for the incremental factor's downdates (online/factor.c): pgem_fault_downdate() is
+ * asked once per downdate of a column and says 1 for the chosen one, which then fails as a
+ * downdate that rounding broke (not positive definite) before it changes anything. */
+int pgem_fault_downdate(void);
+void pgem_fault_arm_downdate(long index);
+long pgem_fault_downdates_seen(void);
 #else
 #define pgem_fault_next() 0
+#define pgem_fault_downdate() 0
 #endif
 
 /* Text building without stdio (firmware-safe): appends to a NUL-terminated text of size

@@ -555,8 +555,15 @@ static int pgem_update_run(const pgem_online_entry_t *entry, const pgem_update_s
     if (status == PGEM_OK) {
         status = pgem_update_edges(entry, settings, moved);
     }
-    if (status == PGEM_OK && online->full && !online->last.rebuilt) {
-        status = pgem_update_rebuild(parts, settings); /* out of room: pack and go on */
+    /* Out of room: pack and go on. Or a rank update or refactor lost positive definiteness:
+     * a downdate (an edge taken out at its old point when a pose relinearises) is the one step
+     * of the factor that rounding can break, most often in 3D with many loops; a factorisation
+     * afresh at the current points is the same system without that history, so the update
+     * goes on from it rather than failing (and a host restarting a whole-graph solve). */
+    const int broken = status == PGEM_ERR_NOT_POSITIVE_DEFINITE || (status == PGEM_OK && online->full);
+    if (broken && !online->last.rebuilt) {
+        parts->message[0] = '\0';
+        status = pgem_update_rebuild(parts, settings);
         if (status == PGEM_OK) {
             status = pgem_update_edges(entry, settings, 0);
         }
