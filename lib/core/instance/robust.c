@@ -1,14 +1,17 @@
 /* The public calls of the robust layer (pgem/robust.h) over an instance: the argument check,
  * then the layer's own calls on the parts they work on (pgem_robust_parts), so the robust
  * layer itself never sees struct pgem (docs/design/core-layers.md). */
+#include <string.h>
+
 #include "instance.h"
 
 int pgem_robust_optimize(pgem_t *graph, const pgem_robust_options_t *options,
                          const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
     if (graph == NULL) {
-        if (summary != NULL) {
-            pgem_robust_summary_start(summary);
+        if (summary != NULL) { /* as pgem_robust_solve starts it */
+            memset(summary, 0, sizeof *summary);
+            summary->first_non_finite = UINT32_MAX;
         }
         return PGEM_ERR_INVALID_ARGUMENT;
     }

@@ -46,19 +46,18 @@ typedef struct pgem_frames_loop {
     int moving_is_to;
 } pgem_frames_loop_t;
 
-static void pgem_frames_compose(const pgem_frames_t *f, const double *a, const double *b,
-                                double *out)
+static void pgem_frames_compose(int tangent, const double *a, const double *b, double *out)
 {
-    if (f->tangent == 3) {
+    if (tangent == 3) {
         pgem_se2_compose(a, b, out);
     } else {
         pgem_se3_compose(a, b, out);
     }
 }
 
-static void pgem_frames_inverse(const pgem_frames_t *f, const double *a, double *out)
+static void pgem_frames_inverse(int tangent, const double *a, double *out)
 {
-    if (f->tangent == 3) {
+    if (tangent == 3) {
         pgem_se2_inverse(a, out);
     } else {
         pgem_se3_inverse(a, out);
@@ -197,13 +196,13 @@ static void pgem_frames_implied(const pgem_frames_t *f, const pgem_frames_loop_t
     const double *z = store->edge_measurement + (size_t)loop->k * size;
     double inverse[7];
     if (loop->moving_is_to) { /* z = placed^-1 moving */
-        pgem_frames_compose(f, store->pose + loop->placed * size, z, target);
+        pgem_frames_compose(f->tangent, store->pose + loop->placed * size, z, target);
     } else { /* z = moving^-1 placed */
-        pgem_frames_inverse(f, z, inverse);
-        pgem_frames_compose(f, store->pose + loop->placed * size, inverse, target);
+        pgem_frames_inverse(f->tangent, z, inverse);
+        pgem_frames_compose(f->tangent, store->pose + loop->placed * size, inverse, target);
     }
-    pgem_frames_inverse(f, store->pose + loop->moving * size, inverse);
-    pgem_frames_compose(f, target, inverse, frame);
+    pgem_frames_inverse(f->tangent, store->pose + loop->moving * size, inverse);
+    pgem_frames_compose(f->tangent, target, inverse, frame);
 }
 
 /* Loop l's error with its part placed by `frame` (implied by loop h), squared and divided by
@@ -216,7 +215,7 @@ static double pgem_frames_distance(const pgem_frames_t *f, const pgem_frames_loo
     const pgem_store_t *store = f->store;
     const double *z = store->edge_measurement + (size_t)l->k * size;
     double moved[7], e[6];
-    pgem_frames_compose(f, frame, store->pose + l->moving * size, moved);
+    pgem_frames_compose(f->tangent, frame, store->pose + l->moving * size, moved);
     const double *xi = l->moving_is_to ? store->pose + l->placed * size : moved;
     const double *xj = l->moving_is_to ? moved : store->pose + l->placed * size;
     double angle2 = 0.0, shift2 = 0.0;
@@ -434,7 +433,7 @@ static int pgem_frames_place_one(pgem_frames_t *f)
     const size_t size = f->pose_size;
     for (uint32_t p = 0; p < store->pose_count; p++) {
         if (f->part[p] == chosen) {
-            pgem_frames_compose(f, frame, store->pose + p * size, store->pose + p * size);
+            pgem_frames_compose(f->tangent, frame, store->pose + p * size, store->pose + p * size);
         }
     }
     f->state[chosen] = PGEM_FRAMES_PLACED;

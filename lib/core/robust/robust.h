@@ -30,14 +30,12 @@ typedef struct pgem_robust_parts {
     int tangent;
 } pgem_robust_parts_t;
 
-/* A robust solve (robust/solve.c; pgem_robust_optimize over the instance's parts): options
- * checked, loops whose chi2 is not finite pruned, the method run, a failure undone, and the
- * summary (NULL: none) started by pgem_robust_summary_start and filled; the message cleared
- * on success. */
+/* A robust solve (robust/solve.c; pgem_robust_optimize over the instance's parts): the
+ * summary (NULL: none) zeroed with first_non_finite UINT32_MAX, options checked, loops whose
+ * chi2 is not finite pruned, the method run, a failure undone, the summary filled and the
+ * message cleared on success. */
 int pgem_robust_solve(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
                       const pgem_solve_options_t *solve, pgem_robust_summary_t *summary);
-/* A summary before a solve: zeroed, no loop with a chi2 that is not finite. */
-void pgem_robust_summary_start(pgem_robust_summary_t *summary);
 
 /* Carves the robust layer's arrays for config's capacities and the doubles per pose from the
  * arena (measuring when arena->base is NULL). */

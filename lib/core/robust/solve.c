@@ -85,12 +85,6 @@ static void pgem_summarise(const pgem_robust_parts_t *parts, const pgem_robust_o
         memcmp(store->pose, parts->state->pose_initial, pgem_estimate_bytes(parts)) != 0;
 }
 
-void pgem_robust_summary_start(pgem_robust_summary_t *summary)
-{
-    memset(summary, 0, sizeof *summary);
-    summary->first_non_finite = UINT32_MAX;
-}
-
 int pgem_robust_solve(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
                       const pgem_solve_options_t *solve, pgem_robust_summary_t *summary)
 {
@@ -99,7 +93,8 @@ int pgem_robust_solve(const pgem_robust_parts_t *parts, const pgem_robust_option
     char *message = parts->solve.message;
     pgem_robust_summary_t local = {0};
     pgem_robust_summary_t *out = summary != NULL ? summary : &local;
-    pgem_robust_summary_start(out);
+    memset(out, 0, sizeof *out);
+    out->first_non_finite = UINT32_MAX;
     int checked = pgem_check_robust_options(options, message);
     if (checked == PGEM_OK) {
         checked = pgem_check_solve_options(message, solve);
