@@ -1,10 +1,9 @@
 # The core's layering, checked on its sources (ARCHITECTURE.md, docs/design/core-layers.md): a
 # layer may include the headers of, read the state of and call only itself and the layers
 # below it; each layer's headers other than its interface are private to it; only instance/
-# sees the hub lib/core/instance.h (struct pgem), except the layers still listed in
-# sees_hub. Includes are followed transitively (a file reaches what its headers include), so
-# a header that pulls in an upper layer is seen in every file that includes it. Comments are
-# ignored. Prints the include graph per layer. Usage:
+# sees the hub lib/core/instance.h (struct pgem). Includes are followed transitively (a file
+# reaches what its headers include), so a header that pulls in an upper layer is seen in every
+# file that includes it. Comments are ignored. Prints the include graph per layer. Usage:
 #   cmake -DCORE=lib/core [-DPUBLIC="include;lib/support"] -P tests/test_core_layers.cmake
 # PUBLIC: folders of headers every layer may include (default: include/ and lib/support/
 # beside CORE). tests/test_core_layers_planted.cmake plants a violation of each kind in a
@@ -18,7 +17,7 @@ if(NOT DEFINED PUBLIC)
   set(PUBLIC "${CORE}/../../include" "${CORE}/../support")
 endif()
 
-# ---- the layers (the one place to edit when a layer is added or a layer stops seeing the hub) --
+# ---- the layers (the one place to edit when a layer is added) ----------------------------------
 # Each layer's folder under lib/core, and the layers below it (what it may use). Files at the
 # top of lib/core belong to `common` (pgem_cs.h), except the hub instance.h.
 set(layers hooks common geometry graph linalg solver robust online instance)
@@ -48,11 +47,6 @@ set(state_linalg "->linear[^_a-zA-Z0-9]")
 set(state_solver "->solver\\.")
 set(state_robust "->robust\\.")
 set(state_online "->online->")
-# Item 1 of the layering is not done for these yet: they still include the hub (instance.h),
-# take pgem_t and call the instance's message calls (instance/message.h). What a file of these
-# layers reaches through the hub is not followed (the hub itself is the known exception); any
-# other layer that reaches the hub, directly or through a header, or calls instance/, fails.
-set(sees_hub online)
 # -------------------------------------------------------------------------------------------------
 
 set(failures 0)
@@ -184,10 +178,8 @@ foreach(file IN LISTS everything)
     set(path "${hrel}${via_${hkey}}")
     list(APPEND reach_${layer} ${target})
     if(target STREQUAL "hub")
-      if(NOT layer STREQUAL "instance" AND NOT layer IN_LIST sees_hub)
-        violation("${rel}: layer ${layer} includes the hub instance.h (${path})")
-      endif()
       if(NOT layer STREQUAL "instance")
+        violation("${rel}: layer ${layer} includes the hub instance.h (${path})")
         continue() # behind the hub: reported below, not judged
       endif()
     else()
@@ -230,9 +222,6 @@ foreach(file IN LISTS everything)
     string(REGEX REPLACE "\\($" "" name "${call}")
     if(DEFINED owner_${name})
       may_use(${layer} ${owner_${name}} allowed)
-      if(owner_${name} STREQUAL "instance" AND layer IN_LIST sees_hub)
-        set(allowed 1)
-      endif()
       if(NOT allowed)
         violation("${rel}: layer ${layer} calls ${name} of layer ${owner_${name}}")
       endif()
@@ -292,8 +281,6 @@ foreach(layer IN LISTS layers)
   string(REPLACE ";" " " reached "${reached}")
   message(STATUS "  ${layer} ->${line}; reached: ${reached}${behind}")
 endforeach()
-string(REPLACE ";" " " hub_layers "${sees_hub}")
-message(STATUS "  still seeing the hub (item 1 not done): ${hub_layers}")
 
 if(failures GREATER 0)
   message(FATAL_ERROR "${failures} layering violations")

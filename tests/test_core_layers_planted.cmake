@@ -74,3 +74,8 @@ plant(hub_direct geometry/se2.c "#include \"instance.h\""
 plant(hub_through common/common.h "#include \"instance.h\""
       "geometry/se3\\.c: layer geometry includes the hub instance\\.h \\(instance\\.h through common/common\\.h\\)"
       geometry/se3.c "#include \"common/common.h\"")
+# the hub from the last layer that still saw it (online), and a call of instance/'s
+plant(hub_online online/update.c "#include \"instance.h\""
+      "online/update\\.c: layer online includes the hub instance\\.h \\(instance\\.h\\)")
+plant(call_instance online/adopt.c "static void pgem_planted(void) { pgem_message_clear(0); }"
+      "online/adopt\\.c: layer online calls pgem_message_clear of layer instance")
