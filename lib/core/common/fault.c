@@ -4,41 +4,54 @@
 #include "common/common.h"
 
 #ifdef PGEM_FAULT_INJECTION
-static long pgem_fault_target = -1;
-static long pgem_fault_count;
-static long pgem_downdate_target = -1;
-static long pgem_downdate_count;
+/* One channel: the request `target` fails; `count` requests were asked since it was armed. */
+typedef struct pgem_fault_channel {
+    long target;
+    long count;
+} pgem_fault_channel_t;
+
+static pgem_fault_channel_t pgem_fault_carves = {-1, 0};
+static pgem_fault_channel_t pgem_fault_downdates = {-1, 0};
+
+static void pgem_fault_channel_arm(pgem_fault_channel_t *channel, long index)
+{
+    channel->target = index;
+    channel->count = 0;
+}
+
+static int pgem_fault_channel_next(pgem_fault_channel_t *channel)
+{
+    return channel->count++ == channel->target;
+}
 
 void pgem_fault_arm(long index)
 {
-    pgem_fault_target = index;
-    pgem_fault_count = 0;
+    pgem_fault_channel_arm(&pgem_fault_carves, index);
 }
 
 long pgem_fault_seen(void)
 {
-    return pgem_fault_count;
+    return pgem_fault_carves.count;
 }
 
 int pgem_fault_next(void)
 {
-    return pgem_fault_count++ == pgem_fault_target;
+    return pgem_fault_channel_next(&pgem_fault_carves);
 }
 
 void pgem_fault_arm_downdate(long index)
 {
-    pgem_downdate_target = index;
-    pgem_downdate_count = 0;
+    pgem_fault_channel_arm(&pgem_fault_downdates, index);
 }
 
 long pgem_fault_downdates_seen(void)
 {
-    return pgem_downdate_count;
+    return pgem_fault_downdates.count;
 }
 
 int pgem_fault_downdate(void)
 {
-    return pgem_downdate_count++ == pgem_downdate_target;
+    return pgem_fault_channel_next(&pgem_fault_downdates);
 }
 #else
 typedef int pgem_fault_unused_t; /* ISO C wants a translation unit to declare something */
