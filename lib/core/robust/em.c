@@ -60,9 +60,10 @@ int pgem_em_rounds(const pgem_robust_parts_t *parts, const pgem_robust_options_t
  * the polish and test again while it changes any loop's state; when it changes none, on a
  * degenerate outcome (most loops rejected: the map rests on a few, and a false run among them
  * bends it) the leave-run-out test, on any other the leave-group-out test (robust/groups.c),
- * and the next pass if it pruned a run or group (bounded by max_rounds passes). Ends polished. No EM rounds run between passes: the test decides each
- * loop against the leave-one-out prediction of the polished map, which is what the rounds'
- * innovation E-steps converged to, at a tenth of their cost (docs/design/robust-em.md). */
+ * and the next pass if it pruned a run or group (bounded by max_rounds passes). Ends polished.
+ * No EM rounds run between passes: the test decides each loop against the leave-one-out
+ * prediction of the polished map, which is what the rounds' innovation E-steps converged to,
+ * at a tenth of their cost (docs/design/robust-em.md). */
 static int pgem_em_passes(const pgem_robust_parts_t *parts, const pgem_robust_options_t *options,
                           const pgem_solve_options_t *solve, pgem_robust_summary_t *summary,
                           double gate)
