@@ -115,14 +115,22 @@ int bridge_apply(bridge_t *bridge, const pgem_item_t *item)
     }
     if (item->type == PGEM_ITEM_POSE) {
         int status = pgem_add_pose(bridge->solver.core, item->from, item->value);
+        const uint32_t index = pgem_pose_count(bridge->solver.core) - 1;
         if (status == PGEM_OK) {
             size_t pose_size = (size_t)PGEM_POSE_SIZE(bridge->options.dimension);
-            memcpy(bridge->solver.raw + (pgem_pose_count(bridge->solver.core) - 1) * pose_size,
-                   item->value, pose_size * sizeof(double));
+            memcpy(bridge->solver.raw + index * pose_size, item->value,
+                   pose_size * sizeof(double));
+            /* A new pose starts unanchored, unfixed and unheld, whatever pose sat at its index
+             * before a compaction freed it: a stale hold flag counted a new part's gauge as
+             * held while the core's pose was free (the factor singular), a stale 'anchored'
+             * counted the pose as settled (not placed by its odometry). */
+            bridge->solver.anchored[index] = 0;
+            bridge->solver.user_fixed[index] = 0;
+            bridge->solver.gauge_fixed[index] = 0;
         }
         if (status == PGEM_OK && item->kind) {
             status = pgem_fix_pose(bridge->solver.core, item->from, 1);
-            bridge->solver.user_fixed[pgem_pose_count(bridge->solver.core) - 1] = 1;
+            bridge->solver.user_fixed[index] = 1;
         }
         if (status != PGEM_OK) {
             snprintf(what, sizeof what, "pose %llu", (unsigned long long)item->from);

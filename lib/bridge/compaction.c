@@ -20,13 +20,12 @@ static void compact_pose_arrays(bridge_t *bridge, uint32_t before)
 {
     const size_t pose_size = (size_t)PGEM_POSE_SIZE(bridge->options.dimension);
     const uint32_t *map = bridge->solver.compaction.pose_map;
-    uint32_t solved = 0, kept = 0;
+    uint32_t solved = 0;
     for (uint32_t i = 0; i < before; ++i) {
         const uint32_t j = map[i];
         if (j == UINT32_MAX) {
             continue;
         }
-        kept++;
         solved += i < bridge->solver.solved_poses;
         memmove(bridge->solver.raw + j * pose_size, bridge->solver.raw + i * pose_size,
                 pose_size * sizeof(double));
@@ -34,13 +33,6 @@ static void compact_pose_arrays(bridge_t *bridge, uint32_t before)
         bridge->solver.user_fixed[j] = bridge->solver.user_fixed[i];
         bridge->solver.gauge_fixed[j] = bridge->solver.gauge_fixed[i];
     }
-    /* The indices the removed poses freed are taken by the next poses to arrive: they start
-     * unanchored, unfixed and unheld, as every new pose does, not with the flags of whichever
-     * pose last sat there (a stale hold flag left a new part's gauge unheld: its anchor counted
-     * as held, the core's pose free, the factor singular). */
-    memset(bridge->solver.anchored + kept, 0, before - kept);
-    memset(bridge->solver.user_fixed + kept, 0, before - kept);
-    memset(bridge->solver.gauge_fixed + kept, 0, before - kept);
     bridge->solver.solved_poses = solved;
 }
 
